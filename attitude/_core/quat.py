@@ -1,0 +1,99 @@
+"""Scalar quaternion kernels for compiled code.
+
+Quaternions are anything indexable of length 4, scalar first ``(w, x, y, z)`` (a 1-D float
+array or a 4-tuple); vectors are length 3. Results are returned as tuples, which numba keeps
+in registers, so the integrators call these without allocating.
+
+Hamilton product (Schwab eq. 2; Arribas et al. Sect. 2):
+    a∘b = (a0 b0 − a·b, a0 b + b0 a + a × b)
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit._jit import jit
+
+
+@jit
+def mul(a, b):
+    """Hamilton product a∘b -> 4-tuple."""
+    return (
+        a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+        a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+        a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+        a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0],
+    )
+
+
+@jit
+def conj_mul(a, b):
+    """ã∘b (conjugate of a times b) -> 4-tuple."""
+    return (
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3],
+        a[0] * b[1] - a[1] * b[0] - a[2] * b[3] + a[3] * b[2],
+        a[0] * b[2] + a[1] * b[3] - a[2] * b[0] - a[3] * b[1],
+        a[0] * b[3] - a[1] * b[2] + a[2] * b[1] - a[3] * b[0],
+    )
+
+
+@jit
+def mul_vec(a, v):
+    """a∘(0, v) for a 3-vector v -> 4-tuple."""
+    return (
+        -a[1] * v[0] - a[2] * v[1] - a[3] * v[2],
+        a[0] * v[0] + a[2] * v[2] - a[3] * v[1],
+        a[0] * v[1] - a[1] * v[2] + a[3] * v[0],
+        a[0] * v[2] + a[1] * v[1] - a[2] * v[0],
+    )
+
+
+@jit
+def conj(a):
+    """Conjugate ã = (a0, −a) -> 4-tuple."""
+    return (a[0], -a[1], -a[2], -a[3])
+
+
+@jit
+def dot(a, b):
+    """Euclidean dot product of two 4-vectors (Arribas et al.: p·q = Re(p q̃))."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
+@jit
+def norm(a):
+    """Euclidean norm of a 4-vector."""
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3])
+
+
+@jit
+def rotate(q, v):
+    """vec(q∘(0, v)∘q̃): body components -> space components (Schwab eq. 6) -> 3-tuple.
+
+    Uses x + 2w (u × x) + 2 u × (u × x) with u = vec(q), valid for unit q.
+    """
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    tx = 2.0 * (y * v[2] - z * v[1])
+    ty = 2.0 * (z * v[0] - x * v[2])
+    tz = 2.0 * (x * v[1] - y * v[0])
+    return (
+        v[0] + w * tx + (y * tz - z * ty),
+        v[1] + w * ty + (z * tx - x * tz),
+        v[2] + w * tz + (x * ty - y * tx),
+    )
+
+
+@jit
+def rotate_inverse(q, v):
+    """vec(q̃∘(0, v)∘q): space components -> body components -> 3-tuple."""
+    return rotate((q[0], -q[1], -q[2], -q[3]), v)
+
+
+@jit
+def cross(a, b):
+    """a × b for 3-vectors -> 3-tuple."""
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )

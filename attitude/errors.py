@@ -1,0 +1,51 @@
+"""Exceptions raised by ``attitude``.
+
+Every exception raised on purpose derives from :class:`AttitudeError` and also from the
+built-in class a caller would naturally catch (``ValueError``, ``TypeError`` or
+``RuntimeError``). Messages name the offending argument and say how to fix it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "AttitudeError",
+    "AttitudeTypeError",
+    "AttitudeValueError",
+    "PropagationError",
+    "SingularityError",
+]
+
+
+class AttitudeError(Exception):
+    """Base class of every exception raised on purpose by ``attitude``."""
+
+
+class AttitudeValueError(AttitudeError, ValueError):
+    """An argument has a bad value: non-finite, wrong shape, not a rotation, unknown name..."""
+
+
+class AttitudeTypeError(AttitudeError, TypeError):
+    """An argument has the wrong type or units that cannot be converted."""
+
+
+class SingularityError(AttitudeValueError):
+    """A representation is singular at the requested state (e.g. 3-1-3 angles at ϑ = 0 or π)."""
+
+
+class PropagationError(AttitudeError, RuntimeError):
+    """A propagation stopped before the final time.
+
+    Attributes
+    ----------
+    time : float
+        Time at which the integration stopped.
+    partial : xarray.Dataset or None
+        The output samples computed before the failure (same schema as a complete run).
+    """
+
+    def __init__(self, message: str, *, time: float = float("nan"), partial: Any = None):
+        super().__init__(message)
+        self.time = time
+        self.partial = partial
