@@ -1,0 +1,892 @@
+"""Quaternion algebra and conversions between attitude representations.
+
+Conventions (see ``docs/conventions.md`` for the full page with the seed equations):
+
+* A quaternion is a plain float array of shape ``(..., 4)``, **scalar first** ``(w, x, y, z)``;
+  vectors are arrays of shape ``(..., 3)``. Every function broadcasts over leading dimensions.
+* The product is Hamilton's, ``a∘b = (a0 b0 − a·b, a0 b + b0 a + a × b)`` (Schwab eq. 2;
+  Arribas et al. Sect. 2), so ``i∘j = k``.
+* An attitude ``q`` maps **body** components to **space** (inertial) components,
+  ``x_S = q∘x_B∘q̃`` (Schwab eq. 5, Arribas et al. Theorem 1). :func:`to_matrix` is the active
+  matrix ``R`` with ``x_S = R x_B`` (Schwab eq. 7); the direction-cosine matrix printed in Arribas
+  et al. Sect. 2 is its transpose.
+* Euler angles are intrinsic (body-axis) sequences named by digits: ``"313"`` is
+  ``q = q_3(φ)∘q_1(ϑ)∘q_3(ψ)``, Arribas et al. eq. 12.
+
+Unit quaternions
+----------------
+Functions that interpret ``q`` as a rotation (:func:`rotate`, :func:`rotate_inverse`,
+:func:`to_matrix`, :func:`to_euler`, :func:`to_axis_angle`, :func:`to_rotation_vector`,
+:func:`to_mrp`, :func:`to_scipy`, :func:`angle_between`, :func:`slerp`) **reject** a quaternion
+whose norm differs from 1 by more than :data:`UNIT_NORM_TOL` (``AttitudeValueError``); they never
+renormalise silently. Call :func:`normalize` explicitly first if your quaternion has drifted.
+Within the tolerance, the formulas are evaluated with the given ``q`` as is: :func:`rotate` is
+literally ``q∘v∘q̃``, which scales lengths by ``|q|²``.
+
+The algebraic functions (:func:`multiply`, :func:`conjugate`, :func:`norm`, :func:`normalize`,
+:func:`inverse`, :func:`canonical`) accept any finite quaternion (non-zero where it matters).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._validation import as_float_array, as_quaternion, as_vector
+from .errors import AttitudeTypeError, AttitudeValueError, SingularityError
+
+__all__ = [
+    "EULER_SEQUENCES",
+    "MATRIX_TOL",
+    "UNIT_NORM_TOL",
+    "angle_between",
+    "canonical",
+    "conjugate",
+    "from_axis_angle",
+    "from_euler",
+    "from_matrix",
+    "from_mrp",
+    "from_rotation_vector",
+    "from_scipy",
+    "inverse",
+    "multiply",
+    "norm",
+    "normalize",
+    "rotate",
+    "rotate_inverse",
+    "slerp",
+    "to_axis_angle",
+    "to_euler",
+    "to_matrix",
+    "to_mrp",
+    "to_rotation_vector",
+    "to_scipy",
+]
+
+FloatArray = NDArray[np.float64]
+
+#: Largest accepted deviation ``| |q| − 1 |`` of a quaternion that must represent a rotation.
+UNIT_NORM_TOL: float = 1e-6
+
+#: Default tolerance of :func:`from_matrix`: largest accepted Frobenius norm of ``RᵀR − I``.
+MATRIX_TOL: float = 1e-9
+
+#: The 12 intrinsic Euler sequences accepted by :func:`from_euler` and :func:`to_euler`.
+EULER_SEQUENCES: tuple[str, ...] = (
+    "121",
+    "131",
+    "212",
+    "232",
+    "313",
+    "323",
+    "123",
+    "132",
+    "213",
+    "231",
+    "312",
+    "321",
+)
+
+# Gimbal lock in to_euler: the middle angle is treated as exactly singular when the sine (or
+# cosine) of its half-angle in the symmetric form is below this, relative to |q|. Forcing the
+# third angle to 0 there changes the represented rotation by at most ~2e-15 rad.
+_GIMBAL_TOL = 4.0 * np.finfo(np.float64).eps
+
+
+# ----------------------------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------------------------
+
+
+def _stack(*parts: Any) -> FloatArray:
+    """Stack broadcast components along a new last axis."""
+    parts = np.broadcast_arrays(*parts)
+    return np.stack(parts, axis=-1).astype(np.float64, copy=False)
+
+
+def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
+    return tuple(int(i) for i in np.argwhere(mask)[0])
+
+
+def _as_unit(q: Any, name: str) -> FloatArray:
+    """Validate a quaternion that must be of unit norm within :data:`UNIT_NORM_TOL`."""
+    arr = as_quaternion(q, name)
+    n = np.sqrt(np.sum(arr * arr, axis=-1))
+    bad = np.abs(n - 1.0) > UNIT_NORM_TOL
+    if np.any(bad):
+        idx = _first_bad_index(np.atleast_1d(bad))
+        val = float(np.atleast_1d(n)[idx])
+        where = f" at index {idx}" if arr.ndim > 1 else ""
+        raise AttitudeValueError(
+            f"{name}: expected a unit quaternion (| |{name}| - 1 | <= {UNIT_NORM_TOL:g}), got "
+            f"|{name}| = {val!r}{where}; call attitude.quaternion.normalize({name}) first if "
+            "the norm has drifted"
+        )
+    return arr
+
+
+def _as_angle(x: Any, name: str) -> FloatArray:
+    """Finite float array of angles in radians (astropy angles are converted)."""
+    return as_float_array(x, name, unit="rad")
+
+
+def _mul(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Hamilton product of validated arrays (Schwab eq. 2)."""
+    a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return _stack(
+        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
+        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
+        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+    )
+
+
+def _conj(q: FloatArray) -> FloatArray:
+    out = -q
+    out[..., 0] = q[..., 0]
+    return out
+
+
+def _canonical(q: FloatArray) -> FloatArray:
+    """Flip signs so that w > 0, or w == 0 and the first non-zero of (x, y, z) is > 0."""
+    sign = np.ones(q.shape[:-1])
+    undecided = np.ones(q.shape[:-1], dtype=bool)
+    for k in range(4):
+        c = q[..., k]
+        sign = np.where(undecided & (c < 0), -1.0, sign)
+        undecided &= c == 0
+    return q * sign[..., None]
+
+
+def _rotate(q: FloatArray, v: FloatArray) -> FloatArray:
+    """q∘v∘q̃ written out (Schwab eq. 6): (w² − u·u) v + 2 w (u × v) + 2 (u·v) u."""
+    w = q[..., 0:1]
+    u = q[..., 1:]
+    u, v = np.broadcast_arrays(u, v)
+    uv = np.sum(u * v, axis=-1, keepdims=True)
+    uu = np.sum(u * u, axis=-1, keepdims=True)
+    return (w * w - uu) * v + 2.0 * w * np.cross(u, v) + 2.0 * uv * u
+
+
+def _wrap(a: FloatArray) -> FloatArray:
+    """Wrap angles into (−π, π]."""
+    a = np.where(a > np.pi, a - 2.0 * np.pi, a)
+    return np.where(a <= -np.pi, a + 2.0 * np.pi, a)
+
+
+def _parse_seq(seq: Any, name: str = "seq") -> tuple[int, int, int]:
+    if not isinstance(seq, str):
+        raise AttitudeTypeError(
+            f"{name}: expected a string of three axis digits such as '313' or '321', "
+            f"got {seq!r} of type {type(seq).__name__}"
+        )
+    if seq not in EULER_SEQUENCES:
+        raise AttitudeValueError(
+            f"{name}: unknown Euler sequence {seq!r}; use one of the 12 intrinsic sequences "
+            f"{', '.join(EULER_SEQUENCES)} (digits 1, 2, 3 = body x, y, z axes; for an extrinsic "
+            "sequence 'ijk' with angles (a, b, c) use the intrinsic 'kji' with (c, b, a))"
+        )
+    i, j, k = (int(c) - 1 for c in seq)
+    return i, j, k
+
+
+def _levi_civita(i: int, j: int, k: int) -> int:
+    return (i - j) * (j - k) * (k - i) // 2
+
+
+# ----------------------------------------------------------------------------------------------
+# algebra
+# ----------------------------------------------------------------------------------------------
+
+
+def multiply(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Hamilton product ``a∘b``.
+
+    ``a∘b = (a0 b0 − a·b, a0 b + b0 a + a × b)`` (Schwab eq. 2; Arribas et al. Sect. 2), so
+    ``i∘j = k``. With attitudes, ``multiply(q_AB, q_BC)`` is the attitude ``q_AC`` (frame C
+    components to frame A components): rotations compose left to right about body axes.
+
+    Parameters
+    ----------
+    a, b : array_like, shape (..., 4)
+        Quaternions, scalar first; leading dimensions broadcast. Need not be unit.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The product.
+    """
+    return _mul(as_quaternion(a, "a", nonzero=False), as_quaternion(b, "b", nonzero=False))
+
+
+def conjugate(q: ArrayLike) -> FloatArray:
+    """Conjugate ``q̃ = (w, −x, −y, −z)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Quaternions, scalar first.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        The conjugates. For a unit quaternion this is the inverse rotation.
+    """
+    return _conj(as_quaternion(q, "q", nonzero=False))
+
+
+def norm(q: ArrayLike) -> FloatArray:
+    """Euclidean norm ``|q| = sqrt(w² + x² + y² + z²)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Quaternions, scalar first.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        The norms (a 0-d array for a single quaternion).
+    """
+    q = as_quaternion(q, "q", nonzero=False)
+    return np.sqrt(np.sum(q * q, axis=-1))
+
+
+def normalize(q: ArrayLike) -> FloatArray:
+    """Scale to unit norm, ``q / |q|``.
+
+    This is the explicit way to bring a quaternion whose norm has drifted back onto the unit
+    sphere; nothing else in the package renormalises silently.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternions, scalar first.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions (same sign as ``q``).
+
+    Raises
+    ------
+    AttitudeValueError
+        If any quaternion is zero or non-finite.
+    """
+    q = as_quaternion(q, "q")
+    return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+
+
+def inverse(q: ArrayLike) -> FloatArray:
+    """Multiplicative inverse ``q⁻¹ = q̃ / |q|²`` (Schwab, after eq. 2).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternions, scalar first.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q⁻¹`` with ``q∘q⁻¹ = q⁻¹∘q = 1``. Equal to :func:`conjugate` for unit quaternions.
+    """
+    q = as_quaternion(q, "q")
+    return _conj(q) / np.sum(q * q, axis=-1, keepdims=True)
+
+
+def canonical(q: ArrayLike) -> FloatArray:
+    """Fix the sign of ``q`` so that ``w ≥ 0``; ``q`` and ``−q`` are the same attitude.
+
+    Ties (``w == 0``, a rotation by exactly 180°) are broken by making the first non-zero of
+    ``x, y, z`` positive, so the result is unique.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Non-zero quaternions, scalar first (need not be unit).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``q`` or ``−q``.
+    """
+    return _canonical(as_quaternion(q, "q"))
+
+
+# ----------------------------------------------------------------------------------------------
+# rotation of vectors, matrices
+# ----------------------------------------------------------------------------------------------
+
+
+def rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Body → space: ``x_S = q∘(0, v)∘q̃`` (Arribas et al. Theorem 1; Schwab eqs. 5–6).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternions (body → space), scalar first.
+    v : array_like, shape (..., 3)
+        Body components of vectors; leading dimensions broadcast with those of ``q``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Space components, equal to ``to_matrix(q) @ v``.
+
+    Raises
+    ------
+    AttitudeValueError
+        If ``q`` is not a unit quaternion within :data:`UNIT_NORM_TOL`, or inputs are bad.
+    """
+    return _rotate(_as_unit(q, "q"), as_vector(v, "v"))
+
+
+def rotate_inverse(q: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Space → body: ``x_B = q̃∘(0, v)∘q``, the inverse of :func:`rotate`.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternions (body → space), scalar first.
+    v : array_like, shape (..., 3)
+        Space components of vectors.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Body components, equal to ``to_matrix(q).T @ v`` (the DCM times ``v``).
+    """
+    return _rotate(_conj(_as_unit(q, "q")), as_vector(v, "v"))
+
+
+def to_matrix(q: ArrayLike) -> FloatArray:
+    """Active rotation matrix ``R`` with ``x_S = R x_B`` (Schwab eq. 7).
+
+    ``R = [[w²+x²−y²−z², 2(xy−wz), 2(xz+wy)],
+    [2(xy+wz), w²−x²+y²−z², 2(yz−wx)],
+    [2(xz−wy), 2(yz+wx), w²−x²−y²+z²]]``.
+    Its columns are the body axes in space components. The direction-cosine matrix (space →
+    body, the matrix printed in Arribas et al. Sect. 2, Basilisk's ``[BN]``) is ``R.T``,
+    i.e. ``np.swapaxes(to_matrix(q), -1, -2)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternions, scalar first.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+        Rotation matrices.
+    """
+    q = _as_unit(q, "q")
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    ww, xx, yy, zz = w * w, x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    rows = (
+        (ww + xx - yy - zz, 2.0 * (xy - wz), 2.0 * (xz + wy)),
+        (2.0 * (xy + wz), ww - xx + yy - zz, 2.0 * (yz - wx)),
+        (2.0 * (xz - wy), 2.0 * (yz + wx), ww - xx - yy + zz),
+    )
+    return np.stack([np.stack(r, axis=-1) for r in rows], axis=-2)
+
+
+def from_matrix(R: ArrayLike, *, tol: float = MATRIX_TOL) -> FloatArray:
+    """Quaternion of an active rotation matrix ``R`` (``x_S = R x_B``), Markley's method.
+
+    Of the four equivalent extractions (Arribas et al. Sect. 2 lists the squared components
+    ``4p_i² = ...``), the one with the largest pivot among ``trace R``, ``R11``, ``R22``, ``R33``
+    is used (Markley 2008, "Unit quaternion from rotation matrix", J. Guid. Control Dyn. 31,
+    440; equivalent to Shepperd 1978), so every rotation, 180° included, is recovered to
+    round-off. The result is :func:`canonical` (``w ≥ 0``).
+
+    To convert a direction-cosine matrix ``C`` (space → body, ``x_B = C x_S``), pass
+    ``np.swapaxes(C, -1, -2)``.
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+        Rotation matrices.
+    tol : float, optional
+        Largest accepted Frobenius norm of ``RᵀR − I`` (default :data:`MATRIX_TOL` = 1e-9).
+        ``det R`` must also be positive.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions, scalar first, ``w ≥ 0``.
+
+    Raises
+    ------
+    AttitudeValueError
+        If ``R`` is not of shape (..., 3, 3), not finite, not orthogonal within ``tol``, or a
+        reflection (``det R < 0``).
+    """
+    R = as_float_array(R, "R")
+    if R.ndim < 2 or R.shape[-2:] != (3, 3):
+        raise AttitudeValueError(f"R: expected shape (..., 3, 3), got shape {R.shape}")
+    tol = float(tol)
+    if not (np.isfinite(tol) and tol > 0):
+        raise AttitudeValueError(f"tol: expected a positive finite number, got {tol!r}")
+    RtR = np.swapaxes(R, -1, -2) @ R
+    err = np.sqrt(np.sum((RtR - np.eye(3)) ** 2, axis=(-2, -1)))
+    bad = err > tol
+    if np.any(bad):
+        idx = _first_bad_index(np.atleast_1d(bad))
+        where = f" at index {idx}" if R.ndim > 2 else ""
+        raise AttitudeValueError(
+            f"R: not a rotation matrix{where}: ||RᵀR − I|| = {float(np.atleast_1d(err)[idx]):.3g}"
+            f" exceeds tol = {tol:g}; orthonormalise it first or raise tol"
+        )
+    det = np.linalg.det(R)
+    bad = det <= 0
+    if np.any(bad):
+        idx = _first_bad_index(np.atleast_1d(bad))
+        where = f" at index {idx}" if R.ndim > 2 else ""
+        raise AttitudeValueError(
+            f"R: det R = {float(np.atleast_1d(det)[idx]):.3g}{where}: an improper orthogonal "
+            "matrix (a reflection) is not a rotation"
+        )
+    r = R
+    tr = r[..., 0, 0] + r[..., 1, 1] + r[..., 2, 2]
+    # four candidates, each equal to 4 q_k · q (k = pivot component)
+    c0 = _stack(
+        1.0 + tr,
+        r[..., 2, 1] - r[..., 1, 2],
+        r[..., 0, 2] - r[..., 2, 0],
+        r[..., 1, 0] - r[..., 0, 1],
+    )
+    c1 = _stack(
+        r[..., 2, 1] - r[..., 1, 2],
+        1.0 + 2.0 * r[..., 0, 0] - tr,
+        r[..., 0, 1] + r[..., 1, 0],
+        r[..., 0, 2] + r[..., 2, 0],
+    )
+    c2 = _stack(
+        r[..., 0, 2] - r[..., 2, 0],
+        r[..., 0, 1] + r[..., 1, 0],
+        1.0 + 2.0 * r[..., 1, 1] - tr,
+        r[..., 1, 2] + r[..., 2, 1],
+    )
+    c3 = _stack(
+        r[..., 1, 0] - r[..., 0, 1],
+        r[..., 0, 2] + r[..., 2, 0],
+        r[..., 1, 2] + r[..., 2, 1],
+        1.0 + 2.0 * r[..., 2, 2] - tr,
+    )
+    pivots = np.stack([tr, r[..., 0, 0], r[..., 1, 1], r[..., 2, 2]], axis=-1)
+    k = np.argmax(pivots, axis=-1)[..., None]
+    q = np.where(k == 0, c0, np.where(k == 1, c1, np.where(k == 2, c2, c3)))
+    q = q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    return _canonical(q)
+
+
+# ----------------------------------------------------------------------------------------------
+# axis-angle, rotation vector
+# ----------------------------------------------------------------------------------------------
+
+
+def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> FloatArray:
+    """Rotation by ``angle`` about ``axis``: ``q = (cos(angle/2), â sin(angle/2))``.
+
+    Schwab eq. 9, Arribas et al. Theorem 1: right-handed, active (body → space).
+
+    Parameters
+    ----------
+    axis : array_like, shape (..., 3)
+        Rotation axes. Any non-zero vector: only its direction is used (it is divided by its
+        length).
+    angle : array_like, shape (...)
+        Rotation angles, rad (astropy angle quantities are converted). Broadcasts with the
+        leading dimensions of ``axis``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    AttitudeValueError
+        If an axis is zero or inputs are not finite.
+    """
+    axis = as_vector(axis, "axis")
+    angle = _as_angle(angle, "angle")
+    n = np.sqrt(np.sum(axis * axis, axis=-1, keepdims=True))
+    if np.any(n == 0):
+        raise AttitudeValueError("axis: the zero vector has no direction; give a non-zero axis")
+    half = 0.5 * angle[..., None]
+    return np.concatenate(np.broadcast_arrays(np.cos(half), np.sin(half) * axis / n), axis=-1)
+
+
+def to_axis_angle(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Unit axis and angle in ``[0, π]`` of the body → space rotation ``q``.
+
+    The angle is ``2 atan2(|u|, |w|)``, accurate for tiny and near-180° rotations. The sign of
+    ``q`` is fixed first (:func:`canonical`), so the angle never exceeds π. For the identity
+    (angle 0) the axis is undefined and ``(1, 0, 0)`` is returned.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit quaternions.
+
+    Returns
+    -------
+    axis : ndarray, shape (..., 3)
+        Unit rotation axes.
+    angle : ndarray, shape (...)
+        Rotation angles in ``[0, π]``, rad.
+    """
+    q = _canonical(_as_unit(q, "q"))
+    u = q[..., 1:]
+    s = np.sqrt(np.sum(u * u, axis=-1))
+    angle = 2.0 * np.arctan2(s, q[..., 0])
+    zero = s == 0
+    axis = np.where(
+        zero[..., None], np.array([1.0, 0.0, 0.0]), u / np.where(zero, 1.0, s)[..., None]
+    )
+    return axis, angle
+
+
+def from_rotation_vector(rotvec: ArrayLike) -> FloatArray:
+    """Quaternion of the rotation vector ``θ â`` (rotation by ``θ = |rotvec|`` about ``â``).
+
+    Parameters
+    ----------
+    rotvec : array_like, shape (..., 3)
+        Rotation vectors of the active body → space rotation, rad. Any length (angles beyond π
+        give quaternions with ``w < 0``).
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions ``(cos(θ/2), sin(θ/2) â)``, accurate for tiny ``θ``.
+    """
+    rv = as_vector(rotvec, "rotvec")
+    theta = np.sqrt(np.sum(rv * rv, axis=-1, keepdims=True))
+    # sin(θ/2)/θ = ½ sinc(θ / 2π), exact at θ = 0
+    return np.concatenate([np.cos(0.5 * theta), 0.5 * np.sinc(theta / (2.0 * np.pi)) * rv], axis=-1)
+
+
+def to_rotation_vector(q: ArrayLike) -> FloatArray:
+    """Rotation vector ``θ â`` of the body → space rotation ``q``, with ``θ ∈ [0, π]``.
+
+    Same as scipy's ``Rotation.as_rotvec`` of :func:`to_scipy` ``(q)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit quaternions.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        Rotation vectors, rad, of length at most π.
+    """
+    q = _canonical(_as_unit(q, "q"))
+    u = q[..., 1:]
+    s = np.sqrt(np.sum(u * u, axis=-1))
+    w = q[..., 0]
+    angle = 2.0 * np.arctan2(s, w)
+    # θ/|u| → 2/w as |u| → 0 (w = 1 there for a unit q)
+    factor = np.where(s > 0, angle / np.where(s > 0, s, 1.0), 2.0 / np.where(w > 0, w, 1.0))
+    return factor[..., None] * u
+
+
+# ----------------------------------------------------------------------------------------------
+# Euler angles
+# ----------------------------------------------------------------------------------------------
+
+
+def _elementary(axis: int, angle: FloatArray) -> FloatArray:
+    half = 0.5 * angle
+    parts = [np.cos(half), np.zeros_like(half), np.zeros_like(half), np.zeros_like(half)]
+    parts[axis + 1] = np.sin(half)
+    return _stack(*parts)
+
+
+def from_euler(angles: ArrayLike, seq: str = "313") -> FloatArray:
+    """Quaternion of intrinsic Euler angles: ``q = q_i(a1)∘q_j(a2)∘q_k(a3)`` for ``seq = "ijk"``.
+
+    Rotations about body axes, composed left to right (body → space). For ``"313"`` the angles
+    are Arribas et al.'s ``(φ, ϑ, ψ)`` and the result is their eq. 12 exactly:
+    ``(cos ϑ/2 cos (φ+ψ)/2, sin ϑ/2 cos (φ−ψ)/2, sin ϑ/2 sin (φ−ψ)/2, cos ϑ/2 sin (φ+ψ)/2)``.
+    Equal to scipy's ``Rotation.from_euler("ZXZ", angles)`` (upper case = intrinsic) up to
+    its scalar-last order.
+
+    Parameters
+    ----------
+    angles : array_like, shape (..., 3)
+        ``(a1, a2, a3)``, rad (astropy angle quantities are converted). Any values.
+    seq : str, optional
+        One of the 12 sequences in :data:`EULER_SEQUENCES` (digits 1, 2, 3 = body x, y, z).
+        Default ``"313"``. For an extrinsic (space-axis) sequence ``"ijk"`` with angles
+        ``(a, b, c)``, use the intrinsic ``"kji"`` with ``(c, b, a)``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions.
+
+    Raises
+    ------
+    AttitudeTypeError
+        If ``seq`` is not a string.
+    AttitudeValueError
+        If ``seq`` is not one of the 12 sequences or ``angles`` is bad.
+    """
+    i, j, k = _parse_seq(seq)
+    a = as_float_array(angles, "angles", trailing=3, unit="rad")
+    a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2]
+    if i == k:
+        # symmetric sequence i-j-i, m = third axis; closed form (eq. 12 for 3-1-3)
+        m = 3 - i - j
+        eps = _levi_civita(i, j, m)
+        parts = [None] * 4
+        parts[0] = np.cos(a2 / 2) * np.cos((a1 + a3) / 2)
+        parts[i + 1] = np.cos(a2 / 2) * np.sin((a1 + a3) / 2)
+        parts[j + 1] = np.sin(a2 / 2) * np.cos((a1 - a3) / 2)
+        parts[m + 1] = eps * (np.sin(a2 / 2) * np.sin((a1 - a3) / 2))
+        return _stack(*parts)
+    return _mul(_mul(_elementary(i, a1), _elementary(j, a2)), _elementary(k, a3))
+
+
+def to_euler(q: ArrayLike, seq: str = "313") -> FloatArray:
+    """Intrinsic Euler angles of ``q``, the inverse of :func:`from_euler`.
+
+    Direct method of Bernardes & Viollet (2022, PLoS ONE 17, e0276302), written for intrinsic
+    sequences: an asymmetric sequence ``i-j-k`` is reduced to the symmetric ``i-j-i`` by
+    right-multiplying with ``q_j(π/2)``. Every angle comes from ``atan2``, so there is no loss
+    of accuracy near any angle. For ``"313"`` this is Arribas et al. eq. 13 with the quadrants
+    of φ, ψ fixed by the signs in their sin/cos forms (after eq. 14).
+
+    Ranges: ``a1, a3 ∈ (−π, π]``; ``a2 ∈ [0, π]`` for symmetric sequences (``"313"``:
+    ϑ ∈ [0, π]), ``a2 ∈ [−π/2, π/2]`` for asymmetric ones.
+
+    Gimbal lock (``a2 ∈ {0, π}`` symmetric, ``a2 = ±π/2`` asymmetric, to round-off): only
+    ``a1 ± a3`` is defined. The choice made is ``a3 = 0``, with ``a1`` carrying the whole
+    rotation about the locked axis; the round trip ``from_euler(to_euler(q))`` still gives the
+    rotation of ``q`` (up to sign). No NaN, no warning. Near (not at) the lock ``a1`` and
+    ``a3`` are individually ill-conditioned, but the rotation they represent is still exact to
+    round-off.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit quaternions (either sign).
+    seq : str, optional
+        One of the 12 sequences in :data:`EULER_SEQUENCES`; default ``"313"``.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        ``(a1, a2, a3)`` in rad.
+    """
+    i, j, k = _parse_seq(seq)
+    q = _as_unit(q, "q")
+    symmetric = i == k
+    if not symmetric:
+        # q_k(a3) = r∘q_i(∓a3)∘r̃ with r = q_j(π/2), so q∘r = q_i(a1)∘q_j(a2 + π/2)∘q_i(±a3)
+        r = np.zeros(4)
+        r[0] = r[j + 1] = np.sqrt(0.5)
+        q = _mul(q, r)
+    m = 3 - i - j
+    eps = _levi_civita(i, j, m)
+    a, b = q[..., 0], q[..., i + 1]
+    c, d = q[..., j + 1], eps * q[..., m + 1]
+    h_ab = np.hypot(a, b)
+    h_cd = np.hypot(c, d)
+    a2 = 2.0 * np.arctan2(h_cd, h_ab)
+    tplus = np.arctan2(b, a)  # (a1 + a3)/2
+    tminus = np.arctan2(d, c)  # (a1 − a3)/2
+    scale = np.hypot(h_ab, h_cd)
+    lock0 = h_cd <= _GIMBAL_TOL * scale
+    lockpi = h_ab <= _GIMBAL_TOL * scale
+    a1 = np.where(lock0, 2.0 * tplus, np.where(lockpi, 2.0 * tminus, tplus + tminus))
+    a3 = np.where(lock0 | lockpi, 0.0, tplus - tminus)
+    if not symmetric:
+        a2 = a2 - 0.5 * np.pi
+        a3 = -eps * a3
+    return _stack(_wrap(a1), a2, _wrap(a3)) + 0.0  # + 0.0 turns −0.0 into 0.0
+
+
+# ----------------------------------------------------------------------------------------------
+# distances and interpolation
+# ----------------------------------------------------------------------------------------------
+
+
+def angle_between(q1: ArrayLike, q2: ArrayLike) -> FloatArray:
+    """Rotation angle between two attitudes, in ``[0, π]``.
+
+    ``2 atan2(|vec(q̃1∘q2)|, |scalar(q̃1∘q2)|)``: invariant under ``q → −q`` of either argument
+    and accurate to round-off for tiny angles (unlike ``2 arccos|q1·q2|``).
+
+    Parameters
+    ----------
+    q1, q2 : array_like, shape (..., 4)
+        Unit quaternions; leading dimensions broadcast.
+
+    Returns
+    -------
+    ndarray, shape (...)
+        Angles, rad.
+    """
+    r = _mul(_conj(_as_unit(q1, "q1")), _as_unit(q2, "q2"))
+    u = r[..., 1:]
+    return 2.0 * np.arctan2(np.sqrt(np.sum(u * u, axis=-1)), np.abs(r[..., 0]))
+
+
+def slerp(q1: ArrayLike, q2: ArrayLike, s: ArrayLike) -> FloatArray:
+    """Spherical linear interpolation along the shortest path from ``q1`` (s=0) to ``q2`` (s=1).
+
+    ``q(s) = q1∘(q̃1∘q2')^s`` with ``q2' = ±q2`` chosen so that ``q1·q2' ≥ 0``; the angle
+    from ``q1`` grows linearly in ``s``. At ``s = 1`` the result is ``q2'`` (which may be
+    ``−q2``: the same attitude). Numerically safe for nearly equal or equal quaternions.
+    Values of ``s`` outside [0, 1] extrapolate along the same great circle.
+
+    Parameters
+    ----------
+    q1, q2 : array_like, shape (..., 4)
+        Unit quaternions.
+    s : array_like, shape (...)
+        Interpolation parameters; broadcast with the leading dimensions of ``q1`` and ``q2``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions.
+    """
+    q1 = _as_unit(q1, "q1")
+    q2 = _as_unit(q2, "q2")
+    s = as_float_array(s, "s")
+    r = _mul(_conj(q1), q2)
+    r = np.where(r[..., :1] < 0, -r, r)  # shortest path: scalar part of q̃1∘q2 ≥ 0
+    u = r[..., 1:]
+    sn = np.sqrt(np.sum(u * u, axis=-1))
+    half = np.arctan2(sn, r[..., 0])  # half the rotation angle, in [0, π/2]
+    sh = s * half
+    # sin(s·half)/|u| → s as |u| → 0 (|u| = sin(half) for unit r)
+    f = np.where(sn > 0, np.sin(sh) / np.where(sn > 0, sn, 1.0), s)
+    step = np.concatenate(np.broadcast_arrays(np.cos(sh)[..., None], f[..., None] * u), axis=-1)
+    return _mul(q1, step)
+
+
+# ----------------------------------------------------------------------------------------------
+# other conventions: MRP (Basilisk sigma_BN), scipy Rotation
+# ----------------------------------------------------------------------------------------------
+
+
+def to_mrp(q: ArrayLike, shadow: bool = False) -> FloatArray:
+    """Modified Rodrigues parameters ``σ_BN`` of the space → body rotation (Basilisk style).
+
+    ``q_BN = q̃`` (our ``q`` is body → space), and ``σ = vec(q_BN) / (1 + w_BN)
+    = −vec(q) / (1 + w)``, i.e. ``σ = tan(θ/4) ê`` with ``θ, ê`` the principal angle and axis
+    of the space → body rotation. By default the sign of ``q`` is chosen with ``w ≥ 0`` so that
+    ``|σ| ≤ 1`` (the short set, as Basilisk keeps it). ``shadow=True`` returns the shadow set
+    ``σ_s = −σ / |σ|²`` (``|σ_s| ≥ 1``).
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternions (body → space).
+    shadow : bool, optional
+        Return the shadow set instead of the short one.
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        MRPs ``σ_BN``; the DCM is ``[BN] = to_matrix(q).T``.
+
+    Raises
+    ------
+    SingularityError
+        If ``shadow=True`` and a rotation is the identity (its shadow set is at infinity).
+    """
+    q = _as_unit(q, "q")
+    if not isinstance(shadow, (bool, np.bool_)):
+        raise AttitudeTypeError(f"shadow: expected True or False, got {shadow!r}")
+    qc = _canonical(q)
+    w, u = qc[..., 0:1], qc[..., 1:]
+    if not shadow:
+        return -u / (1.0 + w)
+    sn = np.sum(u * u, axis=-1)
+    bad = sn == 0
+    if np.any(bad):
+        raise SingularityError(
+            "q: the shadow MRP set of the identity rotation is at infinity; use shadow=False"
+        )
+    # σ_s = −σ/|σ|² = vec(q)(1 + w)/|vec q|² (= vec(q)/(1 − w) for unit q, without cancellation)
+    return u * ((1.0 + w) / sn[..., None])
+
+
+def from_mrp(sigma: ArrayLike) -> FloatArray:
+    """Attitude quaternion (body → space) from MRPs ``σ_BN`` of the space → body rotation.
+
+    ``q_BN = ((1 − |σ|²), 2σ) / (1 + |σ|²)`` and ``q = q̃_BN``. Accepts either set, short
+    (``|σ| ≤ 1``, gives ``w ≥ 0``) or shadow (``|σ| > 1``, gives ``w < 0``): both are the same
+    rotation.
+
+    Parameters
+    ----------
+    sigma : array_like, shape (..., 3)
+        Modified Rodrigues parameters ``σ_BN``.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        Unit quaternions.
+    """
+    sg = as_vector(sigma, "sigma")
+    s2 = np.sum(sg * sg, axis=-1, keepdims=True)
+    return np.concatenate([(1.0 - s2), -2.0 * sg], axis=-1) / (1.0 + s2)
+
+
+def to_scipy(q: ArrayLike) -> Any:
+    """The same active rotation as a :class:`scipy.spatial.transform.Rotation`.
+
+    scipy stores quaternions scalar last: ``Rotation.from_quat(q[..., [1, 2, 3, 0]])``.
+    ``to_scipy(q).apply(v) == rotate(q, v)`` and ``.as_matrix() == to_matrix(q)``.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Unit attitude quaternions (body → space), scalar first.
+
+    Returns
+    -------
+    scipy.spatial.transform.Rotation
+        Of shape ``q.shape[:-1]`` (a single rotation for ``q`` of shape (4,)).
+    """
+    from scipy.spatial.transform import Rotation
+
+    q = _as_unit(q, "q")
+    return Rotation.from_quat(q[..., [1, 2, 3, 0]])
+
+
+def from_scipy(rotation: Any) -> FloatArray:
+    """Scalar-first quaternion of a :class:`scipy.spatial.transform.Rotation`.
+
+    Parameters
+    ----------
+    rotation : scipy.spatial.transform.Rotation
+        Any rotation (single or stacked); it is taken as active (body → space), as scipy does.
+
+    Returns
+    -------
+    ndarray, shape (..., 4)
+        ``rotation.as_quat()[..., [3, 0, 1, 2]]`` (scipy's sign is kept).
+    """
+    from scipy.spatial.transform import Rotation
+
+    if not isinstance(rotation, Rotation):
+        raise AttitudeTypeError(
+            f"rotation: expected a scipy.spatial.transform.Rotation, got "
+            f"{type(rotation).__name__}; for a quaternion array use it directly, for a matrix "
+            "use from_matrix"
+        )
+    return np.ascontiguousarray(np.asarray(rotation.as_quat(), dtype=np.float64)[..., [3, 0, 1, 2]])
