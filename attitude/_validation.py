@@ -15,8 +15,8 @@ from .errors import AttitudeTypeError, AttitudeValueError
 __all__ = [
     "as_float_array",
     "as_quaternion",
-    "as_vector",
     "as_times",
+    "as_vector",
     "to_value",
 ]
 
@@ -67,14 +67,10 @@ def as_float_array(
     if ndim is not None and arr.ndim != ndim:
         raise AttitudeValueError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
     if trailing is not None and (arr.ndim == 0 or arr.shape[-1] != trailing):
-        raise AttitudeValueError(
-            f"{name}: expected shape (..., {trailing}), got shape {arr.shape}"
-        )
+        raise AttitudeValueError(f"{name}: expected shape (..., {trailing}), got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise AttitudeValueError(
-            f"{name}: contains a non-finite value (NaN or inf) at index {tuple(int(i) for i in bad)}"
-        )
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise AttitudeValueError(f"{name}: contains a non-finite value (NaN or inf) at index {bad}")
     return arr
 
 

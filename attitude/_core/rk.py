@@ -1,0 +1,328 @@
+"""Compiled adaptive Runge–Kutta integration (DOP853) with dense output.
+
+One generic stepper: the method is the data in :mod:`attitude._core.tableaux`, the physics is
+the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``),
+and the whole step loop runs in compiled code. Step-size control and error norm follow
+Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.4 and II.10 (DOP853), as in SciPy's
+``solve_ivp(method="DOP853")``, so the two paths take comparable steps.
+
+The integrator state lives in caller-owned arrays, so a long run can be cut into chunks of
+output times (for progress reporting and streaming to disk) and continued bit-for-bit as if it
+had never stopped.
+
+Layout of the persistent arrays
+-------------------------------
+``work`` : float64, shape (WORK_ROWS, n)
+    rows Y (current state), F0 (derivative there), YOLD (state at the start of the last step),
+    K0..K0+15 (stages of the last step; K0+12 is the derivative at its end), FD..FD+6 (its
+    dense-output polynomial), YT, YN (scratch).
+``tstate`` : float64, shape (4,)
+    ``[t, h_next, t_old, h_last]``.
+``counters`` : int64, shape (5,)
+    ``[n_steps, n_rhs, n_rejected, started, dense_valid]``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from orbit._jit import jit
+
+from .tableaux import DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5
+
+# Rows of the work array.
+Y = 0
+F0 = 1
+YOLD = 2
+K0 = 3
+FD = K0 + 16
+YT = FD + 7
+YN = YT + 1
+WORK_ROWS = YN + 1
+
+# Status codes returned by :func:`dop853_run`.
+SUCCESS = 0
+NONFINITE = 1
+STEP_TOO_SMALL = 2
+TOO_MANY_STEPS = 3
+
+STATUS_MESSAGES = {
+    SUCCESS: "success",
+    NONFINITE: "the state became non-finite (NaN or inf)",
+    STEP_TOO_SMALL: "the step size fell below the round-off limit",
+    TOO_MANY_STEPS: "the maximum number of steps was reached",
+}
+
+_SAFETY = 0.9
+_MIN_FACTOR = 0.2
+_MAX_FACTOR = 10.0
+_ERR_EXP = -1.0 / 8.0  # error estimator order 7
+
+
+def new_state(n: int):
+    """Fresh persistent arrays ``(work, tstate, counters)`` for a system of size ``n``."""
+    return (
+        np.zeros((WORK_ROWS, n)),
+        np.zeros(4),
+        np.zeros(5, dtype=np.int64),
+    )
+
+
+@jit
+def _rms_scaled(v, y1, y2, rtol, atol, n):
+    s = 0.0
+    for i in range(n):
+        sc = atol + rtol * max(abs(y1[i]), abs(y2[i]))
+        s += (v[i] / sc) ** 2
+    return math.sqrt(s / n)
+
+
+@jit
+def _initial_step(rhs, params, t0, y0, f0, direction, rtol, atol, t_span, work, counters):
+    # Hairer, Nørsett & Wanner, Sect. II.4, "Starting step size".
+    n = y0.shape[0]
+    d0 = _rms_scaled(y0, y0, y0, rtol, atol, n)
+    d1 = _rms_scaled(f0, y0, y0, rtol, atol, n)
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, t_span)
+    yt = work[YT]
+    for i in range(n):
+        yt[i] = y0[i] + h0 * direction * f0[i]
+    f1 = work[YN]
+    rhs(t0 + h0 * direction, yt, params, f1)
+    counters[1] += 1
+    for i in range(n):
+        yt[i] = f1[i] - f0[i]
+    d2 = _rms_scaled(yt, y0, y0, rtol, atol, n) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
+    return min(100.0 * h0, h1, t_span)
+
+
+@jit
+def _dense_coefficients(rhs, params, work, tstate, counters):
+    """The 7th-order interpolant of the last step (three extra stages, HNW II.10)."""
+    n = work.shape[1]
+    t_old = tstate[2]
+    h = tstate[3]
+    yold = work[YOLD]
+    ynew = work[Y]
+    yt = work[YT]
+    for s in range(13, 16):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += DOP853_A[s, j] * work[K0 + j, i]
+            yt[i] = yold[i] + h * acc
+        rhs(t_old + DOP853_C[s] * h, yt, params, work[K0 + s])
+    counters[1] += 3
+    for i in range(n):
+        dy = ynew[i] - yold[i]
+        work[FD, i] = dy
+        work[FD + 1, i] = h * work[K0, i] - dy
+        work[FD + 2, i] = 2.0 * dy - h * (work[K0 + 12, i] + work[K0, i])
+        for r in range(4):
+            acc = 0.0
+            for j in range(16):
+                acc += DOP853_D[r, j] * work[K0 + j, i]
+            work[FD + 3 + r, i] = h * acc
+    counters[4] = 1
+
+
+@jit
+def _interpolate(work, tstate, t, out):
+    n = work.shape[1]
+    x = (t - tstate[2]) / tstate[3]
+    for i in range(n):
+        acc = 0.0
+        for k in range(7):
+            acc += work[FD + 6 - k, i]
+            if k % 2 == 0:
+                acc *= x
+            else:
+                acc *= 1.0 - x
+        out[i] = acc + work[YOLD, i]
+
+
+@jit
+def dop853_run(
+    rhs,
+    params,
+    y0,
+    t0,
+    t_out,
+    y_out,
+    work,
+    tstate,
+    counters,
+    rtol,
+    atol,
+    t_end,
+    max_step,
+    max_steps,
+):
+    """Integrate from the stored state through the output times ``t_out``.
+
+    On the first call (``counters[3] == 0``) the state is initialised from ``(t0, y0)``;
+    later calls continue from ``work``/``tstate``. ``t_end`` is the final time of the whole run
+    (steps never cross it), so a chunked run takes the same steps as a single call.
+
+    Returns
+    -------
+    status : int
+        One of ``SUCCESS``, ``NONFINITE``, ``STEP_TOO_SMALL``, ``TOO_MANY_STEPS``.
+    n_done : int
+        Number of rows of ``y_out`` filled (all of them on success).
+    """
+    n = y0.shape[0]
+    m = t_out.shape[0]
+    y = work[Y]
+    f = work[F0]
+    yold = work[YOLD]
+    yt = work[YT]
+    yn = work[YN]
+    if counters[3] == 0:
+        for i in range(n):
+            y[i] = y0[i]
+        tstate[0] = t0
+        tstate[1] = 0.0
+        tstate[2] = t0
+        tstate[3] = 0.0
+        rhs(t0, y, params, f)
+        counters[1] += 1
+        counters[3] = 1
+        counters[4] = 0
+    direction = 1.0 if t_end >= tstate[0] else -1.0
+
+    k = 0
+    # Outputs already covered by the stored state (continuation of a chunked run).
+    while k < m:
+        to = t_out[k]
+        if to == tstate[0]:
+            for i in range(n):
+                y_out[k, i] = y[i]
+            k += 1
+        elif (
+            counters[0] > 0
+            and direction * (to - tstate[2]) >= 0.0
+            and direction * (tstate[0] - to) > 0.0
+        ):
+            if counters[4] == 0:
+                _dense_coefficients(rhs, params, work, tstate, counters)
+            _interpolate(work, tstate, to, y_out[k])
+            k += 1
+        else:
+            break
+    if k == m:
+        return SUCCESS, k
+
+    t = tstate[0]
+    h_abs = tstate[1]
+    if h_abs == 0.0:
+        h_abs = _initial_step(
+            rhs, params, t, y, f, direction, rtol, atol, abs(t_end - t), work, counters
+        )
+    while k < m:
+        if counters[0] >= max_steps:
+            tstate[1] = h_abs
+            return TOO_MANY_STEPS, k
+        min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
+        if h_abs > max_step:
+            h_abs = max_step
+        elif h_abs < min_step:
+            h_abs = min_step
+        rejected = False
+        while True:
+            if h_abs < min_step:
+                tstate[1] = h_abs
+                return STEP_TOO_SMALL, k
+            h = h_abs * direction
+            t_new = t + h
+            if direction * (t_new - t_end) > 0.0:
+                t_new = t_end
+            h = t_new - t
+            h_abs = abs(h)
+            # Stages 1..11 (stage 0 is f, first-same-as-last).
+            for i in range(n):
+                work[K0, i] = f[i]
+            for s in range(1, 12):
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(s):
+                        acc += DOP853_A[s, j] * work[K0 + j, i]
+                    yt[i] = y[i] + h * acc
+                rhs(t + DOP853_C[s] * h, yt, params, work[K0 + s])
+            for i in range(n):
+                acc = 0.0
+                for j in range(12):
+                    acc += DOP853_B[j] * work[K0 + j, i]
+                yn[i] = y[i] + h * acc
+            rhs(t_new, yn, params, work[K0 + 12])
+            counters[1] += 12
+            # Error estimate: the 5th- and 3rd-order embedded pairs (HNW II.10, eq. 10.17).
+            e5 = 0.0
+            e3 = 0.0
+            for i in range(n):
+                sc = atol + rtol * max(abs(y[i]), abs(yn[i]))
+                a5 = 0.0
+                a3 = 0.0
+                for j in range(13):
+                    a5 += DOP853_E5[j] * work[K0 + j, i]
+                    a3 += DOP853_E3[j] * work[K0 + j, i]
+                e5 += (a5 / sc) ** 2
+                e3 += (a3 / sc) ** 2
+            if e5 == 0.0 and e3 == 0.0:
+                err = 0.0
+            else:
+                err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+            if not math.isfinite(err):
+                # A non-finite trial state: shrink hard; if that cannot help, report it.
+                h_abs *= _MIN_FACTOR
+                rejected = True
+                counters[2] += 1
+                if h_abs < min_step:
+                    tstate[1] = h_abs
+                    return NONFINITE, k
+                continue
+            if err < 1.0:
+                if err == 0.0:
+                    factor = _MAX_FACTOR
+                else:
+                    factor = min(_MAX_FACTOR, _SAFETY * err**_ERR_EXP)
+                if rejected:
+                    factor = min(1.0, factor)
+                break
+            h_abs *= max(_MIN_FACTOR, _SAFETY * err**_ERR_EXP)
+            rejected = True
+            counters[2] += 1
+        # Accept the step.
+        for i in range(n):
+            yold[i] = y[i]
+            y[i] = yn[i]
+            f[i] = work[K0 + 12, i]
+        tstate[2] = t
+        tstate[3] = h
+        t = t_new
+        tstate[0] = t
+        counters[0] += 1
+        counters[4] = 0
+        h_abs = h_abs * factor
+        tstate[1] = h_abs
+        # Serve every output time inside the step just taken.
+        while k < m and direction * (t - t_out[k]) >= 0.0:
+            if t_out[k] == t:
+                for i in range(n):
+                    y_out[k, i] = y[i]
+            else:
+                if counters[4] == 0:
+                    _dense_coefficients(rhs, params, work, tstate, counters)
+                _interpolate(work, tstate, t_out[k], y_out[k])
+            k += 1
+    return SUCCESS, k

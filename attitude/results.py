@@ -1,0 +1,122 @@
+"""The propagation result: one xarray Dataset schema for every method and formulation.
+
+See docs/results.md for the schema. Units are strings that ``astropy.units.Unit`` parses and
+CF tools understand; a body given without units gives dimensionless results (``"1"``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from ._version import __version__
+from .body import RigidBody
+
+__all__ = ["UnitSystem", "build_dataset"]
+
+
+class UnitSystem:
+    """Unit strings of the result variables, from the body's unit system."""
+
+    def __init__(self, body: RigidBody):
+        if body.units is None:
+            self.time = self.inertia = self.momentum = self.energy = self.rate = "1"
+            self.length = "1"
+        else:
+            self.time = "s"
+            self.inertia = "kg km2"
+            self.momentum = "kg km2 s-1"
+            self.energy = "kg km2 s-2"
+            self.rate = "rad s-1"
+            self.length = "km"
+
+
+def build_dataset(
+    t: np.ndarray,
+    y: np.ndarray,
+    diag: np.ndarray,
+    body: RigidBody,
+    potential: Any,
+    attrs: dict[str, Any],
+) -> xr.Dataset:
+    """Assemble the result Dataset.
+
+    Parameters
+    ----------
+    t : ndarray, shape (m,)
+        Output times.
+    y : ndarray, shape (m, 8)
+        Canonical states (q, Q).
+    diag : ndarray, shape (m, 13)
+        Diagnostics from ``_core.dynamics.diagnostics_with``.
+    body : RigidBody
+    potential : Potential
+    attrs : dict
+        Run description (method, tolerances, statistics...).
+    """
+    u = UnitSystem(body)
+    comp = ["w", "x", "y", "z"]
+    axis = ["x", "y", "z"]
+
+    def var(dims, data, units, long_name, **extra):
+        return xr.Variable(
+            dims, np.ascontiguousarray(data), {"units": units, "long_name": long_name, **extra}
+        )
+
+    data_vars = {
+        "q": var(
+            ("time", "component"),
+            y[:, :4],
+            "1",
+            "attitude quaternion (Euler parameters), body to space, scalar first",
+        ),
+        "Q": var(
+            ("time", "component"),
+            y[:, 4:],
+            u.momentum,
+            "conjugate momenta of the Euler parameters, Q = 2 q o (0, g)",
+        ),
+        "omega": var(("time", "axis"), diag[:, 0:3], u.rate, "angular velocity in body axes"),
+        "g": var(("time", "axis"), diag[:, 3:6], u.momentum, "angular momentum in body axes"),
+        "G": var(("time", "axis"), diag[:, 6:9], u.momentum, "angular momentum in space axes"),
+        "energy": var(("time",), diag[:, 9], u.energy, "total energy H = T + U"),
+        "potential_energy": var(("time",), diag[:, 12], u.energy, "potential energy U"),
+        "norm_error": var(("time",), diag[:, 10], "1", "|q| - 1"),
+        "qQ": var(("time",), diag[:, 11], u.momentum, "q . Q (zero on the constraint manifold)"),
+    }
+    orbit = getattr(potential, "orbit", None)
+    if orbit is not None:
+        data_vars["r"] = var(("time",), orbit.radius(t), u.length, "orbit radius")
+        data_vars["f"] = var(("time",), orbit.true_anomaly(t), "rad", "true anomaly")
+        data_vars["p"] = var(
+            ("time", "component"),
+            orbit.frame_quaternion(t),
+            "1",
+            "orbital-frame quaternion p (space to orbital frame), scalar first",
+        )
+    coords = {
+        "time": (
+            "time",
+            np.asarray(t, dtype=np.float64),
+            {"units": u.time, "long_name": "time since epoch", "standard_name": "time"},
+        ),
+        "component": ("component", comp, {"long_name": "quaternion component, scalar first"}),
+        "axis": ("axis", axis, {"long_name": "vector component"}),
+    }
+    base = {
+        "Conventions": "CF-1.10",
+        "title": "attitude propagation",
+        "source": f"attitude {__version__}",
+        "package_version": __version__,
+        "inertia": np.asarray(body.inertia, dtype=np.float64),
+        "inertia_units": u.inertia,
+        "potential": potential.describe(),
+        "potential_name": potential.name,
+        "quaternion_convention": (
+            "scalar first (w, x, y, z), Hamilton product, q maps body to space"
+        ),
+    }
+    base.update(attrs)
+    return xr.Dataset(data_vars, coords=coords, attrs=base)
