@@ -274,6 +274,7 @@ def propagate(
     max_steps: int = 100_000_000,
     progress: Callable[[int, int, float], None] | None = None,
     chunk: int | None = None,
+    formulation: str = "canonical",
 ) -> xr.Dataset:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -313,6 +314,10 @@ def propagate(
         ``progress(n_done, n_total, t_reached)`` called after each chunk of output times.
     chunk : int, optional
         Output samples per compiled call (with ``progress``); results do not depend on it.
+    formulation : str
+        Equations integrated: ``"canonical"`` (default, eq. 7 in (q, Q)) or another of
+        :data:`attitude.formulations.FORMULATIONS` (``"euler_angles"``, ``"schwab"``,
+        ``"euler_equations"``). Every formulation returns the same Dataset schema.
 
     Returns
     -------
@@ -332,6 +337,11 @@ def propagate(
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
+    form = None
+    if formulation != "canonical":
+        from .formulations import get_formulation
+
+        form = get_formulation(formulation, method)
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
     Q0a = as_float_array(Q0, "Q0", trailing=4, ndim=1, unit=None)
     tt = as_times(t, "t")
@@ -377,11 +387,16 @@ def propagate(
         chunk=chunk,
         **extra,
     )
-    result = runner(problem, **options)
+    if form is None:
+        result = runner(problem, **options)
+    else:
+        # The formulation converts the canonical initial state to its own variables, integrates
+        # its equations with the same method, and converts the samples back to (q, Q).
+        result = form.run(problem, method=method, runner=runner, **options)
 
     attrs: dict[str, Any] = {
         "method": method,
-        "formulation": "canonical",
+        "formulation": formulation,
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
