@@ -136,11 +136,12 @@ def _mul(a: FloatArray, b: FloatArray) -> FloatArray:
     """Hamilton product of validated arrays (Schwab eq. 2)."""
     a0, a1, a2, a3 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     b0, b1, b2, b3 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    # grouped as (a0 b + b0 a) + a × b, so that q̃∘q and q∘q̃ have exactly zero vector part
     return _stack(
-        a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-        a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-        a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-        a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
+        a0 * b0 - (a1 * b1 + a2 * b2 + a3 * b3),
+        (a0 * b1 + a1 * b0) + (a2 * b3 - a3 * b2),
+        (a0 * b2 + a2 * b0) + (a3 * b1 - a1 * b3),
+        (a0 * b3 + a3 * b0) + (a1 * b2 - a2 * b1),
     )
 
 
@@ -520,7 +521,10 @@ def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> FloatArray:
     if np.any(n == 0):
         raise AttitudeValueError("axis: the zero vector has no direction; give a non-zero axis")
     half = 0.5 * angle[..., None]
-    return np.concatenate(np.broadcast_arrays(np.cos(half), np.sin(half) * axis / n), axis=-1)
+    lead = np.broadcast_shapes(axis.shape[:-1], angle.shape)
+    w = np.broadcast_to(np.cos(half), (*lead, 1))
+    u = np.broadcast_to(np.sin(half) * (axis / n), (*lead, 3))
+    return np.concatenate([w, u], axis=-1)
 
 
 def to_axis_angle(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
@@ -772,7 +776,14 @@ def slerp(q1: ArrayLike, q2: ArrayLike, s: ArrayLike) -> FloatArray:
     sh = s * half
     # sin(s·half)/|u| → s as |u| → 0 (|u| = sin(half) for unit r)
     f = np.where(sn > 0, np.sin(sh) / np.where(sn > 0, sn, 1.0), s)
-    step = np.concatenate(np.broadcast_arrays(np.cos(sh)[..., None], f[..., None] * u), axis=-1)
+    lead = np.broadcast_shapes(sh.shape, u.shape[:-1])
+    step = np.concatenate(
+        [
+            np.broadcast_to(np.cos(sh)[..., None], (*lead, 1)),
+            np.broadcast_to(f[..., None] * u, (*lead, 3)),
+        ],
+        axis=-1,
+    )
     return _mul(q1, step)
 
 
@@ -782,12 +793,22 @@ def slerp(q1: ArrayLike, q2: ArrayLike, s: ArrayLike) -> FloatArray:
 
 
 def to_mrp(q: ArrayLike, shadow: bool = False) -> FloatArray:
-    """Modified Rodrigues parameters ``σ_BN`` of the space → body rotation (Basilisk style).
+    """Modified Rodrigues parameters ``σ_BN`` of the attitude, as Basilisk / Schaub & Junkins.
 
-    ``q_BN = q̃`` (our ``q`` is body → space), and ``σ = vec(q_BN) / (1 + w_BN)
-    = −vec(q) / (1 + w)``, i.e. ``σ = tan(θ/4) ê`` with ``θ, ê`` the principal angle and axis
-    of the space → body rotation. By default the sign of ``q`` is chosen with ``w ≥ 0`` so that
-    ``|σ| ≤ 1`` (the short set, as Basilisk keeps it). ``shadow=True`` returns the shadow set
+    In the Schaub–Junkins convention used by Basilisk, the Euler parameters ``β_BN`` of the
+    body frame B relative to the inertial frame N are defined through the direction-cosine
+    matrix ``[BN]`` (N components → B components) by the *transposed* (passive) matrix, the one
+    printed in Arribas et al. Sect. 2. Hence ``β_BN`` equals our ``q`` component for component
+    (scalar first), ``[BN] = to_matrix(q).T``, and
+
+    ``σ_BN = vec(q) / (1 + w) = tan(θ/4) ê``,
+
+    with ``(ê, θ)`` the axis and angle of ``q`` (the principal rotation carrying N onto B).
+    Do not conjugate ``q`` first: that gives ``σ_NB = −σ_BN``.
+
+    By default the sign of ``q`` is chosen with ``w ≥ 0`` so that ``|σ| ≤ 1`` (the short set,
+    as Basilisk keeps it; at exactly 180° both ``±σ`` have ``|σ| = 1`` and the one from
+    :func:`canonical` is returned). ``shadow=True`` returns the shadow set
     ``σ_s = −σ / |σ|²`` (``|σ_s| ≥ 1``).
 
     Parameters
@@ -800,7 +821,7 @@ def to_mrp(q: ArrayLike, shadow: bool = False) -> FloatArray:
     Returns
     -------
     ndarray, shape (..., 3)
-        MRPs ``σ_BN``; the DCM is ``[BN] = to_matrix(q).T``.
+        MRPs ``σ_BN``.
 
     Raises
     ------
@@ -813,23 +834,23 @@ def to_mrp(q: ArrayLike, shadow: bool = False) -> FloatArray:
     qc = _canonical(q)
     w, u = qc[..., 0:1], qc[..., 1:]
     if not shadow:
-        return -u / (1.0 + w)
+        return u / (1.0 + w)
     sn = np.sum(u * u, axis=-1)
     bad = sn == 0
     if np.any(bad):
         raise SingularityError(
             "q: the shadow MRP set of the identity rotation is at infinity; use shadow=False"
         )
-    # σ_s = −σ/|σ|² = vec(q)(1 + w)/|vec q|² (= vec(q)/(1 − w) for unit q, without cancellation)
-    return u * ((1.0 + w) / sn[..., None])
+    # σ_s = −σ/|σ|² = −vec(q)(1 + w)/|vec q|² (= −vec(q)/(1 − w) for unit q, no cancellation)
+    return -u * ((1.0 + w) / sn[..., None])
 
 
 def from_mrp(sigma: ArrayLike) -> FloatArray:
-    """Attitude quaternion (body → space) from MRPs ``σ_BN`` of the space → body rotation.
+    """Attitude quaternion (body → space) from Basilisk-style MRPs ``σ_BN``.
 
-    ``q_BN = ((1 − |σ|²), 2σ) / (1 + |σ|²)`` and ``q = q̃_BN``. Accepts either set, short
-    (``|σ| ≤ 1``, gives ``w ≥ 0``) or shadow (``|σ| > 1``, gives ``w < 0``): both are the same
-    rotation.
+    ``q = β_BN = ((1 − |σ|²), 2σ) / (1 + |σ|²)`` (see :func:`to_mrp` for why ``β_BN`` is our
+    ``q``). Accepts either set, short (``|σ| ≤ 1``, gives ``w ≥ 0``) or shadow (``|σ| > 1``,
+    gives ``w < 0``): both are the same rotation.
 
     Parameters
     ----------
@@ -843,7 +864,7 @@ def from_mrp(sigma: ArrayLike) -> FloatArray:
     """
     sg = as_vector(sigma, "sigma")
     s2 = np.sum(sg * sg, axis=-1, keepdims=True)
-    return np.concatenate([(1.0 - s2), -2.0 * sg], axis=-1) / (1.0 + s2)
+    return np.concatenate([(1.0 - s2), 2.0 * sg], axis=-1) / (1.0 + s2)
 
 
 def to_scipy(q: ArrayLike) -> Any:
