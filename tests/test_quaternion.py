@@ -659,6 +659,20 @@ def test_scipy_converters():
         aq.from_scipy(np.array([1.0, 0, 0, 0]))
 
 
+def test_matlab_aerospace_toolbox_published_examples():
+    """MATLAB quat2dcm / dcm2quat documentation examples (scalar first, DCM = to_matrix(q).T)."""
+    dcm = aq.to_matrix(aq.normalize([1.0, 0, 1, 0])).T
+    assert_allclose(dcm, [[0, 0, -1], [0, 1, 0], [1, 0, 0]], atol=1e-15)
+    dcm = aq.to_matrix(aq.normalize([1.0, 0.5, 0.3, 0.1])).T
+    printed = [[0.8519, 0.3704, -0.3704], [0.0741, 0.6148, 0.7852], [0.5185, -0.6963, 0.4963]]
+    assert_allclose(dcm, printed, atol=5e-5)
+    dcm = np.array([[0.4330, 0.2500, -0.8660], [0.1768, 0.9186, 0.3536], [0.8839, -0.3062, 0.3536]])
+    q = aq.from_matrix(dcm.T, tol=1e-3)  # printed to 4 digits
+    assert_allclose(q, [0.8224, 0.2006, 0.5320, 0.0223], atol=1e-4)
+    q = aq.from_matrix(np.array([[0.0, 1, 0], [1, 0, 0], [0, 0, -1]]).T)
+    same_rotation(q, [0, np.sqrt(0.5), np.sqrt(0.5), 0], 1e-15)
+
+
 # ------------------------------------------------------------------------------------------
 # conventions stated in docs/conventions.md
 # ------------------------------------------------------------------------------------------
@@ -684,6 +698,12 @@ def test_angular_velocity_relations_schwab_13_to_16():
     # eqs. 14, 16: q̇ = ½ ω_S∘q = ½ q∘ω_B
     assert_allclose(qdot, 0.5 * aq.multiply(q, np.r_[0, w_body]), atol=1e-9)
     assert_allclose(qdot, 0.5 * aq.multiply(ws, q), atol=1e-9)
+    # matrix forms: (0, ω_S) = 2 Q̄(q)ᵀ q̇ and (0, ω_B) = 2 Q(q)ᵀ q̇ (Schwab eqs. 13, 15)
+    Qm = hamilton_matrix(q)
+    Qbar = Qm.copy()
+    Qbar[1:, 1:] = q[0] * E - skew(q[1:])
+    assert_allclose(2 * Qbar.T @ qdot, np.r_[0, aq.rotate(q, w_body)], atol=1e-9)
+    assert_allclose(2 * Qm.T @ qdot, np.r_[0, w_body], atol=1e-9)
     # a body-fixed vector moves in space as ẋ_S = ω_S × x_S
     xb = np.array([1.0, 2.0, -0.5])
     xdot = (aq.rotate(q_of(t + h), xb) - aq.rotate(q_of(t - h), xb)) / (2 * h)
