@@ -1,0 +1,655 @@
+"""Compiled scalar kernels of the two-body problem (plain floats in, tuples of floats out).
+
+Everything here is decorated with :func:`orbit._jit.jit`: compiled lazily by numba, or plain
+Python when JIT is disabled. No kernel allocates, so the attitude integrators call
+:func:`radius_and_frame` / :func:`radius_and_radial_unit` inside every right-hand-side
+evaluation. No argument checking happens here: the public functions in :mod:`orbit.kepler`
+and :class:`orbit.KeplerOrbit` validate their input once, at the boundary.
+
+Element-array layout
+--------------------
+An orbit is a float64 array ``el`` of length 9, indexed by the module constants::
+
+    el[A]     a     semi-major axis (> 0 ellipse, < 0 hyperbola)     [km]
+    el[ECC]   e     eccentricity (0 <= e < 1 or e > 1)
+    el[INC]   inc   inclination                                      [rad]
+    el[RAAN]  Ω     right ascension of the ascending node            [rad]
+    el[ARGP]  ω     argument of periapsis                            [rad]
+    el[M0]    M0    mean anomaly at t0                               [rad]
+    el[T0]    t0    epoch of M0                                      [s]
+    el[MU]    μ     gravitational parameter                          [km³/s²]
+    el[N]     n     mean motion sqrt(μ/|a|³)                          [rad/s]
+
+and M(t) = M0 + n (t − t0), with t in seconds since the same origin as t0.
+
+Kepler's equation, elliptic (M = E − e sin E)
+---------------------------------------------
+M is reduced to [−π, π] with a three-part 2π (Cody & Waite) and an exact product, so the
+reduced value carries no rounding error from the reduction; the result for the original M is
+``E = M + (E_r − M_r)`` (because E − M = e sin E is 2π-periodic), continuous in M. On [0, π]
+(odd symmetry) the solver is Markley (1995, Celest. Mech. Dyn. Astr. 63, 101): the cubic
+Padé starter of his eqs. 5-20, one fifth-order correction (his eq. 29 family), then one Newton
+polish. Every residual E − e sin E − M is evaluated without cancellation:
+
+* |E| < 1: E − e sin E = (1 − e) E + e (E − sin E), with E − sin E and 1 − cos E from their
+  Taylor series (no cancellation as e → 1 and M → 0, the hard corner);
+* |E| >= 1: (E − M) − e sin E with an error-free sum and product (double-double), so the only
+  rounding left is the one of ``sin``.
+
+Hyperbolic (M = e sinh H − H)
+-----------------------------
+Starter: the smaller of two upper bounds of H (the root of the cubic (e − 1) H + e H³/6 = M,
+and one monotone fixed-point step H <- asinh((M + H)/e) from asinh(M/(e − 1))); then Halley
+steps until a step is below 1e-9 H (at most three on the whole domain), and a Newton polish
+with the same careful residual (series for sinh H − H when |H| < 2.5). For M/e > 1e10 the
+root is the fixed point of H = log(2(M + H)/e) to double precision (e^-2H < 1e-20), iterated
+without overflow.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ._jit import jit
+
+__all__ = [
+    "ARGP",
+    "ECC",
+    "INC",
+    "M0",
+    "MU",
+    "NEL",
+    "RAAN",
+    "T0",
+    "A",
+    "N",
+    "eccentric_from_true_scalar",
+    "hyperbolic_from_true_scalar",
+    "kepler_E",
+    "kepler_H",
+    "mean_anomaly",
+    "mean_from_eccentric_scalar",
+    "mean_from_hyperbolic_scalar",
+    "radius_and_frame",
+    "radius_and_radial_unit",
+    "state",
+    "true_from_eccentric_scalar",
+    "true_from_hyperbolic_scalar",
+]
+
+# ---------------------------------------------------------------------------------------------
+# Element-array layout (a contract with attitude._core.potentials).
+A = 0
+ECC = 1
+INC = 2
+RAAN = 3
+ARGP = 4
+M0 = 5
+T0 = 6
+MU = 7
+N = 8
+NEL = 9
+
+# 2π = TWO_PI_1 + TWO_PI_2 + TWO_PI_3 to ~160 bits (computed with mpmath).
+TWO_PI_1 = 6.283185307179586
+TWO_PI_2 = 2.4492935982947064e-16
+TWO_PI_3 = -5.989539619436679e-33
+PI = math.pi
+_SPLITTER = 134217729.0  # 2**27 + 1 (Dekker split)
+_HYP_SERIES = 2.5  # |H| below which sinh H − H and cosh H − 1 come from their series
+_HYP_LOG_REGIME = 1.0e10  # M/e above which H = log(2(M + H)/e) to double precision
+
+
+# ---------------------------------------------------------------------------------------------
+# Error-free transformations (Knuth two-sum, Dekker two-product; no FMA needed).
+@jit
+def _two_sum(a, b):
+    s = a + b
+    bb = s - a
+    err = (a - (s - bb)) + (b - bb)
+    return s, err
+
+
+@jit
+def _two_prod(a, b):
+    p = a * b
+    c = _SPLITTER * a
+    ah = c - (c - a)
+    al = a - ah
+    c = _SPLITTER * b
+    bh = c - (c - b)
+    bl = b - bh
+    err = ((ah * bh - p) + ah * bl + al * bh) + al * bl
+    return p, err
+
+
+@jit
+def reduce_angle(x):
+    """x = r + r_lo + 2πk with r + r_lo in [−π, π] (double-double) -> (r, r_lo, k).
+
+    k is returned as a float (an integer value). Exact reduction (error ~1e-32 k) for |k| < 2**26.
+    """
+    if -PI <= x <= PI:
+        return x, 0.0, 0.0
+    k = math.floor(x / TWO_PI_1 + 0.5)
+    ph, pl = _two_prod(k, TWO_PI_1)
+    s = x - ph  # exact: x and k·2π agree to within a factor 2 (Sterbenz)
+    corr = pl + (k * TWO_PI_2 + k * TWO_PI_3)
+    r = s - corr
+    r_lo = (s - r) - corr
+    return r, r_lo, k
+
+
+# ---------------------------------------------------------------------------------------------
+# Cancellation-free pieces of Kepler's equation.
+@jit
+def _x_minus_sin(x):
+    """x − sin x for |x| <= 1 by its Taylor series (relative error ~1 ulp)."""
+    y = x * x
+    s = 1.0 - y / 420.0
+    s = 1.0 - y / 342.0 * s
+    s = 1.0 - y / 272.0 * s
+    s = 1.0 - y / 210.0 * s
+    s = 1.0 - y / 156.0 * s
+    s = 1.0 - y / 110.0 * s
+    s = 1.0 - y / 72.0 * s
+    s = 1.0 - y / 42.0 * s
+    s = 1.0 - y / 20.0 * s
+    return x * y / 6.0 * s
+
+
+@jit
+def _one_minus_cos(x):
+    """1 − cos x for |x| <= 1 by its Taylor series."""
+    y = x * x
+    c = 1.0 - y / 380.0
+    c = 1.0 - y / 306.0 * c
+    c = 1.0 - y / 240.0 * c
+    c = 1.0 - y / 182.0 * c
+    c = 1.0 - y / 132.0 * c
+    c = 1.0 - y / 90.0 * c
+    c = 1.0 - y / 56.0 * c
+    c = 1.0 - y / 30.0 * c
+    c = 1.0 - y / 12.0 * c
+    return 0.5 * y * c
+
+
+@jit
+def _sinh_minus_x(x):
+    """sinh x − x for |x| <= 2.5 by its Taylor series (all terms of one sign, 13 terms)."""
+    y = x * x
+    s = 1.0 + y / 702.0
+    s = 1.0 + y / 600.0 * s
+    s = 1.0 + y / 506.0 * s
+    s = 1.0 + y / 420.0 * s
+    s = 1.0 + y / 342.0 * s
+    s = 1.0 + y / 272.0 * s
+    s = 1.0 + y / 210.0 * s
+    s = 1.0 + y / 156.0 * s
+    s = 1.0 + y / 110.0 * s
+    s = 1.0 + y / 72.0 * s
+    s = 1.0 + y / 42.0 * s
+    s = 1.0 + y / 20.0 * s
+    return x * y / 6.0 * s
+
+
+@jit
+def _cosh_minus_one(x):
+    """cosh x − 1 for |x| <= 2.5 by its Taylor series (13 terms)."""
+    y = x * x
+    c = 1.0 + y / 650.0
+    c = 1.0 + y / 552.0 * c
+    c = 1.0 + y / 462.0 * c
+    c = 1.0 + y / 380.0 * c
+    c = 1.0 + y / 306.0 * c
+    c = 1.0 + y / 240.0 * c
+    c = 1.0 + y / 182.0 * c
+    c = 1.0 + y / 132.0 * c
+    c = 1.0 + y / 90.0 * c
+    c = 1.0 + y / 56.0 * c
+    c = 1.0 + y / 30.0 * c
+    c = 1.0 + y / 12.0 * c
+    return 0.5 * y * c
+
+
+@jit
+def _kepler_residual(E, M, M_lo, e, ome):
+    """(E − e sin E − (M + M_lo), 1 − e cos E, sin E, cos E) for 0 <= E <= π, ome = 1 − e."""
+    if E < 1.0:
+        S = _x_minus_sin(E)
+        C = _one_minus_cos(E)
+        p1, q1 = _two_prod(ome, E)
+        p2, q2 = _two_prod(e, S)
+        s, q3 = _two_sum(p1, p2)
+        d, q4 = _two_sum(s, -M)
+        f0 = d + (((q1 + q2) + q3 + q4) - M_lo)
+        return f0, ome + e * C, E - S, 1.0 - C
+    sn = math.sin(E)
+    cs = math.cos(E)
+    d, q1 = _two_sum(E, -M)
+    p, q2 = _two_prod(e, sn)
+    f0 = (d - p) + ((q1 - q2) - M_lo)
+    return f0, 1.0 - e * cs, sn, cs
+
+
+@jit
+def _kepler_E_core(M, M_lo, e):
+    """Solve E − e sin E = M + M_lo for 0 <= M <= π, 0 <= e < 1 (Markley 1995)."""
+    if M == 0.0 and M_lo == 0.0:
+        return 0.0
+    if e == 0.0:
+        return M + M_lo
+    ome = 1.0 - e
+    # Markley's starter: α from his eq. 20, then the root of the cubic eqs. 5-10, 15-17.
+    pi2 = PI * PI
+    alpha = (3.0 * pi2 + 1.6 * PI * (PI - M) / (1.0 + e)) / (pi2 - 6.0)
+    d = 3.0 * ome + alpha * e
+    q = 2.0 * alpha * d * ome - M * M
+    r = 3.0 * alpha * d * (d - ome) * M + M * M * M
+    w = (abs(r) + math.sqrt(q * q * q + r * r)) ** (2.0 / 3.0)
+    E = (2.0 * r * w / (w * w + w * q + q * q) + M) / d
+    if E > PI:
+        E = PI
+    # Fifth-order correction (Markley eqs. 21-29), residual evaluated without cancellation.
+    f0, f1, sn, cs = _kepler_residual(E, M, M_lo, e, ome)
+    f2 = e * sn
+    f3 = e * cs
+    d3 = -f0 / (f1 - 0.5 * f0 * f2 / f1)
+    d4 = -f0 / (f1 + 0.5 * d3 * f2 + d3 * d3 * f3 / 6.0)
+    d5 = -f0 / (f1 + 0.5 * d4 * f2 + d4 * d4 * f3 / 6.0 - d4 * d4 * d4 * f2 / 24.0)
+    # The starter's relative error is below 2.9e-4 on the whole domain, so the truncation error
+    # of this step is below 1e-18 E (checked at 40 digits): the result is at rounding level.
+    return E + d5
+
+
+@jit
+def _kepler_E_reduced(M, e):
+    """-> (E_r, M_r, k): E_r solves Kepler's equation for M_r = M − 2πk in [−π, π]."""
+    Mr, Mlo, k = reduce_angle(M)
+    if Mr < 0.0 or (Mr == 0.0 and Mlo < 0.0):
+        Er = -_kepler_E_core(-Mr, -Mlo, e)
+    else:
+        Er = _kepler_E_core(Mr, Mlo, e)
+    return Er, Mr + Mlo, k
+
+
+@jit
+def kepler_E(M, e):
+    """Eccentric anomaly E [rad] with E − e sin E = M, for 0 <= e < 1 and any real M [rad].
+
+    Continuous in M: E(M + 2π) = E(M) + 2π up to rounding of the sum.
+    """
+    Er, Mr, k = _kepler_E_reduced(M, e)
+    if k == 0.0:
+        return Er
+    # E − M = e sin E is 2π-periodic: E = M + (E_r − M_r), one rounding only.
+    return M + (Er - Mr)
+
+
+# ---------------------------------------------------------------------------------------------
+@jit
+def _hyp_residual(H, M, e, em1):
+    """(e sinh H − H − M, e cosh H − 1, e sinh H, e cosh H) for H >= 0, em1 = e − 1."""
+    if H < _HYP_SERIES:
+        S = _sinh_minus_x(H)
+        C = _cosh_minus_one(H)
+        p1, q1 = _two_prod(em1, H)
+        p2, q2 = _two_prod(e, S)
+        s, q3 = _two_sum(p1, p2)
+        d, q4 = _two_sum(s, -M)
+        f0 = d + ((q1 + q2) + q3 + q4)
+        return f0, em1 + e * C, e * (H + S), e * (1.0 + C)
+    sh = math.sinh(H)
+    ch = math.cosh(H)
+    p, q1 = _two_prod(e, sh)
+    d, q2 = _two_sum(H, M)
+    f0 = (p - d) + (q1 - q2)
+    return f0, e * ch - 1.0, e * sh, e * ch
+
+
+@jit
+def _kepler_H_core(M, e):
+    """Solve e sinh H − H = M for M >= 0, e > 1."""
+    if M == 0.0:
+        return 0.0
+    if M > _HYP_LOG_REGIME * e:
+        # e sinh H = M + H with e^-H negligible: H = log(2/e) + log(M + H), a contraction with
+        # factor 1/(M + H) < 1e-10, so three steps converge from log(2M/e).
+        l2e = math.log(2.0 / e)
+        H = l2e + math.log(M)
+        for _ in range(3):
+            H = l2e + math.log(M + H)
+        return H
+    em1 = e - 1.0
+    # Upper bound 1: the root of the cubic (e − 1) H + e H³/6 = M (sinh H − H >= H³/6),
+    # in the cancellation-free form H = 6M/e / (A² + AB + B²), A³ − B³ = 6M/e, AB = 2(e−1)/e.
+    pp = 2.0 * em1 / e
+    qq = 3.0 * M / e
+    A = (qq + math.sqrt(qq * qq + pp * pp * pp)) ** (1.0 / 3.0)
+    B = pp / A
+    H = 2.0 * qq / (A * A + A * B + B * B)
+    # Upper bound 2: asinh(M/(e − 1)) (sinh H >= H), sharpened by one monotone fixed-point step.
+    Hb = math.asinh(M / em1)
+    Hb = math.asinh((M + min(H, Hb)) / e)
+    if Hb < H:
+        H = Hb
+    # Halley steps, stopped once a step is below 1e-9 H (at most 3 on the whole domain; the
+    # bound 12 is a guard that is never reached, see tests/test_kepler.py).
+    for _ in range(12):
+        f0, f1, f2, _ = _hyp_residual(H, M, e, em1)
+        dH = f0 / (f1 - 0.5 * f0 * f2 / f1)
+        H = H - dH
+        if abs(dH) <= 1e-9 * H:
+            break
+    # After a step below 1e-9 H the Halley error is below 1e-27 H; polish the rounding.
+    f0, f1, _, _ = _hyp_residual(H, M, e, em1)
+    return H - f0 / f1
+
+
+@jit
+def kepler_H(M, e):
+    """Hyperbolic anomaly H with e sinh H − H = M, for e > 1 and any real M."""
+    if M < 0.0:
+        return -_kepler_H_core(-M, e)
+    return _kepler_H_core(M, e)
+
+
+# ---------------------------------------------------------------------------------------------
+# Anomaly conversions (scalar kernels; the public vectorised versions live in orbit.kepler).
+@jit
+def true_from_eccentric_scalar(E, e):
+    """True anomaly f from E (elliptic), continuous in E: f = E at E = kπ."""
+    Er, Er_lo, k = reduce_angle(E)
+    Er = Er + Er_lo
+    h = 0.5 * Er  # in [−π/2, π/2]: cos(E/2) >= 0, so the half-angle atan2 has no branch cut
+    fr = 2.0 * math.atan2(math.sqrt(1.0 + e) * math.sin(h), math.sqrt(1.0 - e) * math.cos(h))
+    if k == 0.0:
+        return fr
+    return E + (fr - Er)
+
+
+@jit
+def eccentric_from_true_scalar(f, e):
+    """Eccentric anomaly E from f (elliptic), continuous in f."""
+    fr, fr_lo, k = reduce_angle(f)
+    fr = fr + fr_lo
+    h = 0.5 * fr
+    Er = 2.0 * math.atan2(math.sqrt(1.0 - e) * math.sin(h), math.sqrt(1.0 + e) * math.cos(h))
+    if k == 0.0:
+        return Er
+    return f + (Er - fr)
+
+
+@jit
+def mean_from_eccentric_scalar(E, e):
+    """M = E − e sin E, cancellation-free for small |E| and e -> 1."""
+    Er, Er_lo, k = reduce_angle(E)
+    if k == 0.0 and abs(E) < 1.0:
+        a = abs(E)
+        v = (1.0 - e) * a + e * _x_minus_sin(a)
+        return v if E >= 0.0 else -v
+    return E - e * math.sin(Er + Er_lo)
+
+
+@jit
+def true_from_hyperbolic_scalar(H, e):
+    """True anomaly f from H: tan(f/2) = sqrt((e + 1)/(e − 1)) tanh(H/2)."""
+    h = 0.5 * H
+    return 2.0 * math.atan2(math.sqrt(e + 1.0) * math.sinh(h), math.sqrt(e - 1.0) * math.cosh(h))
+
+
+@jit
+def hyperbolic_from_true_scalar(f, e):
+    """Hyperbolic anomaly H from f, |f| < acos(−1/e) (not checked here)."""
+    h = 0.5 * f
+    x = math.sqrt(e - 1.0) * math.sin(h)
+    y = math.sqrt(e + 1.0) * math.cos(h)
+    return 2.0 * math.atanh(x / y)  # tanh(H/2) = sqrt((e − 1)/(e + 1)) tan(f/2)
+
+
+@jit
+def mean_from_hyperbolic_scalar(H, e):
+    """M = e sinh H − H, cancellation-free for small |H| and e -> 1."""
+    a = abs(H)
+    if a < _HYP_SERIES:
+        v = (e - 1.0) * a + e * _sinh_minus_x(a)
+    else:
+        v = e * math.sinh(a) - a
+    return v if H >= 0.0 else -v
+
+
+# ---------------------------------------------------------------------------------------------
+# Orbit kernels on the element array.
+@jit
+def mean_anomaly(el, t):
+    """M(t) = M0 + n (t − t0)."""
+    return el[M0] + el[N] * (t - el[T0])
+
+
+@jit
+def _half_angle_parts(el, t):
+    """(c, s, sign): c ∝ cos(f/2), s ∝ sin(f/2), with c² + s² = r/|a|.
+
+    Elliptic: c = sqrt(1 − e) cos(E/2), s = sqrt(1 + e) sin(E/2), E reduced to [−π, π] and
+    sign = (−1)^k carrying the 2πk removed (so f/2 is continuous in t).
+    Hyperbolic: c = sqrt(e − 1) cosh(H/2), s = sqrt(e + 1) sinh(H/2), sign = 1.
+    """
+    e = el[ECC]
+    M = mean_anomaly(el, t)
+    if e < 1.0:
+        Er, _, k = _kepler_E_reduced(M, e)
+        h = 0.5 * Er
+        c = math.sqrt(1.0 - e) * math.cos(h)
+        s = math.sqrt(1.0 + e) * math.sin(h)
+        sign = 1.0 - 2.0 * (abs(k) % 2.0)
+        return c, s, sign
+    H = kepler_H(M, e)
+    h = 0.5 * H
+    return math.sqrt(e - 1.0) * math.cosh(h), math.sqrt(e + 1.0) * math.sinh(h), 1.0
+
+
+@jit
+def _radius_cos_sin_f(el, t):
+    """(r, cos f, sin f) at time t."""
+    c, s, _ = _half_angle_parts(el, t)
+    n2 = c * c + s * s
+    return abs(el[A]) * n2, (c - s) * (c + s) / n2, 2.0 * c * s / n2
+
+
+@jit
+def radius_and_radial_unit(el, t):
+    """(r, x, y, z): radius [km] and radial unit vector r/|r| in the space frame at time t."""
+    r, cf, sf = _radius_cos_sin_f(el, t)
+    cw = math.cos(el[ARGP])
+    sw = math.sin(el[ARGP])
+    cu = cw * cf - sw * sf  # u = ω + f, argument of latitude
+    su = sw * cf + cw * sf
+    cO = math.cos(el[RAAN])
+    sO = math.sin(el[RAAN])
+    ci = math.cos(el[INC])
+    si = math.sin(el[INC])
+    # r̂ = cos u N̂ + sin u M̂, N̂ = (cos Ω, sin Ω, 0), M̂ = (−sin Ω cos i, cos Ω cos i, sin i)
+    return r, cO * cu - sO * ci * su, sO * cu + cO * ci * su, si * su
+
+
+@jit
+def state(el, t):
+    """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
+    e = el[ECC]
+    r, cf, sf = _radius_cos_sin_f(el, t)
+    cw = math.cos(el[ARGP])
+    sw = math.sin(el[ARGP])
+    cu = cw * cf - sw * sf
+    su = sw * cf + cw * sf
+    cO = math.cos(el[RAAN])
+    sO = math.sin(el[RAAN])
+    ci = math.cos(el[INC])
+    si = math.sin(el[INC])
+    nx, ny = cO, sO  # N̂ (node line)
+    mx, my, mz = -sO * ci, cO * ci, si  # M̂ = ĥ × N̂
+    # Semi-latus rectum p = |a| |1 − e²|; v = sqrt(μ/p) [−(sin u + e sin ω) N̂ + (cos u + e cos ω) M̂]
+    p = abs(el[A] * ((1.0 - e) * (1.0 + e)))
+    vs = math.sqrt(el[MU] / p)
+    a1 = -vs * (su + e * sw)
+    a2 = vs * (cu + e * cw)
+    return (
+        r * (cu * nx + su * mx),
+        r * (cu * ny + su * my),
+        r * su * mz,
+        a1 * nx + a2 * mx,
+        a1 * ny + a2 * my,
+        a2 * mz,
+    )
+
+
+@jit
+def radius_and_frame(el, t):
+    """(r, p0, p1, p2, p3): radius [km] and orbital-frame quaternion p(t), scalar first.
+
+    Arribas, Elipe & Palacios (2006) Sect. 6.2 (the 3-1-3 form of their eq. 12 with
+    (φ, ϑ, ψ) = (Ω, i, u), u = ω + f)::
+
+        p0 = cos(i/2) cos((Ω + u)/2)    p1 = sin(i/2) cos((Ω − u)/2)
+        p2 = sin(i/2) sin((Ω − u)/2)    p3 = cos(i/2) sin((Ω + u)/2)
+
+    p∘s1∘p̃ is the radial direction and p∘s3∘p̃ the orbit normal. f/2 is carried continuously
+    through successive revolutions, so p(t) is continuous in t (it changes sign every orbit).
+    """
+    c, s, sign = _half_angle_parts(el, t)
+    n2 = c * c + s * s
+    nrm = sign / math.sqrt(n2)
+    ch = c * nrm  # cos(f/2)
+    sh = s * nrm  # sin(f/2)
+    ci = math.cos(0.5 * el[INC])
+    si = math.sin(0.5 * el[INC])
+    hp = 0.5 * (el[RAAN] + el[ARGP])
+    hm = 0.5 * (el[RAAN] - el[ARGP])
+    cA = math.cos(hp)
+    sA = math.sin(hp)
+    cB = math.cos(hm)
+    sB = math.sin(hm)
+    # (Ω + u)/2 = (Ω + ω)/2 + f/2 ; (Ω − u)/2 = (Ω − ω)/2 − f/2
+    return (
+        abs(el[A]) * n2,
+        ci * (cA * ch - sA * sh),
+        si * (cB * ch + sB * sh),
+        si * (sB * ch - cB * sh),
+        ci * (sA * ch + cA * sh),
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Loops for the vectorised public API (compiled whole, one call per array).
+@jit
+def kepler_E_loop(M, e, out):
+    for i in range(M.size):
+        out[i] = kepler_E(M[i], e[i])
+
+
+@jit
+def kepler_H_loop(M, e, out):
+    for i in range(M.size):
+        out[i] = kepler_H(M[i], e[i])
+
+
+@jit
+def true_from_eccentric_loop(E, e, out):
+    for i in range(E.size):
+        out[i] = true_from_eccentric_scalar(E[i], e[i])
+
+
+@jit
+def eccentric_from_true_loop(f, e, out):
+    for i in range(f.size):
+        out[i] = eccentric_from_true_scalar(f[i], e[i])
+
+
+@jit
+def mean_from_eccentric_loop(E, e, out):
+    for i in range(E.size):
+        out[i] = mean_from_eccentric_scalar(E[i], e[i])
+
+
+@jit
+def true_from_hyperbolic_loop(H, e, out):
+    for i in range(H.size):
+        out[i] = true_from_hyperbolic_scalar(H[i], e[i])
+
+
+@jit
+def hyperbolic_from_true_loop(f, e, out):
+    for i in range(f.size):
+        out[i] = hyperbolic_from_true_scalar(f[i], e[i])
+
+
+@jit
+def mean_from_hyperbolic_loop(H, e, out):
+    for i in range(H.size):
+        out[i] = mean_from_hyperbolic_scalar(H[i], e[i])
+
+
+@jit
+def true_from_mean_loop(M, e, out):
+    for i in range(M.size):
+        out[i] = true_from_eccentric_scalar(kepler_E(M[i], e[i]), e[i])
+
+
+@jit
+def true_from_mean_hyperbolic_loop(M, e, out):
+    for i in range(M.size):
+        out[i] = true_from_hyperbolic_scalar(kepler_H(M[i], e[i]), e[i])
+
+
+@jit
+def mean_from_true_loop(f, e, out):
+    for i in range(f.size):
+        out[i] = mean_from_eccentric_scalar(eccentric_from_true_scalar(f[i], e[i]), e[i])
+
+
+@jit
+def mean_from_true_hyperbolic_loop(f, e, out):
+    for i in range(f.size):
+        out[i] = mean_from_hyperbolic_scalar(hyperbolic_from_true_scalar(f[i], e[i]), e[i])
+
+
+@jit
+def eccentric_anomaly_loop(el, t, out):
+    e = el[ECC]
+    for i in range(t.size):
+        M = mean_anomaly(el, t[i])
+        out[i] = kepler_E(M, e) if e < 1.0 else kepler_H(M, e)
+
+
+@jit
+def true_anomaly_loop(el, t, out):
+    e = el[ECC]
+    for i in range(t.size):
+        M = mean_anomaly(el, t[i])
+        if e < 1.0:
+            out[i] = true_from_eccentric_scalar(kepler_E(M, e), e)
+        else:
+            out[i] = true_from_hyperbolic_scalar(kepler_H(M, e), e)
+
+
+@jit
+def state_loop(el, t, out):
+    for i in range(t.size):
+        s = state(el, t[i])
+        for j in range(6):
+            out[i, j] = s[j]
+
+
+@jit
+def radial_loop(el, t, out):
+    for i in range(t.size):
+        s = radius_and_radial_unit(el, t[i])
+        for j in range(4):
+            out[i, j] = s[j]
+
+
+@jit
+def frame_loop(el, t, out):
+    for i in range(t.size):
+        s = radius_and_frame(el, t[i])
+        for j in range(5):
+            out[i, j] = s[j]
