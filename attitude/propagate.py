@@ -70,6 +70,7 @@ class RunResult:
     status: int = _rk.SUCCESS
     message: str = "success"
     stats: dict[str, Any] = field(default_factory=dict)
+    first: int = 0  # index in problem.t of y[0] (> 0 when earlier samples were streamed out)
 
 
 _USER_RHS: dict[int, Callable] = {}
@@ -118,19 +119,22 @@ def _run_dop853(
     max_steps: int = 100_000_000,
     progress: Callable[[int, int, float], None] | None = None,
     chunk: int | None = None,
+    on_chunk: Callable[[int, np.ndarray], None] | None = None,
     **_: Any,
 ) -> RunResult:
     t = problem.t
     m = t.shape[0]
-    y_out = np.empty((m, 8))
-    work, tstate, counters = _rk.new_state(8)
     chunk = m if chunk is None else max(1, int(chunk))
+    # Streaming (on_chunk): one chunk-sized buffer, handed out and reused, so memory is
+    # bounded whatever the number of output samples.
+    y_out = np.empty((min(chunk, m) if on_chunk is not None else m, 8))
+    work, tstate, counters = _rk.new_state(8)
     done = 0
     status = _rk.SUCCESS
     while done < m:
         stop = min(m, done + chunk)
         t_chunk = t[done:stop]
-        y_chunk = y_out[done:stop]
+        y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
         if problem.kernels is None:
             status, k = _dyn.dop853_canonical_builtin(
                 problem.params,
@@ -164,13 +168,22 @@ def _run_dop853(
                 max_step,
                 max_steps,
             )
+        if on_chunk is not None and k:
+            on_chunk(done, y_chunk[: int(k)])
         done += int(k)
         if progress is not None:
             progress(done, m, float(tstate[0]))
         if status != _rk.SUCCESS:
             break
     stats = {"n_steps": int(counters[0]), "n_rhs": int(counters[1]), "n_rejected": int(counters[2])}
-    return RunResult(y_out[:done], int(status), _rk.STATUS_MESSAGES[int(status)], stats)
+    msg = _rk.STATUS_MESSAGES[int(status)]
+    if on_chunk is not None:  # keep only the last state (the samples went to on_chunk)
+        last = max(done - 1, 0)
+        return RunResult(y_chunk[: int(k)][-1:].copy(), int(status), msg, stats, first=last)
+    return RunResult(y_out[:done], int(status), msg, stats)
+
+
+_run_dop853.streams = True  # type: ignore[attr-defined]
 
 
 def _run_scipy(
@@ -275,6 +288,7 @@ def propagate(
     progress: Callable[[int, int, float], None] | None = None,
     chunk: int | None = None,
     formulation: str = "canonical",
+    on_chunk: Callable[[xr.Dataset], None] | None = None,
 ) -> xr.Dataset:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -318,6 +332,12 @@ def propagate(
         Equations integrated: ``"canonical"`` (default, eq. 7 in (q, Q)) or another of
         :data:`attitude.formulations.FORMULATIONS` (``"euler_angles"``, ``"schwab"``,
         ``"euler_equations"``). Every formulation returns the same Dataset schema.
+    on_chunk : callable, optional
+        Streaming: ``on_chunk(ds_chunk)`` receives, in time order, Datasets of consecutive
+        output samples (``chunk`` of them, default 4096; the last one may be shorter, also
+        when the run fails midway). With the canonical ``"dop853"`` runner the samples are
+        not kept, so memory stays bounded (see :func:`attitude.io.write_streaming`); the
+        returned Dataset then holds only the last sample (with the complete attrs).
 
     Returns
     -------
@@ -361,6 +381,8 @@ def propagate(
         raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
     if progress is not None and not callable(progress):
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, t)")
+    if on_chunk is not None and not callable(on_chunk):
+        raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
 
     q0p, Q0p, correction = project_state(q0a, Q0a)
     if correction > PROJECTION_WARN:
@@ -387,7 +409,17 @@ def propagate(
         chunk=chunk,
         **extra,
     )
-    if form is None:
+    streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
+    if on_chunk is not None:
+        options["chunk"] = chunk = 4096 if chunk is None else chunk
+    if streaming:
+        chunk_attrs = {"method": method, "formulation": formulation}
+
+        def emit(first: int, y: np.ndarray) -> None:
+            on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
+
+        result = runner(problem, **options, on_chunk=emit)
+    elif form is None:
         result = runner(problem, **options)
     else:
         # The formulation converts the canonical initial state to its own variables, integrates
@@ -406,23 +438,29 @@ def propagate(
         attrs["dt"] = dt
     if "order" in result.stats or method in ("nosquish", "splitting"):
         attrs["order"] = np.int64(order)
-    ds = finish_dataset(problem, result.y, attrs)
+    ds = finish_dataset(problem, result.y, attrs, first=result.first)
+    if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
+        for i in range(0, ds.sizes["time"], int(chunk)):
+            on_chunk(ds.isel(time=slice(i, i + int(chunk))))
     if result.status != _rk.SUCCESS:
-        n = result.y.shape[0]
+        n = result.first + result.y.shape[0]
         t_fail = float(tt[n - 1]) if n else float(tt[0])
         raise PropagationError(
             f"propagation stopped: {result.message}, after t = {t_fail!r} "
-            f"({n} of {tt.shape[0]} output samples computed; they are in .partial)",
+            f"({n} of {tt.shape[0]} output samples computed; "
+            + ("they went to on_chunk)" if streaming else "they are in .partial)"),
             time=t_fail,
             partial=ds,
         )
     return ds
 
 
-def finish_dataset(problem: Problem, y: np.ndarray, attrs: dict[str, Any]) -> xr.Dataset:
-    """Diagnostics and Dataset for the canonical states ``y`` at ``problem.t[:len(y)]``."""
+def finish_dataset(
+    problem: Problem, y: np.ndarray, attrs: dict[str, Any], first: int = 0
+) -> xr.Dataset:
+    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``."""
     n = y.shape[0]
-    t = problem.t[:n]
+    t = problem.t[first : first + n]
     diag = np.empty((n, 13))
     if n:
         if problem.kernels is None:

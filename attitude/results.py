@@ -17,6 +17,21 @@ from .body import RigidBody
 __all__ = ["UnitSystem", "build_dataset"]
 
 
+def _utc_now() -> str:
+    """Current UTC time as ISO 8601 to the second, with a Z (for the CF ``history`` attr)."""
+    import datetime
+
+    now = datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
+    return now.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _plain(x: Any, unit: str | None) -> np.ndarray:
+    """Float64 array of ``x`` (an astropy Quantity is converted to ``unit`` first)."""
+    if hasattr(x, "unit") and hasattr(x, "to_value"):
+        x = x.to_value(unit) if unit is not None else x.to_value()
+    return np.asarray(x, dtype=np.float64)
+
+
 class UnitSystem:
     """Unit strings of the result variables, from the body's unit system."""
 
@@ -88,19 +103,21 @@ def build_dataset(
     }
     orbit = getattr(potential, "orbit", None)
     if orbit is not None:
-        data_vars["r"] = var(("time",), orbit.radius(t), u.length, "orbit radius")
-        data_vars["f"] = var(("time",), orbit.true_anomaly(t), "rad", "true anomaly")
+        # The orbit module works in km and s whatever the body's unit system.
+        data_vars["r"] = var(("time",), _plain(orbit.radius(t), "km"), "km", "orbit radius")
+        data_vars["f"] = var(("time",), _plain(orbit.true_anomaly(t), "rad"), "rad", "true anomaly")
         data_vars["p"] = var(
             ("time", "component"),
-            orbit.frame_quaternion(t),
+            _plain(orbit.frame_quaternion(t), None),
             "1",
-            "orbital-frame quaternion p (space to orbital frame), scalar first",
+            "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
+            "z_O orbit normal), scalar first",
         )
     coords = {
         "time": (
             "time",
             np.asarray(t, dtype=np.float64),
-            {"units": u.time, "long_name": "time since epoch", "standard_name": "time"},
+            {"units": u.time, "long_name": "time since the scenario epoch"},
         ),
         "component": ("component", comp, {"long_name": "quaternion component, scalar first"}),
         "axis": ("axis", axis, {"long_name": "vector component"}),
@@ -108,7 +125,8 @@ def build_dataset(
     base = {
         "Conventions": "CF-1.10",
         "title": "attitude propagation",
-        "source": f"attitude {__version__}",
+        "history": f"{_utc_now()} attitude {__version__}: propagate",
+        "source": f"attitude {__version__} (canonical quaternion propagator)",
         "package_version": __version__,
         "inertia": np.asarray(body.inertia, dtype=np.float64),
         "inertia_units": u.inertia,
