@@ -29,13 +29,16 @@ The algebraic functions (:func:`multiply`, :func:`conjugate`, :func:`norm`, :fun
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._validation import as_float_array, as_quaternion, as_vector
 from .errors import AttitudeTypeError, AttitudeValueError, SingularityError
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
 
 __all__ = [
     "EULER_SEQUENCES",
@@ -106,8 +109,31 @@ def _stack(*parts: Any) -> FloatArray:
     return np.stack(parts, axis=-1).astype(np.float64, copy=False)
 
 
+def _norm3(v: FloatArray) -> FloatArray:
+    """Length of (..., 3) vectors without underflow or overflow of the squares."""
+    return np.hypot(np.hypot(v[..., 0], v[..., 1]), v[..., 2])
+
+
+def _norm4(q: FloatArray) -> FloatArray:
+    """Norm of (..., 4) quaternions without underflow or overflow of the squares."""
+    return np.hypot(np.hypot(q[..., 0], q[..., 1]), np.hypot(q[..., 2], q[..., 3]))
+
+
 def _first_bad_index(mask: np.ndarray) -> tuple[int, ...]:
     return tuple(int(i) for i in np.argwhere(mask)[0])
+
+
+def _as_nonzero(q: Any, name: str) -> FloatArray:
+    """Finite (..., 4) array with no all-zero quaternion (tiny non-zero ones are accepted)."""
+    arr = as_quaternion(q, name, nonzero=False)
+    zero = np.all(arr == 0.0, axis=-1)
+    if np.any(zero):
+        idx = _first_bad_index(np.atleast_1d(zero))
+        where = f" (at index {idx})" if arr.ndim > 1 else ""
+        raise AttitudeValueError(
+            f"{name}: the zero quaternion does not represent a rotation{where}"
+        )
+    return arr
 
 
 def _as_unit(q: Any, name: str) -> FloatArray:
@@ -252,8 +278,7 @@ def norm(q: ArrayLike) -> FloatArray:
     ndarray, shape (...)
         The norms (a 0-d array for a single quaternion).
     """
-    q = as_quaternion(q, "q", nonzero=False)
-    return np.sqrt(np.sum(q * q, axis=-1))
+    return _norm4(as_quaternion(q, "q", nonzero=False))
 
 
 def normalize(q: ArrayLike) -> FloatArray:
@@ -277,8 +302,8 @@ def normalize(q: ArrayLike) -> FloatArray:
     AttitudeValueError
         If any quaternion is zero or non-finite.
     """
-    q = as_quaternion(q, "q")
-    return q / np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    q = _as_nonzero(q, "q")
+    return q / _norm4(q)[..., None]
 
 
 def inverse(q: ArrayLike) -> FloatArray:
@@ -294,8 +319,9 @@ def inverse(q: ArrayLike) -> FloatArray:
     ndarray, shape (..., 4)
         ``q⁻¹`` with ``q∘q⁻¹ = q⁻¹∘q = 1``. Equal to :func:`conjugate` for unit quaternions.
     """
-    q = as_quaternion(q, "q")
-    return _conj(q) / np.sum(q * q, axis=-1, keepdims=True)
+    q = _as_nonzero(q, "q")
+    n = _norm4(q)[..., None]
+    return _conj(q) / n / n
 
 
 def canonical(q: ArrayLike) -> FloatArray:
@@ -314,7 +340,7 @@ def canonical(q: ArrayLike) -> FloatArray:
     ndarray, shape (..., 4)
         ``q`` or ``−q``.
     """
-    return _canonical(as_quaternion(q, "q"))
+    return _canonical(_as_nonzero(q, "q"))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -517,7 +543,7 @@ def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> FloatArray:
     """
     axis = as_vector(axis, "axis")
     angle = _as_angle(angle, "angle")
-    n = np.sqrt(np.sum(axis * axis, axis=-1, keepdims=True))
+    n = _norm3(axis)[..., None]
     if np.any(n == 0):
         raise AttitudeValueError("axis: the zero vector has no direction; give a non-zero axis")
     half = 0.5 * angle[..., None]
@@ -548,7 +574,7 @@ def to_axis_angle(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """
     q = _canonical(_as_unit(q, "q"))
     u = q[..., 1:]
-    s = np.sqrt(np.sum(u * u, axis=-1))
+    s = _norm3(u)
     angle = 2.0 * np.arctan2(s, q[..., 0])
     zero = s == 0
     axis = np.where(
@@ -572,7 +598,7 @@ def from_rotation_vector(rotvec: ArrayLike) -> FloatArray:
         Unit quaternions ``(cos(θ/2), sin(θ/2) â)``, accurate for tiny ``θ``.
     """
     rv = as_vector(rotvec, "rotvec")
-    theta = np.sqrt(np.sum(rv * rv, axis=-1, keepdims=True))
+    theta = _norm3(rv)[..., None]
     # sin(θ/2)/θ = ½ sinc(θ / 2π), exact at θ = 0
     return np.concatenate([np.cos(0.5 * theta), 0.5 * np.sinc(theta / (2.0 * np.pi)) * rv], axis=-1)
 
@@ -594,7 +620,7 @@ def to_rotation_vector(q: ArrayLike) -> FloatArray:
     """
     q = _canonical(_as_unit(q, "q"))
     u = q[..., 1:]
-    s = np.sqrt(np.sum(u * u, axis=-1))
+    s = _norm3(u)
     w = q[..., 0]
     angle = 2.0 * np.arctan2(s, w)
     # θ/|u| → 2/w as |u| → 0 (w = 1 there for a unit q)
@@ -742,7 +768,7 @@ def angle_between(q1: ArrayLike, q2: ArrayLike) -> FloatArray:
     """
     r = _mul(_conj(_as_unit(q1, "q1")), _as_unit(q2, "q2"))
     u = r[..., 1:]
-    return 2.0 * np.arctan2(np.sqrt(np.sum(u * u, axis=-1)), np.abs(r[..., 0]))
+    return 2.0 * np.arctan2(_norm3(u), np.abs(r[..., 0]))
 
 
 def slerp(q1: ArrayLike, q2: ArrayLike, s: ArrayLike) -> FloatArray:
@@ -771,7 +797,7 @@ def slerp(q1: ArrayLike, q2: ArrayLike, s: ArrayLike) -> FloatArray:
     r = _mul(_conj(q1), q2)
     r = np.where(r[..., :1] < 0, -r, r)  # shortest path: scalar part of q̃1∘q2 ≥ 0
     u = r[..., 1:]
-    sn = np.sqrt(np.sum(u * u, axis=-1))
+    sn = _norm3(u)
     half = np.arctan2(sn, r[..., 0])  # half the rotation angle, in [0, π/2]
     sh = s * half
     # sin(s·half)/|u| → s as |u| → 0 (|u| = sin(half) for unit r)
@@ -835,14 +861,15 @@ def to_mrp(q: ArrayLike, shadow: bool = False) -> FloatArray:
     w, u = qc[..., 0:1], qc[..., 1:]
     if not shadow:
         return u / (1.0 + w)
-    sn = np.sum(u * u, axis=-1)
+    sn = _norm3(u)
     bad = sn == 0
     if np.any(bad):
         raise SingularityError(
             "q: the shadow MRP set of the identity rotation is at infinity; use shadow=False"
         )
     # σ_s = −σ/|σ|² = −vec(q)(1 + w)/|vec q|² (= −vec(q)/(1 − w) for unit q, no cancellation)
-    return -u * ((1.0 + w) / sn[..., None])
+    sn = sn[..., None]
+    return -(u / sn) * ((1.0 + w) / sn)
 
 
 def from_mrp(sigma: ArrayLike) -> FloatArray:
@@ -863,11 +890,17 @@ def from_mrp(sigma: ArrayLike) -> FloatArray:
         Unit quaternions.
     """
     sg = as_vector(sigma, "sigma")
-    s2 = np.sum(sg * sg, axis=-1, keepdims=True)
-    return np.concatenate([(1.0 - s2), 2.0 * sg], axis=-1) / (1.0 + s2)
+    s = _norm3(sg)[..., None]
+    # with t = min(s, 1/s): w = ±(1 − t²)/(1 + t²), |vec| = 2t/(1 + t²); no overflow for huge σ
+    big = s > 1.0
+    t = np.where(big, 1.0 / np.where(big, s, 1.0), s)
+    den = 1.0 + t * t
+    w = np.where(big, -1.0, 1.0) * ((1.0 - t * t) / den)
+    direction = sg / np.where(s > 0, s, 1.0)
+    return np.concatenate([w, (2.0 * t / den) * direction], axis=-1)
 
 
-def to_scipy(q: ArrayLike) -> Any:
+def to_scipy(q: ArrayLike) -> Rotation:
     """The same active rotation as a :class:`scipy.spatial.transform.Rotation`.
 
     scipy stores quaternions scalar last: ``Rotation.from_quat(q[..., [1, 2, 3, 0]])``.
@@ -889,7 +922,7 @@ def to_scipy(q: ArrayLike) -> Any:
     return Rotation.from_quat(q[..., [1, 2, 3, 0]])
 
 
-def from_scipy(rotation: Any) -> FloatArray:
+def from_scipy(rotation: Rotation) -> FloatArray:
     """Scalar-first quaternion of a :class:`scipy.spatial.transform.Rotation`.
 
     Parameters

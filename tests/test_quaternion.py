@@ -9,6 +9,8 @@ finite differences.
 
 from __future__ import annotations
 
+import os
+
 import mpmath
 import numpy as np
 import pytest
@@ -20,7 +22,10 @@ from scipy.spatial.transform import Rotation, Slerp
 import attitude.quaternion as aq
 from attitude.errors import AttitudeTypeError, AttitudeValueError, SingularityError
 
-SETTINGS = settings(max_examples=40, deadline=None)
+# QUAT_HYPOTHESIS_EXAMPLES=5000 runs a deeper (minutes-long) property search
+SETTINGS = settings(
+    max_examples=int(os.environ.get("QUAT_HYPOTHESIS_EXAMPLES", "40")), deadline=None
+)
 LETTERS = {"1": "X", "2": "Y", "3": "Z"}
 SYMMETRIC = [s for s in aq.EULER_SEQUENCES if s[0] == s[2]]
 ASYMMETRIC = [s for s in aq.EULER_SEQUENCES if s[0] != s[2]]
@@ -612,7 +617,7 @@ def test_mrp_is_basilisk_sigma_bn(q):
     same_rotation(aq.from_mrp(sigma), q, 1e-15)
     if angle > 1e-6:
         shadow = aq.to_mrp(q, shadow=True)
-        assert_allclose(shadow, -sigma / (sigma @ sigma), rtol=1e-12)
+        assert_allclose(shadow, -sigma / (sigma @ sigma), rtol=1e-12, atol=1e-15)
         assert np.linalg.norm(shadow) >= 1 - 1e-15
         assert_allclose(dcm_from_mrp(shadow), aq.to_matrix(q).T, atol=1e-12)
         same_rotation(aq.from_mrp(shadow), q, 1e-14)
@@ -725,6 +730,32 @@ def test_canonical_momentum_arribas_eq17():
     assert_allclose(
         np.sum(qQ[1:] ** 2 / inertia) / 8, 0.5 * w_body @ (inertia * w_body), rtol=1e-15
     )
+
+
+def test_extreme_magnitudes_do_not_underflow_or_overflow():
+    base = aq.normalize([0.3, -0.5, 0.7, 0.4])
+    for scale in (1e-160, 1e-300, 1e150, 1e300):
+        q = base * scale
+        assert_allclose(aq.norm(q), scale, rtol=1e-15)
+        assert_allclose(aq.normalize(q), base, rtol=1e-15)
+        assert_allclose(aq.inverse(q) * scale, aq.conjugate(base), rtol=1e-15)
+    # rotations by angles whose squares underflow
+    for tiny in (1e-155, 1e-170, 1e-300):
+        q = np.array([1.0, 0.0, 0.0, tiny])
+        axis, angle = aq.to_axis_angle(q)
+        assert_allclose(axis, [0, 0, 1], rtol=1e-15)
+        assert_allclose(angle, 2 * tiny, rtol=1e-15)
+        assert_allclose(aq.to_rotation_vector(q), [0, 0, 2 * tiny], rtol=1e-15)
+        assert_allclose(aq.angle_between(q, [1.0, 0, 0, 0]), 2 * tiny, rtol=1e-15)
+        assert_allclose(aq.to_mrp(q, shadow=True), [0, 0, -2 / tiny], rtol=1e-15)
+        assert_allclose(aq.from_axis_angle([0, 0, tiny], 1.0), aq.from_axis_angle([0, 0, 1.0], 1.0))
+    assert_allclose(
+        aq.from_axis_angle([0, 1e300, 1e300], 1.0), aq.from_axis_angle([0, 1, 1.0], 1.0)
+    )
+    # huge MRPs (shadow set of tiny rotations) map back to tiny rotations
+    q = aq.from_mrp([0.0, 0.0, -1e200])
+    same_rotation(q, [1.0, 0, 0, 2e-200], 1e-15)
+    assert_allclose(aq.angle_between(q, [1.0, 0, 0, 0]), 4e-200, rtol=1e-15)
 
 
 # ------------------------------------------------------------------------------------------
