@@ -309,17 +309,17 @@ def _hyp_residual(H, M, e, em1):
 
 @jit
 def _kepler_H_core(M, e):
-    """Solve e sinh H − H = M for M >= 0, e > 1."""
+    """Solve e sinh H − H = M for M >= 0, e > 1 -> (H, number of Halley steps)."""
     if M == 0.0:
-        return 0.0
-    if M > _HYP_LOG_REGIME * e:
+        return 0.0, 0
+    if M / e > _HYP_LOG_REGIME:
         # e sinh H = M + H with e^-H negligible: H = log(2/e) + log(M + H), a contraction with
         # factor 1/(M + H) < 1e-10, so three steps converge from log(2M/e).
         l2e = math.log(2.0 / e)
         H = l2e + math.log(M)
         for _ in range(3):
             H = l2e + math.log(M + H)
-        return H
+        return H, 0
     em1 = e - 1.0
     # Upper bound 1: the root of the cubic (e − 1) H + e H³/6 = M (sinh H − H >= H³/6),
     # in the cancellation-free form H = 6M/e / (A² + AB + B²), A³ − B³ = 6M/e, AB = 2(e−1)/e.
@@ -335,23 +335,32 @@ def _kepler_H_core(M, e):
         H = Hb
     # Halley steps, stopped once a step is below 1e-9 H (at most 3 on the whole domain; the
     # bound 12 is a guard that is never reached, see tests/test_kepler.py).
-    for _ in range(12):
+    nit = 0
+    while nit < 12:
         f0, f1, f2, _ = _hyp_residual(H, M, e, em1)
         dH = f0 / (f1 - 0.5 * f0 * f2 / f1)
         H = H - dH
+        nit += 1
         if abs(dH) <= 1e-9 * H:
             break
     # After a step below 1e-9 H the Halley error is below 1e-27 H; polish the rounding.
     f0, f1, _, _ = _hyp_residual(H, M, e, em1)
-    return H - f0 / f1
+    return H - f0 / f1, nit
 
 
 @jit
 def kepler_H(M, e):
     """Hyperbolic anomaly H with e sinh H − H = M, for e > 1 and any real M."""
     if M < 0.0:
-        return -_kepler_H_core(-M, e)
-    return _kepler_H_core(M, e)
+        return -_kepler_H_core(-M, e)[0]
+    return _kepler_H_core(M, e)[0]
+
+
+@jit
+def kepler_H_iterations_loop(M, e, out):
+    """Number of Halley steps kepler_H takes (for the tests)."""
+    for i in range(M.size):
+        out[i] = _kepler_H_core(abs(M[i]), e[i])[1]
 
 
 # ---------------------------------------------------------------------------------------------

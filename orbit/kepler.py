@@ -37,6 +37,7 @@ from ._jit import JIT_DISABLED
 from .errors import OrbitTypeError, OrbitValueError
 
 __all__ = [
+    "MAX_HYPERBOLIC_E",
     "MAX_MEAN_ANOMALY",
     "eccentric_from_true",
     "hyperbolic_from_true",
@@ -125,7 +126,15 @@ def _check_elliptic_e(e: np.ndarray, func: str, name: str = "e") -> None:
         )
 
 
+#: Largest hyperbolic eccentricity accepted (e sinh H must stay far from float overflow).
+MAX_HYPERBOLIC_E = 1.0e100
+
+
 def _check_hyperbolic_e(e: np.ndarray, func: str, name: str = "e") -> None:
+    if np.any(e > MAX_HYPERBOLIC_E):
+        raise OrbitValueError(
+            f"{name}: {func} supports e <= 1e100, got {name} = {float(np.max(e))!r}"
+        )
     bad = ~(e > 1.0)
     if np.any(bad):
         val = float(e[tuple(np.argwhere(bad)[0])])
@@ -206,7 +215,7 @@ def solve_kepler_hyperbolic(M: Any, e: Any) -> Any:
     M : float or array_like [rad]
         Hyperbolic mean anomaly, any finite real value.
     e : float or array_like
-        Eccentricity, e > 1; broadcasts against M.
+        Eccentricity, 1 < e <= 1e100; broadcasts against M.
 
     Returns
     -------
@@ -215,7 +224,7 @@ def solve_kepler_hyperbolic(M: Any, e: Any) -> Any:
     Raises
     ------
     OrbitValueError
-        e <= 1 or non-finite input.
+        e <= 1, e > 1e100 or non-finite input.
     OrbitTypeError
         Non-numeric input or incompatible units.
 
@@ -517,7 +526,7 @@ def _register_numba_overloads() -> None:
 
     @jit
     def _ok_hyp(e):
-        return e > 1.0 and math.isfinite(e)
+        return e > 1.0 and e <= 1.0e100
 
     @jit
     def _ok_m_ell(M):
@@ -541,7 +550,7 @@ def _register_numba_overloads() -> None:
             "solve_kepler_hyperbolic",
             _k.kepler_H,
             _ok_hyp,
-            "solve_kepler_hyperbolic: e must be finite and > 1",
+            "solve_kepler_hyperbolic: e must satisfy 1 < e <= 1e100",
             _ok_m_hyp,
         )
     )
