@@ -114,6 +114,18 @@ def _norm3(v: FloatArray) -> FloatArray:
     return np.hypot(np.hypot(v[..., 0], v[..., 1]), v[..., 2])
 
 
+def _direction3(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Unit vectors along non-zero (..., 3) ``v`` and a mask of zero vectors.
+
+    ``v`` is first divided by its largest component, so the result is unit to round-off even
+    for subnormal components (where the norm itself would carry few significant bits).
+    """
+    m = np.max(np.abs(v), axis=-1)
+    zero = m == 0
+    vs = v / np.where(zero, 1.0, m)[..., None]
+    return vs / np.where(zero, 1.0, _norm3(vs))[..., None], zero
+
+
 def _norm4(q: FloatArray) -> FloatArray:
     """Norm of (..., 4) quaternions without underflow or overflow of the squares."""
     return np.hypot(np.hypot(q[..., 0], q[..., 1]), np.hypot(q[..., 2], q[..., 3]))
@@ -543,13 +555,13 @@ def from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> FloatArray:
     """
     axis = as_vector(axis, "axis")
     angle = _as_angle(angle, "angle")
-    n = _norm3(axis)[..., None]
-    if np.any(n == 0):
+    unit_axis, zero = _direction3(axis)
+    if np.any(zero):
         raise AttitudeValueError("axis: the zero vector has no direction; give a non-zero axis")
     half = 0.5 * angle[..., None]
     lead = np.broadcast_shapes(axis.shape[:-1], angle.shape)
     w = np.broadcast_to(np.cos(half), (*lead, 1))
-    u = np.broadcast_to(np.sin(half) * (axis / n), (*lead, 3))
+    u = np.broadcast_to(np.sin(half) * unit_axis, (*lead, 3))
     return np.concatenate([w, u], axis=-1)
 
 
@@ -574,12 +586,9 @@ def to_axis_angle(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """
     q = _canonical(_as_unit(q, "q"))
     u = q[..., 1:]
-    s = _norm3(u)
-    angle = 2.0 * np.arctan2(s, q[..., 0])
-    zero = s == 0
-    axis = np.where(
-        zero[..., None], np.array([1.0, 0.0, 0.0]), u / np.where(zero, 1.0, s)[..., None]
-    )
+    angle = 2.0 * np.arctan2(_norm3(u), q[..., 0])
+    direction, zero = _direction3(u)
+    axis = np.where(zero[..., None], np.array([1.0, 0.0, 0.0]), direction)
     return axis, angle
 
 
