@@ -1,0 +1,204 @@
+"""The ``ds.attitude`` accessor on result Datasets (registered on import of this module).
+
+>>> import attitude.accessor                                     # doctest: +SKIP
+>>> ds.attitude.quantity("G")        # astropy Quantity, units from the variable's attrs
+>>> ds.attitude.euler_angles("321")  # DataArray (time, angle) in rad
+>>> ds.attitude.matrix()             # DataArray (time, row, col): x_S = R x_B
+>>> ds.attitude.angle_between(other) # DataArray (time,) in rad
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from . import quaternion as _qt
+from .errors import AttitudeValueError
+
+__all__ = ["AttitudeAccessor"]
+
+
+def _unit(units: str) -> Any:
+    from astropy import units as u
+
+    return u.dimensionless_unscaled if units in ("1", "") else u.Unit(units)
+
+
+@xr.register_dataset_accessor("attitude")
+class AttitudeAccessor:
+    """Physical views of a propagation result (see docs/results.md)."""
+
+    def __init__(self, ds: xr.Dataset):
+        self._ds = ds
+
+    # -- units --------------------------------------------------------------------------------
+    def quantity(self, name: str) -> Any:
+        """The variable or coordinate ``name`` as an astropy Quantity (its ``units`` attr).
+
+        Parameters
+        ----------
+        name : str
+            e.g. ``"time"``, ``"q"``, ``"G"``, ``"energy"``, ``"r"``.
+
+        Returns
+        -------
+        astropy.units.Quantity
+            Same shape as the variable.
+        """
+        ds = self._ds
+        if name not in ds.variables:
+            raise AttitudeValueError(
+                f"name: no variable {name!r} in this Dataset; it has "
+                + ", ".join(sorted(map(str, ds.variables)))
+            )
+        units = ds[name].attrs.get("units")
+        if units is None:
+            raise AttitudeValueError(f"name: variable {name!r} has no units attr")
+        return np.asarray(ds[name].values, dtype=np.float64) * _unit(str(units))
+
+    @property
+    def epoch(self) -> Any:
+        """The scenario epoch as an astropy Time (UTC), or None when the run has none."""
+        e = self._ds.attrs.get("epoch")
+        if not e:
+            return None
+        from astropy.time import Time
+
+        return Time(str(e).rstrip("Z"), scale="utc", format="isot")
+
+    def times(self) -> Any:
+        """Absolute sample times: ``epoch + time`` as an astropy Time (needs an epoch)."""
+        from astropy.time import TimeDelta
+
+        if self.epoch is None:
+            raise AttitudeValueError(
+                "epoch: this run has no epoch attr (give the scenario an epoch) so its times "
+                "are only relative: use ds.attitude.quantity('time')"
+            )
+        dt = self.quantity("time")
+        return self.epoch + TimeDelta(dt.to_value("s"), format="sec")
+
+    # -- attitude views ---------------------------------------------------------------------------
+    def _q(self) -> np.ndarray:
+        return np.asarray(self._ds["q"].values, dtype=np.float64)
+
+    def euler_angles(self, seq: str = "313") -> xr.DataArray:
+        """Intrinsic Euler angles of ``q`` (body → space), :func:`attitude.quaternion.to_euler`.
+
+        Parameters
+        ----------
+        seq : str
+            One of the 12 sequences, digits 1, 2, 3 = body x, y, z; ``"313"`` is the paper's
+            (φ, ϑ, ψ).
+
+        Returns
+        -------
+        DataArray, shape (time, 3)
+            Angles in rad, dims ``(time, angle)``.
+        """
+        a = _qt.to_euler(self._q(), seq)
+        return xr.DataArray(
+            a,
+            dims=("time", "angle"),
+            coords={"time": self._ds["time"], "angle": [f"a{seq[0]}", f"a{seq[1]}", f"a{seq[2]}"]},
+            attrs={"units": "rad", "long_name": f"intrinsic {seq} Euler angles, body to space"},
+            name="euler_angles",
+        )
+
+    def matrix(self) -> xr.DataArray:
+        """Rotation matrices R(q) with x_S = R x_B (columns: body axes in space components).
+
+        Returns
+        -------
+        DataArray, shape (time, 3, 3)
+            Dims ``(time, row, col)``.
+        """
+        return xr.DataArray(
+            _qt.to_matrix(self._q()),
+            dims=("time", "row", "col"),
+            coords={"time": self._ds["time"]},
+            attrs={"units": "1", "long_name": "rotation matrix body to space, x_S = R x_B"},
+            name="R",
+        )
+
+    def angle_between(self, other: Any) -> xr.DataArray:
+        """Rotation angle between this attitude history and ``other``, per sample, in [0, π].
+
+        Parameters
+        ----------
+        other : Dataset or array_like, shape (4,) or (time, 4)
+            Another result on the same time grid, or quaternions.
+
+        Returns
+        -------
+        DataArray, shape (time,)
+            Angles in rad.
+        """
+        if isinstance(other, xr.Dataset):
+            t1, t2 = self._ds["time"].values, other["time"].values
+            if t1.shape != t2.shape or not np.array_equal(t1, t2):
+                raise AttitudeValueError(
+                    "other: the two results must have the same output times (interpolate one "
+                    "onto the other first)"
+                )
+            q2 = np.asarray(other["q"].values, dtype=np.float64)
+        else:
+            q2 = np.asarray(other, dtype=np.float64)
+        ang = _qt.angle_between(self._q(), q2)
+        return xr.DataArray(
+            np.broadcast_to(ang, self._ds["time"].shape).copy(),
+            dims=("time",),
+            coords={"time": self._ds["time"]},
+            attrs={"units": "rad", "long_name": "rotation angle between the two attitudes"},
+            name="angle",
+        )
+
+    # -- orbit --------------------------------------------------------------------------------
+    @property
+    def has_orbit(self) -> bool:
+        """Whether the run had an orbit (variables ``r``, ``f``, ``p``)."""
+        return all(v in self._ds for v in ("r", "f", "p"))
+
+    def _need_orbit(self) -> None:
+        if not self.has_orbit:
+            raise AttitudeValueError(
+                "orbit: this run had no orbit (r, f, p exist only for the gravity-gradient "
+                "potential)"
+            )
+
+    def radius(self) -> Any:
+        """Orbit radius r(t) as a Quantity (km)."""
+        self._need_orbit()
+        return self.quantity("r")
+
+    def true_anomaly(self) -> Any:
+        """True anomaly f(t) as a Quantity (rad)."""
+        self._need_orbit()
+        return self.quantity("f")
+
+    def orbit_frame(self) -> xr.DataArray:
+        """Orbital-frame quaternion p(t): x_S = p∘x_O∘p̃ (x_O radial, z_O orbit normal)."""
+        self._need_orbit()
+        return self._ds["p"]
+
+    def relative_to_orbit(self) -> xr.DataArray:
+        """Attitude of the body relative to the orbital frame, p̃∘q (x_O = q_rel∘x_B∘q̃_rel).
+
+        The identity means body axes along (radial, along-track, orbit normal).
+
+        Returns
+        -------
+        DataArray, shape (time, 4)
+        """
+        self._need_orbit()
+        p = np.asarray(self._ds["p"].values, dtype=np.float64)
+        rel = _qt.multiply(_qt.conjugate(p), self._q())
+        return xr.DataArray(
+            rel,
+            dims=("time", "component"),
+            coords={"time": self._ds["time"], "component": self._ds["component"]},
+            attrs={"units": "1", "long_name": "attitude relative to the orbital frame, p~ o q"},
+            name="q_rel",
+        )

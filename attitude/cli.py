@@ -1,0 +1,428 @@
+"""The ``attitude`` command (also ``python -m attitude``). See docs/cli.md.
+
+Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 failure (the propagation
+stopped, or an unexpected error). Errors are one line on stderr; ``--debug`` shows tracebacks.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._version import __version__
+
+__all__ = ["main"]
+
+EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class BadInput(Exception):
+    """An error in what the user gave us (exit code 2)."""
+
+
+# ------------------------------------------------------------------------------------------------
+# progress line
+# ------------------------------------------------------------------------------------------------
+
+
+class Progress:
+    """A one-line progress bar on stderr, shown only once a run has taken more than ``delay`` s.
+
+    Parameters
+    ----------
+    mode : {"auto", "always", "never"}
+        ``auto`` draws only when stderr is a terminal.
+    """
+
+    def __init__(self, mode: str = "auto", *, delay: float = 1.0, stream: Any = None, clock=None):
+        self.stream = stream if stream is not None else sys.stderr
+        tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.enabled = mode == "always" or (mode == "auto" and tty)
+        self.delay = delay
+        self.clock = clock or time.monotonic
+        self.start = self.clock()
+        self.shown = False
+        self.last = -math.inf
+
+    def __call__(self, done: int, total: int, t: float) -> None:
+        if not self.enabled:
+            return
+        now = self.clock()
+        elapsed = now - self.start
+        if elapsed < self.delay or (now - self.last < 0.1 and done < total):
+            return
+        self.last = now
+        frac = done / total if total else 1.0
+        width = 30
+        fill = round(width * frac)
+        eta = elapsed * (1 - frac) / frac if frac > 0 else math.inf
+        eta_s = f"{eta:5.0f} s left" if math.isfinite(eta) else "      "
+        self.stream.write(
+            f"\r[{'#' * fill}{'.' * (width - fill)}] {100 * frac:5.1f}%  "
+            f"{done}/{total} samples  {elapsed:6.1f} s  {eta_s}"
+        )
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+# ------------------------------------------------------------------------------------------------
+# commands
+# ------------------------------------------------------------------------------------------------
+
+
+def _fmt_attrs_number(x: Any) -> str:
+    try:
+        return f"{float(x):.3g}"
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
+    labels = [
+        ("max_abs_norm_error", "max | |q| - 1 |"),
+        ("max_abs_qQ", "max |q.Q|"),
+        ("max_rel_energy_error", "max |H - H0|/|H0| (conserved)"),
+        ("max_rel_G_error", "max |G - G0|/|G0| (conserved)"),
+        ("max_rel_Gz_error", "max |Gz - Gz0|/|G0| (conserved)"),
+        ("max_rel_energy_variation", "max |H - H0|/|H0| (time-dependent potential: not conserved)"),
+    ]
+    return [f"{label} = {_fmt_attrs_number(attrs[k])}" for k, label in labels if k in attrs]
+
+
+def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str:
+    u = "" if unit in ("1", "") else f" {unit}"
+    s = f"{t0:g} .. {t1:g}{u} ({n} samples)"
+    if attrs.get("epoch"):
+        s += f" from epoch {attrs['epoch']}"
+    return s
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from . import scenario as S
+
+    sc = S.load(args.scenario)
+    if args.stop is not None:
+        stop = args.stop * sc.time_scale
+        keep = sc.t <= stop * (1 + 1e-12) + 1e-300
+        if keep.sum() < 2:
+            raise BadInput(f"--stop {args.stop}: leaves fewer than 2 output samples")
+        sc.t = sc.t[keep]
+    for name in ("rtol", "atol"):
+        v = getattr(args, name)
+        if v is not None and not v > 0:
+            raise BadInput(f"--{name}: must be a positive number, got {v}")
+    if args.method is not None:
+        from .propagate import _lookup_method
+
+        try:
+            _lookup_method(args.method)
+        except ValueError as exc:
+            raise BadInput(f"--method: {str(exc).split(': ', 1)[-1]}") from None
+    out = Path(args.output) if args.output else sc.output
+    if out.exists() and out.is_dir():
+        raise BadInput(f"-o {out}: is a directory")
+    progress = Progress(args.progress)
+    t_start = time.monotonic()
+    try:
+        info = sc.run_to_file(
+            out, progress=progress, method=args.method, rtol=args.rtol, atol=args.atol
+        )
+    finally:
+        progress.close()
+    wall = time.monotonic() - t_start
+    if not args.quiet:
+        _summary(sc, info, wall)
+    return EXIT_OK
+
+
+def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
+    import os
+
+    p = Path(a["path"])
+    size = os.path.getsize(p) / 1e6
+    unit = "s" if not sc.body.is_dimensionless else "1"
+    n = int(a.get("n_samples", len(sc.t)))
+    lines = [
+        f"scenario    {a.get('scenario')}: {a.get('title', '')}",
+        f"time span   {_span(a, float(sc.t[0]), float(sc.t[n - 1]), n, unit)}",
+        f"method      {a.get('method')}, rtol {a.get('rtol', '-')}, atol {a.get('atol', '-')}: "
+        f"{a.get('n_steps', '?')} steps, {a.get('n_rejected', 0)} rejected, "
+        f"{a.get('n_rhs', '?')} right-hand sides",
+    ]
+    if float(a.get("initial_projection", 0.0)) > 0:
+        lines.append(
+            f"initial     state projected onto |q| = 1, q.Q = 0 "
+            f"(correction {float(a['initial_projection']):.2g})"
+        )
+    inv = _invariant_lines(a)
+    lines.append("invariants  " + ("\n            ".join(inv) if inv else "-"))
+    lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
+    print("\n".join(lines))
+
+
+def _open(path: str) -> Any:
+    from . import io
+
+    try:
+        return io.read(path, load=False)
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+
+
+def cmd_info(args: argparse.Namespace) -> int:
+    ds = _open(args.file)
+    try:
+        a = dict(ds.attrs)
+        n = ds.sizes["time"]
+        t = ds["time"].values
+        unit = ds["time"].attrs.get("units", "")
+        if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
+            from .io import iter_chunks
+            from .scenario import InvariantTracker
+
+            tr = InvariantTracker()
+            for c in iter_chunks(ds):
+                tr.update(c)
+            a.update(tr.attrs(str(a.get("potential_name", ""))))
+        inertia = a.get("inertia")
+        rows = [
+            ("file", args.file),
+            ("scenario", f"{a.get('scenario', '-')}: {a.get('title', '')}"),
+            ("status", a.get("run_status", "complete")),
+            ("time span", _span(a, float(t[0]), float(t[-1]), n, str(unit))),
+            (
+                "body",
+                f"inertia {np.asarray(inertia).tolist() if inertia is not None else '-'} "
+                f"{a.get('inertia_units', '')}",
+            ),
+            ("potential", a.get("potential", "-")),
+            ("initial", a.get("initial_state_form", "-")),
+            (
+                "method",
+                f"{a.get('method')} ({a.get('formulation', 'canonical')}), "
+                f"rtol {a.get('rtol', '-')}, atol {a.get('atol', '-')}",
+            ),
+            (
+                "statistics",
+                f"{a.get('n_steps', '?')} steps, {a.get('n_rejected', '?')} rejected, "
+                f"{a.get('n_rhs', '?')} right-hand sides",
+            ),
+            (
+                "variables",
+                ", ".join(f"{v} [{ds[v].attrs.get('units', '?')}]" for v in ds.data_vars),
+            ),
+            ("version", a.get("source", "-")),
+            ("history", a.get("history", "-")),
+        ]
+        for k, v in rows:
+            print(f"{k:<11} {v}")
+        inv = _invariant_lines(a)
+        print("invariants  " + ("\n            ".join(inv) if inv else "-"))
+    finally:
+        ds.close()
+    return EXIT_OK
+
+
+def cmd_plot(args: argparse.Namespace) -> int:
+    from .plotting import plot_result
+
+    ds = _open(args.file)
+    try:
+        out = Path(args.output) if args.output else Path(args.file).with_suffix(".png")
+        plot_result(ds, out, dpi=args.dpi)
+    finally:
+        ds.close()
+    print(f"figure      {out}")
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from .aem import write_aem
+
+    if not args.ccsds_aem:
+        raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem")
+    ds = _open(args.file)
+    try:
+        try:
+            path = write_aem(
+                ds,
+                args.ccsds_aem,
+                epoch=args.epoch,
+                version=args.aem_version,
+                object_name=args.object_name,
+                object_id=args.object_id,
+                center_name=args.center_name,
+                ref_frame_a=args.ref_frame_a,
+                ref_frame_b=args.ref_frame_b,
+                originator=args.originator,
+                time_unit_seconds=args.time_unit_seconds,
+            )
+        except ValueError as exc:
+            raise BadInput(str(exc)) from None
+    finally:
+        ds.close()
+    print(f"CCSDS AEM   {path}")
+    return EXIT_OK
+
+
+# ------------------------------------------------------------------------------------------------
+# argument parsing and main
+# ------------------------------------------------------------------------------------------------
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, exit code 2
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"attitude: error: {message}\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(
+        prog="attitude",
+        description="Rigid-body attitude propagation in canonical quaternion variables "
+        "(Arribas, Elipe & Palacios 2006). See docs/cli.md.",
+    )
+    p.add_argument("--version", action="version", version=f"attitude {__version__}")
+    p.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    r = sub.add_parser(
+        "run",
+        help="run a scenario and write netCDF",
+        description=("Run a TOML scenario (docs/scenarios.md) and write the result as netCDF4."),
+    )
+    r.add_argument("scenario", metavar="SCENARIO", help="scenario TOML file")
+    r.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.nc",
+        help="output file (default: the scenario's output.path, else NAME.nc)",
+    )
+    r.add_argument("--method", help="integration method (dop853, scipy:DOP853, ...)")
+    r.add_argument("--rtol", type=float, help="relative tolerance")
+    r.add_argument("--atol", type=float, help="absolute tolerance")
+    r.add_argument(
+        "--stop",
+        type=float,
+        metavar="T",
+        help="stop at time T (in the scenario's time unit) instead of time.stop: a shorter run",
+    )
+    r.add_argument(
+        "--progress",
+        choices=("auto", "always", "never"),
+        default="auto",
+        help="progress bar on runs longer than 1 s (auto: when stderr is a terminal)",
+    )
+    r.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    r.set_defaults(func=cmd_run)
+
+    pl = sub.add_parser(
+        "plot",
+        help="plot a result file",
+        description=(
+            "q and Q against time as in the paper's Figs. 1-3 (left q, right Q), plus angular "
+            "velocity and energy."
+        ),
+    )
+    pl.add_argument("file", metavar="OUT.nc")
+    pl.add_argument("-o", "--output", metavar="FIG.png", help="figure file (default OUT.png)")
+    pl.add_argument("--dpi", type=int, default=110)
+    pl.set_defaults(func=cmd_plot)
+
+    i = sub.add_parser("info", help="what was run and the invariant diagnostics")
+    i.add_argument("file", metavar="OUT.nc")
+    i.set_defaults(func=cmd_info)
+
+    e = sub.add_parser(
+        "export",
+        help="export the attitude history (CCSDS AEM)",
+        description=(
+            "Write the attitude history as a CCSDS Attitude Ephemeris Message (KVN, CCSDS "
+            "504.0-B-2): quaternion from REF_FRAME_A (inertial) to REF_FRAME_B (body)."
+        ),
+    )
+    e.add_argument("file", metavar="OUT.nc")
+    e.add_argument("--ccsds-aem", metavar="FILE.aem", help="AEM file to write")
+    e.add_argument(
+        "--aem-version",
+        type=int,
+        choices=(1, 2),
+        default=2,
+        help="2: CCSDS 504.0-B-2 (default); 1: 504.0-B-1 (older readers, e.g. GMAT)",
+    )
+    e.add_argument("--epoch", help="UTC epoch of time 0 (ISO 8601), if the run has none")
+    e.add_argument(
+        "--time-unit-seconds",
+        type=float,
+        metavar="S",
+        help="seconds per time unit, to export a dimensionless run",
+    )
+    e.add_argument("--object-name")
+    e.add_argument("--object-id")
+    e.add_argument("--center-name")
+    e.add_argument("--ref-frame-a", help="inertial frame (default: the run's, else EME2000)")
+    e.add_argument("--ref-frame-b", default="SC_BODY_1", help="body frame (default SC_BODY_1)")
+    e.add_argument("--originator", default="attitude")
+    e.set_defaults(func=cmd_export)
+    return p
+
+
+def _on_sigterm(signum, frame):  # turn SIGTERM into KeyboardInterrupt: temp files are removed
+    raise KeyboardInterrupt
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``attitude`` command. Returns the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_BAD_INPUT
+    if hasattr(signal, "SIGTERM"):
+        try:
+            signal.signal(signal.SIGTERM, _on_sigterm)
+        except ValueError:  # not in the main thread
+            pass
+    from .errors import AttitudeError, PropagationError
+
+    try:
+        return int(args.func(args))
+    except KeyboardInterrupt:
+        sys.stderr.write("attitude: interrupted (no output file written)\n")
+        return 130
+    except PropagationError as exc:
+        if args.debug:
+            raise
+        sys.stderr.write(f"attitude: failed: {exc}\n")
+        return EXIT_FAILURE
+    except (BadInput, AttitudeError, FileNotFoundError) as exc:
+        if args.debug:
+            raise
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        sys.stderr.write(f"attitude: error: {msg}\n")
+        return EXIT_BAD_INPUT
+    except Exception as exc:
+        if args.debug:
+            raise
+        sys.stderr.write(f"attitude: failed: {type(exc).__name__}: {exc}\n")
+        return EXIT_FAILURE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

@@ -1,0 +1,782 @@
+"""Scenarios: a propagation described in a TOML file (docs/scenarios.md).
+
+>>> from attitude import scenario                                   # doctest: +SKIP
+>>> sc = scenario.load("scenarios/paper_keplerian.toml")
+>>> ds = sc.run()                         # xarray Dataset (docs/results.md)
+>>> sc.run_to_file("out.nc")              # streamed to netCDF, bounded memory
+
+Quantities carry their unit in a sibling key ``<name>_unit`` (``a = 7000.0`` with
+``a_unit = "km"``), parsed by astropy. A body without ``inertia_unit`` is dimensionless (the
+paper's first two cases): then every quantity except angles is a plain number in the same
+consistent units, and giving a unit is an error. Every error names the key and what was
+expected, before any work (:class:`ScenarioError`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import os
+import sys
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from .body import RigidBody
+from .errors import AttitudeError, AttitudeValueError, PropagationError
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["Scenario", "ScenarioError", "load", "loads"]
+
+
+class ScenarioError(AttitudeValueError):
+    """A scenario file is invalid: the message names the key and what was expected."""
+
+
+# Internal unit system (km, s, kg) for dimensional scenarios.
+_INTERNAL = {
+    "inertia": "kg km2",
+    "momentum": "kg km2 s-1",
+    "rate": "rad s-1",
+    "time": "s",
+    "length": "km",
+    "angle": "rad",
+    "force": "kg km s-2",
+    "mu": "km3 s-2",
+}
+_EXAMPLE = {
+    "inertia": "'kg m2' or 'kg km2'",
+    "momentum": "'kg m2 s-1' or 'N m s'",
+    "rate": "'rad/s' or 'deg/s'",
+    "time": "'s', 'min', 'h' or 'd'",
+    "length": "'m' or 'km'",
+    "angle": "'deg' or 'rad'",
+    "force": "'N' (a weight M g)",
+    "mu": "'km3 s-2'",
+}
+
+# Allowed keys per table (value: quantity kind for "<key>_unit", or None).
+_TABLES: dict[str, dict[str, str | None]] = {
+    "scenario": {
+        "name": None,
+        "title": None,
+        "description": None,
+        "epoch": None,
+        "object_name": None,
+        "object_id": None,
+        "inertial_frame": None,
+    },
+    "body": {"inertia": "inertia"},
+    "initial_state": {
+        "form": None,
+        "frame": None,
+        "q": None,
+        "Q": "momentum",
+        "omega": "rate",
+        "seq": None,
+        "angles": "angle",
+        "momenta": "momentum",
+    },
+    "potential": {"kind": None, "weight": "force", "center_of_mass": "length"},
+    "orbit": {
+        "a": "length",
+        "e": None,
+        "inc": "angle",
+        "raan": "angle",
+        "argp": "angle",
+        "f0": "angle",
+        "mu": "mu",
+    },
+    "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
+    "integrator": {"method": None, "rtol": None, "atol": None, "max_step": "time"},
+    "output": {"path": None},
+}
+_REQUIRED_TABLES = ("body", "initial_state", "time")
+
+_FORMS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    # form: (required keys, optional keys) besides "form" and "frame"
+    "canonical": (("q", "Q"), ()),
+    "body_rates": (("q", "omega"), ()),
+    "euler_canonical": (("angles", "momenta"), ()),
+    "euler_body_rates": (("seq", "angles", "omega"), ()),
+}
+_KINDS = {
+    "torque_free": ((), ()),
+    "heavy_top": (("weight", "center_of_mass"), ()),
+    "gravity_gradient": ((), ()),
+}
+# Quantities that carry units also in a dimensionless scenario.
+_ALWAYS_UNIT = {"angle"}
+
+
+def _fail(key: str, msg: str) -> ScenarioError:
+    return ScenarioError(f"{key}: {msg}")
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
+
+
+class _Reader:
+    """Typed access to the parsed TOML with errors naming the key."""
+
+    def __init__(self, data: Mapping[str, Any]):
+        self.data = data
+        self.dimensionless = True
+
+    def table(self, name: str, required: bool = False) -> dict[str, Any]:
+        t = self.data.get(name)
+        if t is None:
+            if required:
+                raise _fail(f"[{name}]", "missing table (see docs/scenarios.md)")
+            return {}
+        if not isinstance(t, dict):
+            raise _fail(name, f"expected a table [{name}], got {type(t).__name__}")
+        return t
+
+    def check_keys(self, name: str, table: Mapping[str, Any]) -> None:
+        allowed = _TABLES[name]
+        names = set(allowed) | {f"{k}_unit" for k, kind in allowed.items() if kind}
+        for k in table:
+            if k not in names:
+                close = difflib.get_close_matches(k, sorted(names), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise _fail(
+                    f"{name}.{k}",
+                    f"unknown key{hint} (allowed in [{name}]: {', '.join(sorted(names))})",
+                )
+
+    def string(self, t: Mapping[str, Any], key: str, where: str, default: Any = ...) -> Any:
+        if key not in t:
+            if default is ...:
+                raise _fail(f"{where}.{key}", "missing (a string)")
+            return default
+        v = t[key]
+        if not isinstance(v, str):
+            raise _fail(f"{where}.{key}", f"expected a string, got {v!r}")
+        return v
+
+    def number(self, t, key, where, default: Any = ...) -> Any:
+        if key not in t:
+            if default is ...:
+                raise _fail(f"{where}.{key}", "missing (a number)")
+            return default
+        v = t[key]
+        if not _is_number(v):
+            raise _fail(f"{where}.{key}", f"expected a number, got {v!r}")
+        if not math.isfinite(v):
+            raise _fail(f"{where}.{key}", f"must be finite, got {v!r}")
+        return float(v)
+
+    def array(self, t, key, where, n: int) -> np.ndarray:
+        if key not in t:
+            raise _fail(f"{where}.{key}", f"missing (an array of {n} numbers)")
+        v = t[key]
+        if (
+            not isinstance(v, list)
+            or len(v) != n
+            or not all(_is_number(x) and math.isfinite(x) for x in v)
+        ):
+            raise _fail(f"{where}.{key}", f"expected an array of {n} finite numbers, got {v!r}")
+        return np.array(v, dtype=np.float64)
+
+    def unit(self, t, key, where, kind: str) -> Any:
+        """The astropy unit of ``key`` from ``<key>_unit`` (None: plain internal number)."""
+        from astropy import units as u
+
+        ukey = f"{key}_unit"
+        full = f"{where}.{ukey}"
+        needs = kind in _ALWAYS_UNIT or not self.dimensionless
+        if ukey not in t:
+            if needs:
+                raise _fail(
+                    f"{where}.{key}",
+                    f"needs a unit: add {ukey} = {_EXAMPLE[kind].split(' or ')[0]} "
+                    f"(any {kind} unit, e.g. {_EXAMPLE[kind]})",
+                )
+            return None
+        if not needs:
+            raise _fail(
+                full,
+                "the body is dimensionless (no body.inertia_unit), so this quantity is a plain "
+                "number in the same units; remove the unit or give body.inertia_unit",
+            )
+        s = t[ukey]
+        if not isinstance(s, str):
+            raise _fail(full, f"expected a unit string such as {_EXAMPLE[kind]}, got {s!r}")
+        try:
+            unit = u.Unit(s)
+        except ValueError:
+            raise _fail(
+                full, f"{s!r} is not a unit astropy understands (e.g. {_EXAMPLE[kind]})"
+            ) from None
+        if not unit.is_equivalent(u.Unit(_INTERNAL[kind])):
+            raise _fail(full, f"{s!r} is not a {kind} unit (expected e.g. {_EXAMPLE[kind]})")
+        return unit
+
+    def value(self, t, key, where, kind: str, n: int | None = None, default: Any = ...) -> Any:
+        """Number or array converted to internal units (float or ndarray)."""
+        if key not in t and default is not ...:
+            if f"{key}_unit" in t:
+                raise _fail(f"{where}.{key}_unit", f"given without {where}.{key}")
+            return default
+        v = self.number(t, key, where) if n is None else self.array(t, key, where, n)
+        unit = self.unit(t, key, where, kind)
+        if unit is None:
+            return v
+        return (v * unit).to_value(_INTERNAL[kind])
+
+
+@dataclass
+class Scenario:
+    """A validated scenario: body, initial state, potential, output times and numerics.
+
+    Build it with :func:`load` or :func:`loads`; :meth:`run` returns the result Dataset.
+    """
+
+    name: str
+    title: str
+    description: str
+    body: RigidBody
+    q0: np.ndarray
+    Q0: np.ndarray
+    potential: Any
+    t: np.ndarray
+    time_unit: str
+    time_scale: float = 1.0  # internal time units per unit of the [time] table
+    method: str = "dop853"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    max_step: float = math.inf
+    output: Path = Path("out.nc")
+    epoch: str | None = None
+    object_name: str = "UNKNOWN"
+    object_id: str = "UNKNOWN"
+    inertial_frame: str = "EME2000"
+    source: str = ""
+    path: Path | None = None
+    initial_form: str = "canonical"
+    extra_attrs: dict[str, Any] = field(default_factory=dict)
+
+    # -- running ----------------------------------------------------------------------------
+    def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
+        kw = dict(method=self.method, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
+        kw.update({k: v for k, v in overrides.items() if v is not None})
+        return kw
+
+    def attrs(self, kw: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Global attrs describing the scenario (added to the result's attrs)."""
+        a: dict[str, Any] = {
+            "title": self.title or self.name,
+            "scenario": self.name,
+            "scenario_description": self.description,
+            "scenario_file": str(self.path) if self.path else "",
+            "scenario_toml": self.source,
+            "initial_state_form": self.initial_form,
+            "object_name": self.object_name,
+            "object_id": self.object_id,
+            "inertial_frame": self.inertial_frame,
+        }
+        if self.epoch:
+            a["epoch"] = self.epoch
+        if kw and kw.get("max_step", math.inf) != math.inf:
+            a["max_step"] = float(kw["max_step"])
+        a.update(self.extra_attrs)
+        return a
+
+    def _history(self, ds_attrs: Mapping[str, Any]) -> str:
+        where = f" {self.path}" if self.path else ""
+        return f"{ds_attrs.get('history', '')}; scenario{where}".lstrip("; ")
+
+    def run(self, *, progress: Callable | None = None, **overrides: Any) -> xr.Dataset:
+        """Propagate and return the result Dataset (in memory).
+
+        Parameters
+        ----------
+        progress : callable, optional
+            ``progress(n_done, n_total, t)`` (see :func:`attitude.propagate.propagate`).
+        **overrides
+            ``method``, ``rtol``, ``atol``, ``max_step`` replacing the scenario's.
+
+        Raises
+        ------
+        PropagationError
+            The integration failed; ``.partial`` holds what was computed (with scenario attrs).
+        """
+        from .propagate import propagate
+
+        kw = self._kwargs(overrides)
+        try:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", "initial state projected")
+                ds = propagate(
+                    self.body, self.q0, self.Q0, self.t, self.potential, progress=progress, **kw
+                )
+        except PropagationError as exc:
+            if exc.partial is not None:
+                exc.partial.attrs.update(self.attrs(kw), run_status=f"failed: {exc}")
+            raise
+        ds.attrs.update(self.attrs(kw), run_status="complete")
+        ds.attrs["history"] = self._history(ds.attrs)
+        return ds
+
+    def run_to_file(
+        self,
+        path: str | os.PathLike | None = None,
+        *,
+        progress: Callable | None = None,
+        chunk: int | None = None,
+        **overrides: Any,
+    ) -> dict[str, Any]:
+        """Propagate streaming the samples to a netCDF4 file (bounded memory, atomic).
+
+        A run that fails midway still commits the file with what was computed and
+        ``run_status = "failed: ..."``, then raises the :class:`PropagationError`. An interrupt
+        (KeyboardInterrupt) leaves no file under the final name.
+
+        Returns
+        -------
+        dict
+            ``path``, ``n_samples``, the run statistics and invariant diagnostics (the attrs).
+        """
+        from .io import TIME_CHUNK, StreamWriter
+        from .propagate import propagate
+
+        out = Path(path) if path is not None else self.output
+        kw = self._kwargs(overrides)
+        tracker = InvariantTracker()
+        writer = StreamWriter(out)
+
+        def sink(ds: xr.Dataset) -> None:
+            tracker.update(ds)
+            writer.append(ds)
+
+        failure: PropagationError | None = None
+        try:
+            try:
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", "initial state projected")
+                    last = propagate(
+                        self.body,
+                        self.q0,
+                        self.Q0,
+                        self.t,
+                        self.potential,
+                        progress=progress,
+                        chunk=chunk or TIME_CHUNK,
+                        on_chunk=sink,
+                        **kw,
+                    )
+                status = "complete"
+            except PropagationError as exc:
+                failure = exc
+                last = exc.partial
+                status = f"failed: {exc}"
+            if writer.n == 0:
+                raise failure or AttitudeValueError("no samples computed")
+            attrs = dict(last.attrs) if last is not None else dict(writer.attrs)
+            attrs.update(self.attrs(kw), run_status=status, n_samples=np.int64(writer.n))
+            attrs.update(tracker.attrs(attrs.get("potential_name", "")))
+            attrs["history"] = self._history(attrs)
+            writer.attrs = attrs
+            writer.commit()
+        except BaseException:
+            writer.abort()
+            raise
+        if failure is not None:
+            raise failure
+        return {"path": out, **attrs}
+
+
+class InvariantTracker:
+    """Running maxima of the invariant errors over streamed chunks of a result."""
+
+    def __init__(self):
+        self.max_norm = 0.0
+        self.max_qQ = 0.0
+        self.E0: float | None = None
+        self.G0: np.ndarray | None = None
+        self.max_dE = 0.0
+        self.max_dG = 0.0
+        self.max_dGz = 0.0
+
+    def update(self, ds: xr.Dataset) -> None:
+        if ds.sizes["time"] == 0:
+            return
+        self.max_norm = max(self.max_norm, float(np.max(np.abs(ds["norm_error"].values))))
+        self.max_qQ = max(self.max_qQ, float(np.max(np.abs(ds["qQ"].values))))
+        E = ds["energy"].values
+        G = ds["G"].values
+        if self.E0 is None:
+            self.E0 = float(E[0])
+            self.G0 = G[0].copy()
+        self.max_dE = max(self.max_dE, float(np.max(np.abs(E - self.E0))))
+        dG = np.linalg.norm(G - self.G0, axis=-1)
+        self.max_dG = max(self.max_dG, float(np.max(dG)))
+        self.max_dGz = max(self.max_dGz, float(np.max(np.abs(G[:, 2] - self.G0[2]))))
+
+    def attrs(self, potential_name: str) -> dict[str, Any]:
+        """Diagnostic attrs: constraint errors always, conserved quantities where they are."""
+        a: dict[str, Any] = {
+            "max_abs_norm_error": self.max_norm,
+            "max_abs_qQ": self.max_qQ,
+        }
+        scaleE = max(abs(self.E0 or 0.0), np.finfo(float).tiny)
+        scaleG = max(float(np.linalg.norm(self.G0)) if self.G0 is not None else 0.0, 1e-300)
+        if potential_name in ("torque_free", "heavy_top"):
+            a["max_rel_energy_error"] = self.max_dE / scaleE
+        if potential_name == "torque_free":
+            a["max_rel_G_error"] = self.max_dG / scaleG
+        if potential_name == "heavy_top":
+            a["max_rel_Gz_error"] = self.max_dGz / scaleG
+        if potential_name not in ("torque_free", "heavy_top"):
+            a["max_rel_energy_variation"] = self.max_dE / scaleE
+        return a
+
+
+# ------------------------------------------------------------------------------------------------
+# Loading
+# ------------------------------------------------------------------------------------------------
+
+
+def load(path: str | os.PathLike) -> Scenario:
+    """Read and validate a scenario TOML file.
+
+    Raises
+    ------
+    ScenarioError
+        The file is missing, not TOML, or invalid; the message names the key.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ScenarioError(f"{p}: no such scenario file") from None
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError:
+        raise ScenarioError(f"{p}: not a UTF-8 text file") from None
+    return loads(text, name=p.stem, path=p)
+
+
+def loads(text: str, *, name: str = "scenario", path: Path | None = None) -> Scenario:
+    """Validate a scenario given as TOML text (see :func:`load`)."""
+    where = str(path) if path else "scenario"
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{where}: invalid TOML: {exc}") from None
+    try:
+        return _build(data, text, name, path)
+    except ScenarioError:
+        raise
+    except AttitudeError as exc:  # a constructor rejected a value: still bad input
+        raise ScenarioError(str(exc)) from None
+
+
+def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None) -> Scenario:
+    r = _Reader(data)
+    for k in data:
+        if k not in _TABLES:
+            close = difflib.get_close_matches(k, list(_TABLES), n=1)
+            hint = f"; did you mean [{close[0]}]?" if close else ""
+            raise _fail(k, f"unknown table or key{hint} (tables: {', '.join(_TABLES)})")
+    for name in _TABLES:
+        r.check_keys(name, r.table(name))
+
+    # [scenario]
+    sc = r.table("scenario")
+    name = r.string(sc, "name", "scenario", default_name)
+    epoch = None
+    if "epoch" in sc:
+        epoch = _epoch(r.string(sc, "epoch", "scenario"))
+
+    # [body]
+    bt = r.table("body", required=True)
+    inertia = r.array(bt, "inertia", "body", 3)
+    r.dimensionless = "inertia_unit" not in bt
+    if r.dimensionless:
+        body = RigidBody(inertia)
+    else:
+        body = RigidBody(inertia * r.unit(bt, "inertia", "body", "inertia"))
+
+    # [time]
+    tt = r.table("time", required=True)
+    t, time_unit, time_scale = _times(r, tt)
+
+    # [orbit] and [potential]
+    pt = r.table("potential")
+    kind = r.string(pt, "kind", "potential", "torque_free")
+    if kind not in _KINDS:
+        raise _fail("potential.kind", f"expected one of {', '.join(_KINDS)}, got {kind!r}")
+    _only(pt, "potential", kind, _KINDS[kind][0], ("kind",), "potential.kind")
+    orbit = None
+    ot = r.table("orbit")
+    if ot:
+        if r.dimensionless:
+            raise _fail(
+                "orbit",
+                "an orbit needs a body with units: give body.inertia_unit (e.g. 'kg m2')",
+            )
+        orbit = _orbit(r, ot, t0=float(t[0]))
+    potential = _potential(r, pt, kind, orbit)
+
+    # [initial_state]
+    it = r.table("initial_state", required=True)
+    form = r.string(it, "form", "initial_state")
+    if form not in _FORMS:
+        raise _fail("initial_state.form", f"expected one of {', '.join(_FORMS)}, got {form!r}")
+    _only(it, "initial_state", form, _FORMS[form][0], ("form", "frame"), "initial_state.form")
+    frame = r.string(it, "frame", "initial_state", "inertial")
+    if frame not in ("inertial", "orbital"):
+        raise _fail("initial_state.frame", f"expected 'inertial' or 'orbital', got {frame!r}")
+    q0, Q0 = _initial(r, it, form, frame, body, orbit, float(t[0]))
+
+    # [integrator]
+    nt = r.table("integrator")
+    method = r.string(nt, "method", "integrator", "dop853")
+    rtol = r.number(nt, "rtol", "integrator", 1e-10)
+    atol = r.number(nt, "atol", "integrator", 1e-12)
+    for k, v in (("rtol", rtol), ("atol", atol)):
+        if not v > 0:
+            raise _fail(f"integrator.{k}", f"must be a positive number, got {v!r}")
+    max_step = math.inf
+    if "max_step" in nt:
+        max_step = r.value(nt, "max_step", "integrator", "time")
+        if not max_step > 0:
+            raise _fail("integrator.max_step", f"must be positive, got {max_step!r}")
+    from .propagate import _lookup_method
+
+    try:
+        _lookup_method(method)
+    except AttitudeValueError as exc:
+        raise _fail("integrator.method", str(exc).split(": ", 1)[-1]) from None
+
+    # [output]
+    out = r.table("output")
+    opath = Path(r.string(out, "path", "output", f"{name}.nc"))
+
+    return Scenario(
+        name=name,
+        title=r.string(sc, "title", "scenario", ""),
+        description=r.string(sc, "description", "scenario", ""),
+        body=body,
+        q0=q0,
+        Q0=Q0,
+        potential=potential,
+        t=t,
+        time_unit=time_unit,
+        time_scale=time_scale,
+        method=method,
+        rtol=rtol,
+        atol=atol,
+        max_step=max_step,
+        output=opath,
+        epoch=epoch,
+        object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),
+        object_id=r.string(sc, "object_id", "scenario", "UNKNOWN"),
+        inertial_frame=r.string(sc, "inertial_frame", "scenario", "EME2000"),
+        source=text,
+        path=path,
+        initial_form=f"{form} ({frame} frame)",
+    )
+
+
+def _only(t, where, what, required, always, selector):
+    """Check that table ``t`` has exactly the keys of the selected form/kind."""
+    base = {k for k in t if not k.endswith("_unit")}
+    allowed = set(required) | set(always)
+    for k in sorted(base - allowed):
+        raise _fail(
+            f"{where}.{k}",
+            f"not used with {selector} = {what!r} (which takes: "
+            f"{', '.join(required) or 'no other keys'})",
+        )
+    for k in t:
+        if k.endswith("_unit") and k[:-5] not in t:
+            raise _fail(f"{where}.{k}", f"given without {where}.{k[:-5]}")
+    for k in required:
+        if k not in t:
+            raise _fail(f"{where}.{k}", f"missing (needed by {selector} = {what!r})")
+
+
+def _epoch(s: str) -> str:
+    from astropy.time import Time
+
+    try:
+        t = Time(s.rstrip("Z"), scale="utc")
+    except ValueError:
+        raise _fail(
+            "scenario.epoch", f"expected an ISO 8601 UTC time like '2024-03-20T12:00:00', got {s!r}"
+        ) from None
+    t.precision = 6
+    return t.isot + "Z"
+
+
+def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
+    for k in tt:
+        if k not in ("start", "stop", "step", "count", "unit"):
+            raise _fail(f"time.{k}", "unknown key (allowed: start, stop, step or count, unit)")
+    if r.dimensionless:
+        if "unit" in tt:
+            raise _fail(
+                "time.unit",
+                "the body is dimensionless (no body.inertia_unit), so times are plain numbers; "
+                "remove time.unit",
+            )
+        scale, tunit = 1.0, "1"
+    else:
+        if "unit" not in tt:
+            raise _fail("time.unit", f"missing: the time unit, e.g. {_EXAMPLE['time']}")
+        tt2 = {"x": 1.0, "x_unit": tt["unit"]}
+        try:
+            scale = r.value(tt2, "x", "time", "time")
+        except ScenarioError as exc:
+            raise ScenarioError(str(exc).replace("time.x_unit", "time.unit")) from None
+        tunit = "s"
+    start = r.number(tt, "start", "time", 0.0) * scale
+    stop = r.number(tt, "stop", "time") * scale
+    if not stop > start:
+        raise _fail(
+            "time.stop", f"must be after time.start ({stop / scale!r} <= {start / scale!r})"
+        )
+    if ("step" in tt) == ("count" in tt):
+        raise _fail("time", "give exactly one of time.step (sample spacing) or time.count")
+    if "count" in tt:
+        n = tt["count"]
+        if not isinstance(n, int) or isinstance(n, bool) or n < 2:
+            raise _fail("time.count", f"expected an integer >= 2, got {n!r}")
+    else:
+        step = r.number(tt, "step", "time") * scale
+        if not step > 0:
+            raise _fail("time.step", f"must be positive, got {step / scale!r}")
+        ratio = (stop - start) / step
+        n = round(ratio) + 1
+        if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
+            raise _fail(
+                "time.step",
+                f"must divide time.stop - time.start into whole steps ({ratio:.6g} steps); "
+                "or give time.count",
+            )
+    if n > 10**9:
+        raise _fail("time", f"{n} output samples is too many (at most 1e9)")
+    t = np.linspace(start, stop, int(n))
+    return t, tunit, scale
+
+
+def _orbit(r: _Reader, ot: Mapping[str, Any], t0: float) -> Any:
+    from astropy import units as u
+
+    for k in ("a", "e", "inc", "raan", "argp"):
+        if k not in ot:
+            raise _fail(
+                f"orbit.{k}", "missing (orbit needs a, e, inc, raan, argp; f0, mu optional)"
+            )
+    a = r.value(ot, "a", "orbit", "length")
+    e = r.number(ot, "e", "orbit")
+    vals = {k: r.value(ot, k, "orbit", "angle") for k in ("inc", "raan", "argp")}
+    f0 = r.value(ot, "f0", "orbit", "angle", default=0.0)
+    mu = r.value(ot, "mu", "orbit", "mu", default=None)
+    try:
+        import orbit as _orbit_pkg
+
+        KeplerOrbit = _orbit_pkg.KeplerOrbit
+    except (ImportError, AttributeError):  # pragma: no cover - orbit package incomplete
+        raise _fail("orbit", "the orbit package (orbit.KeplerOrbit) is not available") from None
+    try:
+        return KeplerOrbit(
+            a * u.km,
+            e,
+            vals["inc"] * u.rad,
+            vals["raan"] * u.rad,
+            vals["argp"] * u.rad,
+            f0=f0 * u.rad,
+            mu=None if mu is None else mu * u.Unit("km3 s-2"),
+            t0=t0 * u.s,
+        )
+    except ValueError as exc:
+        raise _fail("orbit", str(exc)) from None
+
+
+def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:
+    from . import potentials as P
+
+    if kind == "gravity_gradient":
+        if orbit is None:
+            raise _fail("orbit", "missing table: potential.kind = 'gravity_gradient' needs [orbit]")
+        return P.GravityGradient(orbit)
+    if orbit is not None:
+        raise _fail(
+            "orbit", f"an orbit is only used by potential.kind = 'gravity_gradient', not {kind!r}"
+        )
+    if kind == "torque_free":
+        return P.TorqueFree()
+    weight = r.value(pt, "weight", "potential", "force")
+    com = r.value(pt, "center_of_mass", "potential", "length", n=3)
+    return P.HeavyTop(weight, com)
+
+
+def _orbital_rate_body(orbit: Any, q_rel: np.ndarray, t0: float) -> np.ndarray:
+    """Angular velocity of the orbital frame, in body axes: ḟ z_O read in the body frame."""
+    from .quaternion import rotate_inverse
+
+    rr = float(np.asarray(orbit.radius(t0)))
+    p = orbit.a * (1.0 - orbit.e**2)
+    fdot = math.sqrt(orbit.mu * p) / rr**2  # h / r², Keplerian true-anomaly rate
+    return rotate_inverse(q_rel, np.array([0.0, 0.0, fdot]))
+
+
+def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, np.ndarray]:
+    from . import canonical as C
+    from .quaternion import from_euler, multiply
+
+    where = "initial_state"
+    if frame == "orbital":
+        if orbit is None:
+            raise _fail(f"{where}.frame", "'orbital' needs an [orbit] (gravity_gradient)")
+        if form in ("canonical", "euler_canonical"):
+            raise _fail(
+                f"{where}.frame",
+                f"'orbital' is for forms with body rates (body_rates, euler_body_rates); "
+                f"form {form!r} gives inertial momenta",
+            )
+    if form == "euler_canonical":
+        angles = r.value(it, "angles", where, "angle", n=3)
+        momenta = r.value(it, "momenta", where, "momentum", n=3)
+        return C.from_euler_canonical(angles, momenta)
+    if form == "euler_body_rates":
+        seq = r.string(it, "seq", where)
+        from .quaternion import EULER_SEQUENCES
+
+        if seq not in EULER_SEQUENCES:
+            raise _fail(
+                f"{where}.seq", f"expected one of {', '.join(EULER_SEQUENCES)}, got {seq!r}"
+            )
+        q = from_euler(r.value(it, "angles", where, "angle", n=3), seq)
+    else:
+        q = r.array(it, "q", where, 4)
+        nq = float(np.linalg.norm(q))
+        if abs(nq - 1.0) > 1e-6:
+            raise _fail(
+                f"{where}.q",
+                f"must be a unit quaternion (scalar first); |q| = {nq!r}. Write enough digits "
+                "(e.g. 0.7071067811865476 for 1/sqrt(2))",
+            )
+    if form == "canonical":
+        Q = r.value(it, "Q", where, "momentum", n=4)
+        return q, Q
+    omega = r.value(it, "omega", where, "rate", n=3)
+    if frame == "orbital":
+        p0 = np.asarray(orbit.frame_quaternion(t0), dtype=np.float64).reshape(4)
+        omega = omega + _orbital_rate_body(orbit, q, t0)
+        q = multiply(p0, q)
+    return q, C.momenta_from_angular_velocity(q, omega, body)
