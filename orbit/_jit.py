@@ -6,6 +6,9 @@ module lives here.
 
 * Kernels are compiled lazily, on first call, and cached on disk (``cache=True``); nothing is
   compiled at import time.
+* The on-disk cache is keyed on a fingerprint of *all* the Python sources of both packages,
+  not only of the function's own file (numba's default): the cached integrators inline kernels
+  from several modules, and a change to any of them must invalidate the cached machine code.
 * Setting the environment variable ``ATTITUDE_DISABLE_JIT=1`` (or numba's own
   ``NUMBA_DISABLE_JIT=1``) before import turns every kernel into plain Python: slow, but with
   readable tracebacks, and the test-suite runs in that mode too.
@@ -13,7 +16,9 @@ module lives here.
 
 from __future__ import annotations
 
+import hashlib
 import os
+from pathlib import Path
 
 import numba
 
@@ -22,6 +27,62 @@ __all__ = ["JIT_DISABLED", "jit", "parallel_jit"]
 JIT_DISABLED: bool = os.environ.get("ATTITUDE_DISABLE_JIT", "0") not in ("", "0") or bool(
     numba.config.DISABLE_JIT
 )
+
+
+_PACKAGE_DIRS = tuple(
+    str(Path(__file__).resolve().parent.parent / name) + os.sep for name in ("orbit", "attitude")
+)
+
+
+def _sources_fingerprint() -> bytes:
+    """SHA-256 over every .py file of the ``orbit`` and ``attitude`` packages."""
+    h = hashlib.sha256()
+    for d in _PACKAGE_DIRS:
+        for path in sorted(Path(d).rglob("*.py")):
+            h.update(str(path.relative_to(d)).encode())
+            h.update(path.read_bytes())
+    return h.digest()
+
+
+def _install_cache_locators() -> None:
+    from numba.core import caching
+
+    fingerprint: list[bytes] = []
+
+    def stamp() -> bytes:
+        if not fingerprint:
+            fingerprint.append(_sources_fingerprint())
+        return fingerprint[0]
+
+    def ours(py_file: str) -> bool:
+        return os.path.abspath(py_file).startswith(_PACKAGE_DIRS)
+
+    class _InTree(caching._InTreeCacheLocator):
+        def get_source_stamp(self):
+            return stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            return super().from_function(py_func, py_file) if ours(py_file) else None
+
+    class _UserWide(caching._UserWideCacheLocator):
+        def get_source_stamp(self):
+            return stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            return super().from_function(py_func, py_file) if ours(py_file) else None
+
+    classes = caching._CacheImpl._locator_classes
+    if not any(getattr(c, "__module__", "") == __name__ for c in classes):
+        classes[0:0] = [_InTree, _UserWide]
+
+
+if not JIT_DISABLED:
+    try:
+        _install_cache_locators()
+    except (ImportError, AttributeError):  # pragma: no cover - numba internals moved
+        pass
 
 
 def jit(func=None, /, **options):

@@ -23,7 +23,7 @@ from .quat import conj_mul, mul_vec
 from .rk import dop853_run
 
 
-@jit
+@jit(inline="always")
 def canonical_rhs_with(torque, t, y, params, dydt):
     """Eq. 7 with the body torque ``torque(q, t, params)``; writes into ``dydt``."""
     q = y[0:4]
@@ -68,7 +68,7 @@ def dop853_canonical_builtin(
     )
 
 
-@jit
+@jit(inline="always")
 def diagnostics_with(potential, t, y, params, out):
     """Per-sample diagnostics of canonical states ``y`` (m, 8) into ``out`` (m, 13).
 
