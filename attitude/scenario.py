@@ -97,7 +97,13 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "mu": "mu",
     },
     "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
-    "integrator": {"method": None, "rtol": None, "atol": None, "max_step": "time"},
+    "integrator": {
+        "method": None,
+        "rtol": None,
+        "atol": None,
+        "max_step": "time",
+        "max_steps": None,
+    },
     "output": {"path": None},
 }
 _REQUIRED_TABLES = ("body", "initial_state", "time")
@@ -257,6 +263,7 @@ class Scenario:
     rtol: float = 1e-10
     atol: float = 1e-12
     max_step: float = math.inf
+    max_steps: int = 100_000_000
     output: Path = Path("out.nc")
     epoch: str | None = None
     object_name: str = "UNKNOWN"
@@ -269,7 +276,13 @@ class Scenario:
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
-        kw = dict(method=self.method, rtol=self.rtol, atol=self.atol, max_step=self.max_step)
+        kw = dict(
+            method=self.method,
+            rtol=self.rtol,
+            atol=self.atol,
+            max_step=self.max_step,
+            max_steps=self.max_steps,
+        )
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return kw
 
@@ -372,7 +385,8 @@ class Scenario:
                         self.t,
                         self.potential,
                         progress=progress,
-                        chunk=chunk or TIME_CHUNK,
+                        # ~200 chunks: a smooth progress bar, bounded memory
+                        chunk=chunk or max(64, min(TIME_CHUNK, len(self.t) // 200)),
                         on_chunk=sink,
                         **kw,
                     )
@@ -554,6 +568,9 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         max_step = r.value(nt, "max_step", "integrator", "time")
         if not max_step > 0:
             raise _fail("integrator.max_step", f"must be positive, got {max_step!r}")
+    max_steps = nt.get("max_steps", 100_000_000)
+    if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
+        raise _fail("integrator.max_steps", f"expected a positive integer, got {max_steps!r}")
     from .propagate import _lookup_method
 
     try:
@@ -580,6 +597,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         rtol=rtol,
         atol=atol,
         max_step=max_step,
+        max_steps=max_steps,
         output=opath,
         epoch=epoch,
         object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),
@@ -687,11 +705,9 @@ def _orbit(r: _Reader, ot: Mapping[str, Any], t0: float) -> Any:
     f0 = r.value(ot, "f0", "orbit", "angle", default=0.0)
     mu = r.value(ot, "mu", "orbit", "mu", default=None)
     try:
-        import orbit as _orbit_pkg
-
-        KeplerOrbit = _orbit_pkg.KeplerOrbit
-    except (ImportError, AttributeError):  # pragma: no cover - orbit package incomplete
-        raise _fail("orbit", "the orbit package (orbit.KeplerOrbit) is not available") from None
+        from orbit import KeplerOrbit
+    except ImportError:  # not re-exported yet
+        from orbit.keplerorbit import KeplerOrbit
     try:
         return KeplerOrbit(
             a * u.km,

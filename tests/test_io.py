@@ -1,0 +1,169 @@
+"""attitude.io: netCDF4 round trip, CF attrs read with netCDF4 directly, streaming, atomicity."""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import netCDF4
+import numpy as np
+import pytest
+import xarray as xr
+from astropy import units as u
+
+from attitude import io
+from attitude.errors import PropagationError
+from attitude.potentials import HeavyTop
+from attitude.propagate import propagate
+
+I_PAPER = [1.25, 1.0, 0.75]
+Q0_PAPER = np.array([0.5, -1 / np.sqrt(2), 0.0, 0.5])
+P0_PAPER = np.array([0.3, -0.848528, 0.141421, -1.5])
+
+
+@pytest.fixture(scope="module")
+def heavy():
+    with pytest.warns(UserWarning, match="projected"):
+        return propagate(
+            I_PAPER, Q0_PAPER, P0_PAPER, np.linspace(0.0, 5.0, 501), HeavyTop(0.5, [1, 0, 0])
+        )
+
+
+def _bits(a):
+    a = np.ascontiguousarray(a)
+    return a.dtype, a.shape, a.tobytes()
+
+
+def test_round_trip_bit_exact(heavy, tmp_path):
+    ds = heavy.copy()
+    ds.attrs.update(note="é ∘ unicode", some_int=np.int64(-7), some_list=[1.5, 2.5, -0.0])
+    path = io.write(ds, tmp_path / "r.nc")
+    back = io.read(path)
+    xr.testing.assert_identical(ds.drop_attrs(deep=False), back.drop_attrs(deep=False))
+    for name in ds.variables:
+        assert _bits(ds[name].values) == _bits(back[name].values), name
+        assert ds[name].attrs == back[name].attrs, name
+    assert set(ds.attrs) == set(back.attrs)
+    for k, v in ds.attrs.items():
+        w = back.attrs[k]
+        assert np.asarray(v).tolist() == np.asarray(w).tolist(), k
+        if isinstance(v, (float, np.floating, int, np.integer)):
+            assert np.asarray(v).dtype.kind == np.asarray(w).dtype.kind, k
+    # -0.0 keeps its sign bit inside the attr array
+    assert np.signbit(back.attrs["some_list"][2])
+
+
+def test_file_read_with_netcdf4_directly(heavy, tmp_path):
+    path = io.write(heavy, tmp_path / "h.nc")
+    with netCDF4.Dataset(path) as nc:
+        assert nc.data_model == "NETCDF4"
+        assert nc.getncattr("Conventions") == "CF-1.10"
+        for key in ("title", "history", "source", "method", "potential", "package_version"):
+            assert isinstance(nc.getncattr(key), str) and nc.getncattr(key)
+        np.testing.assert_array_equal(nc.getncattr("inertia"), I_PAPER)
+        assert nc.getncattr("rtol") == 1e-10
+        assert nc.dimensions["time"].isunlimited() and len(nc.dimensions["time"]) == 501
+        for name in ("q", "Q", "omega", "g", "G", "energy", "potential_energy", "norm_error"):
+            v = nc.variables[name]
+            assert v.dimensions[0] == "time"
+            u.Unit(v.getncattr("units"))  # astropy parses every unit string
+            assert v.getncattr("long_name")
+            assert v.filters()["zlib"] and v.filters()["shuffle"]
+        # the data are the values of the Dataset, bit for bit
+        assert _bits(nc.variables["q"][:].data) == _bits(heavy.q.values)
+        assert list(nc.variables["component"][:]) == ["w", "x", "y", "z"]
+
+
+def test_streaming_equals_in_memory(heavy, tmp_path):
+    path = tmp_path / "s.nc"
+    chunks = []
+    with io.StreamWriter(path) as w:
+
+        def sink(c):
+            chunks.append(c.sizes["time"])
+            w.append(c)
+
+        with pytest.warns(UserWarning, match="projected"):
+            last = propagate(
+                I_PAPER,
+                Q0_PAPER,
+                P0_PAPER,
+                np.linspace(0.0, 5.0, 501),
+                HeavyTop(0.5, [1, 0, 0]),
+                on_chunk=sink,
+                chunk=37,
+            )
+        w.attrs = dict(last.attrs)
+    assert chunks == [37] * 13 + [501 - 13 * 37]
+    assert last.sizes["time"] == 1 and last.time.values[0] == 5.0
+    back = io.read(path)
+    for name in heavy.data_vars:  # dense output does not depend on where chunks end
+        assert _bits(back[name].values) == _bits(heavy[name].values), name
+    assert back.attrs["n_steps"] == heavy.attrs["n_steps"]
+
+
+def test_streaming_memory_is_bounded(tmp_path):
+    # 200 000 samples: in memory the states and diagnostics alone take 200e3*(8+13)*8 B = 34 MB.
+    n = 200_000
+    t = np.linspace(0.0, 2000.0, n)
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    Q0 = np.array([0.0, 0.3, 0.2, 0.1])
+    propagate(I_PAPER, q0, Q0, t[:10], rtol=1e-8)  # compile outside the measurement
+    tracemalloc.start()
+    try:
+        with io.StreamWriter(tmp_path / "big.nc") as w:
+            propagate(I_PAPER, q0, Q0, t, rtol=1e-8, on_chunk=w.append, chunk=2048)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 6e6, f"peak {peak / 1e6:.1f} MB"
+    with netCDF4.Dataset(tmp_path / "big.nc") as nc:
+        assert len(nc.dimensions["time"]) == n
+        assert nc.variables["time"][-1] == 2000.0
+
+
+def test_failed_write_leaves_nothing(heavy, tmp_path):
+    path = tmp_path / "x.nc"
+    path.write_bytes(b"previous")
+    with pytest.raises(RuntimeError), io.StreamWriter(path) as w:
+        w.append(heavy.isel(time=slice(0, 100)))
+        raise RuntimeError("crash midway")
+    assert path.read_bytes() == b"previous"  # the old file is untouched
+    assert list(tmp_path.iterdir()) == [path]  # and no temporary file is left
+
+
+def test_failed_propagation_keeps_what_it_computed(tmp_path):
+    from attitude import scenario
+
+    sc = scenario.loads(
+        """
+        [body]
+        inertia = [1.25, 1.0, 0.75]
+        [initial_state]
+        form = "body_rates"
+        q = [1.0, 0.0, 0.0, 0.0]
+        omega = [0.3, 2.0, 0.1]
+        [time]
+        stop = 50.0
+        step = 0.01
+        [integrator]
+        rtol = 1e-12
+        max_steps = 200
+        """
+    )
+    with pytest.raises(PropagationError, match="stopped"):
+        sc.run_to_file(tmp_path / "f.nc", chunk=64)
+    back = io.read(tmp_path / "f.nc")
+    n = back.sizes["time"]
+    assert 0 < n < 5001
+    assert back.attrs["run_status"].startswith("failed:")
+    assert back.attrs["n_samples"] == n
+    full = scenario.loads(sc.source.replace("max_steps = 200", "")).run()
+    np.testing.assert_allclose(back.q.values, full.q.values[:n], rtol=0, atol=1e-9)
+
+
+def test_read_errors(tmp_path):
+    with pytest.raises(ValueError, match="no such file"):
+        io.read(tmp_path / "missing.nc")
+    (tmp_path / "junk.nc").write_text("not netcdf")
+    with pytest.raises(ValueError, match="not a netCDF4 file"):
+        io.read(tmp_path / "junk.nc")
