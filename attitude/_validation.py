@@ -78,8 +78,7 @@ def as_quaternion(x: Any, name: str = "q", *, nonzero: bool = True) -> np.ndarra
     """Convert to a finite ``(..., 4)`` float array; reject zero quaternions if ``nonzero``."""
     arr = as_float_array(x, name, trailing=4)
     if nonzero:
-        n = np.sqrt(np.sum(arr * arr, axis=-1))
-        if np.any(n == 0.0):
+        if np.any(np.all(arr == 0.0, axis=-1)):
             raise AttitudeValueError(f"{name}: the zero quaternion does not represent a rotation")
     return arr
 

@@ -9,9 +9,10 @@ module lives here.
 * The on-disk cache is keyed on a fingerprint of *all* the Python sources of both packages,
   not only of the function's own file (numba's default): the cached integrators inline kernels
   from several modules, and a change to any of them must invalidate the cached machine code.
+* ``ATTITUDE_CACHE_DIR=/path`` moves the cache out of the source tree.
 * Setting the environment variable ``ATTITUDE_DISABLE_JIT=1`` (or numba's own
   ``NUMBA_DISABLE_JIT=1``) before import turns every kernel into plain Python: slow, but with
-  readable tracebacks, and the test-suite runs in that mode too.
+  readable tracebacks (tests/test_propagate.py checks a propagation in that mode).
 """
 
 from __future__ import annotations
@@ -47,6 +48,9 @@ def _sources_fingerprint() -> bytes:
 def _install_cache_locators() -> None:
     from numba.core import caching
 
+    def cls(name):  # numba < 0.61 spells these with a leading underscore
+        return getattr(caching, name, None) or getattr(caching, "_" + name)
+
     fingerprint: list[bytes] = []
 
     def stamp() -> bytes:
@@ -57,7 +61,7 @@ def _install_cache_locators() -> None:
     def ours(py_file: str) -> bool:
         return os.path.abspath(py_file).startswith(_PACKAGE_DIRS)
 
-    class _InTree(caching._InTreeCacheLocator):
+    class _InTree(cls("InTreeCacheLocator")):
         def get_source_stamp(self):
             return stamp()
 
@@ -65,7 +69,7 @@ def _install_cache_locators() -> None:
         def from_function(cls, py_func, py_file):
             return super().from_function(py_func, py_file) if ours(py_file) else None
 
-    class _UserWide(caching._UserWideCacheLocator):
+    class _UserWide(cls("UserWideCacheLocator")):
         def get_source_stamp(self):
             return stamp()
 
@@ -73,16 +77,38 @@ def _install_cache_locators() -> None:
         def from_function(cls, py_func, py_file):
             return super().from_function(py_func, py_file) if ours(py_file) else None
 
-    classes = caching._CacheImpl._locator_classes
+    class _EnvDir(cls("UserProvidedCacheLocator")):
+        # ATTITUDE_CACHE_DIR=/some/dir puts the cache there (benchmarks use it for cold starts).
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            root = os.path.abspath(os.environ["ATTITUDE_CACHE_DIR"])
+            self._cache_path = os.path.join(root, self.get_suitable_cache_subpath(py_file))
+
+        def get_source_stamp(self):
+            return stamp()
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if not os.environ.get("ATTITUDE_CACHE_DIR") or not ours(py_file):
+                return None
+            return cls(py_func, py_file)
+
+    classes = cls("CacheImpl")._locator_classes
     if not any(getattr(c, "__module__", "") == __name__ for c in classes):
-        classes[0:0] = [_InTree, _UserWide]
+        classes[0:0] = [_EnvDir, _InTree, _UserWide]
 
 
 if not JIT_DISABLED:
     try:
         _install_cache_locators()
-    except (ImportError, AttributeError):  # pragma: no cover - numba internals moved
-        pass
+    except (ImportError, AttributeError) as exc:  # pragma: no cover - numba internals moved
+        import warnings
+
+        warnings.warn(
+            f"attitude: could not install the source-fingerprint numba cache locator ({exc}); "
+            "falling back to numba's per-file cache: clear __pycache__ after editing kernels",
+            stacklevel=1,
+        )
 
 
 def jit(func=None, /, **options):
