@@ -1,0 +1,277 @@
+"""attitude.scenario: the shipped TOML files, the initial-state forms, units and validation."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from attitude import potentials as P
+from attitude import scenario
+from attitude.scenario import ScenarioError
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.toml"))
+Q_PRINTED = [0.5, -math.sqrt(0.5), 0.0, 0.5]  # correctly rounded -1/sqrt(2)
+P_PRINTED = [0.3, -0.848528, 0.141421, -1.5]
+
+
+def hamilton(a, b):
+    a0, av, b0, bv = a[0], np.asarray(a[1:]), b[0], np.asarray(b[1:])
+    return np.concatenate([[a0 * b0 - av @ bv], a0 * bv + b0 * av + np.cross(av, bv)])
+
+
+def test_all_shipped_scenarios_load():
+    names = {p.stem for p in SCENARIOS}
+    assert {"paper_torque_free", "paper_heavy_top", "paper_keplerian"} <= names
+    assert len(names) >= 5
+    for p in SCENARIOS:
+        sc = scenario.load(p)
+        assert sc.name == p.stem and sc.title
+        assert sc.output == Path(f"{p.stem}.nc")
+        assert len(sc.t) >= 100
+
+
+def test_paper_cases_are_the_printed_ones():
+    tf = scenario.load(ROOT / "scenarios/paper_torque_free.toml")
+    ht = scenario.load(ROOT / "scenarios/paper_heavy_top.toml")
+    kp = scenario.load(ROOT / "scenarios/paper_keplerian.toml")
+    for sc in (tf, ht, kp):
+        np.testing.assert_array_equal(sc.q0, Q_PRINTED)
+        np.testing.assert_array_equal(sc.Q0, P_PRINTED)
+    np.testing.assert_array_equal(tf.body.inertia, [1.25, 1.0, 0.75])
+    assert tf.body.is_dimensionless and isinstance(tf.potential, P.TorqueFree)
+    assert isinstance(ht.potential, P.HeavyTop)
+    assert ht.potential.weight == 0.5
+    np.testing.assert_array_equal(ht.potential.center_of_mass, [1, 0, 0])
+    np.testing.assert_array_equal(kp.body.inertia, [400.0, 500.0, 600.0])  # kg km²
+    orb = kp.potential.orbit
+    assert orb.a == 7000.0 and orb.e == 0.2
+    assert orb.inc == pytest.approx(math.pi / 6, rel=1e-15)
+    assert orb.raan == pytest.approx(math.pi / 4, rel=1e-15)
+    assert orb.argp == pytest.approx(math.pi / 12, rel=1e-15)
+    assert float(orb.true_anomaly(0.0)) == pytest.approx(0.0, abs=1e-15)
+
+
+def test_paper_euler_form_is_not_the_printed_state():
+    # Eq. 12 at (π/4, 3π/2, π/4) gives −q_printed, eq. 14 gives Q_printed: a different state.
+    sc = scenario.loads(
+        """
+        [body]
+        inertia = [1.25, 1.0, 0.75]
+        [initial_state]
+        form = "euler_canonical"
+        angles = [45.0, 270.0, 45.0]
+        angles_unit = "deg"
+        momenta = [0.5, 0.6, 0.4]
+        [time]
+        stop = 1.0
+        count = 11
+        """
+    )
+    np.testing.assert_allclose(sc.q0, -np.array(Q_PRINTED), atol=1e-15)
+    np.testing.assert_allclose(sc.Q0, P_PRINTED, atol=1e-6)
+    # body angular momentum g = ½ vec(q̃∘Q) flips sign between the two
+    conj = np.array([1, -1, -1, -1])
+    g_euler = 0.5 * hamilton(sc.q0 * conj, sc.Q0)[1:]
+    g_print = 0.5 * hamilton(np.array(Q_PRINTED) * conj, P_PRINTED)[1:]
+    np.testing.assert_allclose(g_euler, -g_print, atol=1e-6)
+
+
+BODY_UNITS = """
+[body]
+inertia = [1500.0, 28000.0, 28400.0]
+inertia_unit = "kg m2"
+[time]
+stop = 10.0
+step = 1.0
+unit = "s"
+"""
+
+
+def test_body_rates_and_units():
+    a = scenario.loads(
+        BODY_UNITS
+        + """
+        [initial_state]
+        form = "body_rates"
+        q = [0.5, 0.5, 0.5, 0.5]
+        omega = [0.5, 2.0, 1.0]
+        omega_unit = "deg/s"
+        """
+    )
+    np.testing.assert_allclose(a.body.inertia, np.array([1500.0, 28000.0, 28400.0]) * 1e-6)
+    w = np.radians([0.5, 2.0, 1.0])
+    g = a.body.inertia * w
+    np.testing.assert_allclose(a.Q0, 2 * hamilton([0.5, 0.5, 0.5, 0.5], [0.0, *g]), rtol=1e-15)
+    b = scenario.loads(
+        BODY_UNITS.replace('"kg m2"', '"kg km2"').replace(
+            "[1500.0, 28000.0, 28400.0]", "[1.5e-3, 2.8e-2, 2.84e-2]"
+        )
+        + """
+        [initial_state]
+        form = "body_rates"
+        q = [0.5, 0.5, 0.5, 0.5]
+        omega = [0.5, 2.0, 1.0]
+        omega_unit = "deg / s"
+        """
+    )
+    np.testing.assert_allclose(b.Q0, a.Q0, rtol=1e-14)
+    assert b.t[-1] == 10.0 and len(b.t) == 11
+
+
+@pytest.mark.parametrize("seq,scipy_seq", [("321", "ZYX"), ("313", "ZXZ"), ("231", "YZX")])
+def test_euler_body_rates_any_sequence(seq, scipy_seq):
+    sc = scenario.loads(
+        BODY_UNITS
+        + f"""
+        [initial_state]
+        form = "euler_body_rates"
+        seq = "{seq}"
+        angles = [30.0, -20.0, 45.0]
+        angles_unit = "deg"
+        omega = [0.01, 0.0, 0.0]
+        omega_unit = "rad/s"
+        """
+    )
+    ref = Rotation.from_euler(scipy_seq, [30.0, -20.0, 45.0], degrees=True).as_quat()
+    ref = np.roll(ref, 1)
+    assert min(np.max(abs(sc.q0 - ref)), np.max(abs(sc.q0 + ref))) < 1e-15
+
+
+def test_time_units_minutes():
+    sc = scenario.loads(
+        BODY_UNITS.replace('unit = "s"', 'unit = "min"')
+        + """
+        [initial_state]
+        form = "body_rates"
+        q = [1.0, 0.0, 0.0, 0.0]
+        omega = [0.0, 0.0, 0.0]
+        omega_unit = "rad/s"
+        """
+    )
+    assert sc.t[-1] == 600.0 and sc.time_scale == 60.0
+
+
+GOOD = """
+[body]
+inertia = [1.25, 1.0, 0.75]
+[initial_state]
+form = "canonical"
+q = [1.0, 0.0, 0.0, 0.0]
+Q = [0.0, 0.2, 0.1, 0.3]
+[time]
+stop = 1.0
+step = 0.1
+"""
+
+
+@pytest.mark.parametrize(
+    "edit,key,what",
+    [
+        (("inertia =", "inertai ="), "body.inertai", "did you mean 'inertia'"),
+        (("[time]", "[time]\nfoo = 1"), "time.foo", "unknown key"),
+        (("[time]", "[timing]"), "timing", "unknown table"),
+        (("stop = 1.0", 'stop = "1.0"'), "time.stop", "expected a number"),
+        (("Q = [0.0, 0.2, 0.1, 0.3]", "Q = [0.0, 0.2]"), "initial_state.Q", "4 finite numbers"),
+        (('form = "canonical"', 'form = "quaternions"'), "initial_state.form", "one of"),
+        (("q = [1.0, 0.0, 0.0, 0.0]", "q = [1.0, 0.1, 0.0, 0.0]"), "initial_state.q", "unit q"),
+        (("step = 0.1", "step = 0.3"), "time.step", "whole steps"),
+        (("[time]", '[time]\nunit = "s"'), "time.unit", "dimensionless"),
+        (
+            ("Q = [0.0, 0.2, 0.1, 0.3]", 'Q = [0.0, 0.2, 0.1, 0.3]\nQ_unit = "kg m2 s-1"'),
+            "initial_state.Q_unit",
+            "dimensionless",
+        ),
+        (("[body]", '[integrator]\nmethod = "rk99"\n[body]'), "integrator.method", "unknown"),
+        (("[body]", "[integrator]\nrtol = -1.0\n[body]"), "integrator.rtol", "positive"),
+        (("[body]", '[potential]\nkind = "heavy_top"\n[body]'), "potential.weight", "missing"),
+    ],
+)
+def test_errors_name_the_key(edit, key, what):
+    text = GOOD.replace(*edit)
+    assert text != GOOD
+    with pytest.raises(ScenarioError) as err:
+        scenario.loads(text)
+    msg = str(err.value)
+    assert msg.startswith(key + ":"), msg
+    assert what in msg, msg
+
+
+ORBIT_NO_A_UNIT = """[orbit]
+a = 7000.0
+e = 0.1
+inc = 10.0
+inc_unit = "deg"
+raan = 0.0
+raan_unit = "deg"
+argp = 0.0
+argp_unit = "deg"
+"""
+
+DIM = """
+[body]
+inertia = [400.0, 500.0, 600.0]
+inertia_unit = "kg km2"
+[initial_state]
+form = "body_rates"
+q = [1.0, 0.0, 0.0, 0.0]
+omega = [0.0, 0.01, 0.0]
+omega_unit = "rad/s"
+[time]
+stop = 10.0
+step = 1.0
+unit = "s"
+"""
+
+
+@pytest.mark.parametrize(
+    "edit,key,what",
+    [
+        (('omega_unit = "rad/s"\n', ""), "initial_state.omega", "needs a unit"),
+        (('omega_unit = "rad/s"', 'omega_unit = "km"'), "initial_state.omega_unit", "not a rate"),
+        (
+            ('omega_unit = "rad/s"', 'omega_unit = "furlongs"'),
+            "initial_state.omega_unit",
+            "not a unit astropy",
+        ),
+        (('unit = "s"\n', ""), "time.unit", "missing"),
+        (('inertia_unit = "kg km2"', 'inertia_unit = "kg m"'), "body.inertia_unit", "inertia"),
+        (("[time]", '[potential]\nkind = "gravity_gradient"\n[time]'), "orbit", "needs [orbit]"),
+        (
+            ("[time]", ORBIT_NO_A_UNIT + "[time]"),
+            "orbit.a",
+            "needs a unit",
+        ),
+    ],
+)
+def test_unit_errors_name_the_key(edit, key, what):
+    text = DIM.replace(*edit)
+    assert text != DIM
+    with pytest.raises(ScenarioError) as err:
+        scenario.loads(text)
+    msg = str(err.value)
+    assert msg.startswith(key), msg
+    assert what in msg, msg
+
+
+def test_invalid_toml_and_missing_file(tmp_path):
+    with pytest.raises(ScenarioError, match="invalid TOML"):
+        scenario.loads("[body\ninertia = 1")
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        scenario.load(tmp_path / "nope.toml")
+
+
+def test_run_attrs():
+    sc = scenario.loads(
+        GOOD.replace("[body]", '[scenario]\nepoch = "2024-01-01T00:00:00Z"\n[body]')
+    )
+    ds = sc.run()
+    assert ds.attrs["epoch"] == "2024-01-01T00:00:00.000000Z"
+    assert ds.attrs["run_status"] == "complete"
+    assert ds.attrs["scenario_toml"] == sc.source
+    assert "scenario" in ds.attrs["history"]
+    assert ds.sizes["time"] == 11
