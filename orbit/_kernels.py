@@ -482,32 +482,72 @@ def radius_and_radial_unit(el, t):
 
 
 @jit
+def _perifocal(el, t):
+    """(r, x, y, vx, vy): position [km] and velocity [km/s] in the perifocal frame (x towards
+    periapsis, y along the semi-latus rectum), all from half-angle products without
+    cancellation (velocity accurate at apoapsis as e -> 1, position at periapsis).
+
+    Elliptic:   r (cos f, sin f) = a (cos E − e, sqrt(1 − e²) sin E),
+                v = sqrt(μ a)/r (−sin E, sqrt(1 − e²) cos E);
+    hyperbolic: r (cos f, sin f) = |a| (e − cosh H, sqrt(e² − 1) sinh H),
+                v = sqrt(μ |a|)/r (−sinh H, sqrt(e² − 1) cosh H).
+    """
+    e = el[ECC]
+    aa = abs(el[A])
+    M = mean_anomaly(el, t)
+    if e < 1.0:
+        Er, _, _ = _kepler_E_reduced(M, e)
+        ch = math.cos(0.5 * Er)
+        sh = math.sin(0.5 * Er)
+        c = math.sqrt(1.0 - e) * ch
+        s = math.sqrt(1.0 + e) * sh
+        r = aa * (c * c + s * s)
+        kv = math.sqrt(el[MU] * aa) / r
+        return (
+            r,
+            aa * (c - s) * (c + s),
+            2.0 * aa * c * s,
+            -kv * 2.0 * sh * ch,
+            kv * math.sqrt((1.0 - e) * (1.0 + e)) * (ch - sh) * (ch + sh),
+        )
+    H = kepler_H(M, e)
+    ch = math.cosh(0.5 * H)
+    sh = math.sinh(0.5 * H)
+    c = math.sqrt(e - 1.0) * ch
+    s = math.sqrt(e + 1.0) * sh
+    r = aa * (c * c + s * s)
+    kv = math.sqrt(el[MU] * aa) / r
+    return (
+        r,
+        aa * (c - s) * (c + s),
+        2.0 * aa * c * s,
+        -kv * 2.0 * sh * ch,
+        kv * math.sqrt((e - 1.0) * (e + 1.0)) * (ch * ch + sh * sh),
+    )
+
+
+@jit
 def state(el, t):
     """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
-    e = el[ECC]
-    r, cf, sf = _radius_cos_sin_f(el, t)
+    _, xp, yp, vxp, vyp = _perifocal(el, t)
     cw = math.cos(el[ARGP])
     sw = math.sin(el[ARGP])
-    cu = cw * cf - sw * sf
-    su = sw * cf + cw * sf
     cO = math.cos(el[RAAN])
     sO = math.sin(el[RAAN])
     ci = math.cos(el[INC])
     si = math.sin(el[INC])
-    nx, ny = cO, sO  # N̂ (node line)
-    mx, my, mz = -sO * ci, cO * ci, si  # M̂ = ĥ × N̂
-    # Semi-latus rectum p = |a| |1 − e²|; v = sqrt(μ/p) [−(sin u + e sin ω) N̂ + (cos u + e cos ω) M̂]
-    p = abs(el[A] * ((1.0 - e) * (1.0 + e)))
-    vs = math.sqrt(el[MU] / p)
-    a1 = -vs * (su + e * sw)
-    a2 = vs * (cu + e * cw)
+    # N̂ = (cos Ω, sin Ω, 0) (node line), M̂ = ĥ × N̂ = (−sin Ω cos i, cos Ω cos i, sin i);
+    # periapsis P̂ = cos ω N̂ + sin ω M̂, Q̂ = −sin ω N̂ + cos ω M̂.
+    mx, my, mz = -sO * ci, cO * ci, si
+    px, py, pz = cw * cO + sw * mx, cw * sO + sw * my, sw * mz
+    qx, qy, qz = -sw * cO + cw * mx, -sw * sO + cw * my, cw * mz
     return (
-        r * (cu * nx + su * mx),
-        r * (cu * ny + su * my),
-        r * su * mz,
-        a1 * nx + a2 * mx,
-        a1 * ny + a2 * my,
-        a2 * mz,
+        xp * px + yp * qx,
+        xp * py + yp * qy,
+        xp * pz + yp * qz,
+        vxp * px + vyp * qx,
+        vxp * py + vyp * qy,
+        vxp * pz + vyp * qz,
     )
 
 
