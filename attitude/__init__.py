@@ -4,12 +4,23 @@ Arribas, Elipe & Palacios (2006) write rigid-body rotation as a canonical Hamilt
 two quaternions, the Euler parameters ``q`` and their conjugate momenta ``Q``. This package
 propagates that system (and the classical formulations beside it) with compiled integrators,
 driven by potentials such as the gravity gradient of a Keplerian orbit (package ``orbit``).
+
+>>> import numpy as np, attitude
+>>> body = attitude.RigidBody([1.25, 1.0, 0.75])
+>>> q0 = attitude.quaternion.from_euler([0.3, 1.0, 0.2], "313")
+>>> Q0 = attitude.canonical.momenta_from_angular_velocity(q0, [0.1, 0.7, 0.3], body)
+>>> ds = attitude.propagate(body, q0, Q0, np.linspace(0, 100, 1001))
+
+Conventions (docs/conventions.md): quaternions are ``(..., 4)`` float arrays, scalar first,
+Hamilton product; ``q`` maps body components to space components, x_S = q∘x_B∘q̃.
 """
 
 from __future__ import annotations
 
-from . import errors, quaternion
+from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
+from . import canonical, errors, potentials, quaternion
 from ._version import __version__
+from .body import RigidBody
 from .errors import (
     AttitudeError,
     AttitudeTypeError,
@@ -17,14 +28,35 @@ from .errors import (
     PropagationError,
     SingularityError,
 )
+from .potentials import (
+    CustomPotential,
+    CustomTorque,
+    GravityGradient,
+    HeavyTop,
+    Potential,
+    TorqueFree,
+)
+from .propagate import propagate
+
+del _accessor
 
 __all__ = [
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
+    "CustomPotential",
+    "CustomTorque",
+    "GravityGradient",
+    "HeavyTop",
+    "Potential",
     "PropagationError",
+    "RigidBody",
     "SingularityError",
+    "TorqueFree",
     "__version__",
+    "canonical",
     "errors",
+    "potentials",
+    "propagate",
     "quaternion",
 ]

@@ -1,11 +1,49 @@
 """orbit: Keplerian two-body motion for driving attitude potentials.
 
 Our own Kepler solver (no poliastro/hapsira): anomalies, r(t), f(t), and the orbital-frame
-quaternion p(t) of Arribas, Elipe & Palacios (2006), Sect. 6.2.
+quaternion p(t) of Arribas, Elipe & Palacios (2006), Sect. 6.2. Plain floats are km, s, rad and
+km³/s²; astropy Quantities of any compatible unit are converted once, at the boundary.
+
+>>> import numpy as np, orbit
+>>> o = orbit.KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12)
+>>> r, f, p = o.radius(600.0), o.true_anomaly(600.0), o.frame_quaternion(600.0)
 """
 
 from __future__ import annotations
 
 from .errors import OrbitError, OrbitTypeError, OrbitValueError
+from .kepler import (
+    eccentric_from_true,
+    hyperbolic_from_true,
+    mean_from_eccentric,
+    mean_from_hyperbolic,
+    mean_from_true,
+    mean_from_true_hyperbolic,
+    solve_kepler,
+    solve_kepler_hyperbolic,
+    true_from_eccentric,
+    true_from_hyperbolic,
+    true_from_mean,
+    true_from_mean_hyperbolic,
+)
+from .keplerorbit import KeplerOrbit, earth_mu
 
-__all__ = ["OrbitError", "OrbitTypeError", "OrbitValueError"]
+__all__ = [
+    "KeplerOrbit",
+    "OrbitError",
+    "OrbitTypeError",
+    "OrbitValueError",
+    "earth_mu",
+    "eccentric_from_true",
+    "hyperbolic_from_true",
+    "mean_from_eccentric",
+    "mean_from_hyperbolic",
+    "mean_from_true",
+    "mean_from_true_hyperbolic",
+    "solve_kepler",
+    "solve_kepler_hyperbolic",
+    "true_from_eccentric",
+    "true_from_hyperbolic",
+    "true_from_mean",
+    "true_from_mean_hyperbolic",
+]
