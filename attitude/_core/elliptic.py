@@ -359,7 +359,8 @@ def ellipj_reduced(u, m, m1, K):
 
     m ∈ [0, 1), m1 = 1 − m > 0 computed without cancellation, K = K(m).
     """
-    j = math.floor(u / (2.0 * K) + 0.5)
+    x = u / (2.0 * K) + 0.5
+    j = float(math.floor(x)) if abs(x) < 4.0e15 else x  # (beyond 2^52 x is integral)
     r = u - (2.0 * K) * j
     v = abs(r)
     if v <= 0.5 * K:
