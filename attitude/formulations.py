@@ -401,6 +401,13 @@ class EulerAngles(Formulation):
             )
         return status, _rk.STATUS_MESSAGES.get(status, "failure")
 
+    def _run_scipy(self, problem, params, y0, **options):
+        # scipy only looks for events at accepted steps: let the right-hand side go NaN (and
+        # reject trial stages) only below half the threshold, so that a step can end past
+        # the threshold and the terminal event below locates the crossing.
+        params[_kf.X_TOL] = 0.5 * self.singular_tol
+        return super()._run_scipy(problem, params, y0, **options)
+
     def _scipy_event(self, params: np.ndarray):
         tol = self.singular_tol
 

@@ -4,7 +4,9 @@ Each right-hand side is written once with the body torque as a function argument
 ``torque(q, t, params)`` (so user potentials run through the same code) and wrapped at module
 level with the built-in torque :func:`~attitude._core.potentials.builtin_torque`, which makes
 the wrapper and the DOP853 loop that calls it cacheable on disk (the pattern of
-:func:`attitude._core.dynamics.dop853_canonical_builtin`).
+:func:`attitude._core.dynamics.dop853_canonical_builtin`). The ``*_with`` functions are
+inlined at the numba-IR level (``inline="always"``) so that the torque dispatcher never
+becomes a run-time constant (which would make the wrapper uncacheable).
 
 Parameter vector
 ----------------
@@ -122,7 +124,7 @@ def euler_angles_quaternion(y):
     return (ch * math.cos(sp), sh * math.cos(dp), sh * math.sin(dp), ch * math.sin(sp))
 
 
-@jit
+@jit(inline="always")
 def euler_angles_rhs_with(torque, t, y, params, dydt):
     """Hamilton's equations of eq. 10 with the potential entering through ``torque``.
 
@@ -232,7 +234,7 @@ def schwab_accelerations(q, qd, tau, inertia1, inertia2, inertia3):
     return (r[0] / nq, r[1] / nq, r[2] / nq, r[3] / nq), lam
 
 
-@jit
+@jit(inline="always")
 def schwab_rhs_with(torque, t, y, params, dydt):
     """First-order form of eq. 23 in (q, q̇); the torque is evaluated at the attitude q/|q|."""
     q = y[0:4]
@@ -279,7 +281,7 @@ def dop853_schwab_builtin(
 # --------------------------------------------------------------------------------------------
 
 
-@jit
+@jit(inline="always")
 def euler_equations_rhs_with(torque, t, y, params, dydt):
     """q̇ = ½ q∘(0, ω) (Schwab eq. 16), I ω̇ = τ − ω × Iω (Schwab eq. 19).
 
