@@ -21,7 +21,7 @@ code (scalars or arrays); inside compiled right-hand sides prefer the scalar ker
 Accuracy of :func:`solve_kepler` (tests/test_kepler.py, 50-digit mpmath reference): for every
 M with |M| <= π and 0 <= e <= 1 − 1e-9, |E − E_exact| <= 1.3 ulp(E) (< 4e-16 rad) and the
 residual |E − e sin E − M|, evaluated exactly for the returned float, is at most 0.8 of
-4e-16·max(1, |M|). The method: Markley (1995) starter, one fifth-order correction with a
+4e-16·max(1, |M|). The method: Markley (1995) starter, one sixth-order correction with a
 cancellation-free residual; see :mod:`orbit._kernels`.
 """
 
@@ -195,7 +195,7 @@ def solve_kepler(M: Any, e: Any) -> Any:
 
     Notes
     -----
-    Markley (1995) cubic starter and one fifth-order correction, with the residual
+    Markley (1995) cubic starter and one sixth-order correction, with the residual
     E − e sin E − M evaluated without cancellation ((1 − e) E + e (E − sin E) by series near
     E = 0; error-free sum and product elsewhere). Error at most ~1.3 ulp(E) for |M| <= π,
     including e -> 1 with M -> 0.
