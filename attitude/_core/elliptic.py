@@ -103,6 +103,11 @@ def elliprc(x, y):
         return math.sqrt(x / (x - y)) * elliprc(x - y, -y)
     if x == y:
         return 1.0 / math.sqrt(x)
+    e = (y - x) / x if x > 0.0 else 1.0
+    if abs(e) < 1e-3:
+        # RC = x^-1/2 Σ (-e)^k / (2k + 1) (atan(√e)/√e, atanh(√-e)/√-e); truncation < e^6/13
+        ser = 1.0 - e * (1.0 / 3.0 - e * (0.2 - e * (1.0 / 7.0 - e * (1.0 / 9.0 - e / 11.0))))
+        return ser / math.sqrt(x)
     if x < y:
         d = y - x
         sd = math.sqrt(d)

@@ -30,7 +30,7 @@ from collections import namedtuple
 
 from orbit._jit import jit
 
-from .elliptic import ellipf_sc, ellipj_reduced, ellipkm1, ellippi_complete, ellippi_sc
+from .elliptic import ellipj_reduced, ellipkm1, ellippi_complete, ellippi_sc, elliprf_rj
 from .quat import mul
 
 __all__ = [
@@ -369,9 +369,13 @@ def prepare(I1, I2, I3, q, Q, with_pic):
             j0 = 1.0 if sn0 >= 0.0 else -1.0
             sr = -sn0
             cr = -cn0
-        r0 = ellipf_sc(sr, cr, dn0)  # DLMF 19.25.5: u = F(am u | m)
+        # u = F(am u | m) = s RF(c², d², 1) (DLMF 19.25.5) and Π(n; am u | m) (DLMF 19.25.14)
+        # share their RF
+        ss = sr * sr
+        rf, rj = elliprf_rj(cr * cr, dn0 * dn0, 1.0, 1.0 - n * ss)
+        r0 = sr * rf
         u0 = 2.0 * K * j0 + r0
-        Pr0 = ellippi_sc(n, sr, cr, dn0)
+        Pr0 = r0 + (n / 3.0) * sr * ss * rj
         if polec:
             W0 = math.atan2(V * sr, Wd * cr)
         else:
