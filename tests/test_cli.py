@@ -1,0 +1,367 @@
+"""The ``attitude`` command, run as a subprocess; files checked with netCDF4 directly."""
+
+from __future__ import annotations
+
+import itertools
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+from astropy import units as u
+from astropy.time import Time, TimeDelta
+
+from attitude import __version__
+from attitude.cli import Progress, main
+
+ROOT = Path(__file__).resolve().parents[1]
+SCEN = ROOT / "scenarios"
+ENV = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
+# The subprocesses run the kernels as plain Python (short spans: a few seconds, no compilation
+# in every fresh process); the compiled path of the same commands is exercised in-process
+# below through attitude.cli.main. ATTITUDE_TEST_CLI_JIT=1 compiles in the subprocesses too.
+if os.environ.get("ATTITUDE_TEST_CLI_JIT", "0") in ("", "0"):
+    ENV["ATTITUDE_DISABLE_JIT"] = "1"
+
+# Short spans (in each scenario's time unit) that keep the subprocess runs quick.
+SHORT = {
+    "paper_torque_free": 2.0,
+    "paper_heavy_top": 2.0,
+    "paper_keplerian": 300.0,
+    "gg_stabilised_leo": 10.0,
+    "tumbling_upper_stage": 300.0,
+}
+
+
+def cli(*args, cwd, check=None, timeout=300):
+    r = subprocess.run(
+        [sys.executable, "-m", "attitude", *map(str, args)],
+        cwd=cwd,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    if check is not None:
+        assert r.returncode == check, r.stderr + r.stdout
+    return r
+
+
+def test_every_shipped_scenario_is_listed():
+    assert {p.stem for p in SCEN.glob("*.toml")} == set(SHORT)
+
+
+@pytest.mark.parametrize("name", sorted(SHORT))
+def test_run_shipped_scenario(name, tmp_path):
+    out = tmp_path / f"{name}.nc"
+    r = cli("run", SCEN / f"{name}.toml", "-o", out, "--stop", SHORT[name], cwd=tmp_path, check=0)
+    assert "time span" in r.stdout and str(out) in r.stdout and "invariants" in r.stdout
+    assert "max | |q| - 1 |" in r.stdout
+    assert r.stderr == ""
+    with netCDF4.Dataset(out) as nc:
+        g = {k: nc.getncattr(k) for k in nc.ncattrs()}
+        assert g["Conventions"] == "CF-1.10"
+        for k in ("title", "history", "source", "scenario", "method", "potential", "run_status"):
+            assert isinstance(g[k], str) and g[k], k
+        assert g["scenario"] == name and g["run_status"] == "complete"
+        assert g["package_version"] == __version__
+        assert g["rtol"] > 0 and g["atol"] > 0
+        assert len(g["inertia"]) == 3
+        assert "epoch" in g or name in ("paper_torque_free", "paper_heavy_top")
+        assert g["max_abs_norm_error"] < 1e-9 and g["max_abs_qQ"] < 1e-9
+        expected = ["q", "Q", "omega", "g", "G", "energy", "potential_energy", "norm_error", "qQ"]
+        orbit = name not in ("paper_torque_free", "paper_heavy_top")
+        if orbit:
+            expected += ["r", "f", "p"]
+        assert set(expected) <= set(nc.variables)
+        for v in [*expected, "time"]:
+            var = nc.variables[v]
+            unit = u.Unit(var.getncattr("units"))
+            assert var.getncattr("long_name")
+            if orbit and v == "r":
+                assert unit == u.km
+        if orbit:
+            assert u.Unit(nc.variables["time"].units) == u.s
+            assert u.Unit(nc.variables["Q"].units) == u.Unit("kg km2 / s")
+        t = nc.variables["time"][:]
+        scale = 60.0 if name == "gg_stabilised_leo" else 1.0
+        assert t[0] == 0.0 and t[-1] <= SHORT[name] * scale
+        q = nc.variables["q"][:]
+        assert np.max(np.abs(np.linalg.norm(q, axis=1) - 1)) < 1e-9
+
+
+def test_version_help_and_module(tmp_path, capsys):
+    r = cli("--version", cwd=tmp_path, check=0)  # python -m attitude
+    assert r.stdout.strip() == f"attitude {__version__}"
+    assert main(["--help"]) == 0
+    out = capsys.readouterr().out
+    for cmd in ("run", "plot", "info", "export"):
+        assert cmd in out
+    assert main(["run", "--help"]) == 0
+    out = capsys.readouterr().out
+    assert "--rtol" in out and "--method" in out and "--stop" in out
+    assert main([]) == 2  # no command: help, bad input
+
+
+def test_malformed_scenario_exit_2_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    text = (SCEN / "paper_keplerian.toml").read_text().replace('Q_unit = "kg km2 s-1"\n', "")
+    bad.write_text(text)
+    r = cli("run", bad, cwd=tmp_path, check=2)
+    assert r.stderr.startswith("attitude: error: initial_state.Q: needs a unit")
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert not list(tmp_path.glob("*.nc"))
+    with pytest.raises(ValueError, match=r"initial_state\.Q"):  # --debug: the exception itself
+        main(["--debug", "run", str(bad)])
+
+
+@pytest.mark.parametrize(
+    "text,key",
+    [
+        ("[body]\ninertia = [1, 2]\n", "body.inertia"),
+        ("[body]\ninertia = [1.0, 1.0, 1.0]\ncolour = 3\n", "body.colour"),
+        ("[bodyy]\n", "bodyy"),
+        ("this is not toml", "invalid TOML"),
+    ],
+)
+def test_malformed_in_process(text, key, tmp_path, capsys):
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    assert main(["run", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert key in err and err.count("\n") == 1
+
+
+def test_bad_arguments_exit_2(tmp_path, capsys):
+    assert main(["run", str(SCEN / "paper_torque_free.toml"), "--rtol", "-1"]) == 2
+    assert "--rtol" in capsys.readouterr().err
+    assert main(["run", str(SCEN / "paper_torque_free.toml"), "--method", "rk99"]) == 2
+    assert "--method" in capsys.readouterr().err
+    assert main(["frobnicate"]) == 2
+    assert main(["info", str(tmp_path / "missing.nc")]) == 2
+    assert "no such file" in capsys.readouterr().err
+
+
+def test_failed_run_exit_1_keeps_samples(tmp_path, capsys):
+    text = (SCEN / "paper_torque_free.toml").read_text()
+    text = text.replace("atol = 1e-14", "atol = 1e-14\nmax_steps = 50")
+    (tmp_path / "f.toml").write_text(text)
+    assert main(["run", str(tmp_path / "f.toml"), "-o", str(tmp_path / "f.nc")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("attitude: failed: propagation stopped") and err.count("\n") == 1
+    with netCDF4.Dataset(tmp_path / "f.nc") as nc:
+        assert nc.getncattr("run_status").startswith("failed:")
+        assert 0 < len(nc.dimensions["time"]) < 2001
+
+
+def _long_scenario(tmp_path):
+    text = (SCEN / "paper_torque_free.toml").read_text().replace("stop = 20.0", "stop = 100000.0")
+    p = tmp_path / "long.toml"
+    p.write_text(text)  # 1e7 output samples: far longer than the test waits
+    return p
+
+
+@pytest.mark.parametrize(
+    "sig",
+    [pytest.param(signal.SIGINT, marks=pytest.mark.slow), signal.SIGTERM, signal.SIGKILL],
+)
+def test_interrupted_run_leaves_old_file_or_none(sig, tmp_path):
+    out = tmp_path / "out.nc"
+    if sig != signal.SIGKILL:  # a previous complete result must survive the interrupted run
+        args = ["run", str(SCEN / "paper_torque_free.toml"), "-o", str(out), "--stop", "1", "-q"]
+        assert main(args) == 0
+        before = out.read_bytes()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "attitude", "run", str(_long_scenario(tmp_path)), "-o", str(out)],
+        cwd=tmp_path,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while not list(tmp_path.glob(".out.nc.*.tmp")):
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
+    time.sleep(0.5)  # well inside the streaming phase
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=60)
+    if sig == signal.SIGKILL:
+        assert not out.exists()  # a temporary file may remain, never a partial final file
+    else:
+        assert proc.returncode == 130, err
+        assert "interrupted" in err and "Traceback" not in err
+        assert out.read_bytes() == before
+        assert not list(tmp_path.glob(".out.nc.*.tmp"))
+        with netCDF4.Dataset(out) as nc:
+            assert nc.getncattr("run_status") == "complete"
+
+
+def test_info_plot_export(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", str(SCEN / "paper_keplerian.toml"), "-o", "k.nc", "--stop", "600"]) == 0
+    assert main(["info", "k.nc"]) == 0
+    out = capsys.readouterr().out
+    assert "paper_keplerian" in out and "GravityGradient" in out
+    assert "max | |q| - 1 |" in out and "not conserved" in out
+    assert main(["plot", "k.nc", "-o", "k.png"]) == 0
+    import matplotlib.image as mpimg
+
+    img = mpimg.imread(tmp_path / "k.png")
+    assert img.shape[0] > 500 and img.shape[1] > 800
+    assert img[..., :3].std() > 0.05  # not blank
+    assert main(["export", "k.nc", "--ccsds-aem", "k.aem"]) == 0
+    lines = (tmp_path / "k.aem").read_text(encoding="latin-1").splitlines()
+    _, meta, data = check_aem_v2(lines)
+    assert meta["REF_FRAME_A"] == "EME2000" and meta["REF_FRAME_B"] == "SC_BODY_1"
+    assert meta["CENTER_NAME"] == "EARTH" and meta["TIME_SYSTEM"] == "UTC"
+    with netCDF4.Dataset(tmp_path / "k.nc") as nc:
+        t = nc.variables["time"][:].data
+        q = nc.variables["q"][:].data
+        epoch = Time(nc.getncattr("epoch").rstrip("Z"), scale="utc")
+    assert len(data) == len(t)
+    stamps = [Time(d[0], scale="utc") for d in (data[0], data[-1])]
+    for s, tt in zip(stamps, (t[0], t[-1]), strict=True):
+        assert abs((s - (epoch + TimeDelta(tt, format="sec"))).to_value("s")) < 1e-6
+    vals = np.array([[float(x) for x in d[1:]] for d in data])
+    np.testing.assert_array_equal(vals, q[:, [1, 2, 3, 0]])  # Q1 Q2 Q3 QC, exact digits
+    # an independent reader, when installed (test extra): ccsds-ndm-py
+    ndm = pytest.importorskip("ccsds_ndm")
+    if not hasattr(ndm, "Aem") or not hasattr(ndm.Aem, "from_file"):
+        pytest.skip("ccsds_ndm here is not ccsds-ndm-py")
+    aem = ndm.Aem.from_file(str(tmp_path / "k.aem"))
+    assert aem.version == "2.0"
+    seg = aem.segments[0]
+    assert seg.metadata.ref_frame_a == "EME2000" and seg.metadata.attitude_type == "QUATERNION"
+    np.testing.assert_array_equal(np.asarray(seg.data.attitude_states_numpy), vals)
+
+
+# CCSDS 504.0-B-2, table 4-2 (AEM header) and table 4-3 (AEM metadata): the keywords in their
+# mandatory order (M) or optional (O), transcribed from the standard for this test.
+AEM2_HEADER = [("CCSDS_AEM_VERS", "M"), ("COMMENT", "O"), ("CLASSIFICATION", "O"),
+               ("CREATION_DATE", "M"), ("ORIGINATOR", "M"), ("MESSAGE_ID", "O")]  # fmt: skip
+AEM2_META = [("COMMENT", "O"), ("OBJECT_NAME", "M"), ("OBJECT_ID", "M"), ("CENTER_NAME", "O"),
+             ("REF_FRAME_A", "M"), ("REF_FRAME_B", "M"), ("TIME_SYSTEM", "M"),
+             ("START_TIME", "M"), ("USEABLE_START_TIME", "O"), ("USEABLE_STOP_TIME", "O"),
+             ("STOP_TIME", "M"), ("ATTITUDE_TYPE", "M"), ("EULER_ROT_SEQ", "O"),
+             ("ANGVEL_FRAME", "O"), ("INTERPOLATION_METHOD", "O"),
+             ("INTERPOLATION_DEGREE", "O")]  # fmt: skip
+EPOCH_RE = re.compile(r"^\d{4}-\d{2}-\d{2}T\d{2}:\d{2}:\d{2}(\.\d+)?$")
+
+
+def _ordered(items, table):
+    """Keywords appear in table order, each non-COMMENT at most once, all mandatory present."""
+    pos = {k: i for i, (k, _) in enumerate(table)}
+    last = -1
+    seen = []
+    for k, _ in items:
+        assert k in pos, f"keyword {k} not allowed here"
+        assert pos[k] >= last, f"keyword {k} out of order"
+        assert k == "COMMENT" or k not in seen, f"{k} repeated"
+        last = pos[k]
+        seen.append(k)
+    for k, m in table:
+        assert m == "O" or k in seen, f"mandatory {k} missing"
+
+
+def check_aem_v2(lines):
+    body = [ln for ln in lines if ln.strip()]
+    assert body[0].split("=")[0].strip() == "CCSDS_AEM_VERS"  # first non-blank line
+    i = body.index("META_START")
+    kv = [(ln.split(None, 1)[0], ln) if ln.startswith("COMMENT") else
+          tuple(s.strip() for s in ln.split("=", 1)) for ln in body[:i]]  # fmt: skip
+    _ordered(kv, AEM2_HEADER)
+    j = body.index("META_STOP")
+    meta_kv = [(ln.split(None, 1)[0], ln) if ln.startswith("COMMENT") else
+               tuple(s.strip() for s in ln.split("=", 1)) for ln in body[i + 1 : j]]  # fmt: skip
+    _ordered(meta_kv, AEM2_META)
+    meta = dict(meta_kv)
+    assert meta["ATTITUDE_TYPE"] == "QUATERNION"
+    assert "QUATERNION_TYPE" not in meta and "ATTITUDE_DIR" not in meta  # removed in v2
+    if "INTERPOLATION_METHOD" in meta:
+        assert "INTERPOLATION_DEGREE" in meta
+    assert body[j + 1] == "DATA_START" and body[-1] == "DATA_STOP"
+    data = [ln.split() for ln in body[j + 2 : -1] if not ln.startswith("COMMENT")]
+    for d in data:
+        assert len(d) == 5 and EPOCH_RE.match(d[0])
+    epochs = [Time(d[0], scale="utc") for d in data]
+    assert all((b - a).to_value("s") > 0 for a, b in itertools.pairwise(epochs))
+    assert data[0][0] == meta["START_TIME"] and data[-1][0] == meta["STOP_TIME"]
+    return dict(kv), meta, data
+
+
+def test_aem_quaternion_convention_matches_ccsds_annex_f(tmp_path):
+    # CCSDS 504.0-B-2 annex F5.4: Z-X-Z rotations (α0 + 90°, 90° − δ0, σ0) = (90°, 10°, 45°)
+    # from frame A give the quaternion A→B: Q1 = 0.0805, Q2 = 0.0334, Q3 = 0.9204, QC = 0.3812.
+    text = """
+    [scenario]
+    epoch = "2020-01-01T00:00:00"
+    [body]
+    inertia = [100.0, 200.0, 250.0]
+    inertia_unit = "kg m2"
+    [initial_state]
+    form = "euler_body_rates"
+    seq = "313"
+    angles = [90.0, 10.0, 45.0]
+    angles_unit = "deg"
+    omega = [0.0, 0.0, 0.0]
+    omega_unit = "rad/s"
+    [time]
+    stop = 2.0
+    step = 1.0
+    unit = "s"
+    """
+    (tmp_path / "f5.toml").write_text(text)
+    assert main(["run", str(tmp_path / "f5.toml"), "-o", str(tmp_path / "f5.nc"), "-q"]) == 0
+    out = tmp_path / "f5.aem"
+    assert main(["export", str(tmp_path / "f5.nc"), "--ccsds-aem", str(out)]) == 0
+    data = check_aem_v2(out.read_text().splitlines())[2]
+    assert data[0][0] == "2020-01-01T00:00:00.000000"
+    np.testing.assert_allclose([float(x) for x in data[0][1:]], [0.0805, 0.0334, 0.9204, 0.3812],
+                               atol=5e-5)  # fmt: skip
+    # version 1 (504.0-B-1) for older readers: ATTITUDE_DIR and QUATERNION_TYPE, scalar last
+    assert (
+        main(["export", str(tmp_path / "f5.nc"), "--ccsds-aem", str(out), "--aem-version", "1"])
+        == 0
+    )
+    v1 = out.read_text()
+    assert "CCSDS_AEM_VERS       = 1.0" in v1
+    assert v1.index("REF_FRAME_B") < v1.index("ATTITUDE_DIR") < v1.index("TIME_SYSTEM")
+    assert v1.index("ATTITUDE_TYPE") < v1.index("QUATERNION_TYPE        ".strip())
+
+
+def test_export_needs_an_epoch_and_seconds(tmp_path, capsys):
+    nc = tmp_path / "tf.nc"
+    assert (
+        main(["run", str(SCEN / "paper_torque_free.toml"), "-o", str(nc), "--stop", "1", "-q"]) == 0
+    )
+    assert main(["export", str(nc), "--ccsds-aem", str(tmp_path / "a.aem")]) == 2
+    assert "time-unit-seconds" in capsys.readouterr().err
+    assert main(["export", str(nc), "--ccsds-aem", str(tmp_path / "a.aem"),
+                 "--time-unit-seconds", "1"]) == 2  # fmt: skip
+    assert "--epoch" in capsys.readouterr().err
+    assert not (tmp_path / "a.aem").exists()
+
+
+def test_progress_line_after_one_second():
+    import io as _io
+
+    clock = iter([0.0, 0.5, 1.5, 1.7, 3.0])
+    s = _io.StringIO()
+    p = Progress("always", stream=s, clock=lambda: next(clock))
+    p(10, 100, 1.0)  # at 0.5 s: nothing yet
+    assert s.getvalue() == ""
+    p(50, 100, 5.0)  # at 1.5 s
+    assert "50.0%" in s.getvalue() and "50/100" in s.getvalue()
+    p(100, 100, 10.0)
+    p.close()
+    assert s.getvalue().endswith("\n") and "100.0%" in s.getvalue()
+    q = Progress("auto", stream=_io.StringIO())  # not a terminal: silent
+    assert not q.enabled
