@@ -425,14 +425,17 @@ def test_kernels_run_with_jit_disabled(paper_state):
 # 1e6-step runs (slow)
 # --------------------------------------------------------------------------------------------
 
-# Steps chosen so the truncation part of the energy error is well above the round-off walk.
+# Steps chosen so the truncation part of the energy error is well above the accumulated
+# round-off. (Order-6 splitting at dt = 0.25 on the heavy top gives last/first = 1.23: its 1e7
+# exact free flows each bias the kinetic energy by ~1e-17 relative, a drift of ~7e-11 against a
+# truncation error of 3e-10; at dt = 0.3 the truncation part is 3x larger.)
 LONG_DT = {
     ("nosquish", 2): 0.01,
     ("nosquish", 4): 0.05,
     ("nosquish", 6): 0.1,
     ("splitting", 2): 0.01,
     ("splitting", 4): 0.1,
-    ("splitting", 6): 0.25,
+    ("splitting", 6): 0.3,
 }
 
 
