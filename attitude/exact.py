@@ -107,11 +107,13 @@ def torque_free(
             f"q0: |q0| = {nq!r} is not 1 (off by {abs(nq - 1.0):.3g} > {UNIT_NORM_TOL:g}); pass "
             f"a unit quaternion (attitude.quaternion.normalize)"
         )
-    nQ = float(np.linalg.norm(Q0a))
-    qQ = float(np.dot(q0a, Q0a))
+    mQ = float(np.max(np.abs(Q0a)))
+    Qn = Q0a / mQ if mQ > 0.0 else Q0a  # scaled: no overflow in the norm for any |Q0|
+    nQ = float(np.linalg.norm(Qn))
+    qQ = float(np.dot(q0a, Qn))
     if abs(qQ) > UNIT_NORM_TOL * nq * nQ:
         raise AttitudeValueError(
-            f"Q0: q0·Q0 = {qQ:.3g} is not 0 (relative {abs(qQ) / (nq * nQ):.3g} > "
+            f"Q0: q0·Q0 = {qQ * mQ:.3g} is not 0 (relative {abs(qQ) / (nq * nQ):.3g} > "
             f"{UNIT_NORM_TOL:g}); the momenta must be tangent to the unit sphere, "
             f"Q0 = 2 q0∘(0, g0) (attitude.canonical.momenta_from_body_angular_momentum)"
         )

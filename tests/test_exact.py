@@ -587,16 +587,25 @@ def test_bad_input_raises_naming_the_argument(args, name):
 
 def test_small_and_large_scales():
     """The solution is homogeneous: scaling g by s scales time by 1/s; inertia by s scales
-    time by s. Checked over 30 orders of magnitude (no under/overflow in the kernels)."""
+    time by s. Checked over 600 orders of magnitude (the kernels rescale by powers of two, so
+    nothing under- or overflows and the results agree to round-off)."""
     inertia = np.array([1.0, 2.0, 3.0])
     q0 = np.array([0.5, 0.5, 0.5, -0.5])
     g0 = np.array([0.3, 0.2, 0.9])
     q0, Q0 = state(q0, g0)
     ts = np.linspace(0.0, 50.0, 11)
     qr, Qr = torque_free(inertia, q0, Q0, ts)
-    for s in [1e-15, 1e-5, 1e5, 1e15]:
+    for s in [1e-300, 1e-150, 1e-15, 1e-5, 1e5, 1e15, 1e150, 1e300]:
         q, Q = torque_free(inertia, q0, s * Q0, ts / s)
         assert np.abs(q - qr).max() < 1e-13 and np.abs(Q / s - Qr).max() < 1e-13
         q, Q = torque_free(s * inertia, q0, Q0, ts * s)
         assert np.abs(q - qr).max() < 1e-13 and np.abs(Q - Qr).max() < 1e-13
+        q, Q = torque_free(s * inertia, q0, s * Q0, ts)
+        assert np.abs(q - qr).max() < 1e-13 and np.abs(Q / s - Qr).max() < 1e-13
+    # near the separatrix the double-double E_B must survive the scaling too
+    q1, Q1 = state(np.array([1.0, 0.0, 0.0, 0.0]), (1.0 - 1e-12, 0.3, 1.0))
+    qr, _ = torque_free(SEP_I, q1, Q1, [100.0])
+    for s in [2.0**-900, 2.0**900]:
+        q, _ = torque_free(SEP_I, q1, s * Q1, [100.0 / s])
+        assert np.abs(q - qr).max() < 1e-13
     assert math.isfinite(float(np.sum(qr)))

@@ -224,16 +224,29 @@ def prepare(I1, I2, I3, q, Q, with_pic):
     ``with_pic``: also compute the complete Π (needed whenever the motion is evaluated more
     than half a period away; :func:`free_rotation` computes it lazily otherwise).
     """
+    # Work with Q and I scaled by powers of two (exact) to O(1): no overflow or underflow in
+    # the squares and products below for any representable data. Only λ and G/I_p carry the
+    # scale (by 2^(eQ − eI)); every other quantity is scale-free or scaled consistently.
+    mQ = max(abs(Q[0]), abs(Q[1]), abs(Q[2]), abs(Q[3]))
+    i0, i1, i2, sg = _sorted_axes(I1, I2, I3)
+    if mQ == 0.0:
+        return _uniform(i0, i1, i2, sg, 0.0, 0.0, 0.0)
+    eQ = math.frexp(mQ)[1]
+    eI = math.frexp(max(I1, I2, I3))[1]
+    Q0s = math.ldexp(Q[0], -eQ)
+    Q1s = math.ldexp(Q[1], -eQ)
+    Q2s = math.ldexp(Q[2], -eQ)
+    Q3s = math.ldexp(Q[3], -eQ)
+    Iv = (math.ldexp(I1, -eI), math.ldexp(I2, -eI), math.ldexp(I3, -eI))
     # g = ½ vec(q̃∘Q) (Arribas et al. eq. 17) in double-double: E_B below cancels near the
     # separatrix, so g must carry more than double precision into it.
-    gh0, gl0 = _dd_dot4(q[0], -q[1], -q[2], q[3], Q[1], Q[0], Q[3], Q[2])
-    gh1, gl1 = _dd_dot4(q[0], q[1], -q[2], -q[3], Q[2], Q[3], Q[0], Q[1])
-    gh2, gl2 = _dd_dot4(q[0], -q[1], q[2], -q[3], Q[3], Q[2], Q[1], Q[0])
+    gh0, gl0 = _dd_dot4(q[0], -q[1], -q[2], q[3], Q1s, Q0s, Q3s, Q2s)
+    gh1, gl1 = _dd_dot4(q[0], q[1], -q[2], -q[3], Q2s, Q3s, Q0s, Q1s)
+    gh2, gl2 = _dd_dot4(q[0], -q[1], q[2], -q[3], Q3s, Q2s, Q1s, Q0s)
     gh = (0.5 * gh0, 0.5 * gh1, 0.5 * gh2)
     gl = (0.5 * gl0, 0.5 * gl1, 0.5 * gl2)
     g = (gh[0] + gl[0], gh[1] + gl[1], gh[2] + gl[2])
-    Iv = (I1, I2, I3)
-    i0, i1, i2, sg = _sorted_axes(I1, I2, I3)
+    scale = math.ldexp(1.0, eQ - eI)
     A = Iv[i0]
     B = Iv[i1]
     C = Iv[i2]
@@ -305,7 +318,15 @@ def prepare(I1, I2, I3, q, Q, with_pic):
             lam2 = (C - B) * EA / (A * B * C)
             uniform = ao2 == 0.0 or a22 == 0.0 or ac2 == 0.0
     if uniform or lam2 == 0.0:
-        return _uniform(i0, i1, i2, sg, g[0] / I1, g[1] / I2, g[2] / I3)
+        return _uniform(
+            i0,
+            i1,
+            i2,
+            sg,
+            math.ldexp(g[0] / Iv[0], eQ - eI),
+            math.ldexp(g[1] / Iv[1], eQ - eI),
+            math.ldexp(g[2] / Iv[2], eQ - eI),
+        )
     if kind == 1.0:
         if m1 <= m:
             m = 1.0 - m1
@@ -401,7 +422,7 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         0.0,
         0.0,
         G,
-        lam,
+        lam * scale,
         m,
         m1,
         K,
@@ -416,7 +437,7 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         n,
         V,
         Wd,
-        G / Ip,
+        (G / Ip) * scale,
         coefP,
         coefW,
         Pr0,
