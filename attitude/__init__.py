@@ -18,7 +18,7 @@ Hamilton product; ``q`` maps body components to space components, x_S = qâˆ˜x_Bâ
 from __future__ import annotations
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
-from . import canonical, errors, potentials, quaternion
+from . import canonical, errors, exact, potentials, quaternion
 from ._version import __version__
 from .body import RigidBody
 from .errors import (
@@ -28,6 +28,7 @@ from .errors import (
     PropagationError,
     SingularityError,
 )
+from .exact import torque_free
 from .potentials import (
     CustomPotential,
     CustomTorque,
@@ -56,7 +57,9 @@ __all__ = [
     "__version__",
     "canonical",
     "errors",
+    "exact",
     "potentials",
     "propagate",
     "quaternion",
+    "torque_free",
 ]

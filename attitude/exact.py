@@ -129,3 +129,37 @@ def torque_free(
 
 #: Alias of :func:`torque_free` (the name the propagator uses for a list of output times).
 torque_free_states = torque_free
+
+
+# --------------------------------------------------------------------------------------------
+# propagate(..., method="exact")
+
+
+def _run_exact(problem: Any, **_: Any) -> Any:
+    """Method runner for :func:`attitude.propagate`: the closed form at every output time."""
+    from .potentials import TorqueFree
+    from .propagate import RunResult
+
+    if not isinstance(problem.potential, TorqueFree):
+        raise AttitudeValueError(
+            f"method: 'exact' is the closed-form torque-free motion and cannot include the "
+            f"{problem.potential.name} potential; use method='dop853' or 'splitting' (which "
+            f"uses this exact free flow between potential kicks)"
+        )
+    I1, I2, I3 = (float(x) for x in problem.params[:3])
+    t = problem.t
+    # The solution is evaluated from the initial epoch t[0]: elapsed times t − t[0].
+    dt = np.ascontiguousarray(t - t[0])
+    out_q = np.empty((t.shape[0], 4))
+    out_Q = np.empty((t.shape[0], 4))
+    torque_free_kernel(I1, I2, I3, problem.y0[:4].copy(), problem.y0[4:].copy(), dt, out_q, out_Q)
+    return RunResult(np.concatenate([out_q, out_Q], axis=1), stats={"n_steps": 0})
+
+
+def _register() -> None:
+    from .propagate import METHODS
+
+    METHODS["exact"] = _run_exact
+
+
+_register()

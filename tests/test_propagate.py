@@ -300,3 +300,14 @@ def test_kernels_run_with_jit_disabled(paper_state):
     os.remove(out)
     ds = propagate(I_PAPER, q0, Q0, np.linspace(0, 2, 5), potential=HeavyTop(0.5, [1, 0, 0]))
     np.testing.assert_allclose(nojit, ds.q.values, atol=1e-14)
+
+
+def test_exact_method_matches_dop853(paper_state):
+    q0, Q0 = paper_state
+    t = np.linspace(0.0, 100.0, 21)
+    a = propagate(I_PAPER, q0, Q0, t, method="exact")
+    b = propagate(I_PAPER, q0, Q0, t, rtol=1e-13, atol=1e-15)
+    assert np.max(qt.angle_between(a.q.values, b.q.values)) < 1e-10
+    np.testing.assert_allclose(a.G.values, np.broadcast_to(a.G.values[0], (21, 3)), atol=1e-14)
+    with pytest.raises(AttitudeValueError, match="exact"):
+        propagate(I_PAPER, q0, Q0, t, method="exact", potential=HeavyTop(0.5, [1, 0, 0]))
