@@ -546,3 +546,30 @@ def test_schwab_reports_constraint_drift(paper_state):
     # the constraint is only imposed on accelerations: |q| − 1 drifts away from round-off
     assert np.max(np.abs(ne)) > 1e-9
     assert np.max(np.abs(ne[-50:])) > np.max(np.abs(ne[:50]))
+
+
+def test_kernels_run_with_jit_disabled(paper_state):
+    """The compiled right-hand sides are valid Python: same numbers with ATTITUDE_DISABLE_JIT=1."""
+    import os
+    import subprocess
+    import sys
+
+    q0, Q0 = paper_state
+    t = np.linspace(0.0, 1.0, 3)
+    code = (
+        "import numpy as np, sys\n"
+        "from attitude.propagate import propagate\n"
+        "from attitude.potentials import HeavyTop\n"
+        f"q0 = np.array({q0.tolist()}); Q0 = np.array({Q0.tolist()})\n"
+        f"out = [propagate([1.25, 1.0, 0.75], q0, Q0, np.linspace(0.0, 1.0, 3),"
+        f" potential=HeavyTop(0.5, [1, 0, 0]), formulation=f).q.values for f in {OTHERS!r}]\n"
+        "np.save(sys.argv[1], np.array(out))\n"
+    )
+    out = os.path.join(os.environ.get("TMPDIR", "/tmp"), f"nojit_formulations_{os.getpid()}.npy")
+    env = {**os.environ, "ATTITUDE_DISABLE_JIT": "1"}
+    subprocess.run([sys.executable, "-c", code, out], check=True, env=env, timeout=300)
+    nojit = np.load(out)
+    os.remove(out)
+    for k, name in enumerate(OTHERS):
+        ds = propagate(I_PAPER, q0, Q0, t, potential=HEAVY_TOP, formulation=name)
+        np.testing.assert_allclose(nojit[k], ds.q.values, atol=1e-14)
