@@ -133,6 +133,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else sc.output
     if out.exists() and out.is_dir():
         raise BadInput(f"-o {out}: is a directory")
+    if sc.ensemble is not None:  # [ensemble] table: docs/ensemble.md
+        from .ensemble import cli_run
+
+        cli_run(sc, out, args)
+        return EXIT_OK
+    if args.scheduler:
+        raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
     progress = Progress(args.progress)
     t_start = time.monotonic()
     try:
@@ -327,6 +334,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="progress bar on runs longer than 1 s (auto: when stderr is a terminal)",
     )
     r.add_argument("-q", "--quiet", action="store_true", help="no summary")
+    r.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="run an [ensemble] scenario on a Dask cluster (e.g. tcp://host:8786; needs "
+        "pip install 'attitude[dask]'); default: local threads",
+    )
     r.set_defaults(func=cmd_run)
 
     pl = sub.add_parser(

@@ -105,6 +105,18 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "max_steps": None,
     },
     "output": {"path": None},
+    # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)
+    "ensemble": {
+        "size": None,
+        "seed": None,
+        "chunk": None,
+        "attitude_error": "angle",
+        "attitude_distribution": None,
+        "rate_error": "rate",
+        "rate_distribution": None,
+        "inertia_error": None,
+        "inertia_distribution": None,
+    },
 }
 _REQUIRED_TABLES = ("body", "initial_state", "time")
 
@@ -273,6 +285,7 @@ class Scenario:
     path: Path | None = None
     initial_form: str = "canonical"
     extra_attrs: dict[str, Any] = field(default_factory=dict)
+    ensemble: Any = None  # attitude.ensemble.Dispersions from an [ensemble] table
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -582,6 +595,13 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     out = r.table("output")
     opath = Path(r.string(out, "path", "output", f"{name}.nc"))
 
+    # [ensemble]
+    ensemble = None
+    if "ensemble" in data:
+        from .ensemble import parse_dispersions
+
+        ensemble = parse_dispersions(r, r.table("ensemble"), body)
+
     return Scenario(
         name=name,
         title=r.string(sc, "title", "scenario", ""),
@@ -606,6 +626,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         source=text,
         path=path,
         initial_form=f"{form} ({frame} frame)",
+        ensemble=ensemble,
     )
 
 
