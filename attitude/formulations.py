@@ -389,8 +389,11 @@ class EulerAngles(Formulation):
         return {"min_sin_theta": float(np.min(np.sin(y[:, 1])))}
 
     def failure(self, problem, params, status, t_stop, y_last):
-        hit = params[_kf.X_MIN_SIN]
-        if not math.isinf(hit) or status == SINGULAR:
+        # A NaN derivative was met below the threshold and the step could not get past it
+        # (trial stages that merely overshoot are rejected and retried, and do not count).
+        hit = not math.isinf(params[_kf.X_MIN_SIN])
+        stuck = status in (_rk.NONFINITE, _rk.STEP_TOO_SMALL)
+        if (hit and stuck) or status == SINGULAR:
             theta = float(y_last[1])
             return SINGULAR, (
                 f"the 3-1-3 Euler-angle equations are singular at ϑ = 0 or π: the run stopped "

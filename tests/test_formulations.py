@@ -241,6 +241,18 @@ def test_backward_integration(paper_state):
         assert _attitude_error(ds, ref) < 1e-9
 
 
+@pytest.mark.parametrize("name", OTHERS)
+def test_other_failures_keep_partial_samples(name, paper_state):
+    q0, Q0 = paper_state
+    t = np.linspace(0.0, 50.0, 51)
+    with pytest.raises(PropagationError, match="maximum number of steps") as info:
+        propagate(I_PAPER, q0, Q0, t, potential=HEAVY_TOP, formulation=name, max_steps=20)
+    part = info.value.partial
+    assert 1 <= part.sizes["time"] < 51
+    ref = propagate(I_PAPER, q0, Q0, t[: part.sizes["time"]], potential=HEAVY_TOP)
+    assert _attitude_error(part, ref) < 1e-7
+
+
 # --------------------------------------------------------------------------------------------
 # The Euler-angle singularity
 # --------------------------------------------------------------------------------------------
