@@ -18,7 +18,7 @@ Hamilton product; ``q`` maps body components to space components, x_S = qâˆ˜x_Bâ
 from __future__ import annotations
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
-from . import canonical, errors, exact, potentials, quaternion
+from . import canonical, errors, exact, formulations, potentials, quaternion
 from ._version import __version__
 from .body import RigidBody
 from .errors import (
@@ -58,6 +58,7 @@ __all__ = [
     "canonical",
     "errors",
     "exact",
+    "formulations",
     "potentials",
     "propagate",
     "quaternion",

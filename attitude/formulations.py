@@ -165,7 +165,8 @@ class Formulation:
         yc = self.to_canonical(problem, y) if y.shape[0] else np.empty((0, 8))
         stats.update(self.extra_stats(problem, y))
         stats["formulation"] = self.name
-        return RunResult(yc, int(status), message, stats)
+        t_stop = stats.pop("t_stop", None)
+        return RunResult(yc, int(status), message, stats, t_stop=t_stop)
 
     def _run_dop853(
         self,
@@ -225,6 +226,7 @@ class Formulation:
         }
         message = "success"
         if status != _rk.SUCCESS:
+            stats["t_stop"] = float(tstate[0])
             status, message = self.failure(
                 problem, params, int(status), float(tstate[0]), work[_rk.Y].copy()
             )
@@ -285,6 +287,7 @@ class Formulation:
             t_stop = float(sol.t[-1]) if sol.t.size else float(t[0])
             y_last = y[-1] if n_ok else y0
             status = _rk.NONFINITE
+        stats["t_stop"] = t_stop
         status, message = self.failure(problem, params, status, t_stop, y_last)
         if status == _rk.NONFINITE:
             message = f"scipy {solver}: {sol.message}"

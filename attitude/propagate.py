@@ -71,6 +71,7 @@ class RunResult:
     message: str = "success"
     stats: dict[str, Any] = field(default_factory=dict)
     first: int = 0  # index in problem.t of y[0] (> 0 when earlier samples were streamed out)
+    t_stop: float | None = None  # time the integration reached when it failed
 
 
 _USER_RHS: dict[int, Callable] = {}
@@ -177,10 +178,12 @@ def _run_dop853(
             break
     stats = {"n_steps": int(counters[0]), "n_rhs": int(counters[1]), "n_rejected": int(counters[2])}
     msg = _rk.STATUS_MESSAGES[int(status)]
+    t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     if on_chunk is not None:  # keep only the last state (the samples went to on_chunk)
         last = max(done - 1, 0)
-        return RunResult(y_chunk[: int(k)][-1:].copy(), int(status), msg, stats, first=last)
-    return RunResult(y_out[:done], int(status), msg, stats)
+        y_last = y_chunk[: int(k)][-1:].copy()
+        return RunResult(y_last, int(status), msg, stats, first=last, t_stop=t_stop)
+    return RunResult(y_out[:done], int(status), msg, stats, t_stop=t_stop)
 
 
 _run_dop853.streams = True  # type: ignore[attr-defined]
@@ -444,9 +447,11 @@ def propagate(
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
     if result.status != _rk.SUCCESS:
         n = result.first + result.y.shape[0]
-        t_fail = float(tt[n - 1]) if n else float(tt[0])
+        t_fail = result.t_stop
+        if t_fail is None:
+            t_fail = float(tt[n - 1]) if n else float(tt[0])
         raise PropagationError(
-            f"propagation stopped: {result.message}, after t = {t_fail!r} "
+            f"propagation stopped at t = {t_fail!r}: {result.message} "
             f"({n} of {tt.shape[0]} output samples computed; "
             + ("they went to on_chunk)" if streaming else "they are in .partial)"),
             time=t_fail,
