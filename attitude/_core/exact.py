@@ -30,7 +30,7 @@ from collections import namedtuple
 
 from orbit._jit import jit
 
-from .elliptic import ellipj_reduced, ellipkm1, ellippi_complete, ellippi_sc, elliprf_rj
+from .elliptic import ellipj_reduced, ellipkm1, ellippi_complete, ellippi_sc
 from .quat import mul
 
 __all__ = [
@@ -59,8 +59,9 @@ FreeRigidBody = namedtuple(
         "m",
         "m1",
         "K",
-        "u0",
-        "j0",  # initial phase u0 = 2 j0 K + r0
+        "s0",  # (sn, cn, dn)(u0): the initial phase, taken from the state itself
+        "c0",
+        "d0",
         "So",  # signed amplitudes: g_o = So cn, g_B = S2 sn, g_c = Sc dn
         "S2",
         "Sc",
@@ -68,13 +69,12 @@ FreeRigidBody = namedtuple(
         "pidx",  # sorted index of the pole axis (0 or 2)
         "polec",  # 1.0 if the pole is the circulation axis, else 0.0
         "n",  # characteristic of Π
+        "kap",  # √(n (n − m)(n − 1)) of the addition theorem of Π
         "V",  # arctangent scale
         "Wd",
         "Gp",  # G / I_p
         "coefP",  # D_p G / (λ A_p)
         "coefW",  # D_p h_amp / (λ Wd V)
-        "Pr0",  # Π(n; am r0 | m)
-        "W0",  # arctangent at u0
         "Pic",  # complete Π(n | m) (NaN: not computed yet)
         "a0w",  # ã(g0) in the sorted frame
         "a0x",
@@ -376,40 +376,18 @@ def prepare(I1, I2, I3, q, Q, with_pic):
     coefW = D * hamp / (lam * Wd * V)
     K = _NAN
     Pic = _NAN
-    j0 = 0.0
+    # The initial phase enters only through (sn, cn, dn)(u0), read off the state: the motion at
+    # u0 + λt follows from the addition theorems (free_rotation), so u0 itself is never formed.
+    # On the separatrix (m = 1) sn = tanh, cn = dn = sech and cn0 > 0.
+    rho = math.hypot(cnx, snx)
+    c0 = cnx / rho
+    s0 = snx / rho
+    d0 = math.sqrt(m1 + m * c0 * c0)
     if kind == 1.0:
-        rho = math.hypot(cnx, snx)
-        cn0 = cnx / rho
-        sn0 = snx / rho
-        dn0 = math.sqrt(m1 + m * cn0 * cn0)
         K = ellipkm1(m1)
-        if cn0 >= 0.0:
-            sr = sn0
-            cr = cn0
-        else:
-            j0 = 1.0 if sn0 >= 0.0 else -1.0
-            sr = -sn0
-            cr = -cn0
-        # u = F(am u | m) = s RF(c², d², 1) (DLMF 19.25.5) and Π(n; am u | m) (DLMF 19.25.14)
-        # share their RF
-        ss = sr * sr
-        rf, rj = elliprf_rj(cr * cr, dn0 * dn0, 1.0, 1.0 - n * ss)
-        r0 = sr * rf
-        u0 = 2.0 * K * j0 + r0
-        Pr0 = r0 + (n / 3.0) * sr * ss * rj
-        if polec:
-            W0 = math.atan2(V * sr, Wd * cr)
-        else:
-            W0 = math.atan2(V * sn0, Wd * dn0)
         if with_pic:
             Pic = ellippi_complete(n, m1, K)
-    else:
-        # separatrix: sn = tanh u, cn = dn = sech u, sinh u0 = sn/cn
-        u0 = math.asinh(snx / cnx)
-        nu = -n
-        snu = math.sqrt(nu)
-        Pr0 = (u0 + snu * math.atan(snu * math.tanh(u0))) / (1.0 + nu)
-        W0 = math.atan2(V * snx, Wd * cnx)
+    kap = math.sqrt((-n) * (m - n) * (1.0 - n))
     a0 = _align(x1, x2, x3, G, pidx)
     fpolec = 1.0 if polec else 0.0
     return FreeRigidBody(
@@ -426,8 +404,9 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         m,
         m1,
         K,
-        u0,
-        j0,
+        s0,
+        c0,
+        d0,
         So,
         S2,
         Sc,
@@ -435,13 +414,12 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         float(pidx),
         fpolec,
         n,
+        kap,
         V,
         Wd,
         (G / Ip) * scale,
         coefP,
         coefW,
-        Pr0,
-        W0,
         Pic,
         a0[0],
         -a0[1],
@@ -463,34 +441,75 @@ def free_rotation(P, t):
         half = 0.5 * wn * t
         sh = math.sin(half) / wn
         return math.cos(half), sh * w1, sh * w2, sh * w3
-    u = P.u0 + P.lam * t
-    polec = P.polec == 1.0
+    # Phase advance δ = λt, reduced to δ = 2jK + r, r ∈ [−K, K] (no period on the separatrix)
+    # with (sn, cn, dn)(r) to full relative accuracy. Everything below is built from these and
+    # (sn, cn, dn)(u0) by the addition theorems, so every increment is proportional to sn r
+    # and keeps its relative accuracy however small λt is (a slowly precessing, nearly
+    # axisymmetric body has λ → 0 while the factors D_p/λ below grow like 1/λ).
+    dl = P.lam * t
+    m = P.m
+    n = P.n
     if P.kind == 1.0:
-        sr, cr, dr, j = ellipj_reduced(u, P.m, P.m1, P.K)
-        dP = ellippi_sc(P.n, sr, cr, dr) - P.Pr0
-        dj = j - P.j0
-        if dj != 0.0:
-            Pic = P.Pic
-            if Pic != Pic:
-                Pic = ellippi_complete(P.n, P.m1, P.K)
-            dP += 2.0 * dj * Pic
-        sgn = 1.0 if j % 2.0 == 0.0 else -1.0
-        sn = sgn * sr
-        cn = sgn * cr
-        dn = dr
-        if polec:
-            dW = math.atan2(P.V * sr, P.Wd * cr) - P.W0 + math.pi * dj
-        else:
-            dW = math.atan2(P.V * sn, P.Wd * dn) - P.W0
+        sr, cr, dr, j = ellipj_reduced(dl, m, P.m1, P.K)
+        Pr = ellippi_sc(n, sr, cr, dr)  # Π(n; am r | m)
     else:
-        sn = math.tanh(u)
-        ea = math.exp(-abs(u))
-        cn = 2.0 * ea / (1.0 + ea * ea)
-        dn = cn
-        nu = -P.n
+        j = 0.0
+        sr = math.tanh(dl)
+        ea = math.exp(-abs(dl))
+        cr = 2.0 * ea / (1.0 + ea * ea)
+        dr = cr
+        nu = -n
         snu = math.sqrt(nu)
-        dP = (u + snu * math.atan(snu * sn)) / (1.0 + nu) - P.Pr0
-        dW = math.atan2(P.V * sn, P.Wd * cn) - P.W0
+        Pr = (dl + snu * math.atan(snu * sr)) / (1.0 + nu)  # Π(n; am r | 1)
+    s0 = P.s0
+    c0 = P.c0
+    d0 = P.d0
+    # (sn, cn, dn)(u0 + r) (DLMF 22.8.1-3); denominator 1 − m s0² sr² = d0² + m s0² cr²
+    ms0 = m * s0 * s0
+    den = 1.0 - ms0 * sr * sr
+    if den < 0.5:
+        den = d0 * d0 + ms0 * cr * cr
+    sw = (s0 * cr * dr + sr * c0 * d0) / den
+    cw = (c0 * cr - s0 * sr * d0 * dr) / den
+    # back onto sn² + cn² = 1, dn² = m1 + m cn² (the energy and |g| surfaces) to a few ulp
+    rw = math.hypot(sw, cw)
+    sw /= rw
+    cw /= rw
+    dw = math.sqrt(P.m1 + m * cw * cw)
+    sgn = 1.0 if j % 2.0 == 0.0 else -1.0
+    sn = sgn * sw
+    cn = sgn * cw
+    dn = dw
+    # Π(n; am u|m) − Π(n; am u0|m) = 2jΠ(n|m) + Π(n; am r|m) + E, with the addition theorem
+    # Π(u0 + r) − Π(u0) − Π(r) = (n/κ) atan(κ s0 sr sw / X), κ² = n(n − m)(n − 1),
+    # X = 1 − n (sw² − s0 sr cw dw) ≥ 1 (derived from Jacobi's addition theorem for his Π(u, a)
+    # with n = m sn²a, a imaginary for n < 0; checked against quadrature in the tests)
+    X = 1.0 - n * (sw * sw - s0 * sr * cw * dw)
+    z = s0 * sr * sw / X
+    kz = P.kap * z
+    dP = Pr + n * z * (math.atan(kz) / kz if kz != 0.0 else 1.0)
+    if j != 0.0:
+        Pic = P.Pic
+        if Pic != Pic:
+            Pic = ellippi_complete(n, P.m1, P.K)
+        dP += 2.0 * j * Pic
+    # the arctangent term: W(u) − W(u0) as one atan2 of (cross, dot), with the cross product
+    # written as sn r times a sum without cancellation at small r
+    V = P.V
+    Wd = P.Wd
+    if P.polec == 1.0:
+        # W = atan2(V sn, Wd cn), unwrapped by π per 2K; |W(u0 + r) − W(u0)| < π for |r| ≤ K
+        # sw c0 − cw s0 = sr [d0 (c0² + s0² dr) − m sr s0 c0 cr / (1 + dr)] / den
+        cross = sr * (d0 * (c0 * c0 + s0 * s0 * dr) - m * sr * s0 * c0 * cr / (1.0 + dr)) / den
+        dW = math.atan2(V * Wd * cross, Wd * Wd * cw * c0 + V * V * sw * s0) + math.pi * j
+    else:
+        # W = atan2(V sn, Wd dn) ∈ (−π/2, π/2): periodic
+        if sgn > 0.0:
+            # sw d0 − dw s0 = sr [c0 (d0² + m s0² cr) − s0 d0 dr sr / (1 + cr)] / den
+            cross = sr * (c0 * (d0 * d0 + ms0 * cr) - s0 * d0 * dr * sr / (1.0 + cr)) / den
+        else:
+            cross = sn * d0 - dn * s0
+        dW = math.atan2(V * Wd * cross, Wd * Wd * dn * d0 + V * V * sn * s0)
     # body momentum in the sorted frame
     if P.cidx == 2.0:
         x1 = P.So * cn
