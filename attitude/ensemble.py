@@ -302,6 +302,7 @@ def _compute_chunk(
         setup.max_step,
         setup.max_steps,
     )
+    out["t_stop"] = tstate[:, 0].copy()  # time each member's integration reached
     return out
 
 
@@ -347,6 +348,9 @@ class _Assembler:
         self.template = tmpl
         self.per_member_orbit = pots is not None and getattr(pot, "orbit", None) is not None
         self.attrs = {k: v for k, v in tmpl.attrs.items() if k != "inertia"}
+        self.attrs["history"] = str(tmpl.attrs["history"]).replace(
+            ": propagate", ": propagate_ensemble"
+        )
         self.attrs.update(attrs)
         self.totals = {"n_steps": 0, "n_rhs": 0, "n_rejected": 0}
         self.max_projection = 0.0
@@ -393,7 +397,9 @@ class _Assembler:
             ("member_status", out["status"], "integration status (0: success)"),
         ):
             data_vars[name] = xr.Variable(
-                ("member",), np.ascontiguousarray(col, dtype=np.int64), {"long_name": long}
+                ("member",),
+                np.ascontiguousarray(col, dtype=np.int64),
+                {"units": "1", "long_name": long},
             )
         coords = {
             "member": (
@@ -479,9 +485,12 @@ class _MemberWriter(StreamWriter):
                 v = nc.createVariable(name, str, var.dims)
                 v[:] = np.asarray(var.values, dtype=object)
             elif "member" in var.dims:
-                v = nc.createVariable(
-                    name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp
-                )
+                chunks = self._chunks(var)
+                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
+                # A chunk cache of two netCDF chunks: complete chunks are written out at once
+                # instead of accumulating in HDF5's cache (memory would grow with N).
+                nbytes = var.dtype.itemsize * int(np.prod(chunks))
+                v.set_var_chunk_cache(size=2 * nbytes + 4096, nelems=17, preemption=1.0)
                 self._vars.append(name)
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
@@ -565,10 +574,13 @@ def _positive(x: Any, name: str) -> float:
     return v
 
 
-def _default_chunk(m: int, threads: int) -> int:
+def _default_chunk(n: int, m: int, threads: int) -> int:
+    """Members per chunk: about 20 chunks (progress), at least 16 per thread (balance), at
+    most :data:`MAX_CHUNK` and ~:data:`CHUNK_BYTES` of output (memory)."""
     per_member = m * (8 + _N_DIAG) * 8
-    c = min(MAX_CHUNK, max(1, CHUNK_BYTES // per_member))
-    return max(c, 4 * threads)
+    cap = min(MAX_CHUNK, max(1, CHUNK_BYTES // per_member))
+    want = max(-(-n // 20), 16 * threads)
+    return max(1, min(want, max(cap, threads)))
 
 
 def propagate_ensemble(
@@ -743,7 +755,7 @@ def propagate_ensemble(
 
             n_threads = numba.get_num_threads()
     m = tt.shape[0]
-    csize = int(chunk_size) if chunk_size is not None else _default_chunk(m, n_threads)
+    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
     csize = min(csize, n)
     setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user)
     run_attrs: dict[str, Any] = {
@@ -784,7 +796,8 @@ def propagate_ensemble(
                 out, inertia, corr = got
                 bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
                 if bad.size:
-                    raise PropagationError(_failure_message(out, bad, start, tt))
+                    msg, t_fail = _failure_message(out, bad, start, tt)
+                    raise PropagationError(msg, time=t_fail)
                 asm.max_projection = max(asm.max_projection, corr)
                 asm.account(out)
                 ds = asm.dataset(start, out, inertia)
@@ -832,16 +845,17 @@ def propagate_ensemble(
     return result
 
 
-def _failure_message(out, bad, start, t) -> str:
+def _failure_message(out, bad, start, t) -> tuple[str, float]:
     idx = [int(start + i) for i in bad]
     shown = ", ".join(map(str, idx[:10])) + (f", ... ({len(idx)} in all)" if len(idx) > 10 else "")
     first = int(bad[0])
     msg = _rk.STATUS_MESSAGES.get(int(out["status"][first]), "failed")
     k = int(out["n_done"][first])
-    reached = float(t[k - 1]) if k else float(t[0])
+    t_stop = float(out["t_stop"][first])
     return (
-        f"member(s) {shown} failed: member {idx[0]}: {msg}, after t = {reached!r} "
-        f"({k} of {t.shape[0]} output samples)"
+        f"member(s) {shown} failed: member {idx[0]} stopped at t = {t_stop!r}: {msg} "
+        f"({k} of {t.shape[0]} output samples computed)",
+        t_stop,
     )
 
 
