@@ -54,7 +54,7 @@ FreeRigidBody = namedtuple(
         "w1",  # uniform rotation: body angular velocity (original frame)
         "w2",
         "w3",
-        "G",
+        "G",  # |y|
         "lam",
         "m",
         "m1",
@@ -76,10 +76,10 @@ FreeRigidBody = namedtuple(
         "coefP",  # D_p G / (λ A_p)
         "coefW",  # D_p h_amp / (λ Wd V)
         "Pic",  # complete Π(n | m) (NaN: not computed yet)
-        "a0w",  # ã(g0) in the sorted frame
-        "a0x",
-        "a0y",
-        "a0z",
+        "y1",  # the orbit's point at u0 (sorted frame): g(t) = y + Δ(t)
+        "y2",
+        "y3",
+        "N0",  # |(G + y_p, y × e_p)|: norm of the alignment quaternion a(y)
     ],
 )
 
@@ -165,19 +165,6 @@ def _sorted_axes(I1, I2, I3):
 
 
 @jit
-def _align(x1, x2, x3, G, pidx):
-    """Minimal rotation a(g) taking g to G e_p (sorted frame) -> unit 4-tuple.
-
-    a = (G + h, g × e_p) / |·|, h = g_p; well conditioned while h ≥ −G/√2."""
-    if pidx == 0:
-        w, x, y, z = G + x1, 0.0, x3, -x2
-    else:
-        w, x, y, z = G + x3, x2, -x1, 0.0
-    nrm = math.sqrt(w * w + x * x + y * y + z * z)
-    return w / nrm, x / nrm, y / nrm, z / nrm
-
-
-@jit
 def _uniform(i0, i1, i2, sg, w1, w2, w3):
     return FreeRigidBody(
         0.0,
@@ -210,10 +197,10 @@ def _uniform(i0, i1, i2, sg, w1, w2, w3):
         0.0,
         0.0,
         _NAN,
+        0.0,
+        0.0,
+        0.0,
         1.0,
-        0.0,
-        0.0,
-        0.0,
     )
 
 
@@ -388,7 +375,22 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         if with_pic:
             Pic = ellippi_complete(n, m1, K)
     kap = math.sqrt((-n) * (m - n) * (1.0 - n))
-    a0 = _align(x1, x2, x3, G, pidx)
+    # The orbit's own point y at u0 (it differs from the input g by rounding). M(t) is built
+    # as the rotation taking y to the orbit's point y + Δ(t) at u0 + λt, from Δ itself.
+    if cidx == 2:
+        y1 = So * c0
+        y3 = Sc * d0
+    else:
+        y1 = Sc * d0
+        y3 = So * c0
+    y2 = S2 * s0
+    G0 = math.sqrt(y1 * y1 + y2 * y2 + y3 * y3)
+    if pidx == 0:
+        p0 = G0 + y1
+        N0 = math.sqrt(p0 * p0 + y2 * y2 + y3 * y3)
+    else:
+        p0 = G0 + y3
+        N0 = math.sqrt(p0 * p0 + y1 * y1 + y2 * y2)
     fpolec = 1.0 if polec else 0.0
     return FreeRigidBody(
         kind,
@@ -399,7 +401,7 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         0.0,
         0.0,
         0.0,
-        G,
+        G0,
         lam * scale,
         m,
         m1,
@@ -421,10 +423,10 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         coefP,
         coefW,
         Pic,
-        a0[0],
-        -a0[1],
-        -a0[2],
-        -a0[3],
+        y1,
+        y2,
+        y3,
+        N0,
     )
 
 
@@ -464,21 +466,35 @@ def free_rotation(P, t):
     s0 = P.s0
     c0 = P.c0
     d0 = P.d0
-    # (sn, cn, dn)(u0 + r) (DLMF 22.8.1-3); denominator 1 − m s0² sr² = d0² + m s0² cr²
+    # (sn, cn, dn)(u0 + r) − (sn, cn, dn)(u0) from the addition theorems (DLMF 22.8.1-3),
+    # rearranged with c − 1 = −s²/(1 + c), d − 1 = −m s²/(1 + d) (c = cn r ≥ 0, d = dn r > 0)
+    # so that each increment is sn r times a sum that does not cancel as r → 0.
+    # Denominator 1 − m s0² sr² = d0² + m s0² cr².
     ms0 = m * s0 * s0
     den = 1.0 - ms0 * sr * sr
     if den < 0.5:
         den = d0 * d0 + ms0 * cr * cr
-    sw = (s0 * cr * dr + sr * c0 * d0) / den
-    cw = (c0 * cr - s0 * sr * d0 * dr) / den
-    # back onto sn² + cn² = 1, dn² = m1 + m cn² (the energy and |g| surfaces) to a few ulp
-    rw = math.hypot(sw, cw)
-    sw /= rw
-    cw /= rw
-    dw = math.sqrt(P.m1 + m * cw * cw)
-    sgn = 1.0 if j % 2.0 == 0.0 else -1.0
-    sn = sgn * sw
-    cn = sgn * cw
+    # The brackets m s0² − m cr/(1 + dr) − 1/(1 + cr), m s0² − 1/(1 + cr), s0² − 1/(1 + dr)
+    # are rewritten with 1 − m s0² = d0², 1 − s0² = c0² and dr − m cr = m1 (1 + m cr²)/(dr + m cr)
+    # (no absolute O(ε) error where d0, c0 are small: near the separatrix den can be small).
+    ic = 1.0 / (1.0 + cr)
+    idr = 1.0 / (1.0 + dr)
+    bs = cr * P.m1 * (1.0 + (1.0 + m * cr * cr) / (dr + m * cr)) * ic * idr - d0 * d0
+    dsw = sr * (c0 * d0 + s0 * sr * bs) / den
+    dcw = sr * (c0 * sr * (cr * ic - d0 * d0) - s0 * d0 * dr) / den
+    ddw = m * sr * (d0 * sr * (dr * idr - c0 * c0) - s0 * c0 * cr) / den
+    sw = s0 + dsw
+    cw = c0 + dcw
+    dw = d0 + ddw
+    # at u = u0 + 2jK + r: sn u = (−1)^j sw, cn u = (−1)^j cw, dn u = dw
+    if j % 2.0 == 0.0:
+        sn = sw
+        dsn = dsw
+        dcn = dcw
+    else:
+        sn = -sw
+        dsn = -(s0 + sw)
+        dcn = -(c0 + cw)
     dn = dw
     # Π(n; am u|m) − Π(n; am u0|m) = 2jΠ(n|m) + Π(n; am r|m) + E, with the addition theorem
     # Π(u0 + r) − Π(u0) − Π(r) = (n/κ) atan(κ s0 sr sw / X), κ² = n(n − m)(n − 1),
@@ -493,41 +509,65 @@ def free_rotation(P, t):
         if Pic != Pic:
             Pic = ellippi_complete(n, P.m1, P.K)
         dP += 2.0 * j * Pic
-    # the arctangent term: W(u) − W(u0) as one atan2 of (cross, dot), with the cross product
-    # written as sn r times a sum without cancellation at small r
+    # the arctangent term: W(u) − W(u0) as one atan2 of (cross, dot), the cross product formed
+    # from the increments
     V = P.V
     Wd = P.Wd
     if P.polec == 1.0:
         # W = atan2(V sn, Wd cn), unwrapped by π per 2K; |W(u0 + r) − W(u0)| < π for |r| ≤ K
-        # sw c0 − cw s0 = sr [d0 (c0² + s0² dr) − m sr s0 c0 cr / (1 + dr)] / den
-        cross = sr * (d0 * (c0 * c0 + s0 * s0 * dr) - m * sr * s0 * c0 * cr / (1.0 + dr)) / den
+        cross = dsw * c0 - dcw * s0  # = sw c0 − cw s0
         dW = math.atan2(V * Wd * cross, Wd * Wd * cw * c0 + V * V * sw * s0) + math.pi * j
     else:
         # W = atan2(V sn, Wd dn) ∈ (−π/2, π/2): periodic
-        if sgn > 0.0:
-            # sw d0 − dw s0 = sr [c0 (d0² + m s0² cr) − s0 d0 dr sr / (1 + cr)] / den
-            cross = sr * (c0 * (d0 * d0 + ms0 * cr) - s0 * d0 * dr * sr / (1.0 + cr)) / den
-        else:
-            cross = sn * d0 - dn * s0
+        cross = dsn * d0 - ddw * s0  # = sn d0 − dn s0
         dW = math.atan2(V * Wd * cross, Wd * Wd * dn * d0 + V * V * sn * s0)
-    # body momentum in the sorted frame
-    if P.cidx == 2.0:
-        x1 = P.So * cn
-        x3 = P.Sc * dn
-    else:
-        x1 = P.Sc * dn
-        x3 = P.So * cn
-    x2 = P.S2 * sn
-    pidx = int(P.pidx)
     phi = P.Gp * t + P.coefP * dP - P.coefW * dW
-    a = _align(x1, x2, x3, P.G, pidx)
-    hc = math.cos(0.5 * phi)
-    hs = math.sin(0.5 * phi)
-    if pidx == 0:
-        r = (hc, hs, 0.0, 0.0)
+    # body momentum g = y + Δ in the sorted frame (y: the orbit's point at u0)
+    if P.cidx == 2.0:
+        e1 = P.So * dcn
+        e3 = P.Sc * ddw
     else:
-        r = (hc, 0.0, 0.0, hs)
-    M = mul(mul((P.a0w, P.a0x, P.a0y, P.a0z), r), a)
+        e1 = P.Sc * ddw
+        e3 = P.So * dcn
+    e2 = P.S2 * dsn
+    y1 = P.y1
+    y2 = P.y2
+    y3 = P.y3
+    x1 = y1 + e1
+    x2 = y2 + e2
+    x3 = y3 + e3
+    G0 = P.G
+    Gt = math.sqrt(x1 * x1 + x2 * x2 + x3 * x3)
+    dG = (e1 * (y1 + x1) + e2 * (y2 + x2) + e3 * (y3 + x3)) / (G0 + Gt)  # Gt − G0
+    # M = ã(y)∘r(φ)∘a(g) with a(g) = (G + g_p, g × ê)/N the minimal rotation taking g to G ê
+    # (section 3 of docs/exact.md), regrouped as M = B∘r' with B = ã(y)∘a(g) and
+    # r' = ã(g)∘r(φ)∘a(g) = (cos ½φ, sin ½φ g/|g|). B's vector part is linear in Δ = g − y and
+    # is formed from Δ: a small step gives a rotation accurate to ε relative to its own size,
+    # with no O(ε) error from products of O(1) quaternions that nearly cancel.
+    if P.pidx == 0.0:
+        p0 = G0 + y1
+        dp = dG + e1
+        # v = g × e1 = (0, g3, −g2)
+        v0x, v0y, v0z = 0.0, y3, -y2
+        dvx, dvy, dvz = 0.0, e3, -e2
+    else:
+        p0 = G0 + y3
+        dp = dG + e3
+        # v = g × e3 = (g2, −g1, 0)
+        v0x, v0y, v0z = y2, -y1, 0.0
+        dvx, dvy, dvz = e2, -e1, 0.0
+    p = p0 + dp
+    vx = v0x + dvx
+    vy = v0y + dvy
+    vz = v0z + dvz
+    nn = P.N0 * math.sqrt(p * p + vx * vx + vy * vy + vz * vz)
+    bw = (p0 * p + v0x * vx + v0y * vy + v0z * vz) / nn
+    # p0 v − p v0 − v0 × v = p0 Δv − Δp v0 − v0 × Δv
+    bx = (p0 * dvx - dp * v0x - (v0y * dvz - v0z * dvy)) / nn
+    by = (p0 * dvy - dp * v0y - (v0z * dvx - v0x * dvz)) / nn
+    bz = (p0 * dvz - dp * v0z - (v0x * dvy - v0y * dvx)) / nn
+    hs = math.sin(0.5 * phi) / Gt
+    M = mul((bw, bx, by, bz), (math.cos(0.5 * phi), hs * x1, hs * x2, hs * x3))
     # back to the original body frame: v[i_k] = s_k v'_k
     v0 = M[1]
     v1 = P.sg * M[2]
@@ -539,6 +579,25 @@ def free_rotation(P, t):
 
 
 @jit
+def _mul_unit(q, M):
+    """q∘M for M a unit quaternion up to rounding, applied as q + q∘(M − 1) with the scalar
+    part of M − 1 taken as √(1 − |v|²) − 1 = −|v|²/(1 + √(1 − |v|²)) (v = vec M).
+
+    The computed M has |M|² − 1 = O(ε), mostly from rounding its scalar part near 1, and that
+    error is nearly the same from one call to the next when the motion changes little between
+    calls, so q∘M would scale |q|, |Q| and T by the same 1 + O(ε) at every call of a composed
+    flow (a drift ∝ the number of calls). In the increment form the applied rotation is unit to
+    O(ε |v|²) and the only rounding left is that of q + (small), which varies from call to call.
+    """
+    w, x, y, z = M
+    if w < 0.5:  # large rotations (not the composed small steps): plain product
+        return mul(q, M)
+    s2 = x * x + y * y + z * z
+    d = mul(q, (-s2 / (1.0 + math.sqrt(1.0 - s2)), x, y, z))
+    return q[0] + d[0], q[1] + d[1], q[2] + d[2], q[3] + d[3]
+
+
+@jit
 def free_flow(I1, I2, I3, q, Q, h):
     """Exact torque-free flow over a step h from an arbitrary state -> (q_new, Q_new) 4-tuples.
 
@@ -547,7 +606,7 @@ def free_flow(I1, I2, I3, q, Q, h):
     """
     P = prepare(I1, I2, I3, q, Q, False)
     M = free_rotation(P, h)
-    return mul(q, M), mul(Q, M)
+    return _mul_unit(q, M), _mul_unit(Q, M)
 
 
 @jit
