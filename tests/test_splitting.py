@@ -205,12 +205,6 @@ def test_splitting_is_exact_for_the_symmetric_top():
     assert _attitude_error(ds.q.values, exact) > 1e-3
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="attitude._core.exact.free_flow loses accuracy for an axisymmetric body when g is "
-    "almost perpendicular to the symmetry axis (g3/|g| ~ 1e-20: error ~1e-5 per call, up to "
-    "radians); reported, to be fixed in attitude/_core/exact.py",
-)
 def test_axisymmetric_heavy_top_from_rest_splitting():
     """A symmetric body (I1 = I2) released from rest under gravity with an off-axis centre of
     mass: the kicks make g almost perpendicular to e3, the delicate case of the free flow."""
