@@ -311,22 +311,30 @@ def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, 
     return _compute_chunk(setup, params, y0, parallel=False)
 
 
+#: Members handed to a thread at a time by the parallel loop (dynamic scheduling: a thread that
+#: gets less CPU, or slower members, does not hold the others up at the end of a chunk).
+PARALLEL_CHUNK = 8
+
+
 @contextlib.contextmanager
 def _numba_threads(threads: int | None):
     """Run the parallel driver with ``threads`` numba threads (restored afterwards)."""
     from orbit._jit import JIT_DISABLED
 
-    if threads is None or JIT_DISABLED:
+    if JIT_DISABLED:
         yield
         return
     import numba
 
     old = numba.get_num_threads()
-    numba.set_num_threads(int(threads))
+    old_chunk = numba.set_parallel_chunksize(PARALLEL_CHUNK)
+    if threads is not None:
+        numba.set_num_threads(int(threads))
     try:
         yield
     finally:
         numba.set_num_threads(old)
+        numba.set_parallel_chunksize(old_chunk)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -357,7 +365,14 @@ class _Assembler:
         self.inv: dict[str, float] = {}
         self.n_members = 0
 
-    def dataset(self, start, out, inertia) -> xr.Dataset:
+    def dataset(self, start, out, inertia, lazy: bool = False) -> xr.Dataset:
+        """The chunk's Dataset; ``lazy``: ``out`` holds dask arrays, kept as they are."""
+
+        def arr(x, dtype=None):
+            if lazy:
+                return x if dtype is None else x.astype(dtype)
+            return np.ascontiguousarray(x, dtype=dtype)
+
         c = out["y"].shape[0]
         y, d = out["y"], out["diag"]
         cols = {
@@ -375,9 +390,7 @@ class _Assembler:
         data_vars: dict[str, Any] = {}
         for name, da in tm.data_vars.items():
             if name in cols:
-                data_vars[name] = xr.Variable(
-                    ("member", *da.dims), np.ascontiguousarray(cols[name]), da.attrs
-                )
+                data_vars[name] = xr.Variable(("member", *da.dims), arr(cols[name]), da.attrs)
             elif self.per_member_orbit:  # r, f, p of each member's own orbit
                 vals = [self._orbit_var(p.orbit, name) for p in self.pots[start : start + c]]
                 data_vars[name] = xr.Variable(("member", *da.dims), np.stack(vals), da.attrs)
@@ -398,7 +411,7 @@ class _Assembler:
         ):
             data_vars[name] = xr.Variable(
                 ("member",),
-                np.ascontiguousarray(col, dtype=np.int64),
+                arr(col, np.int64),
                 {"units": "1", "long_name": long},
             )
         coords = {
@@ -602,6 +615,7 @@ def propagate_ensemble(
     progress: Callable[[int, int, int], None] | None = None,
     scheduler_timeout: float = SCHEDULER_TIMEOUT,
     attrs: dict[str, Any] | None = None,
+    lazy: bool = False,
     _source: Any = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
@@ -636,8 +650,9 @@ def propagate_ensemble(
     max_steps : int
         A member that needs more steps fails (see Raises).
     chunk_size : int, optional
-        Members per chunk (default: as many as fit in ~32 MiB of output, at most 4096). Results
-        do not depend on it; memory does.
+        Members per chunk. Default: about N / 20 (a progress report per chunk), at least 16
+        per thread, at most 4096 and ~32 MiB of output. Results do not depend on it; memory
+        does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per member).
     path : str or Path, optional
         Stream each chunk to this netCDF4 file as soon as it is computed (atomic: written to a
         temporary file, renamed at the end). Memory then stays bounded by one chunk, and the
@@ -655,6 +670,14 @@ def propagate_ensemble(
         Seconds to wait for a scheduler given by address.
     attrs : dict, optional
         Extra global attributes of the result.
+    lazy : bool
+        Return a dask-backed Dataset at once, one task per chunk, computed on access (by
+        ``client``, or Dask's default scheduler); with ``path`` it is written with
+        ``Dataset.to_netcdf`` (computed on the cluster: the workers must see ``path``, a
+        shared file system). All or nothing: a failing member raises when computed and
+        nothing is kept; totals (``n_steps``...) are not in the attrs (sum
+        ``member_n_steps``). Default False: chunks are computed eagerly, in member order,
+        and streamed by this process, keeping completed chunks on failure.
 
     Returns
     -------
@@ -730,6 +753,18 @@ def propagate_ensemble(
         raise AttitudeValueError(f"path: {out_path} is a directory; give a file name")
 
     owned = False
+    if lazy:
+        try:
+            import dask  # noqa: F401
+        except ImportError:
+            raise AttitudeValueError(
+                "lazy: needs Dask; install the optional extra (pip install 'attitude[dask]')"
+            ) from None
+        if isinstance(client, str) and path is None:
+            raise AttitudeValueError(
+                "lazy: a lazy result without a path keeps using the cluster; pass a "
+                "dask.distributed.Client (that you close), not an address"
+            )
     if client is not None:
         client, owned = _connect(client, timeout)
         if user is not None:
@@ -778,9 +813,23 @@ def propagate_ensemble(
     if members.shared_inertia is not None:
         asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
 
+    bounds = [(s, min(n, s + csize)) for s in range(0, n, csize)]
+    if lazy:
+        asm.attrs["run_status"] = "lazy: computed on access; a failing member raises"
+        try:
+            ds = _lazy_result(setup, members, bounds, asm)
+            ds.attrs["initial_projection"] = float(asm.max_projection)
+            if out_path is None:
+                return ds
+            _write_lazy(ds, out_path, client)
+        finally:
+            if owned:
+                with contextlib.suppress(Exception):
+                    client.close()
+        return _open_result(out_path, csize, True)
+
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
-    bounds = [(s, min(n, s + csize)) for s in range(0, n, csize)]
     failure: PropagationError | None = None
     try:
         try:
@@ -907,6 +956,62 @@ def _dask_results(client, setup, members, bounds, n_threads):
         finally:
             fut.release()
         yield out, inertia, corr
+
+
+def _lazy_task(setup: _Setup, params: np.ndarray, y0: np.ndarray, start: int):
+    """A chunk as a task of the lazy graph: raises if a member failed (naming it)."""
+    out = _compute_chunk(setup, params, y0, parallel=False)
+    bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+    if bad.size:
+        msg, t_fail = _failure_message(out, bad, start, setup.t)
+        raise PropagationError(msg, time=t_fail)
+    return out
+
+
+def _lazy_result(setup, members, bounds, asm) -> xr.Dataset:
+    """The ensemble as a dask-backed Dataset: one task per chunk, nothing computed yet."""
+    import dask
+    import dask.array as dsa
+
+    m = setup.t.shape[0]
+    setup_d = dask.delayed(setup, traverse=False)
+    parts = []
+    for start, stop in bounds:
+        params, y0, inertia, corr = members.block(start, stop)
+        asm.max_projection = max(asm.max_projection, corr)
+        c = stop - start
+        task = dask.delayed(_lazy_task, pure=True)(setup_d, params, y0, start)
+        out = {
+            "y": dsa.from_delayed(task["y"], (c, m, 8), np.float64),
+            "diag": dsa.from_delayed(task["diag"], (c, m, _N_DIAG), np.float64),
+            "counters": dsa.from_delayed(task["counters"], (c, 5), np.int64),
+            "status": dsa.from_delayed(task["status"], (c,), np.int64),
+        }
+        parts.append(asm.dataset(start, out, inertia, lazy=True))
+    if len(parts) == 1:
+        return parts[0]
+    return xr.concat(parts, dim="member", data_vars="minimal", coords="minimal", compat="override")
+
+
+def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
+    """``ds.to_netcdf`` to a temporary name, computed by ``client`` (or dask), then renamed."""
+    from .io import _attr_value, _tmp_path
+
+    ds = ds.copy()
+    ds.attrs = {k: _attr_value(k, v) for k, v in ds.attrs.items() if v is not None}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _tmp_path(path)
+    try:
+        job = ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", compute=False)
+        if client is not None:
+            client.compute(job).result()
+        else:
+            job.compute()
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        raise
 
 
 def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:

@@ -430,9 +430,37 @@ def test_dask_local_cluster_equals_local_run_bit_for_bit(gg_case, tmp_path):
             ds.close()
         # without a path: in memory, same bits
         mem = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=4, client=client)
+        # lazy: a dask graph of chunk tasks, written by to_netcdf on the cluster
+        lazy_path = tmp_path / "lazy.nc"
+        propagate_ensemble(
+            sc.body, q, Q, t, sc.potential, chunk_size=6, client=client, lazy=True, path=lazy_path
+        ).close()
     a, b = io.read(local), io.read(remote)
     assert same(a, b)
     assert same(a, mem)
+    assert same(a, io.read(lazy_path))
+
+
+def test_lazy_result_is_a_dask_graph_with_the_same_bits(gg_case, tmp_path):
+    pytest.importorskip("dask")
+    sc, q, Q, t = gg_case
+    ref = propagate_ensemble(sc.body, q, Q, t, sc.potential)
+    lazy = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=5, lazy=True)
+    assert lazy.q.chunks[0] == (5, 5, 2)  # nothing computed yet: one task per chunk
+    assert same(ref, lazy.compute())
+    # a failing member raises when computed, and lazy writing keeps nothing
+    n = 6
+    q0 = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+    w = np.zeros((n, 3))
+    w[:, 2] = 0.1
+    w[4, 2] = 30.0
+    Q0 = C.momenta_from_angular_velocity(q0, w, I_PAPER)
+    path = tmp_path / "lazy.nc"
+    with pytest.raises(PropagationError, match=r"member\(s\) 4 failed"):
+        propagate_ensemble(
+            I_PAPER, q0, Q0, [0.0, 10.0], max_steps=100, chunk_size=3, lazy=True, path=path
+        )
+    assert not list(tmp_path.iterdir())
 
 
 # ------------------------------------------------------------------------------------------------
