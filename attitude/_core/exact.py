@@ -69,7 +69,7 @@ FreeRigidBody = namedtuple(
         "pidx",  # sorted index of the pole axis (0 or 2)
         "polec",  # 1.0 if the pole is the circulation axis, else 0.0
         "n",  # characteristic of Π
-        "kap",  # √(n (n − m)(n − 1)) of the addition theorem of Π
+        "kap",  # √(n (n − m)(1 − n)) ≥ 0 of the addition theorem of Π
         "V",  # arctangent scale
         "Wd",
         "Gp",  # G / I_p
@@ -497,7 +497,7 @@ def free_rotation(P, t):
         dcn = -(c0 + cw)
     dn = dw
     # Π(n; am u|m) − Π(n; am u0|m) = 2jΠ(n|m) + Π(n; am r|m) + E, with the addition theorem
-    # Π(u0 + r) − Π(u0) − Π(r) = (n/κ) atan(κ s0 sr sw / X), κ² = n(n − m)(n − 1),
+    # Π(u0 + r) − Π(u0) − Π(r) = (n/κ) atan(κ s0 sr sw / X), κ² = n(n − m)(1 − n),
     # X = 1 − n (sw² − s0 sr cw dw) ≥ 1 (derived from Jacobi's addition theorem for his Π(u, a)
     # with n = m sn²a, a imaginary for n < 0; checked against quadrature in the tests)
     X = 1.0 - n * (sw * sw - s0 * sr * cw * dw)
