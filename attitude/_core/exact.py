@@ -21,6 +21,13 @@ Derivation and accuracy notes: ``docs/exact.md``. Summary:
   ``φ̇ = G/I_p + D_p / (G + g_p)``, ``D_p = 2T − G²/I_p``. Splitting
   ``1/(G + h) = G/(G² − h²) − h/(G² − h²)`` gives Legendre's Π(n; am u | m) with
   ``n ∈ [−1, 0]`` (Carlson RF, RJ) plus an elementary arctangent.
+* Evaluation by increments: g(t) − g(u0), ΔΠ and the arctangent's change are formed from
+  (sn, cn, dn)(u0) (read off the state) and (sn, cn, dn)(λt mod 2K) by the addition theorems
+  of the Jacobi functions and of Π, each proportional to sn(λt): they keep full relative
+  accuracy however small λt is. (They multiply D_p/λ, which is huge for a slowly precessing,
+  nearly axisymmetric body; forming them as differences of values at u and u0 lost
+  everything there.) M is built from Δg as B∘r' (no cancelling products of O(1) quaternions)
+  and free_flow applies it as q + q∘(M − 1): composed flows do not drift in T or |g|.
 """
 
 from __future__ import annotations
