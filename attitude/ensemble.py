@@ -613,7 +613,7 @@ def propagate_ensemble(
     client: Any = None,
     threads: int | None = None,
     progress: Callable[[int, int, int], None] | None = None,
-    scheduler_timeout: float = SCHEDULER_TIMEOUT,
+    scheduler_timeout: float | None = None,
     attrs: dict[str, Any] | None = None,
     lazy: bool = False,
     _source: Any = None,
@@ -666,8 +666,9 @@ def propagate_ensemble(
         Local run: number of numba threads of the parallel loop (default: numba's, all cores).
     progress : callable, optional
         ``progress(n_done, n_total, n_steps_done)`` after each chunk (members done so far).
-    scheduler_timeout : float
-        Seconds to wait for a scheduler given by address.
+    scheduler_timeout : float, optional
+        Seconds to wait for a scheduler given by address (default :data:`SCHEDULER_TIMEOUT`,
+        10 s).
     attrs : dict, optional
         Extra global attributes of the result.
     lazy : bool
@@ -733,6 +734,8 @@ def propagate_ensemble(
             raise AttitudeValueError(f"{name}: expected a positive integer, got {v!r}")
     if progress is not None and not callable(progress):
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, steps)")
+    if scheduler_timeout is None:
+        scheduler_timeout = SCHEDULER_TIMEOUT
     timeout = _positive(scheduler_timeout, "scheduler_timeout")
 
     if _source is None:
@@ -1280,7 +1283,7 @@ def run_scenario(
     client: Any = None,
     progress: Callable[[int, int, int], None] | None = None,
     chunk_size: int | None = None,
-    scheduler_timeout: float = SCHEDULER_TIMEOUT,
+    scheduler_timeout: float | None = None,
     **overrides: Any,
 ) -> dict[str, Any]:
     """Run the dispersed ensemble of a scenario with an ``[ensemble]`` table, streamed to netCDF.

@@ -11,9 +11,6 @@ and keeps the chunks already written.
 from __future__ import annotations
 
 import importlib.util
-import os
-import subprocess
-import sys
 import time
 import tracemalloc
 import warnings
@@ -684,43 +681,39 @@ def test_ensemble_table_errors_name_the_key(edit, key):
         loads(_SMALL + "siez = 3\n")
 
 
-def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path):
+def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
+    from attitude import ensemble
+    from attitude.cli import main
+
     scen = tmp_path / "small.toml"
     scen.write_text(_SMALL)
     out = tmp_path / "o.nc"
-    env = {**os.environ, "PYTHONPATH": str(ROOT) + os.pathsep + os.environ.get("PYTHONPATH", "")}
-    run = subprocess.run(
-        [sys.executable, "-m", "attitude", "run", str(scen), "-o", str(out)],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=600,
-    )
-    assert run.returncode == 0, run.stderr
-    assert run.stderr.count("ensemble chunk") == 4  # 23 members in chunks of 6
-    assert "23 members (seed 4)" in run.stdout
+    assert main(["run", str(scen), "-o", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert cap.err.count("ensemble chunk") == 4  # 23 members in chunks of 6
+    assert "23/23 members done" in cap.err
+    assert "23 members (seed 4)" in cap.out
     assert io.read(out).sizes["member"] == 23
+    assert main(["run", str(scen), "-o", str(tmp_path / "q.nc"), "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    # --scheduler needs an [ensemble] table
+    plain = tmp_path / "plain.toml"
+    plain.write_text(_SMALL.split("[ensemble]")[0])
+    assert main(["run", str(plain), "-o", str(tmp_path / "p.nc"), "--scheduler", "x"]) == 2
+    assert "[ensemble]" in capsys.readouterr().err
     if importlib.util.find_spec("distributed") is not None:
-        bad = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "attitude",
-                "run",
-                str(scen),
-                "-o",
-                str(tmp_path / "b.nc"),
-                "--scheduler",
-                "tcp://127.0.0.1:9",
-            ],
-            capture_output=True,
-            text=True,
-            env=env,
-            timeout=600,
-        )
-        assert bad.returncode == 2
-        assert "no Dask scheduler answered" in bad.stderr
-        assert not (tmp_path / "b.nc").exists()
+        monkeypatch.setattr(ensemble, "SCHEDULER_TIMEOUT", 1.0)
+        bad = tmp_path / "b.nc"
+        code = main(["run", str(scen), "-o", str(bad), "--scheduler", "tcp://127.0.0.1:9"])
+        assert code == 2
+        assert "no Dask scheduler answered at 'tcp://127.0.0.1:9'" in capsys.readouterr().err
+        assert not bad.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "o.nc",
+        "plain.toml",
+        "q.nc",
+        "small.toml",
+    ]
 
 
 def test_projection_warning_and_no_warning_for_exact_states():

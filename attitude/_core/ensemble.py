@@ -2,12 +2,16 @@
 
 Every member is integrated on its own, with its own adaptive steps, its own work arrays and its
 own parameter row ``params[i]`` (inertia, kind code, potential numbers; see
-:mod:`attitude._core.potentials`), by the very loop :func:`attitude._core.rk.dop853_run` that
-:func:`attitude.propagate` runs (inlined here). Nothing is shared between members and nothing
-is reduced across them, so a member's result does not depend on how many members run beside
-it, how they are chunked, or on how many threads run the loop: bit for bit.
+:mod:`attitude._core.potentials`). Nothing is shared between members and nothing is reduced
+across them, so a member's result does not depend on how many members run beside it, how they
+are chunked, or on how many threads run the loop: bit for bit.
 
-Two drivers over the same member body:
+Built-in potentials: the member body :func:`member_builtin` calls the cached single-run entry
+points of :func:`attitude.propagate`, :func:`attitude._core.dynamics.dop853_canonical_builtin`
+and :func:`~attitude._core.dynamics.diagnostics_builtin`: a member runs the very machine code
+of a single propagation, and the ensemble kernels compile in a moment once those exist.
+
+Two drivers over that member body:
 
 ``run_builtin_parallel``
     ``prange`` over members (numba ``parallel=True``; threads set by ``numba.set_num_threads``).
@@ -16,13 +20,13 @@ Two drivers over the same member body:
     worker's own threads already provide the parallelism (and numba's threading layers are
     not all safe under concurrent launches from several Python threads).
 
-Both call one compiled member body, :func:`member_builtin` (not inlined into the drivers:
-the same machine code runs a member whichever driver calls it, and the parallel driver stays
-small, so numba's parallel passes compile it quickly). Everything is cached on disk: the
-right-hand side and the potential are GLOBAL built-in kernels passed to the inlined loop.
-User kernels (``CustomPotential``, ``CustomTorque``) get the same two drivers compiled per
-process by :func:`make_user_drivers` (not cacheable: numba cannot cache a function closing
+Everything is cached on disk. User kernels (``CustomPotential``, ``CustomTorque``) get the same
+two drivers from :func:`make_user_drivers`, with the DOP853 loop inlined around the user's
+right-hand side, compiled per process (not cacheable: numba cannot cache a function closing
 over another dispatcher that is not a module global).
+
+Diagnostics are computed for members that succeeded (a failed member fails its chunk, whose
+results are not used).
 
 Array layout (N members, m output times)
 ----------------------------------------
@@ -31,6 +35,7 @@ Array layout (N members, m output times)
 (:func:`attitude._core.dynamics.diagnostics_with` columns) · ``work`` (N, WORK_ROWS, 8),
 ``tstate`` (N, 4), ``counters`` (N, 5): the DOP853 state of each member (layout in
 :mod:`attitude._core.rk`) · ``status`` (N,) int64 · ``n_done`` (N,) int64 output rows filled.
+All C-contiguous.
 """
 
 from __future__ import annotations
@@ -39,9 +44,13 @@ import numba
 
 from orbit._jit import jit, parallel_jit
 
-from .dynamics import canonical_rhs_builtin, canonical_rhs_with, diagnostics_with
-from .potentials import builtin_potential
-from .rk import WORK_ROWS, dop853_run
+from .dynamics import (
+    canonical_rhs_with,
+    diagnostics_builtin,
+    diagnostics_with,
+    dop853_canonical_builtin,
+)
+from .rk import SUCCESS, WORK_ROWS, dop853_run
 
 __all__ = [
     "WORK_ROWS",
@@ -50,6 +59,18 @@ __all__ = [
     "run_builtin_parallel",
     "run_builtin_serial",
 ]
+
+
+@jit(inline="always")
+def _fresh(w, ts, c):
+    """A fresh integrator state (``dop853_run`` starts over when ``counters[3] == 0``)."""
+    for r in range(w.shape[0]):
+        for j in range(w.shape[1]):
+            w[r, j] = 0.0
+    for j in range(ts.shape[0]):
+        ts[j] = 0.0
+    for j in range(c.shape[0]):
+        c[j] = 0
 
 
 @jit(inline="always")
@@ -77,13 +98,7 @@ def _member(
     w = work[i]
     ts = tstate[i]
     c = counters[i]
-    for r in range(w.shape[0]):
-        for j in range(w.shape[1]):
-            w[r, j] = 0.0
-    for j in range(ts.shape[0]):
-        ts[j] = 0.0
-    for j in range(c.shape[0]):
-        c[j] = 0
+    _fresh(w, ts, c)
     p = params[i]
     yo = y_out[i]
     st, k = dop853_run(
@@ -91,8 +106,8 @@ def _member(
     )
     status[i] = st
     n_done[i] = k
-    if k > 0:
-        diagnostics_with(potential, t[:k], yo[:k], p, diag[i, :k])
+    if st == SUCCESS:
+        diagnostics_with(potential, t, yo, p, diag[i])
 
 
 @jit(nogil=True)
@@ -114,25 +129,20 @@ def member_builtin(
     max_steps,
 ):
     """Member ``i`` with a built-in potential: the one compiled body both drivers call."""
-    _member(
-        canonical_rhs_builtin,
-        builtin_potential,
-        i,
-        params,
-        y0,
-        t,
-        y_out,
-        diag,
-        work,
-        tstate,
-        counters,
-        status,
-        n_done,
-        rtol,
-        atol,
-        max_step,
-        max_steps,
+    m = t.shape[0]
+    w = work[i]
+    ts = tstate[i]
+    c = counters[i]
+    _fresh(w, ts, c)
+    p = params[i]
+    yo = y_out[i]
+    st, k = dop853_canonical_builtin(
+        p, y0[i], t[0], t, yo, w, ts, c, rtol, atol, t[m - 1], max_step, max_steps
     )
+    status[i] = st
+    n_done[i] = k
+    if st == SUCCESS:
+        diagnostics_builtin(t, yo, p, diag[i])
 
 
 @parallel_jit(nogil=True)
