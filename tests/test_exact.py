@@ -264,6 +264,27 @@ def test_long_time_against_longdouble_taylor():
 SEP_I = (3.0, 3.75, 5.0)  # I2 = 2 I1 I3/(I1 + I3): E_2 = (g3² − g1²)/4 exactly in floats
 
 
+def test_separatrix_far_in_time():
+    """On the separatrix the motion tends to the saddle (spin about the middle axis) for
+    t → ±∞: g → (0, ±G, 0) exponentially, with T, |g| and |q| conserved and the output finite
+    long after sech(λt) has underflowed (λ ≈ 0.1 here, λt up to 1e5)."""
+    q0, Q0 = state(np.array([1.0, 0.0, 0.0, 0.0]), (1.0, 0.3, -1.0))
+    g0 = body_momentum(q0, Q0)
+    G = np.linalg.norm(g0)
+    T0 = 0.5 * np.sum(g0 * g0 / np.array(SEP_I))
+    ts = np.array([1e3, -1e3, 1e4, -1e4, 1e6])
+    q, Q = torque_free(SEP_I, q0, Q0, ts)
+    g = body_momentum(q, Q)
+    assert np.all(np.isfinite(q)) and np.all(np.isfinite(Q))
+    assert np.abs(np.abs(g[:, 1]) - G).max() < 1e-15 * G
+    assert np.abs(g[:, [0, 2]]).max() < 1e-15 * G
+    assert np.abs(0.5 * np.sum(g * g / np.array(SEP_I), axis=1) - T0).max() < 8 * EPS * T0
+    assert np.abs(np.linalg.norm(q, axis=1) - 1.0).max() < 4 * EPS
+    for t in ts:
+        qf = X.free_flow(*SEP_I, q0, Q0, t)[0]
+        assert np.all(np.isfinite(qf))
+
+
 @pytest.mark.parametrize(
     ("name", "g0", "q0", "prec", "order", "tmax"),
     [

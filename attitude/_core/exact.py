@@ -69,6 +69,7 @@ FreeRigidBody = namedtuple(
         "s0",  # (sn, cn, dn)(u0): the initial phase, taken from the state itself
         "c0",
         "d0",
+        "u0",  # separatrix only: u0 = asinh(s0/c0) (sn = tanh, cn = dn = sech)
         "So",  # signed amplitudes: g_o = So cn, g_B = S2 sn, g_c = Sc dn
         "S2",
         "Sc",
@@ -187,6 +188,7 @@ def _uniform(i0, i1, i2, sg, w1, w2, w3):
         0.0,
         1.0,
         _NAN,
+        0.0,
         0.0,
         0.0,
         0.0,
@@ -377,10 +379,13 @@ def prepare(I1, I2, I3, q, Q, with_pic):
     c0 = cnx / rho
     s0 = snx / rho
     d0 = math.sqrt(m1 + m * c0 * c0)
+    u0 = 0.0
     if kind == 1.0:
         K = ellipkm1(m1)
         if with_pic:
             Pic = ellippi_complete(n, m1, K)
+    else:
+        u0 = math.asinh(snx / cnx)
     kap = math.sqrt((-n) * (m - n) * (1.0 - n))
     # The orbit's own point y at u0 (it differs from the input g by rounding). M(t) is built
     # as the rotation taking y to the orbit's point y + Δ(t) at u0 + λt, from Δ itself.
@@ -416,6 +421,7 @@ def prepare(I1, I2, I3, q, Q, with_pic):
         s0,
         c0,
         d0,
+        u0,
         So,
         S2,
         Sc,
@@ -481,18 +487,33 @@ def free_rotation(P, t):
     den = 1.0 - ms0 * sr * sr
     if den < 0.5:
         den = d0 * d0 + ms0 * cr * cr
-    # The brackets m s0² − m cr/(1 + dr) − 1/(1 + cr), m s0² − 1/(1 + cr), s0² − 1/(1 + dr)
-    # are rewritten with 1 − m s0² = d0², 1 − s0² = c0² and dr − m cr = m1 (1 + m cr²)/(dr + m cr)
-    # (no absolute O(ε) error where d0, c0 are small: near the separatrix den can be small).
-    ic = 1.0 / (1.0 + cr)
-    idr = 1.0 / (1.0 + dr)
-    bs = cr * P.m1 * (1.0 + (1.0 + m * cr * cr) / (dr + m * cr)) * ic * idr - d0 * d0
-    dsw = sr * (c0 * d0 + s0 * sr * bs) / den
-    dcw = sr * (c0 * sr * (cr * ic - d0 * d0) - s0 * d0 * dr) / den
-    ddw = m * sr * (d0 * sr * (dr * idr - c0 * c0) - s0 * c0 * cr) / den
-    sw = s0 + dsw
-    cw = c0 + dcw
-    dw = d0 + ddw
+    if P.kind == 2.0 and abs(dl) >= 1.0:
+        # separatrix, a step of at least one e-folding: tanh and sech of u directly (the
+        # addition formulas would divide underflowed sech values by each other)
+        u = P.u0 + dl
+        sw = math.tanh(u)
+        ea = math.exp(-abs(u))
+        cw = 2.0 * ea / (1.0 + ea * ea)
+        dw = cw
+        dsw = sw - s0
+        dcw = cw - c0
+        ddw = dcw
+    else:
+        # The brackets m s0² − m cr/(1 + dr) − 1/(1 + cr), m s0² − 1/(1 + cr) and
+        # s0² − 1/(1 + dr) are rewritten with 1 − m s0² = d0², 1 − s0² = c0² and
+        # dr − m cr = m1 (1 + m cr²)/(dr + m cr) (no absolute O(ε) error where d0, c0 are
+        # small: near the separatrix den can be small). dr ≥ √m1 > 0 when m1 > 0.
+        ic = 1.0 / (1.0 + cr)
+        idr = 1.0 / (1.0 + dr)
+        bs = -d0 * d0
+        if P.m1 != 0.0:
+            bs += cr * P.m1 * (1.0 + (1.0 + m * cr * cr) / (dr + m * cr)) * ic * idr
+        dsw = sr * (c0 * d0 + s0 * sr * bs) / den
+        dcw = sr * (c0 * sr * (cr * ic - d0 * d0) - s0 * d0 * dr) / den
+        ddw = m * sr * (d0 * sr * (dr * idr - c0 * c0) - s0 * c0 * cr) / den
+        sw = s0 + dsw
+        cw = c0 + dcw
+        dw = d0 + ddw
     # at u = u0 + 2jK + r: sn u = (−1)^j sw, cn u = (−1)^j cw, dn u = dw
     if j % 2.0 == 0.0:
         sn = sw
