@@ -725,3 +725,30 @@ def test_projection_warning_and_no_warning_for_exact_states():
         propagate_ensemble(I_PAPER, q, Q, [0.0, 1.0])
     with pytest.warns(UserWarning, match="projected"):
         propagate_ensemble(I_PAPER, q * (1 + 1e-9), Q, [0.0, 1.0])
+
+
+def test_runs_with_jit_disabled():
+    """The kernels are valid Python: the same members with ATTITUDE_DISABLE_JIT=1."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np\n"
+        "from attitude.ensemble import propagate_ensemble\n"
+        "q = np.tile([1.0, 0, 0, 0], (3, 1))\n"
+        "Q = np.array([[0, 0.2, 0.1, 0.3], [0, 0.1, 0.1, 0.3], [0, 0.3, -0.1, 0.3]])\n"
+        "ds = propagate_ensemble([1.25, 1.0, 0.75], q, Q, [0.0, 1.0, 2.0], chunk_size=2)\n"
+        "import json; print(json.dumps(ds.q.values.tolist()))\n"
+    )
+    env = {**os.environ, "ATTITUDE_DISABLE_JIT": "1", "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert out.returncode == 0, out.stderr
+    plain = np.array(json.loads(out.stdout))
+    q = np.tile([1.0, 0, 0, 0], (3, 1))
+    Q = np.array([[0, 0.2, 0.1, 0.3], [0, 0.1, 0.1, 0.3], [0, 0.3, -0.1, 0.3]])
+    ds = propagate_ensemble(I_PAPER, q, Q, [0.0, 1.0, 2.0])
+    np.testing.assert_allclose(plain, ds.q.values, rtol=0, atol=1e-14)
