@@ -1326,6 +1326,9 @@ def run_scenario(
     params = pot._params(inertia)
     source = _Sampled(disp, q0, Q0, inertia, params)
     attrs = {**sc.attrs(kw), **disp.attrs()}
+    if disp.inertia_error > 0:
+        attrs["inertia"] = inertia  # the nominal body; each member's is the variable inertia
+        attrs["inertia_note"] = "nominal; per-member moments in the variable inertia"
     ds = propagate_ensemble(
         sc.body,
         None,
@@ -1364,20 +1367,13 @@ def summary_lines(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         f"{steps} steps ({steps / max(n, 1):.1f} per member), {info.get('n_rejected')} rejected",
         f"speed       {steps / max(wall, 1e-9):.3g} member-steps/s",
     ]
-    inv = [
-        (k, info[k])
-        for k in (
-            "max_abs_norm_error",
-            "max_abs_qQ",
-            "max_rel_energy_error",
-            "max_rel_G_error",
-            "max_rel_Gz_error",
-            "max_rel_energy_variation",
-        )
-        if k in info
-    ]
+    from .cli import _invariant_lines
+
+    inv = _invariant_lines(info)
     lines.append(
-        "invariants  " + ", ".join(f"{k} {float(v):.3g}" for k, v in inv) + " (maxima over members)"
+        "invariants  "
+        + ("\n            ".join(inv) if inv else "-")
+        + ("\n            (maxima over members)" if inv else "")
     )
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     return lines
@@ -1387,7 +1383,10 @@ def cli_run(sc: Any, out: Path, args: Any) -> None:
     """``attitude run`` of a scenario with an ``[ensemble]`` table (progress per chunk)."""
     import sys
 
-    show = not getattr(args, "quiet", False) and getattr(args, "progress", "auto") != "never"
+    # As the single-run progress bar: "auto" reports when stderr is a terminal.
+    mode = getattr(args, "progress", "auto")
+    tty = bool(getattr(sys.stderr, "isatty", lambda: False)())
+    show = mode == "always" or (mode == "auto" and tty and not getattr(args, "quiet", False))
     t0 = time.monotonic()
     chunks = [0]
 

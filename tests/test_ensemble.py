@@ -688,14 +688,17 @@ def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
     scen = tmp_path / "small.toml"
     scen.write_text(_SMALL)
     out = tmp_path / "o.nc"
-    assert main(["run", str(scen), "-o", str(out)]) == 0
+    assert main(["run", str(scen), "-o", str(out), "--progress", "always"]) == 0
     cap = capsys.readouterr()
     assert cap.err.count("ensemble chunk") == 4  # 23 members in chunks of 6
     assert "23/23 members done" in cap.err
     assert "23 members (seed 4)" in cap.out
+    assert "max | |q| - 1 |" in cap.out and "max |H - H0|/|H0| (conserved)" in cap.out
     assert io.read(out).sizes["member"] == 23
     assert main(["run", str(scen), "-o", str(tmp_path / "q.nc"), "-q"]) == 0
     assert capsys.readouterr().err == ""
+    assert main(["info", str(out)]) == 0
+    assert "propagate_ensemble" in capsys.readouterr().out
     # --scheduler needs an [ensemble] table
     plain = tmp_path / "plain.toml"
     plain.write_text(_SMALL.split("[ensemble]")[0])
@@ -714,6 +717,25 @@ def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
         "q.nc",
         "small.toml",
     ]
+
+
+def test_shipped_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
+    """scenarios/ensemble_paper_keplerian.toml through `attitude run` (a short span)."""
+    from attitude.cli import main
+
+    out = tmp_path / "e.nc"
+    path = ROOT / "scenarios/ensemble_paper_keplerian.toml"
+    assert main(["run", str(path), "-o", str(out), "--stop", "291.425"]) == 0
+    assert "1000 members (seed 2006)" in capsys.readouterr().out
+    back = io.read(out)
+    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3}
+    assert back.attrs["run_status"] == "complete"
+    np.testing.assert_array_equal(back.attrs["inertia"], [400.0, 500.0, 600.0])
+    # the dispersed inertia: 2 % per axis, truncated at 3 sigma
+    eps = back.inertia.values / [400.0, 500.0, 600.0] - 1
+    assert 0.015 < np.std(eps) < 0.025 and np.max(np.abs(eps)) <= 0.06
+    np.testing.assert_allclose(back.norm_error.values, 0.0, atol=1e-10)  # DOP853, rtol 1e-10
+    assert np.all(back.r.values > 5599.0)  # the orbit's periapsis is a (1 - e) = 5600 km
 
 
 def test_projection_warning_and_no_warning_for_exact_states():
