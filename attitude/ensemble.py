@@ -672,10 +672,12 @@ def propagate_ensemble(
     attrs : dict, optional
         Extra global attributes of the result.
     lazy : bool
-        Return a dask-backed Dataset at once, one task per chunk, computed on access (by
-        ``client``, or Dask's default scheduler); with ``path`` it is written with
-        ``Dataset.to_netcdf`` (computed on the cluster: the workers must see ``path``, a
-        shared file system). All or nothing: a failing member raises when computed and
+        Return a dask-backed Dataset at once, one task per chunk, computed on access by
+        Dask's current scheduler (a ``Client`` you created is it); with ``path`` it is
+        written with
+        ``Dataset.to_netcdf``, computed by ``client`` (on a cluster the workers write, so
+        they must see ``path``: a shared file system). ``progress`` is not called. All or
+        nothing: a failing member raises when computed and
         nothing is kept; totals (``n_steps``...) are not in the attrs (sum
         ``member_n_steps``). Default False: chunks are computed eagerly, in member order,
         and streamed by this process, keeping completed chunks on failure.
