@@ -21,6 +21,7 @@ from . import accessor as _accessor  # registers the ``ds.attitude`` xarray acce
 from . import canonical, errors, exact, formulations, potentials, quaternion
 from ._version import __version__
 from .body import RigidBody
+from .ensemble import pointing_error_percentiles, propagate_ensemble, rate_percentiles
 from .errors import (
     AttitudeError,
     AttitudeTypeError,
@@ -59,8 +60,11 @@ __all__ = [
     "errors",
     "exact",
     "formulations",
+    "pointing_error_percentiles",
     "potentials",
     "propagate",
+    "propagate_ensemble",
     "quaternion",
+    "rate_percentiles",
     "torque_free",
 ]
