@@ -25,7 +25,7 @@ from orbit._jit import JIT_DISABLED, jit
 
 from ._core import potentials as _kp
 from ._core.quat import conj_mul
-from ._validation import as_float_array, as_quaternion, to_value
+from ._validation import as_float_array, as_quaternion
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
@@ -430,7 +430,3 @@ def as_potential(potential: Any) -> Potential:
         f"potential: expected an attitude.potentials.Potential (TorqueFree, HeavyTop, "
         f"GravityGradient, CustomPotential, CustomTorque) or None, got {type(potential).__name__}"
     )
-
-
-def _quantity_or_float(x: Any, name: str, unit: str) -> float:
-    return float(to_value(x, name, unit))
