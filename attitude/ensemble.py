@@ -597,7 +597,7 @@ def _default_chunk(n: int, m: int, threads: int) -> int:
 
 
 def propagate_ensemble(
-    body: RigidBody | Any,
+    bodies_or_body: RigidBody | Any,
     q0: Any,
     Q0: Any,
     t: Any,
@@ -626,7 +626,7 @@ def propagate_ensemble(
 
     Parameters
     ----------
-    body : RigidBody, array_like shape (3,) or (N, 3), or sequence of N RigidBody
+    bodies_or_body : RigidBody, array_like shape (3,) or (N, 3), or sequence of N RigidBody
         One body for all members, or one row of principal moments per member (an astropy
         Quantity is converted to kg km²; plain numbers are dimensionless, as in ``propagate``).
     q0 : array_like, shape (N, 4)
@@ -712,6 +712,7 @@ def propagate_ensemble(
     Memory without ``path`` is that of the whole result, ``N × m × 21 × 8`` bytes; with
     ``path`` it is one chunk. See docs/ensemble.md for Dask clusters and dispersions.
     """
+    body = bodies_or_body
     t_start = time.perf_counter()
     if method != "dop853":
         raise AttitudeValueError(
