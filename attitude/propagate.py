@@ -366,7 +366,10 @@ def propagate(
 
         form = get_formulation(formulation, method)
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
-    Q0a = as_float_array(Q0, "Q0", trailing=4, ndim=1, unit=None)
+    # Q has units of angular momentum: a Quantity is accepted when the body has units.
+    Q0a = as_float_array(
+        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg km2 / s"
+    )
     tt = as_times(t, "t")
     rtol = _positive(rtol, "rtol")
     atol = _positive(atol, "atol")

@@ -206,6 +206,11 @@ def test_units_follow_the_body(paper_state):
     assert ds.time.attrs["units"] == "s"
     assert u.Unit(ds.g.attrs["units"]) == u.Unit("kg km2 / s")
     assert u.Unit(ds.energy.attrs["units"]) == u.Unit("kg km2 / s2")
+    # Quantities at the boundary: Q0 in any angular-momentum unit, t in any time unit
+    ds2 = propagate(body, q0, (Q0 * 1e6) * u.Unit("kg m2 / s"), np.linspace(0, 10, 3) / 60 * u.min)
+    np.testing.assert_allclose(ds2.q.values, ds.q.values, rtol=0, atol=1e-15)
+    with pytest.raises(AttitudeTypeError, match="Q0"):
+        propagate(body, q0, Q0 * u.kg, [0.0, 1.0])
 
 
 def test_constant_body_torque_closed_form():
