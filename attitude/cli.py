@@ -119,7 +119,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if keep.sum() < 2:
             raise BadInput(f"--stop {args.stop}: leaves fewer than 2 output samples")
         sc.t = sc.t[keep]
-    for name in ("rtol", "atol"):
+    for name in ("rtol", "atol", "dt"):
         v = getattr(args, name)
         if v is not None and not v > 0:
             raise BadInput(f"--{name}: must be a positive number, got {v}")
@@ -144,7 +144,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     t_start = time.monotonic()
     try:
         info = sc.run_to_file(
-            out, progress=progress, method=args.method, rtol=args.rtol, atol=args.atol
+            out,
+            progress=progress,
+            method=args.method,
+            rtol=args.rtol,
+            atol=args.atol,
+            dt=None if args.dt is None else args.dt * sc.time_scale,
+            order=args.order,
+            formulation=args.formulation,
         )
     finally:
         progress.close()
@@ -152,6 +159,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.quiet:
         _summary(sc, info, wall)
     return EXIT_OK
+
+
+def _numerics(a: dict[str, Any]) -> str:
+    """'rtol .., atol ..' for adaptive methods, 'dt .., order ..' for the fixed-step ones."""
+    if "dt" in a:
+        return f"dt {a['dt']}, order {a.get('order', '-')}"
+    return f"rtol {a.get('rtol', '-')}, atol {a.get('atol', '-')}"
+
+
+def _statistics(a: dict[str, Any]) -> str:
+    """Step statistics of the run, leaving out what the method does not count."""
+    parts = [f"{a.get('n_steps', '?')} steps"]
+    if "n_rejected" in a:
+        parts.append(f"{a['n_rejected']} rejected")
+    if "n_rhs" in a:
+        parts.append(f"{a['n_rhs']} right-hand sides")
+    return ", ".join(parts)
 
 
 def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
@@ -164,9 +188,7 @@ def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
     lines = [
         f"scenario    {a.get('scenario')}: {a.get('title', '')}",
         f"time span   {_span(a, float(sc.t[0]), float(sc.t[n - 1]), n, unit)}",
-        f"method      {a.get('method')}, rtol {a.get('rtol', '-')}, atol {a.get('atol', '-')}: "
-        f"{a.get('n_steps', '?')} steps, {a.get('n_rejected', 0)} rejected, "
-        f"{a.get('n_rhs', '?')} right-hand sides",
+        f"method      {a.get('method')}, {_numerics(a)}: {_statistics(a)}",
     ]
     if float(a.get("initial_projection", 0.0)) > 0:
         lines.append(
@@ -218,13 +240,11 @@ def cmd_info(args: argparse.Namespace) -> int:
             ("initial", a.get("initial_state_form", "-")),
             (
                 "method",
-                f"{a.get('method')} ({a.get('formulation', 'canonical')}), "
-                f"rtol {a.get('rtol', '-')}, atol {a.get('atol', '-')}",
+                f"{a.get('method')} ({a.get('formulation', 'canonical')}), {_numerics(a)}",
             ),
             (
                 "statistics",
-                f"{a.get('n_steps', '?')} steps, {a.get('n_rejected', '?')} rejected, "
-                f"{a.get('n_rhs', '?')} right-hand sides",
+                _statistics(a),
             ),
             (
                 "variables",
@@ -320,6 +340,14 @@ def build_parser() -> argparse.ArgumentParser:
     )
     r.add_argument("--method", help="integration method (dop853, scipy:DOP853, ...)")
     r.add_argument("--rtol", type=float, help="relative tolerance")
+    r.add_argument(
+        "--dt", type=float, help="step of the fixed-step methods (nosquish, splitting), time unit"
+    )
+    r.add_argument("--order", type=int, choices=(2, 4, 6), help="order of nosquish/splitting")
+    r.add_argument(
+        "--formulation",
+        help="equations: canonical (default), euler_angles, schwab, euler_equations",
+    )
     r.add_argument("--atol", type=float, help="absolute tolerance")
     r.add_argument(
         "--stop",

@@ -1322,6 +1322,12 @@ def run_scenario(
     if disp is None:
         raise AttitudeValueError("scenario: no [ensemble] table; use Scenario.run_to_file")
     kw = sc._kwargs(overrides)
+    for key in ("dt", "order", "formulation"):
+        if key in kw:
+            raise AttitudeValueError(
+                f"integrator.{key}: ensembles run the canonical equations with method 'dop853' "
+                f"only; remove {key} from the [integrator] table of an [ensemble] scenario"
+            )
     out = Path(path) if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
     pot = sc.potential.bind(sc.body)

@@ -103,6 +103,9 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "atol": None,
         "max_step": "time",
         "max_steps": None,
+        "dt": "time",
+        "order": None,
+        "formulation": None,
     },
     "output": {"path": None},
     # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)
@@ -276,6 +279,9 @@ class Scenario:
     atol: float = 1e-12
     max_step: float = math.inf
     max_steps: int = 100_000_000
+    dt: float | None = None  # step of the fixed-step methods (nosquish, splitting)
+    order: int = 4
+    formulation: str = "canonical"
     output: Path = Path("out.nc")
     epoch: str | None = None
     object_name: str = "UNKNOWN"
@@ -296,6 +302,10 @@ class Scenario:
             max_step=self.max_step,
             max_steps=self.max_steps,
         )
+        if self.dt is not None:
+            kw.update(dt=self.dt, order=self.order)
+        if self.formulation != "canonical":
+            kw["formulation"] = self.formulation
         kw.update({k: v for k, v in overrides.items() if v is not None})
         return kw
 
@@ -590,6 +600,22 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         _lookup_method(method)
     except AttitudeValueError as exc:
         raise _fail("integrator.method", str(exc).split(": ", 1)[-1]) from None
+    dt = None
+    if "dt" in nt:
+        dt = r.value(nt, "dt", "integrator", "time")
+        if not dt > 0:
+            raise _fail("integrator.dt", f"must be a positive step, got {dt!r}")
+    order = nt.get("order", 4)
+    if not isinstance(order, int) or isinstance(order, bool) or order not in (2, 4, 6):
+        raise _fail("integrator.order", f"expected 2, 4 or 6, got {order!r}")
+    formulation = r.string(nt, "formulation", "integrator", "canonical")
+    from .formulations import get_formulation
+
+    if formulation != "canonical":
+        try:
+            get_formulation(formulation, method)
+        except AttitudeValueError as exc:
+            raise _fail("integrator.formulation", str(exc).split(": ", 1)[-1]) from None
 
     # [output]
     out = r.table("output")
@@ -618,6 +644,9 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         atol=atol,
         max_step=max_step,
         max_steps=max_steps,
+        dt=dt,
+        order=order,
+        formulation=formulation,
         output=opath,
         epoch=epoch,
         object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),

@@ -366,3 +366,21 @@ def test_progress_line_after_one_second():
     assert s.getvalue().endswith("\n") and "100.0%" in s.getvalue()
     q = Progress("auto", stream=_io.StringIO())  # not a terminal: silent
     assert not q.enabled
+
+
+def test_run_fixed_step_method_options(tmp_path):
+    """--method splitting needs --dt (exit 2 naming it); with it the file records dt and order."""
+    scen = SCEN / "paper_torque_free.toml"
+    r = cli(
+        "run", scen, "--method", "splitting", "--stop", "1", "-o", "a.nc", cwd=tmp_path, check=2
+    )
+    assert "dt" in r.stderr and "Traceback" not in r.stderr
+    cli(
+        "run", scen, "--method", "splitting", "--dt", "0.01", "--order", "6", "--stop", "1",
+        "-o", "b.nc", "-q", cwd=tmp_path, check=0,
+    )  # fmt: skip
+    with netCDF4.Dataset(tmp_path / "b.nc") as nc:
+        assert nc.getncattr("method") == "splitting"
+        assert float(nc.getncattr("dt")) == 0.01 and int(nc.getncattr("order")) == 6
+    r = cli("run", scen, "--formulation", "euler_angle", "-o", "c.nc", cwd=tmp_path, check=2)
+    assert "formulation" in r.stderr
