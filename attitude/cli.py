@@ -170,12 +170,12 @@ def _numerics(a: dict[str, Any]) -> str:
 
 def _statistics(a: dict[str, Any]) -> str:
     """Step statistics of the run, leaving out what the method does not count."""
-    parts = [f"{a.get('n_steps', '?')} steps"]
+    parts = [f"{a['n_steps']} steps"] if "n_steps" in a else []
     if "n_rejected" in a:
         parts.append(f"{a['n_rejected']} rejected")
     if "n_rhs" in a:
         parts.append(f"{a['n_rhs']} right-hand sides")
-    return ", ".join(parts)
+    return ", ".join(parts) or "-"
 
 
 def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:

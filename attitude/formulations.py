@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from ._core import dynamics as _dyn
 from ._core import formulations as _kf
 from ._core import rk as _rk
 from .canonical import from_euler_canonical, to_euler_canonical
@@ -121,7 +122,7 @@ class Formulation:
         """Compiled right-hand side ``rhs(t, y, params, dydt)`` for the problem's potential."""
         if problem.kernels is None:
             return self._rhs_builtin()
-        return _user_rhs(self._rhs_with(), problem.kernels[0])
+        return _dyn.user_rhs(self._rhs_with(), problem.kernels[0])
 
     def extra_stats(self, problem: Any, y: np.ndarray) -> dict[str, Any]:
         """Formulation-specific statistics (recorded in the Dataset attrs)."""
@@ -164,7 +165,7 @@ class Formulation:
             y, status, message, stats = self._run_scipy(problem, params, y0, **options)
         yc = self.to_canonical(problem, y) if y.shape[0] else np.empty((0, 8))
         stats.update(self.extra_stats(problem, y))
-        stats["formulation"] = self.name
+        stats.update(rtol=options["rtol"], atol=options["atol"], formulation=self.name)
         t_stop = stats.pop("t_stop", None)
         return RunResult(yc, int(status), message, stats, t_stop=t_stop)
 
@@ -292,23 +293,6 @@ class Formulation:
         if status == _rk.NONFINITE:
             message = f"scipy {solver}: {sol.message}"
         return y, status, message, stats
-
-
-_USER_RHS: dict[tuple[int, int], Callable] = {}
-
-
-def _user_rhs(rhs_with: Callable, torque: Callable) -> Callable:
-    """A compiled rhs(t, y, params, dydt) closing over a user torque (compiled once per pair)."""
-    key = (id(rhs_with), id(torque))
-    if key not in _USER_RHS:
-        from orbit._jit import jit
-
-        @jit(cache=False)
-        def rhs(t, y, params, dydt):
-            rhs_with(torque, t, y, params, dydt)
-
-        _USER_RHS[key] = (rhs, rhs_with, torque)  # keep the closed-over objects alive
-    return _USER_RHS[key][0]
 
 
 # --------------------------------------------------------------------------------------------

@@ -59,7 +59,7 @@ class Problem:
         """Compiled canonical right-hand side rhs(t, y, params, dydt)."""
         if self.kernels is None:
             return _dyn.canonical_rhs_builtin
-        return _user_rhs(self.kernels[0])
+        return _dyn.user_rhs(_dyn.canonical_rhs_with, self.kernels[0])
 
 
 @dataclass
@@ -72,38 +72,6 @@ class RunResult:
     stats: dict[str, Any] = field(default_factory=dict)
     first: int = 0  # index in problem.t of y[0] (> 0 when earlier samples were streamed out)
     t_stop: float | None = None  # time the integration reached when it failed
-
-
-_USER_RHS: dict[int, Callable] = {}
-
-
-def _user_rhs(torque: Callable) -> Callable:
-    key = id(torque)
-    if key not in _USER_RHS:
-        from orbit._jit import jit
-
-        @jit(cache=False)
-        def rhs(t, y, params, dydt):
-            _dyn.canonical_rhs_with(torque, t, y, params, dydt)
-
-        _USER_RHS[key] = rhs
-    return _USER_RHS[key]
-
-
-_USER_DIAG: dict[int, Callable] = {}
-
-
-def _user_diagnostics(potential_fn: Callable) -> Callable:
-    key = id(potential_fn)
-    if key not in _USER_DIAG:
-        from orbit._jit import jit
-
-        @jit(cache=False)
-        def diag(t, y, params, out):
-            _dyn.diagnostics_with(potential_fn, t, y, params, out)
-
-        _USER_DIAG[key] = diag
-    return _USER_DIAG[key]
 
 
 # --------------------------------------------------------------------------------------------
@@ -176,7 +144,13 @@ def _run_dop853(
             progress(done, m, float(tstate[0]))
         if status != _rk.SUCCESS:
             break
-    stats = {"n_steps": int(counters[0]), "n_rhs": int(counters[1]), "n_rejected": int(counters[2])}
+    stats = {
+        "rtol": rtol,
+        "atol": atol,
+        "n_steps": int(counters[0]),
+        "n_rhs": int(counters[1]),
+        "n_rejected": int(counters[2]),
+    }
     msg = _rk.STATUS_MESSAGES[int(status)]
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     if on_chunk is not None:  # keep only the last state (the samples went to on_chunk)
@@ -204,7 +178,7 @@ def _run_scipy(
 
     t = problem.t
     if t.shape[0] == 1:
-        return RunResult(problem.y0[None, :].copy(), stats={"n_steps": 0, "n_rhs": 0})
+        return RunResult(problem.y0[None, :].copy(), stats={"rtol": rtol, "atol": atol, "n_rhs": 0})
     sol = solve_ivp(
         fun,
         (t[0], t[-1]),
@@ -216,7 +190,7 @@ def _run_scipy(
         max_step=max_step,
     )
     y = sol.y.T.copy()
-    stats = {"n_rhs": int(sol.nfev), "n_steps": int(getattr(sol, "nsteps", -1))}
+    stats = {"rtol": rtol, "atol": atol, "n_rhs": int(sol.nfev)}
     ok = sol.status == 0 and np.all(np.isfinite(y))
     if ok:
         return RunResult(y, stats=stats)
@@ -438,12 +412,6 @@ def propagate(
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
-    if runner in (_run_dop853, _run_scipy):
-        attrs.update(rtol=rtol, atol=atol)
-    if dt is not None:
-        attrs["dt"] = dt
-    if "order" in result.stats or method in ("nosquish", "splitting"):
-        attrs["order"] = np.int64(order)
     ds = finish_dataset(problem, result.y, attrs, first=result.first)
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
@@ -474,7 +442,7 @@ def finish_dataset(
         if problem.kernels is None:
             _dyn.diagnostics_builtin(t, y, problem.params, diag)
         else:
-            _user_diagnostics(problem.kernels[1])(t, y, problem.params, diag)
+            _dyn.user_diagnostics(problem.kernels[1])(t, y, problem.params, diag)
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
     return build_dataset(t, y, diag, problem.body, problem.potential, attrs)

@@ -138,6 +138,7 @@ def _run(
         "n_steps": int(counters[0]),
         "n_torque": int(counters[1]),
         "n_free_flow": int(counters[2]),
+        "dt": dt,
         "order": order,
     }
     status = _rk.NONFINITE if status == _ks.NONFINITE else _rk.SUCCESS

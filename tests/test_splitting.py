@@ -448,16 +448,15 @@ def test_kernels_run_with_jit_disabled(paper_state):
 # --------------------------------------------------------------------------------------------
 
 # Steps chosen so the truncation part of the energy error is well above the accumulated
-# round-off. (Order-6 splitting at dt = 0.25 on the heavy top gives last/first = 1.23: its 1e7
-# exact free flows each bias the kinetic energy by ~1e-17 relative, a drift of ~7e-11 against a
-# truncation error of 3e-10; at dt = 0.3 the truncation part is 3x larger.)
+# round-off (with the exact free flow fixed, order-6 splitting on the heavy top gives
+# last/first = 1.00 at dt = 0.25 as well as at 0.3).
 LONG_DT = {
     ("nosquish", 2): 0.01,
     ("nosquish", 4): 0.05,
     ("nosquish", 6): 0.1,
     ("splitting", 2): 0.01,
     ("splitting", 4): 0.1,
-    ("splitting", 6): 0.3,
+    ("splitting", 6): 0.25,
 }
 
 
@@ -479,7 +478,8 @@ def test_million_steps(paper_state, case, method, order):
     n10 = dE.size // 10
     first, last = np.max(dE[1:n10]), np.max(dE[-n10:])
     if method == "splitting" and case == "torque_free":
-        # The exact flow: no truncation error at all, only accumulated round-off.
-        assert last < 1e-10 * abs(E[0])
+        # The exact flow: no truncation error at all, only accumulated round-off (a random walk,
+        # so the last/first ratio is noise; measured max |ΔE|/E ≤ 4.4e-13 over 1e6 steps).
+        assert np.max(dE) < 1e-12 * abs(E[0])
     else:
         assert last <= 1.2 * first, (first, last)

@@ -108,3 +108,37 @@ def diagnostics_with(potential, t, y, params, out):
 def diagnostics_builtin(t, y, params, out):
     """:func:`diagnostics_with` for a built-in potential (cached)."""
     diagnostics_with(builtin_potential, t, y, params, out)
+
+
+# User kernels ---------------------------------------------------------------------------------
+# A user torque or potential is a compiled function handed in from Python. numba cannot cache a
+# function that receives it, so the wrappers below close over it and are compiled once per process
+# and kernel (memoised here; the entries keep the kernels alive, so their ids are not reused).
+_USER_RHS: dict[tuple[int, int], tuple] = {}
+_USER_DIAG: dict[int, tuple] = {}
+
+
+def user_rhs(rhs_with, torque):
+    """Compiled ``rhs(t, y, params, dydt)`` = ``rhs_with(torque, t, y, params, dydt)``."""
+    key = (id(rhs_with), id(torque))
+    if key not in _USER_RHS:
+
+        @jit(cache=False)
+        def rhs(t, y, params, dydt):
+            rhs_with(torque, t, y, params, dydt)
+
+        _USER_RHS[key] = (rhs, rhs_with, torque)
+    return _USER_RHS[key][0]
+
+
+def user_diagnostics(potential):
+    """Compiled ``diag(t, y, params, out)``: :func:`diagnostics_with` for a user potential."""
+    key = id(potential)
+    if key not in _USER_DIAG:
+
+        @jit(cache=False)
+        def diag(t, y, params, out):
+            diagnostics_with(potential, t, y, params, out)
+
+        _USER_DIAG[key] = (diag, potential)
+    return _USER_DIAG[key][0]

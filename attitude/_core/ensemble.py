@@ -49,6 +49,7 @@ from .dynamics import (
     diagnostics_builtin,
     diagnostics_with,
     dop853_canonical_builtin,
+    user_rhs,
 )
 from .rk import SUCCESS, WORK_ROWS, dop853_run
 
@@ -233,9 +234,7 @@ def make_user_drivers(torque, potential):
     if key in _USER_DRIVERS:
         return _USER_DRIVERS[key]
 
-    @jit(cache=False)
-    def rhs(t, y, params, dydt):
-        canonical_rhs_with(torque, t, y, params, dydt)
+    rhs = user_rhs(canonical_rhs_with, torque)
 
     @jit(cache=False, nogil=True)
     def member(
