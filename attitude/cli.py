@@ -109,6 +109,68 @@ def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str
     return s
 
 
+def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
+    """The ``attitude run`` summary of an ensemble run."""
+    p = Path(info["path"])
+    size = p.stat().st_size / 1e6 if p.exists() else 0.0
+    n = int(info.get("n_members_written", 0))
+    steps = int(info.get("n_steps", 0))
+    unit = "" if sc.body.is_dimensionless else " s"
+    lines = [
+        f"scenario    {info.get('scenario')}: {info.get('title', '')}",
+        f"ensemble    {n} members (seed {info.get('ensemble_seed')}), chunks of "
+        f"{info.get('chunk_size')}, {info.get('execution')}",
+        f"time span   {float(sc.t[0]):g} .. {float(sc.t[-1]):g}{unit} ({len(sc.t)} samples)",
+        f"method      {info.get('method')}, rtol {info.get('rtol')}, atol {info.get('atol')}: "
+        f"{steps} steps ({steps / max(n, 1):.1f} per member), {info.get('n_rejected')} rejected",
+        f"speed       {steps / max(wall, 1e-9):.3g} member-steps/s",
+    ]
+    inv = _invariant_lines(info)
+    lines.append(
+        "invariants  "
+        + ("\n            ".join(inv) if inv else "-")
+        + ("\n            (maxima over members)" if inv else "")
+    )
+    lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
+    return lines
+
+
+def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
+    """``attitude run`` of a scenario with an ``[ensemble]`` table (progress per chunk)."""
+    # As the single-run progress bar: "auto" reports when stderr is a terminal.
+    mode = getattr(args, "progress", "auto")
+    tty = bool(getattr(sys.stderr, "isatty", lambda: False)())
+    show = mode == "always" or (mode == "auto" and tty and not getattr(args, "quiet", False))
+    t0 = time.monotonic()
+    chunks = [0]
+
+    def report(done: int, total: int, steps: int) -> None:
+        chunks[0] += 1
+        if not show:
+            return
+        el = time.monotonic() - t0
+        left = el * (total - done) / done if done else math.inf
+        sys.stderr.write(
+            f"ensemble chunk {chunks[0]}: {done}/{total} members done, {steps} steps, "
+            f"{el:.1f} s elapsed, ~{left:.0f} s left\n"
+        )
+        sys.stderr.flush()
+
+    from .ensemble import run_scenario
+
+    info = run_scenario(
+        sc,
+        out,
+        client=getattr(args, "scheduler", None),
+        progress=report,
+        method=args.method,
+        rtol=args.rtol,
+        atol=args.atol,
+    )
+    if not getattr(args, "quiet", False):
+        print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0)))
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from . import scenario as S
 
@@ -134,9 +196,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if out.exists() and out.is_dir():
         raise BadInput(f"-o {out}: is a directory")
     if sc.ensemble is not None:  # [ensemble] table: docs/ensemble.md
-        from .ensemble import cli_run
-
-        cli_run(sc, out, args)
+        _run_ensemble(sc, out, args)
         return EXIT_OK
     if args.scheduler:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")

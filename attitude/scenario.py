@@ -28,6 +28,7 @@ import numpy as np
 import xarray as xr
 
 from .body import RigidBody
+from .ensemble.dispersions import DISTRIBUTIONS, Dispersions
 from .errors import AttitudeError, AttitudeValueError, PropagationError
 
 if sys.version_info >= (3, 11):
@@ -291,7 +292,7 @@ class Scenario:
     path: Path | None = None
     initial_form: str = "canonical"
     extra_attrs: dict[str, Any] = field(default_factory=dict)
-    ensemble: Any = None  # attitude.ensemble.Dispersions from an [ensemble] table
+    ensemble: Dispersions | None = None  # from an [ensemble] table
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -624,9 +625,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [ensemble]
     ensemble = None
     if "ensemble" in data:
-        from .ensemble import parse_dispersions
-
-        ensemble = parse_dispersions(r, r.table("ensemble"), body)
+        ensemble = _dispersions(r, r.table("ensemble"), body)
 
     return Scenario(
         name=name,
@@ -657,6 +656,60 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         initial_form=f"{form} ({frame} frame)",
         ensemble=ensemble,
     )
+
+
+def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
+    """The ``[ensemble]`` table (scenario ``_Reader`` ``r``) as :class:`Dispersions`.
+
+    Errors name the key (``ScenarioError`` is raised by the caller from AttitudeValueError).
+    """
+
+    def fail(key, msg):
+        return ScenarioError(f"ensemble.{key}: {msg}")
+
+    def integer(key, default, low):
+        v = table.get(key, default)
+        if v is None:
+            return None
+        if not isinstance(v, int) or isinstance(v, bool) or v < low:
+            raise fail(key, f"expected an integer >= {low}, got {v!r}")
+        return v
+
+    if "size" not in table:
+        raise fail("size", "missing: the number of members (an integer >= 1)")
+    size = integer("size", None, 1)
+    seed = integer("seed", 0, 0)
+    chunk = integer("chunk", None, 1)
+    values = {}
+    for key, kind in (("attitude_error", "angle"), ("rate_error", "rate")):
+        v = r.value(table, key, "ensemble", kind, default=0.0)
+        if not v >= 0:
+            raise fail(key, f"must be >= 0 (a standard deviation or half-width), got {v!r}")
+        values[key] = float(v)
+    ie = r.number(table, "inertia_error", "ensemble", 0.0)
+    if not ie >= 0:
+        raise fail("inertia_error", f"must be >= 0 (relative, e.g. 0.02 for 2 %), got {ie!r}")
+    dists = {}
+    for q in ("attitude", "rate", "inertia"):
+        key = f"{q}_distribution"
+        d = r.string(table, key, "ensemble", "normal")
+        if d not in DISTRIBUTIONS:
+            raise fail(key, f"expected one of {', '.join(map(repr, DISTRIBUTIONS))}, got {d!r}")
+        dists[key] = d
+    disp = Dispersions(
+        size=size,
+        seed=seed,
+        chunk=chunk,
+        attitude_error=values["attitude_error"],
+        rate_error=values["rate_error"],
+        inertia_error=ie,
+        **dists,
+    )
+    try:
+        disp.check_body(body.inertia)
+    except AttitudeValueError as exc:
+        raise ScenarioError(str(exc)) from None
+    return disp
 
 
 def _only(t, where, what, required, always, selector):

@@ -28,13 +28,12 @@ from attitude._core import rk as _rk
 from attitude.body import RigidBody
 from attitude.ensemble import (
     Dispersions,
-    _compute_chunk,
-    _Setup,
     pointing_error_percentiles,
     propagate_ensemble,
     rate_percentiles,
     run_scenario,
 )
+from attitude.ensemble._chunks import _compute_chunk, _Setup
 from attitude.errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from attitude.potentials import CustomTorque, GravityGradient, HeavyTop, TorqueFree
 from attitude.propagate import propagate
@@ -705,7 +704,7 @@ def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
     assert main(["run", str(plain), "-o", str(tmp_path / "p.nc"), "--scheduler", "x"]) == 2
     assert "[ensemble]" in capsys.readouterr().err
     if importlib.util.find_spec("distributed") is not None:
-        monkeypatch.setattr(ensemble, "SCHEDULER_TIMEOUT", 1.0)
+        monkeypatch.setattr(ensemble._dask, "SCHEDULER_TIMEOUT", 1.0)
         bad = tmp_path / "b.nc"
         code = main(["run", str(scen), "-o", str(bad), "--scheduler", "tcp://127.0.0.1:9"])
         assert code == 2

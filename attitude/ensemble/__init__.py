@@ -1,0 +1,41 @@
+"""Ensembles: many initial states (and bodies, potentials) through the same scenario.
+
+:func:`propagate_ensemble` integrates N members, each with its own adaptive DOP853 steps, in
+parallel compiled code (a numba ``prange`` loop over members, or Dask tasks on a cluster), and
+returns one Dataset with a ``member`` dimension and the variables of
+:func:`attitude.propagate`. Members are processed in chunks; with ``path=`` every chunk is
+streamed to a netCDF4 file as soon as it is done, so memory is bounded by one chunk whatever N.
+
+A member's result does not depend on the chunk size, the number of threads, or on whether it
+ran locally or on a Dask worker: every member runs the same compiled member body from a fresh
+integrator state (tests/test_ensemble.py checks all three bit for bit).
+
+Modules, one concern each:
+
+========================  ===================================================================
+``_members``              validated member inputs (states, bodies, potentials), chunk by chunk
+``_chunks``               one chunk in compiled code (also the body of a Dask task)
+``_output``               assembling chunks into Datasets, streaming them to netCDF
+``_dask``                 Dask scheduling: connecting, task submission, lazy graphs
+``_run``                  :func:`propagate_ensemble`, :func:`run_scenario`
+``dispersions``           :class:`Dispersions` (Monte Carlo draws of the ``[ensemble]`` table)
+``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`
+========================  ===================================================================
+
+The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario`; the
+``attitude run`` output of an ensemble is printed by :mod:`attitude.cli`. See docs/ensemble.md.
+"""
+
+from __future__ import annotations
+
+from ._run import propagate_ensemble, run_scenario
+from .dispersions import Dispersions
+from .statistics import pointing_error_percentiles, rate_percentiles
+
+__all__ = [
+    "Dispersions",
+    "pointing_error_percentiles",
+    "propagate_ensemble",
+    "rate_percentiles",
+    "run_scenario",
+]

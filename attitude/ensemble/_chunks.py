@@ -1,0 +1,116 @@
+"""One chunk of members in compiled code (also the body of a Dask task)."""
+
+from __future__ import annotations
+
+import contextlib
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._core import ensemble as _ke
+from .._core import rk as _rk
+
+_N_DIAG = 13
+
+# ------------------------------------------------------------------------------------------------
+# one chunk in compiled code (also the Dask task)
+# ------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Setup:
+    """What every chunk needs besides its members (picklable: shipped to Dask workers)."""
+
+    t: np.ndarray
+    rtol: float
+    atol: float
+    max_step: float
+    max_steps: int
+    user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
+
+
+def _compute_chunk(
+    setup: _Setup, params: np.ndarray, y0: np.ndarray, *, parallel: bool
+) -> dict[str, np.ndarray]:
+    """Integrate the members of one chunk; arrays of the chunk's results."""
+    c = y0.shape[0]
+    t = setup.t
+    m = t.shape[0]
+    out = {
+        "y": np.empty((c, m, 8)),
+        "diag": np.empty((c, m, _N_DIAG)),
+        "counters": np.empty((c, 5), dtype=np.int64),
+        "status": np.empty(c, dtype=np.int64),
+        "n_done": np.empty(c, dtype=np.int64),
+    }
+    work = np.empty((c, _rk.WORK_ROWS, 8))
+    tstate = np.empty((c, 4))
+    if setup.user_potential is None:
+        fn = _ke.run_builtin_parallel if parallel else _ke.run_builtin_serial
+    else:
+        torque, potential = setup.user_potential._kernels()
+        fn = _ke.make_user_drivers(torque, potential)[0 if parallel else 1]
+    fn(
+        params,
+        y0,
+        t,
+        out["y"],
+        out["diag"],
+        work,
+        tstate,
+        out["counters"],
+        out["status"],
+        out["n_done"],
+        setup.rtol,
+        setup.atol,
+        setup.max_step,
+        setup.max_steps,
+    )
+    out["t_stop"] = tstate[:, 0].copy()  # time each member's integration reached
+    return out
+
+
+def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, np.ndarray]:
+    """A chunk as a Dask task: the serial (GIL-free) driver; the worker threads parallelise."""
+    return _compute_chunk(setup, params, y0, parallel=False)
+
+
+#: Members handed to a thread at a time by the parallel loop (dynamic scheduling: a thread that
+#: gets less CPU, or slower members, does not hold the others up at the end of a chunk).
+PARALLEL_CHUNK = 8
+
+
+@contextlib.contextmanager
+def _numba_threads(threads: int | None):
+    """Run the parallel driver with ``threads`` numba threads (restored afterwards)."""
+    from orbit._jit import JIT_DISABLED
+
+    if JIT_DISABLED:
+        yield
+        return
+    import numba
+
+    old = numba.get_num_threads()
+    old_chunk = numba.set_parallel_chunksize(PARALLEL_CHUNK)
+    if threads is not None:
+        numba.set_num_threads(int(threads))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(old)
+        numba.set_parallel_chunksize(old_chunk)
+
+
+def _failure_message(out, bad, start, t) -> tuple[str, float]:
+    idx = [int(start + i) for i in bad]
+    shown = ", ".join(map(str, idx[:10])) + (f", ... ({len(idx)} in all)" if len(idx) > 10 else "")
+    first = int(bad[0])
+    msg = _rk.STATUS_MESSAGES.get(int(out["status"][first]), "failed")
+    k = int(out["n_done"][first])
+    t_stop = float(out["t_stop"][first])
+    return (
+        f"member(s) {shown} failed: member {idx[0]} stopped at t = {t_stop!r}: {msg} "
+        f"({k} of {t.shape[0]} output samples computed)",
+        t_stop,
+    )

@@ -1,0 +1,203 @@
+"""Ensemble members: validated inputs (states, bodies, potentials), produced chunk by chunk."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_float_array
+from ..body import RigidBody
+from ..errors import AttitudeTypeError, AttitudeValueError
+from ..potentials import Potential, as_potential
+
+#: Largest relative defect of an initial state that is projected (as in propagate).
+PROJECTION_TOL = 1e-6
+
+
+# ------------------------------------------------------------------------------------------------
+# members: validated inputs, produced chunk by chunk
+# ------------------------------------------------------------------------------------------------
+
+
+class _Members:
+    """Validated member inputs; :meth:`block` gives the compiled-kernel rows of a chunk.
+
+    Keeps the caller's arrays (no per-member copies beyond one chunk).
+    """
+
+    def __init__(self, q, Q, inertia, params, n):
+        self.q = q  # (N, 4) or (4,)
+        self.Q = Q  # (N, 4) or (4,)
+        self.inertia = inertia  # (N, 3) or (3,)
+        self.params = params  # (N, P) or (P,): inertia columns overwritten per member
+        self.n = n
+
+    @property
+    def per_member_inertia(self) -> bool:
+        return self.inertia.ndim == 2
+
+    @property
+    def shared_inertia(self) -> np.ndarray | None:
+        return None if self.inertia.ndim == 2 else self.inertia
+
+    def _rows(self, a, start, stop):
+        return a[start:stop] if a.ndim == 2 else np.broadcast_to(a, (stop - start, a.shape[-1]))
+
+    def block(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """(params (C, P), y0 (C, 8), inertia (C, 3), max projection) of members start:stop."""
+        q = self._rows(self.q, start, stop)
+        Q = self._rows(self.Q, start, stop)
+        qp, Qp, corr = _project(q, Q, start)
+        inertia = np.ascontiguousarray(self._rows(self.inertia, start, stop))
+        params = np.array(self._rows(self.params, start, stop), dtype=np.float64, order="C")
+        params[:, 0:3] = inertia
+        y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
+        return params, y0, inertia, corr
+
+
+def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """Members' states projected onto |q| = 1, q·Q = 0 (canonical.project_state, row-wise)."""
+    nq = np.sqrt(np.sum(q * q, axis=1))
+    dn = np.abs(nq - 1.0)
+    if np.any(dn > PROJECTION_TOL):
+        i = int(np.argmax(dn > PROJECTION_TOL))
+        raise AttitudeValueError(
+            f"q0: member {offset + i}: |q0| = {nq[i]!r} is not 1 (off by {dn[i]:.3g} > "
+            f"{PROJECTION_TOL:g}); pass unit quaternions (attitude.quaternion.normalize)"
+        )
+    if np.any(np.all(q == 0.0, axis=1)):  # pragma: no cover - caught by the norm check
+        raise AttitudeValueError("q0: the zero quaternion does not represent a rotation")
+    qn = q / nq[:, None]
+    qQ = np.sum(qn * Q, axis=1)
+    nQ = np.sqrt(np.sum(Q * Q, axis=1))
+    dq = np.abs(qQ) / np.maximum(nQ, 1.0)
+    if np.any(dq > PROJECTION_TOL):
+        i = int(np.argmax(dq > PROJECTION_TOL))
+        raise AttitudeValueError(
+            f"Q0: member {offset + i}: q0·Q0 = {qQ[i]:.3g} is not 0 (relative {dq[i]:.3g} > "
+            f"{PROJECTION_TOL:g}); the momenta must be tangent to the unit sphere, e.g. "
+            f"Q0 = 2 q0∘(0, g0) (attitude.canonical.momenta_from_body_angular_momentum)"
+        )
+    corr = float(max(np.max(dn, initial=0.0), np.max(dq, initial=0.0)))
+    return qn, Q - qQ[:, None] * qn, corr
+
+
+def _member_states(q0: Any, Q0: Any) -> tuple[np.ndarray, np.ndarray, int]:
+    q = as_float_array(q0, "q0", trailing=4)
+    Q = as_float_array(Q0, "Q0", trailing=4, unit=None)
+    for name, a in (("q0", q), ("Q0", Q)):
+        if a.ndim not in (1, 2):
+            raise AttitudeValueError(
+                f"{name}: expected shape (N, 4) (one row per member), got shape {a.shape}"
+            )
+    if q.ndim == 1 and Q.ndim == 1:
+        raise AttitudeValueError(
+            "q0, Q0: both have shape (4,), so the ensemble size N is unknown; give q0 or Q0 "
+            "with shape (N, 4) (or use attitude.propagate for a single member)"
+        )
+    n = q.shape[0] if q.ndim == 2 else Q.shape[0]
+    if q.ndim == 2 and Q.ndim == 2 and q.shape[0] != Q.shape[0]:
+        raise AttitudeValueError(
+            f"q0, Q0: q0 has {q.shape[0]} members (rows) but Q0 has {Q.shape[0]}; give one row "
+            "per member in both (or a single (4,) row to share)"
+        )
+    if n == 0:
+        raise AttitudeValueError(
+            "q0, Q0: the ensemble is empty (N = 0 members); give at least one row"
+        )
+    return q, Q, n
+
+
+def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
+    """Inertia (3,) shared or (N, 3) per member, and the unit label of the bodies."""
+    if isinstance(body, RigidBody):
+        return body.inertia, body.units
+    if isinstance(body, (list, tuple)) and body and all(isinstance(b, RigidBody) for b in body):
+        units = {b.units for b in body}
+        if len(units) > 1:
+            raise AttitudeValueError(
+                f"body: the per-member bodies mix unit systems {sorted(map(str, units))}; give "
+                "them all in one (e.g. all as astropy Quantities in kg m2)"
+            )
+        arr = np.stack([b.inertia for b in body])
+        unit = body[0].units
+    else:
+        try:
+            from astropy import units as u
+
+            is_q = isinstance(body, u.Quantity)
+        except ImportError:  # pragma: no cover
+            is_q = False
+        arr = as_float_array(body, "body", unit="kg km2" if is_q else None)
+        unit = "kg km2" if is_q else None
+        if arr.shape == (3,):
+            return RigidBody(arr, units=unit).inertia, unit
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise AttitudeValueError(
+            f"body: expected a RigidBody, the three principal moments (3,), or one row of "
+            f"moments per member (N, 3), got shape {arr.shape}"
+        )
+    if arr.shape[0] != n:
+        raise AttitudeValueError(
+            f"body: {arr.shape[0]} rows of inertia for {n} members (the rows of q0/Q0); give "
+            "one row per member, or a single body for all"
+        )
+    bad = np.any(arr <= 0, axis=1)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise AttitudeValueError(
+            f"body: member {i}: principal moments must be positive, got {arr[i].tolist()}"
+        )
+    tol = 1.0 - 1e-12  # as RigidBody
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        bad = arr[:, a] + arr[:, b] < arr[:, c] * tol
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise AttitudeValueError(
+                f"body: member {i}: inertia {arr[i].tolist()} violates the triangle inequality "
+                f"I{a + 1} + I{b + 1} >= I{c + 1}; no rigid body has these moments"
+            )
+    return arr, unit
+
+
+def _member_potentials(potential: Any, n: int, inertia: np.ndarray):
+    """(template Potential, params (P,) or (N, P), per-member potential list or None)."""
+    if isinstance(potential, (list, tuple)):
+        pots = list(potential)
+        if len(pots) != n:
+            raise AttitudeValueError(
+                f"potential: {len(pots)} potentials for {n} members; give one per member or a "
+                "single potential for all"
+            )
+        for i, p in enumerate(pots):
+            if not isinstance(p, Potential):
+                raise AttitudeTypeError(
+                    f"potential[{i}]: expected an attitude.potentials.Potential, got "
+                    f"{type(p).__name__}"
+                )
+            if p._kind is None:
+                raise AttitudeTypeError(
+                    f"potential[{i}]: per-member potentials must be built-in (TorqueFree, "
+                    f"HeavyTop, GravityGradient); a {type(p).__name__} is compiled code, so "
+                    "give one for all members (its numbers can live in the function)"
+                )
+            if p._kind != pots[0]._kind:
+                raise AttitudeValueError(
+                    f"potential[{i}]: all members need the same kind of potential; member 0 "
+                    f"has {pots[0].name}, member {i} has {p.name}"
+                )
+        ref = inertia if inertia.ndim == 1 else inertia[0]
+        rows = [p._params(ref) for p in pots]
+        params = np.stack(rows)
+        return pots[0], params, pots
+    pot = as_potential(potential)
+    if inertia.ndim == 1:
+        pot = pot.bind(RigidBody(inertia))
+    elif getattr(pot, "inertia", None) is not None:
+        raise AttitudeValueError(
+            "potential: this GravityGradient was built for one body (inertia=...), but the "
+            "members have their own inertia; give GravityGradient(orbit) without inertia"
+        )
+    ref = inertia if inertia.ndim == 1 else inertia[0]
+    return pot, pot._params(ref), None

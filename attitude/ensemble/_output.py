@@ -1,0 +1,248 @@
+"""Assembling chunks into Datasets and streaming them to netCDF."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from ..body import RigidBody
+from ..errors import AttitudeValueError
+from ..io import StreamWriter
+from ..results import build_dataset
+from ._chunks import _N_DIAG
+
+_STAT_VARS = ("member_n_steps", "member_n_rhs", "member_n_rejected", "member_status")
+
+# ------------------------------------------------------------------------------------------------
+# assembling chunks into Datasets
+# ------------------------------------------------------------------------------------------------
+
+
+class _Assembler:
+    """Turns the arrays of a chunk into a Dataset with a ``member`` dimension; keeps totals."""
+
+    def __init__(self, t, unit, pot, pots, attrs):
+        self.t = t
+        self.pot = pot
+        self.pots = pots
+        body = RigidBody(np.ones(3), units=unit) if unit else RigidBody(np.ones(3))
+        m = t.shape[0]
+        # The single-run schema, for the variables' names, dims, units and long names.
+        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, {})
+        self.template = tmpl
+        self.per_member_orbit = pots is not None and getattr(pot, "orbit", None) is not None
+        self.attrs = {k: v for k, v in tmpl.attrs.items() if k != "inertia"}
+        self.attrs["history"] = str(tmpl.attrs["history"]).replace(
+            ": propagate", ": propagate_ensemble"
+        )
+        self.attrs.update(attrs)
+        self.totals = {"n_steps": 0, "n_rhs": 0, "n_rejected": 0}
+        self.max_projection = 0.0
+        self.inv: dict[str, float] = {}
+        self.n_members = 0
+
+    def dataset(self, start, out, inertia, lazy: bool = False) -> xr.Dataset:
+        """The chunk's Dataset; ``lazy``: ``out`` holds dask arrays, kept as they are."""
+
+        def arr(x, dtype=None):
+            if lazy:
+                return x if dtype is None else x.astype(dtype)
+            return np.ascontiguousarray(x, dtype=dtype)
+
+        c = out["y"].shape[0]
+        y, d = out["y"], out["diag"]
+        cols = {
+            "q": y[:, :, :4],
+            "Q": y[:, :, 4:],
+            "omega": d[:, :, 0:3],
+            "g": d[:, :, 3:6],
+            "G": d[:, :, 6:9],
+            "energy": d[:, :, 9],
+            "potential_energy": d[:, :, 12],
+            "norm_error": d[:, :, 10],
+            "qQ": d[:, :, 11],
+        }
+        tm = self.template
+        data_vars: dict[str, Any] = {}
+        for name, da in tm.data_vars.items():
+            if name in cols:
+                data_vars[name] = xr.Variable(("member", *da.dims), arr(cols[name]), da.attrs)
+            elif self.per_member_orbit:  # r, f, p of each member's own orbit
+                vals = [self._orbit_var(p.orbit, name) for p in self.pots[start : start + c]]
+                data_vars[name] = xr.Variable(("member", *da.dims), np.stack(vals), da.attrs)
+            else:
+                data_vars[name] = da.variable
+        inertia_units = self.template.attrs.get("inertia_units", "1")
+        data_vars["inertia"] = xr.Variable(
+            ("member", "axis"),
+            np.ascontiguousarray(inertia),
+            {"units": inertia_units, "long_name": "principal moments of inertia (I1, I2, I3)"},
+        )
+        cnt = out["counters"]
+        for name, col, long in (
+            ("member_n_steps", cnt[:, 0], "accepted integration steps"),
+            ("member_n_rhs", cnt[:, 1], "right-hand side evaluations"),
+            ("member_n_rejected", cnt[:, 2], "rejected integration steps"),
+            ("member_status", out["status"], "integration status (0: success)"),
+        ):
+            data_vars[name] = xr.Variable(
+                ("member",),
+                arr(col, np.int64),
+                {"units": "1", "long_name": long},
+            )
+        coords = {
+            "member": (
+                "member",
+                np.arange(start, start + c, dtype=np.int64),
+                {"long_name": "ensemble member index"},
+            ),
+            **{k: v.variable for k, v in tm.coords.items()},
+        }
+        return xr.Dataset(data_vars, coords=coords, attrs=dict(self.attrs))
+
+    def _orbit_var(self, orbit, name):
+        from ..results import _plain
+
+        if name == "r":
+            return _plain(orbit.radius(self.t), "km")
+        if name == "f":
+            return _plain(orbit.true_anomaly(self.t), "rad")
+        return _plain(orbit.frame_quaternion(self.t), None)
+
+    def account(self, out) -> None:
+        """Add a successful chunk to the totals and invariant maxima."""
+        cnt = out["counters"]
+        self.totals["n_steps"] += int(cnt[:, 0].sum())
+        self.totals["n_rhs"] += int(cnt[:, 1].sum())
+        self.totals["n_rejected"] += int(cnt[:, 2].sum())
+        self.n_members += cnt.shape[0]
+        d = out["diag"]
+        upd = {
+            "max_abs_norm_error": float(np.max(np.abs(d[:, :, 10]))),
+            "max_abs_qQ": float(np.max(np.abs(d[:, :, 11]))),
+        }
+        # Conserved quantities per member (as scenario.InvariantTracker, maximised over members).
+        E = d[:, :, 9]
+        sE = np.maximum(np.abs(E[:, :1]), np.finfo(float).tiny)
+        dE = float(np.max(np.abs(E - E[:, :1]) / sE))
+        G = d[:, :, 6:9]
+        sG = np.maximum(np.linalg.norm(G[:, :1], axis=-1), 1e-300)
+        name = self.pot.name
+        if name in ("torque_free", "heavy_top"):
+            upd["max_rel_energy_error"] = dE
+        else:
+            upd["max_rel_energy_variation"] = dE
+        if name == "torque_free":
+            upd["max_rel_G_error"] = float(np.max(np.linalg.norm(G - G[:, :1], axis=-1) / sG))
+        if name == "heavy_top":
+            upd["max_rel_Gz_error"] = float(np.max(np.abs(G[:, :, 2] - G[:, :1, 2]) / sG))
+        for k, v in upd.items():
+            self.inv[k] = max(self.inv.get(k, 0.0), v)
+
+    def final_attrs(self, status: str) -> dict[str, Any]:
+        a = dict(self.attrs)
+        a.update({k: np.int64(v) for k, v in self.totals.items()})
+        a.update(self.inv)
+        a["initial_projection"] = float(self.max_projection)
+        a["n_members_written"] = np.int64(self.n_members)
+        a["run_status"] = status
+        return a
+
+
+class _MemberWriter(StreamWriter):
+    """:class:`attitude.io.StreamWriter` appending along ``member`` (unlimited) instead of time.
+
+    Variables without a ``member`` dimension (time, orbit of a shared orbit) are written once.
+    """
+
+    def _create(self, ds: xr.Dataset) -> None:
+        import netCDF4
+
+        from ..io import _set_attrs
+
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        self._nc = nc
+        nc.createDimension("member", None)
+        for dim, size in ds.sizes.items():
+            if dim != "member":
+                nc.createDimension(dim, size)
+        comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
+        for name in [*ds.coords, *ds.data_vars]:
+            var = ds[name].variable
+            if var.dtype.kind in "UO":
+                v = nc.createVariable(name, str, var.dims)
+                v[:] = np.asarray(var.values, dtype=object)
+            elif "member" in var.dims:
+                chunks = self._chunks(var)
+                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
+                # A chunk cache of two netCDF chunks: complete chunks are written out at once
+                # instead of accumulating in HDF5's cache (memory would grow with N).
+                nbytes = var.dtype.itemsize * int(np.prod(chunks))
+                v.set_var_chunk_cache(size=2 * nbytes + 4096, nelems=17, preemption=1.0)
+                self._vars.append(name)
+            else:
+                v = nc.createVariable(name, var.dtype, var.dims)
+                v[:] = var.values
+            _set_attrs(v, var.attrs)
+
+    @staticmethod
+    def _chunks(var: xr.Variable) -> list[int]:
+        # About 1 MiB per netCDF chunk: all of each member's record, as many members as fit.
+        rest = list(var.shape[1:])
+        per = 8 * int(np.prod(rest)) if rest else 8
+        while per > 2**20 and rest:  # very long records: cut the time axis
+            i = int(np.argmax(rest))
+            rest[i] = max(1, rest[i] // 2)
+            per = 8 * int(np.prod(rest))
+        members = int(max(1, min(var.shape[0], 2**20 // per)))
+        return [members, *rest]
+
+    def append(self, ds: xr.Dataset) -> None:
+        if self._done:
+            raise AttitudeValueError("append: the file was already committed or aborted")
+        if self._nc is None:
+            self._create(ds)
+            self.attrs = dict(ds.attrs)
+        k = ds.sizes["member"]
+        for name in self._vars:
+            self._nc.variables[name][self.n : self.n + k, ...] = ds[name].values
+        self.n += k
+
+
+def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:
+    if len(parts) == 1:
+        ds = parts[0]
+    else:
+        data_vars = {}
+        first = parts[0]
+        for name, da in first.data_vars.items():
+            if "member" in da.dims:
+                data_vars[name] = xr.Variable(
+                    da.dims, np.concatenate([p[name].values for p in parts]), da.attrs
+                )
+            else:
+                data_vars[name] = da.variable
+        coords: dict[str, Any] = {
+            k: v.variable for k, v in first.coords.items() if "member" not in v.dims
+        }
+        coords["member"] = (
+            "member",
+            np.concatenate([p["member"].values for p in parts]),
+            first["member"].attrs,
+        )
+        ds = xr.Dataset(data_vars, coords=coords)
+    ds.attrs = dict(attrs)
+    return ds
+
+
+def _open_result(path: Path, chunk: int, dask: bool) -> xr.Dataset:
+    from ..io import read
+
+    ds = read(path, load=False)
+    if dask:
+        ds = ds.chunk({"member": chunk})
+    return ds

@@ -1,0 +1,465 @@
+"""``propagate_ensemble`` and ``run_scenario``: the ensemble entry points."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from .._core import rk as _rk
+from .._validation import as_float_array, as_times
+from ..body import RigidBody
+from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
+from ..io import COMPLEVEL
+from ..potentials import Potential
+from ..propagate import PROJECTION_WARN
+from . import _dask
+from ._chunks import _N_DIAG, _compute_chunk, _failure_message, _numba_threads, _Setup
+from ._dask import (
+    _connect,
+    _dask_results,
+    _lazy_result,
+    _worker_threads,
+    _write_lazy,
+)
+from ._members import _member_inertia, _member_potentials, _member_states, _Members, _project
+from ._output import _Assembler, _concat, _MemberWriter, _open_result
+from .dispersions import _Sampled
+
+#: Output bytes per chunk the default chunk size aims at (states + diagnostics, float64).
+CHUNK_BYTES = 32 * 2**20
+#: Largest default chunk (members).
+MAX_CHUNK = 4096
+
+# ------------------------------------------------------------------------------------------------
+# the entry point
+# ------------------------------------------------------------------------------------------------
+
+
+def _positive(x: Any, name: str) -> float:
+    v = float(as_float_array(x, name))
+    if not v > 0:
+        raise AttitudeValueError(f"{name}: must be a positive number, got {v}")
+    return v
+
+
+def _default_chunk(n: int, m: int, threads: int) -> int:
+    """Members per chunk: about 20 chunks (progress), at least 16 per thread (balance), at
+    most :data:`MAX_CHUNK` and ~:data:`CHUNK_BYTES` of output (memory)."""
+    per_member = m * (8 + _N_DIAG) * 8
+    cap = min(MAX_CHUNK, max(1, CHUNK_BYTES // per_member))
+    want = max(-(-n // 20), 16 * threads)
+    return max(1, min(want, max(cap, threads)))
+
+
+def propagate_ensemble(
+    bodies_or_body: RigidBody | Any,
+    q0: Any,
+    Q0: Any,
+    t: Any,
+    potential: Potential | Sequence[Potential] | None = None,
+    method: str = "dop853",
+    rtol: float = 1e-10,
+    atol: float = 1e-12,
+    *,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    chunk_size: int | None = None,
+    path: str | os.PathLike | None = None,
+    client: Any = None,
+    threads: int | None = None,
+    progress: Callable[[int, int, int], None] | None = None,
+    scheduler_timeout: float | None = None,
+    attrs: dict[str, Any] | None = None,
+    lazy: bool = False,
+    _source: Any = None,
+) -> xr.Dataset:
+    """Propagate an ensemble of N members in parallel compiled code.
+
+    Each member is integrated independently by the compiled DOP853 loop of
+    :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
+    torque as the generalised force of Schwab eq. 25), with its own adaptive steps.
+
+    Parameters
+    ----------
+    bodies_or_body : RigidBody, array_like shape (3,) or (N, 3), or sequence of N RigidBody
+        One body for all members, or one row of principal moments per member (an astropy
+        Quantity is converted to kg km²; plain numbers are dimensionless, as in ``propagate``).
+    q0 : array_like, shape (N, 4)
+        Initial attitudes (body → space, scalar first). A single (4,) row is shared by all.
+    Q0 : array_like, shape (N, 4)
+        Initial conjugate momenta Q0 = 2 q0∘(0, g0). A single (4,) row is shared by all.
+        States within 1e-6 of |q| = 1, q·Q = 0 are projected (as in ``propagate``).
+    t : array_like, shape (m,)
+        Output times shared by all members, strictly monotonic; ``t[0]`` is the initial epoch.
+    potential : Potential or sequence of N Potentials, optional
+        One potential for all (default torque-free), or one built-in potential per member, all
+        of the same kind (e.g. ``[GravityGradient(orbit_i) for ...]`` for per-member orbits,
+        ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
+        supported as one potential for all members (their kernels are compiled per process).
+    method : str
+        ``"dop853"`` (the only method of the compiled ensemble loop).
+    rtol, atol : float
+        Tolerances of DOP853, per state component (as in ``propagate``).
+    max_step : float
+        Largest step.
+    max_steps : int
+        A member that needs more steps fails (see Raises).
+    chunk_size : int, optional
+        Members per chunk. Default: about N / 20 (a progress report per chunk), at least 16
+        per thread, at most 4096 and ~32 MiB of output. Results do not depend on it; memory
+        does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per member).
+    path : str or Path, optional
+        Stream each chunk to this netCDF4 file as soon as it is computed (atomic: written to a
+        temporary file, renamed at the end). Memory then stays bounded by one chunk, and the
+        returned Dataset reads the file lazily (close it with ``ds.close()``).
+    client : dask.distributed.Client or str, optional
+        Run the chunks as tasks on a Dask cluster (a Client, or a scheduler address such as
+        ``"tcp://10.0.0.1:8786"``). ``None`` (default): local threads, no Dask needed.
+        Workers need ``attitude`` importable; the results are gathered chunk by chunk, in
+        member order, and written by this process (no shared file system needed).
+    threads : int, optional
+        Local run: number of numba threads of the parallel loop (default: numba's, all cores).
+    progress : callable, optional
+        ``progress(n_done, n_total, n_steps_done)`` after each chunk (members done so far).
+    scheduler_timeout : float, optional
+        Seconds to wait for a scheduler given by address (default 10 s,
+        ``attitude.ensemble._dask.SCHEDULER_TIMEOUT``).
+    attrs : dict, optional
+        Extra global attributes of the result.
+    lazy : bool
+        Return a dask-backed Dataset at once, one task per chunk, computed on access by
+        Dask's current scheduler (a ``Client`` you created is it); with ``path`` it is
+        written with
+        ``Dataset.to_netcdf``, computed by ``client`` (on a cluster the workers write, so
+        they must see ``path``: a shared file system). ``progress`` is not called. All or
+        nothing: a failing member raises when computed and
+        nothing is kept; totals (``n_steps``...) are not in the attrs (sum
+        ``member_n_steps``). Default False: chunks are computed eagerly, in member order,
+        and streamed by this process, keeping completed chunks on failure.
+
+    Returns
+    -------
+    xarray.Dataset
+        Dimensions ``member`` (coordinate: the member index), ``time``, ``component``,
+        ``axis``. Variables of :func:`attitude.propagate` with a leading ``member`` dimension
+        (``q``, ``Q``, ``omega``, ``g``, ``G``, ``energy``, ``potential_energy``,
+        ``norm_error``, ``qQ``; ``r``, ``f``, ``p`` with an orbit: per member only when the
+        orbits are), plus ``inertia`` (member, axis) and per-member statistics
+        ``member_n_steps``, ``member_n_rhs``, ``member_n_rejected``, ``member_status``.
+        Attrs: totals ``n_steps``, ``n_rhs``, ``n_rejected``, ``ensemble_size``,
+        ``chunk_size``, invariant maxima over members (``max_abs_norm_error``...),
+        ``run_status``.
+
+    Raises
+    ------
+    AttitudeValueError, AttitudeTypeError
+        Bad input (shapes of q0, Q0, body or potentials that do not match, N = 0, a method
+        other than dop853, a scheduler that does not answer within ``scheduler_timeout``),
+        before any work and before anything is written.
+    PropagationError
+        Some members of a chunk failed (non-finite state, too many steps...), or a chunk's
+        task failed on the cluster. The message names the members; chunks completed before
+        are kept (in ``path``, committed with ``run_status = "failed: ..."``, and in
+        ``.partial``).
+
+    Notes
+    -----
+    Memory without ``path`` is that of the whole result, ``N × m × 21 × 8`` bytes; with
+    ``path`` it is one chunk. See docs/ensemble.md for Dask clusters and dispersions.
+    """
+    body = bodies_or_body
+    t_start = time.perf_counter()
+    if method != "dop853":
+        raise AttitudeValueError(
+            f"method: propagate_ensemble runs 'dop853' only (the compiled parallel loop), got "
+            f"{method!r}; for other methods loop over attitude.propagate"
+        )
+    tt = as_times(t, "t")
+    rtol = _positive(rtol, "rtol")
+    atol = _positive(atol, "atol")
+    if rtol < 1e-15:
+        raise AttitudeValueError(
+            f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
+        )
+    if not (isinstance(max_step, (int, float)) and max_step == math.inf):
+        max_step = _positive(max_step, "max_step")
+    if not isinstance(max_steps, (int, np.integer)) or isinstance(max_steps, bool):
+        raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
+    if max_steps <= 0:
+        raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
+    for name, v in (("chunk_size", chunk_size), ("threads", threads)):
+        if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1):
+            raise AttitudeValueError(f"{name}: expected a positive integer, got {v!r}")
+    if progress is not None and not callable(progress):
+        raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, steps)")
+    if scheduler_timeout is None:
+        scheduler_timeout = _dask.SCHEDULER_TIMEOUT
+    timeout = _positive(scheduler_timeout, "scheduler_timeout")
+
+    if _source is None:
+        q, Q, n = _member_states(q0, Q0)
+        inertia, unit = _member_inertia(body, n)
+        pot, params, pots = _member_potentials(potential, n, inertia)
+        members = _Members(q, Q, inertia, params, n)
+        for start in range(0, n, 65536):  # validate every state before any work
+            stop = min(n, start + 65536)
+            _project(members._rows(q, start, stop), members._rows(Q, start, stop), start)
+    else:  # a dispersion sampler (run_scenario): already validated
+        members, unit, pot, pots = _source
+        n = members.n
+    user = pot if pot._kernels() is not None else None
+
+    out_path = None if path is None else Path(path)
+    if out_path is not None and out_path.is_dir():
+        raise AttitudeValueError(f"path: {out_path} is a directory; give a file name")
+
+    owned = False
+    if lazy:
+        try:
+            import dask  # noqa: F401
+        except ImportError:
+            raise AttitudeValueError(
+                "lazy: needs Dask; install the optional extra (pip install 'attitude[dask]')"
+            ) from None
+        if isinstance(client, str) and path is None:
+            raise AttitudeValueError(
+                "lazy: a lazy result without a path keeps using the cluster; pass a "
+                "dask.distributed.Client (that you close), not an address"
+            )
+    if client is not None:
+        client, owned = _connect(client, timeout)
+        if user is not None:
+            import cloudpickle
+
+            try:
+                cloudpickle.dumps(user)
+            except Exception as exc:
+                raise AttitudeTypeError(
+                    f"potential: this {type(user).__name__} cannot be shipped to Dask workers "
+                    f"({type(exc).__name__}: {exc}); run it locally (client=None)"
+                ) from None
+        n_threads = _worker_threads(client)
+    else:
+        from orbit._jit import JIT_DISABLED
+
+        if threads is not None:
+            n_threads = int(threads)
+        elif JIT_DISABLED:
+            n_threads = 1
+        else:
+            import numba
+
+            n_threads = numba.get_num_threads()
+    m = tt.shape[0]
+    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
+    csize = min(csize, n)
+    setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user)
+    run_attrs: dict[str, Any] = {
+        "title": "attitude ensemble propagation",
+        "method": method,
+        "formulation": "canonical",
+        "rtol": rtol,
+        "atol": atol,
+        "ensemble_size": np.int64(n),
+        "chunk_size": np.int64(csize),
+        "execution": "dask" if client is not None else f"local threads ({n_threads})",
+    }
+    if pots is not None:
+        run_attrs["potential"] = f"{n} per-member potentials, member 0: {pot.describe()}"
+    if not math.isinf(max_step):
+        run_attrs["max_step"] = float(max_step)
+    if attrs:
+        run_attrs.update(attrs)
+    asm = _Assembler(tt, unit, pot, pots, run_attrs)
+    if members.shared_inertia is not None:
+        asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
+
+    bounds = [(s, min(n, s + csize)) for s in range(0, n, csize)]
+    if lazy:
+        asm.attrs["run_status"] = "lazy: computed on access; a failing member raises"
+        try:
+            ds = _lazy_result(setup, members, bounds, asm)
+            ds.attrs["initial_projection"] = float(asm.max_projection)
+            if out_path is None:
+                return ds
+            _write_lazy(ds, out_path, client)
+        finally:
+            if owned:
+                with contextlib.suppress(Exception):
+                    client.close()
+        return _open_result(out_path, csize, True)
+
+    writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
+    kept: list[xr.Dataset] = []
+    failure: PropagationError | None = None
+    try:
+        try:
+            if client is None:
+                results = _local_results(setup, members, bounds, threads)
+            else:
+                results = _dask_results(client, setup, members, bounds, n_threads)
+            for (start, stop), got in zip(bounds, results, strict=False):
+                if isinstance(got, BaseException):
+                    raise PropagationError(
+                        f"chunk of members {start}..{stop - 1} failed: {type(got).__name__}: {got}"
+                    ) from got
+                out, inertia, corr = got
+                bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+                if bad.size:
+                    msg, t_fail = _failure_message(out, bad, start, tt)
+                    raise PropagationError(msg, time=t_fail)
+                asm.max_projection = max(asm.max_projection, corr)
+                asm.account(out)
+                ds = asm.dataset(start, out, inertia)
+                if writer is not None:
+                    writer.append(ds)
+                else:
+                    kept.append(ds)
+                if progress is not None:
+                    progress(stop, n, asm.totals["n_steps"])
+        except PropagationError as exc:
+            failure = exc
+        status = "complete" if failure is None else f"failed: {failure}"
+        final = asm.final_attrs(status)
+        final["wall_time"] = time.perf_counter() - t_start
+        if writer is not None:
+            if writer.n:
+                writer.attrs = final
+                writer.commit()
+            else:
+                writer.abort()
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    finally:
+        if owned:
+            with contextlib.suppress(Exception):
+                client.close()
+    if asm.max_projection > PROJECTION_WARN:
+        warnings.warn(
+            f"initial states projected onto |q| = 1, q·Q = 0 (largest correction "
+            f"{asm.max_projection:.2g})",
+            stacklevel=2,
+        )
+
+    if writer is not None:
+        result = _open_result(out_path, csize, client is not None) if writer.n else None
+    else:
+        result = _concat(kept, final) if kept else None
+    if failure is not None:
+        where = f"; members 0..{asm.n_members - 1} are in {out_path}" if writer and writer.n else ""
+        raise PropagationError(
+            f"{failure}{where}", time=failure.time, partial=result
+        ) from failure.__cause__
+    return result
+
+
+def _local_results(setup, members, bounds, threads):
+    """Chunks computed here with the parallel driver, one after the other (generator)."""
+    from orbit._jit import JIT_DISABLED
+
+    for start, stop in bounds:
+        try:
+            params, y0, inertia, corr = members.block(start, stop)
+            with _numba_threads(threads):
+                if JIT_DISABLED:
+                    out = _compute_chunk(setup, params, y0, parallel=False)
+                else:
+                    out = _compute_chunk(setup, params, y0, parallel=True)
+        except (AttitudeValueError, AttitudeTypeError):
+            raise
+        except Exception as exc:
+            yield exc
+            return
+        yield out, inertia, corr
+
+
+def run_scenario(
+    sc: Any,
+    path: str | os.PathLike | None = None,
+    *,
+    client: Any = None,
+    progress: Callable[[int, int, int], None] | None = None,
+    chunk_size: int | None = None,
+    scheduler_timeout: float | None = None,
+    **overrides: Any,
+) -> dict[str, Any]:
+    """Run the dispersed ensemble of a scenario with an ``[ensemble]`` table, streamed to netCDF.
+
+    Parameters
+    ----------
+    sc : attitude.scenario.Scenario
+        A scenario whose ``ensemble`` (:class:`Dispersions`) is set.
+    path : str or Path, optional
+        Output file (default: the scenario's output path).
+    client : dask.distributed.Client or str, optional
+        Dask client or scheduler address (see :func:`propagate_ensemble`).
+    progress : callable, optional
+        ``progress(n_done, n_total, n_steps)`` after each chunk.
+    chunk_size : int, optional
+        Members per chunk (default: ``ensemble.chunk``, else automatic).
+    **overrides
+        ``method``, ``rtol``, ``atol``, ``max_step`` replacing the scenario's.
+
+    Returns
+    -------
+    dict
+        ``path`` and the file's global attrs.
+
+    Raises
+    ------
+    PropagationError
+        As :func:`propagate_ensemble`; the file keeps the chunks done before the failure.
+    """
+    from ..canonical import project_state
+
+    disp = sc.ensemble
+    if disp is None:
+        raise AttitudeValueError("scenario: no [ensemble] table; use Scenario.run_to_file")
+    kw = sc._kwargs(overrides)
+    for key in ("dt", "order", "formulation"):
+        if key in kw:
+            raise AttitudeValueError(
+                f"integrator.{key}: ensembles run the canonical equations with method 'dop853' "
+                f"only; remove {key} from the [integrator] table of an [ensemble] scenario"
+            )
+    out = Path(path) if path is not None else sc.output
+    q0, Q0, _ = project_state(sc.q0, sc.Q0)
+    pot = sc.potential.bind(sc.body)
+    inertia = np.asarray(sc.body.inertia, dtype=np.float64)
+    params = pot._params(inertia)
+    source = _Sampled(disp, q0, Q0, inertia, params)
+    attrs = {**sc.attrs(kw), **disp.attrs()}
+    if disp.inertia_error > 0:
+        attrs["inertia"] = inertia  # the nominal body; each member's is the variable inertia
+        attrs["inertia_note"] = "nominal; per-member moments in the variable inertia"
+    ds = propagate_ensemble(
+        sc.body,
+        None,
+        None,
+        sc.t,
+        pot,
+        path=out,
+        client=client,
+        progress=progress,
+        chunk_size=chunk_size or disp.chunk,
+        scheduler_timeout=scheduler_timeout,
+        attrs=attrs,
+        _source=(source, sc.body.units, pot, None),
+        **kw,
+    )
+    try:
+        info = {"path": out, **ds.attrs}
+    finally:
+        ds.close()
+    return info

@@ -1,0 +1,179 @@
+"""Monte Carlo dispersions of a nominal initial state and body (the ``[ensemble]`` table)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..errors import AttitudeValueError
+from ._members import _project
+
+# ------------------------------------------------------------------------------------------------
+# dispersions: the [ensemble] table of a scenario
+# ------------------------------------------------------------------------------------------------
+
+DISTRIBUTIONS = ("normal", "uniform")
+#: Normal inertia errors are truncated at this many standard deviations (so every member is
+#: a rigid body; checked for the worst case before any work).
+INERTIA_TRUNCATION = 3.0
+#: Uniform draws per member (3 attitude, 3 rate, 3 inertia; padded to whole Philox blocks).
+_DRAWS = 12
+
+
+@dataclass
+class Dispersions:
+    """Monte Carlo dispersions about a scenario's nominal initial state.
+
+    Member ``i`` (0-based) of the ensemble is
+
+    * attitude ``q_i = q0 ∘ exp(δθ_i / 2)``: a small rotation ``δθ_i`` (rotation vector, body
+      axes, rad) applied in the body frame;
+    * body rate ``ω_i = ω0 + δω_i`` with ω0 = g0 / I the nominal body angular velocity and
+      ``δω_i`` per body axis (rad per time unit);
+    * inertia ``I_i = I ∘ (1 + ε_i)``, per axis, relative;
+    * momenta ``Q_i = 2 q_i ∘ (0, I_i ω_i)``.
+
+    Each error has a distribution per axis: ``"normal"`` (the value is the standard
+    deviation; inertia errors truncated at ±3σ) or ``"uniform"`` (the value is the
+    half-width). The draws of member ``i`` come from a counter-based generator (Philox) at
+    position ``i``: they do not depend on the ensemble size or on the chunking, so the first
+    1000 members of a 10⁶-member run are those of a 1000-member run with the same seed.
+    """
+
+    size: int
+    seed: int = 0
+    chunk: int | None = None
+    attitude_error: float = 0.0
+    attitude_distribution: str = "normal"
+    rate_error: float = 0.0
+    rate_distribution: str = "normal"
+    inertia_error: float = 0.0
+    inertia_distribution: str = "normal"
+    key: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.key = np.random.SeedSequence(self.seed).generate_state(2, np.uint64)
+
+    def uniforms(self, start: int, stop: int) -> np.ndarray:
+        """The (stop − start, 12) uniform draws in (0, 1) of members start..stop−1."""
+        bg = np.random.Philox(key=self.key, counter=start * (_DRAWS // 4))
+        u = np.random.Generator(bg).random((stop - start, _DRAWS))
+        return u + 2.0**-54  # k 2⁻⁵³ + 2⁻⁵⁴: strictly inside (0, 1), symmetric about ½
+
+    @staticmethod
+    def _transform(u: np.ndarray, width: float, dist: str, truncate: float | None = None):
+        if width == 0.0:
+            return np.zeros_like(u)
+        if dist == "uniform":
+            return width * (2.0 * u - 1.0)
+        from scipy.special import ndtr, ndtri
+
+        if truncate is None:
+            return width * ndtri(u)
+        lo = ndtr(-truncate)
+        return width * ndtri(lo + u * (1.0 - 2.0 * lo))
+
+    def max_inertia_error(self) -> float:
+        """Largest relative inertia error any member can get."""
+        if self.inertia_distribution == "uniform":
+            return self.inertia_error
+        return INERTIA_TRUNCATION * self.inertia_error
+
+    def check_body(self, inertia: np.ndarray, where: str = "ensemble.inertia_error") -> None:
+        """Raise unless every dispersed inertia is a rigid body (worst case, before any work)."""
+        eps = self.max_inertia_error()
+        if eps >= 1.0:
+            raise AttitudeValueError(
+                f"{where}: a relative error up to {eps:g} can make a moment of inertia zero or "
+                "negative; use a smaller error"
+            )
+        for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+            if (inertia[a] + inertia[b]) * (1.0 - eps) < inertia[c] * (1.0 + eps):
+                raise AttitudeValueError(
+                    f"{where}: with relative errors up to {eps:g} some members would violate "
+                    f"the triangle inequality I{a + 1} + I{b + 1} >= I{c + 1} (the body "
+                    f"{inertia.tolist()} is too close to it); use a smaller error"
+                    + (" or inertia_distribution = 'uniform'" if eps > self.inertia_error else "")
+                )
+
+    def sample(
+        self, q0: np.ndarray, Q0: np.ndarray, inertia: np.ndarray, start: int, stop: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Initial states and inertia of members start..stop−1 about the nominal (q0, Q0, I).
+
+        Returns
+        -------
+        q : ndarray, shape (C, 4)
+        Q : ndarray, shape (C, 4)
+        inertia : ndarray, shape (C, 3)
+        """
+        from ..quaternion import from_rotation_vector, multiply
+
+        u = self.uniforms(start, stop)
+        dtheta = self._transform(u[:, 0:3], self.attitude_error, self.attitude_distribution)
+        domega = self._transform(u[:, 3:6], self.rate_error, self.rate_distribution)
+        eps = self._transform(
+            u[:, 6:9], self.inertia_error, self.inertia_distribution, INERTIA_TRUNCATION
+        )
+        # Nominal body rate ω0 = g0 / I, g0 = ½ vec(q̃0∘Q0) (Arribas et al. eq. 17).
+        w = multiply(q0 * np.array([1.0, -1.0, -1.0, -1.0]), Q0)
+        omega0 = 0.5 * w[1:] / inertia
+        q = multiply(q0, from_rotation_vector(dtheta))
+        inert = inertia * (1.0 + eps)
+        g = inert * (omega0 + domega)
+        Q = 2.0 * multiply(q, np.concatenate([np.zeros((g.shape[0], 1)), g], axis=1))
+        return q, Q, inert
+
+    def attrs(self) -> dict[str, Any]:
+        """Global attrs recording the dispersions (internal units: rad, rad per time unit)."""
+        return {
+            "ensemble_seed": np.int64(self.seed),
+            "ensemble_attitude_error": float(self.attitude_error),
+            "ensemble_attitude_distribution": self.attitude_distribution,
+            "ensemble_rate_error": float(self.rate_error),
+            "ensemble_rate_distribution": self.rate_distribution,
+            "ensemble_inertia_error": float(self.inertia_error),
+            "ensemble_inertia_distribution": self.inertia_distribution,
+            "ensemble_sampling": (
+                "member i: Philox(SeedSequence(seed)) at counter 3 i; q_i = q0 o exp(dtheta/2) "
+                "(body axes), omega_i = omega0 + domega, I_i = I (1 + eps) (normal: truncated "
+                "at 3 sigma), Q_i = 2 q_i o (0, I_i omega_i)"
+            ),
+        }
+
+
+#: Keys of the ``[ensemble]`` table and the kind of quantity of their ``_unit`` (scenario.py).
+ENSEMBLE_KEYS: dict[str, str | None] = {
+    "size": None,
+    "seed": None,
+    "chunk": None,
+    "attitude_error": "angle",
+    "attitude_distribution": None,
+    "rate_error": "rate",
+    "rate_distribution": None,
+    "inertia_error": None,
+    "inertia_distribution": None,
+}
+
+
+class _Sampled:
+    """Members drawn chunk by chunk from :class:`Dispersions` (memory: one chunk)."""
+
+    def __init__(self, disp: Dispersions, q0, Q0, inertia, params):
+        self.disp = disp
+        self.q0 = q0
+        self.Q0 = Q0
+        self.inertia0 = inertia
+        self.params = params
+        self.n = disp.size
+        self.shared_inertia = inertia if disp.inertia_error == 0 else None
+
+    def block(self, start: int, stop: int):
+        q, Q, inert = self.disp.sample(self.q0, self.Q0, self.inertia0, start, stop)
+        qp, Qp, corr = _project(q, Q, start)
+        params = np.array(np.broadcast_to(self.params, (stop - start, self.params.shape[0])))
+        params[:, 0:3] = inert
+        y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
+        return params, y0, inert, corr
