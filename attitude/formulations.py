@@ -35,7 +35,6 @@ from typing import Any
 
 import numpy as np
 
-from ._core import dynamics as _dyn
 from ._core import formulations as _kf
 from ._core import rk as _rk
 from .canonical import from_euler_canonical, to_euler_canonical
@@ -97,15 +96,6 @@ class Formulation:
         """Canonical states (m, 8) from the formulation's states (m, n_state)."""
         raise NotImplementedError
 
-    def _rhs_with(self) -> Callable:
-        raise NotImplementedError
-
-    def _rhs_builtin(self) -> Callable:
-        raise NotImplementedError
-
-    def _dop853_builtin(self) -> Callable:
-        raise NotImplementedError
-
     # --- shared machinery -------------------------------------------------------------------
     def applies_to(self, method: str) -> bool:
         """Whether ``method`` can integrate this formulation."""
@@ -120,9 +110,7 @@ class Formulation:
 
     def rhs(self, problem: Any) -> Callable:
         """Compiled right-hand side ``rhs(t, y, params, dydt)`` for the problem's potential."""
-        if problem.kernels is None:
-            return self._rhs_builtin()
-        return _dyn.user_rhs(self._rhs_with(), problem.kernels[0])
+        return getattr(problem.entry, f"{self.name}_rhs")
 
     def extra_stats(self, problem: Any, y: np.ndarray) -> dict[str, Any]:
         """Formulation-specific statistics (recorded in the Dataset attrs)."""
@@ -189,9 +177,7 @@ class Formulation:
         y_out = np.empty((m, n))
         work, tstate, counters = _rk.new_state(n)
         chunk = m if chunk is None else max(1, int(chunk))
-        builtin = problem.kernels is None
-        entry = self._dop853_builtin() if builtin else None
-        rhs = None if builtin else self.rhs(problem)
+        entry = getattr(problem.entry, f"dop853_{self.name}")
         done = 0
         status = _rk.SUCCESS
         while done < m:
@@ -211,10 +197,7 @@ class Formulation:
                 max_step,
                 max_steps,
             )
-            if builtin:
-                status, k = entry(*args)
-            else:
-                status, k = _rk.dop853_run(rhs, *args)
+            status, k = entry(*args)
             done += int(k)
             if progress is not None:
                 progress(done, m, float(tstate[0]))
@@ -408,15 +391,6 @@ class EulerAngles(Formulation):
         near_singularity.direction = -1.0
         return near_singularity
 
-    def _rhs_with(self):
-        return _kf.euler_angles_rhs_with
-
-    def _rhs_builtin(self):
-        return _kf.euler_angles_rhs_builtin
-
-    def _dop853_builtin(self):
-        return _kf.dop853_euler_angles_builtin
-
 
 class Schwab(Formulation):
     """Euler-parameter equations with the norm-constraint multiplier (Schwab eqs. 19–25).
@@ -455,15 +429,6 @@ class Schwab(Formulation):
             "max_abs_norm_error": float(np.max(np.abs(nq - 1.0))),
         }
 
-    def _rhs_with(self):
-        return _kf.schwab_rhs_with
-
-    def _rhs_builtin(self):
-        return _kf.schwab_rhs_builtin
-
-    def _dop853_builtin(self):
-        return _kf.dop853_schwab_builtin
-
 
 class EulerEquations(Formulation):
     """Euler's equations with quaternion kinematics (Schwab eqs. 19 and 16).
@@ -490,15 +455,6 @@ class EulerEquations(Formulation):
             return {}
         nq = np.sqrt(np.sum(y[:, :4] ** 2, axis=1))
         return {"max_abs_norm_error": float(np.max(np.abs(nq - 1.0)))}
-
-    def _rhs_with(self):
-        return _kf.euler_equations_rhs_with
-
-    def _rhs_builtin(self):
-        return _kf.euler_equations_rhs_builtin
-
-    def _dop853_builtin(self):
-        return _kf.dop853_euler_equations_builtin
 
 
 #: Registered formulations: name -> formulation object.

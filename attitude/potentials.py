@@ -21,10 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from orbit._jit import JIT_DISABLED, jit
+from orbit._shared_jit import JIT_DISABLED
 
+from . import _user_kernels
+from ._core import entry_points as _entry_points
 from ._core import potentials as _kp
-from ._core.quat import conj_mul
 from ._validation import as_float_array, as_quaternion
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
@@ -39,21 +40,12 @@ __all__ = [
 ]
 
 
-@jit
-def _evaluate(torque, potential, q, t, params, tau_out, u_out):
-    for k in range(q.shape[0]):
-        tau = torque(q[k], t[k], params)
-        tau_out[k, 0] = tau[0]
-        tau_out[k, 1] = tau[1]
-        tau_out[k, 2] = tau[2]
-        u_out[k] = potential(q[k], t[k], params)
-
-
 class Potential:
     """Base class: a potential or torque model acting on a rigid body.
 
-    Subclasses provide either a built-in kind code and parameters (cached compiled kernels) or
-    compiled ``torque(q, t, params)`` / ``potential(q, t, params)`` functions.
+    Subclasses provide either a built-in kind code and parameters (the package's cached entry
+    points, :mod:`attitude._core.entry_points`) or user functions, compiled into entry points
+    of their own in the user cache (:mod:`attitude._user_kernels`).
     """
 
     #: Short name recorded in result attrs.
@@ -74,9 +66,9 @@ class Potential:
         kind = -1 if self._kind is None else self._kind
         return np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
 
-    def _kernels(self):
-        """(torque, potential) compiled functions of (q, t, params), or None when built in."""
-        return None
+    def _entry_points(self):
+        """The compiled entry points of this model (:mod:`attitude._core.entry_points`)."""
+        return _entry_points
 
     def _inertia_for_eval(self) -> np.ndarray:
         return np.ones(3)
@@ -94,11 +86,7 @@ class Potential:
         params = self._params(self._inertia_for_eval())
         tau = np.empty((qf.shape[0], 3))
         u = np.empty(qf.shape[0])
-        kernels = self._kernels()
-        if kernels is None:
-            _evaluate(_kp.builtin_torque, _kp.builtin_potential, qf, tf, params, tau, u)
-        else:
-            _evaluate(kernels[0], kernels[1], qf, tf, params, tau, u)
+        self._entry_points().evaluate(qf, tf, params, tau, u)
         return tau.reshape((*shape, 3)), u.reshape(shape)
 
     def value(self, q: Any, t: Any = 0.0) -> np.ndarray:
@@ -265,10 +253,6 @@ class GravityGradient(Potential):
 # User physics
 # --------------------------------------------------------------------------------------------
 
-#: Complex-step size: derivatives are exact to round-off for any h this small
-#: (Squire & Trapp, SIAM Rev. 40, 110, 1998): Im U(q + i h e_k) / h = ∂U/∂q_k + O(h²).
-COMPLEX_STEP = 1e-30
-
 
 def _compile_user(func: Any, what: str):
     if JIT_DISABLED:
@@ -281,50 +265,6 @@ def _compile_user(func: Any, what: str):
     if not callable(func):
         raise AttitudeTypeError(f"{what}: expected a function, got {type(func).__name__}")
     return numba.njit(func)
-
-
-def _make_potential_kernels(U):
-    h = COMPLEX_STEP
-
-    @jit(cache=False)
-    def torque(q, t, params):
-        qc = np.empty(4, dtype=np.complex128)
-        grad = np.empty(4)
-        for i in range(4):
-            for j in range(4):
-                qc[j] = q[j]
-            qc[i] = q[i] + 1j * h
-            grad[i] = U(qc, t).imag / h
-        # τ_B = −½ vec(q̃∘∇U): minus the tangential gradient, read in body axes (Schwab eq. 25).
-        w = conj_mul(q, grad)
-        return (-0.5 * w[1], -0.5 * w[2], -0.5 * w[3])
-
-    @jit(cache=False)
-    def potential(q, t, params):
-        return U(q, t)
-
-    return torque, potential
-
-
-def _make_torque_kernels(tau_fn, U):
-    @jit(cache=False)
-    def torque(q, t, params):
-        tau = tau_fn(q, t)
-        return (float(tau[0]), float(tau[1]), float(tau[2]))
-
-    if U is None:
-
-        @jit(cache=False)
-        def potential(q, t, params):
-            return 0.0
-
-    else:
-
-        @jit(cache=False)
-        def potential(q, t, params):
-            return U(q, t)
-
-    return torque, potential
 
 
 class CustomPotential(Potential):
@@ -354,7 +294,6 @@ class CustomPotential(Potential):
         self._U = U
         self.name = name
         self.time_dependent = bool(time_dependent)
-        self._k = _make_potential_kernels(U)
         try:
             val = U(np.array([1.0, 0.0, 0.0, 0.0]) + 0j, 0.0)
             complex(val)
@@ -367,8 +306,8 @@ class CustomPotential(Potential):
                 f"{str(exc).splitlines()[0] if str(exc) else ''}"
             ) from None
 
-    def _kernels(self):
-        return self._k
+    def _entry_points(self):
+        return _user_kernels.entry_points("potential", None, self._U)
 
     def __repr__(self) -> str:
         return f"CustomPotential({getattr(self._U, '__name__', 'U')}, name={self.name!r})"
@@ -400,8 +339,8 @@ class CustomTorque(Potential):
         self.name = name
         self.time_dependent = bool(time_dependent)
         self.has_potential = U is not None
-        self._k = _make_torque_kernels(tau, U)
         self._tau = tau
+        self._U = U
         try:
             r = tau(np.array([1.0, 0.0, 0.0, 0.0]), 0.0)
             if len(r) != 3 or not all(math.isfinite(float(x)) for x in r):
@@ -413,8 +352,9 @@ class CustomTorque(Potential):
                 f"{str(exc).splitlines()[0] if str(exc) else ''}"
             ) from None
 
-    def _kernels(self):
-        return self._k
+    def _entry_points(self):
+        kind = "torque" if self._U is None else "torque+potential"
+        return _user_kernels.entry_points(kind, self._tau, self._U)
 
     def __repr__(self) -> str:
         return f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r})"

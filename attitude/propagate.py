@@ -28,7 +28,6 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ._core import dynamics as _dyn
 from ._core import rk as _rk
 from ._validation import as_float_array, as_times
 from .body import RigidBody
@@ -52,14 +51,12 @@ class Problem:
     params: np.ndarray  # compiled-kernel parameters (inertia, kind, potential numbers)
     y0: np.ndarray  # (8,) projected initial state
     t: np.ndarray  # (m,) output times; t[0] is the initial epoch
-    kernels: Any  # None for built-in potentials, else (torque, potential) compiled functions
+    entry: Any  # the model's compiled entry points (attitude._core.entry_points or a user copy)
 
     @property
     def rhs(self) -> Callable:
         """Compiled canonical right-hand side rhs(t, y, params, dydt)."""
-        if self.kernels is None:
-            return _dyn.canonical_rhs_builtin
-        return _dyn.user_rhs(_dyn.canonical_rhs_with, self.kernels[0])
+        return self.entry.canonical_rhs
 
 
 @dataclass
@@ -104,39 +101,21 @@ def _run_dop853(
         stop = min(m, done + chunk)
         t_chunk = t[done:stop]
         y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
-        if problem.kernels is None:
-            status, k = _dyn.dop853_canonical_builtin(
-                problem.params,
-                problem.y0,
-                t[0],
-                t_chunk,
-                y_chunk,
-                work,
-                tstate,
-                counters,
-                rtol,
-                atol,
-                t[-1],
-                max_step,
-                max_steps,
-            )
-        else:
-            status, k = _rk.dop853_run(
-                problem.rhs,
-                problem.params,
-                problem.y0,
-                t[0],
-                t_chunk,
-                y_chunk,
-                work,
-                tstate,
-                counters,
-                rtol,
-                atol,
-                t[-1],
-                max_step,
-                max_steps,
-            )
+        status, k = problem.entry.dop853_canonical(
+            problem.params,
+            problem.y0,
+            t[0],
+            t_chunk,
+            y_chunk,
+            work,
+            tstate,
+            counters,
+            rtol,
+            atol,
+            t[-1],
+            max_step,
+            max_steps,
+        )
         if on_chunk is not None and k:
             on_chunk(done, y_chunk[: int(k)])
         done += int(k)
@@ -376,7 +355,7 @@ def propagate(
         params=pot._params(body.inertia),
         y0=np.concatenate([q0p, Q0p]),
         t=tt,
-        kernels=pot._kernels(),
+        entry=pot._entry_points(),
     )
     options = dict(
         rtol=rtol,
@@ -439,10 +418,7 @@ def finish_dataset(
     t = problem.t[first : first + n]
     diag = np.empty((n, 13))
     if n:
-        if problem.kernels is None:
-            _dyn.diagnostics_builtin(t, y, problem.params, diag)
-        else:
-            _dyn.user_diagnostics(problem.kernels[1])(t, y, problem.params, diag)
+        problem.entry.diagnostics(t, y, problem.params, diag)
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
     return build_dataset(t, y, diag, problem.body, problem.potential, attrs)

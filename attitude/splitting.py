@@ -108,10 +108,7 @@ def _run(
     state = np.empty(8)
     _ks.canonical_to_state(problem.y0, state)
     counters = np.zeros(3, dtype=np.int64)
-    if problem.kernels is None:
-        run = _ks.composition_run_builtin
-    else:
-        run = _ks.composition_run_user(problem.kernels[0])
+    run = problem.entry.composition
     done = 0
     status = _ks.SUCCESS
     buf = y_out[:0]

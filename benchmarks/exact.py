@@ -20,7 +20,7 @@ from scipy.integrate import solve_ivp
 from attitude._core.exact import free_flow
 from attitude._core.quat import mul, mul_vec
 from attitude.exact import torque_free
-from orbit._jit import jit
+from orbit._shared_jit import jit
 
 
 @jit

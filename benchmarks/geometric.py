@@ -58,7 +58,7 @@ def make_problem(q0, Q0, t, potential):
         params=pot._params(body.inertia),
         y0=np.concatenate([q0, Q0]),
         t=t,
-        kernels=pot._kernels(),
+        entry=pot._entry_points(),
     )
 
 

@@ -27,7 +27,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 from orbit import _kernels as K
-from orbit._jit import jit
+from orbit._shared_jit import jit
 from orbit.kepler import solve_kepler
 
 

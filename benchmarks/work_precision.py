@@ -98,7 +98,7 @@ def make_problem(inertia, potential, q0, Q0, t):
         params=pot._params(body.inertia),
         y0=np.concatenate([q0, Q0]),
         t=np.asarray(t, dtype=np.float64),
-        kernels=pot._kernels(),
+        entry=pot._entry_points(),
     )
 
 

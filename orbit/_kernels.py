@@ -1,6 +1,6 @@
 """Compiled scalar kernels of the two-body problem (plain floats in, tuples of floats out).
 
-Everything here is decorated with :func:`orbit._jit.jit`: compiled lazily by numba, or plain
+Everything here is decorated with :func:`orbit._shared_jit.jit`: compiled lazily by numba, or plain
 Python when JIT is disabled. No kernel allocates, so the attitude integrators call
 :func:`radius_and_frame` / :func:`radius_and_radial_unit` inside every right-hand-side
 evaluation. No argument checking happens here: the public functions in :mod:`orbit.kepler`
@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import math
 
-from ._jit import jit
+from ._shared_jit import jit
 
 __all__ = [
     "ARGP",

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from . import _kernels as _k
-from ._jit import JIT_DISABLED
+from ._shared_jit import JIT_DISABLED
 from .errors import OrbitTypeError, OrbitValueError
 
 __all__ = [
@@ -519,7 +519,7 @@ def _register_numba_overloads() -> None:
 
         return typer
 
-    from ._jit import jit
+    from ._shared_jit import jit
 
     @jit
     def _ok_ell(e):

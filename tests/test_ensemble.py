@@ -23,7 +23,7 @@ import xarray as xr
 from attitude import canonical as C
 from attitude import io
 from attitude import quaternion as qt
-from attitude._core import dynamics as _dyn
+from attitude._core import entry_points as _ep
 from attitude._core import rk as _rk
 from attitude.body import RigidBody
 from attitude.ensemble import (
@@ -185,7 +185,7 @@ def test_members_are_single_runs(gg_case):
         y0 = np.concatenate([ds.q.values[i, 0], ds.Q.values[i, 0]])  # t[0] is an output
         work, tstate, counters = _rk.new_state(8)
         y = np.empty((t.shape[0], 8))
-        status, k = _dyn.dop853_canonical_builtin(
+        status, k = _ep.dop853_canonical(
             params, y0, t[0], t, y, work, tstate, counters, 1e-10, 1e-12, t[-1], np.inf, 10**8
         )
         assert status == 0 and k == t.shape[0]

@@ -17,7 +17,7 @@ import pytest
 mp = pytest.importorskip("mpmath")
 
 from orbit import _kernels as K  # noqa: E402
-from orbit._jit import JIT_DISABLED  # noqa: E402
+from orbit._shared_jit import JIT_DISABLED  # noqa: E402
 from orbit.errors import OrbitTypeError, OrbitValueError  # noqa: E402
 from orbit.kepler import (  # noqa: E402
     eccentric_from_true,

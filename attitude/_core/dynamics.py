@@ -1,4 +1,4 @@
-"""Right-hand sides of the equations of motion, and the cached integrator entry points.
+"""Right-hand side of the canonical equations of motion, and their diagnostics.
 
 Canonical quaternion variables, Arribas, Elipe & Palacios (2006) eq. 7, with the scalar part of
 q̃∘Q dropped (their I0 is irrelevant on the constraint manifold):
@@ -12,18 +12,19 @@ where the potential enters through the generalised force 2 q∘(0, τ_B) of Schw
 (minus the tangential gradient of U), which keeps |q| and q·Q exactly invariant.
 
 State vector ``y`` (length 8): ``[q0, q1, q2, q3, Q0, Q1, Q2, Q3]``.
+
+Both kernels take the model as an argument; the cached entry points that bind them to a model
+are in :mod:`attitude._core.entry_points`.
 """
 
 from __future__ import annotations
 
-from orbit._jit import jit
+from orbit._shared_jit import jit_generic
 
-from .potentials import builtin_potential, builtin_torque
 from .quat import conj_mul, mul_vec
-from .rk import dop853_run
 
 
-@jit(inline="always")
+@jit_generic
 def canonical_rhs_with(torque, t, y, params, dydt):
     """Eq. 7 with the body torque ``torque(q, t, params)``; writes into ``dydt``."""
     q = y[0:4]
@@ -39,36 +40,7 @@ def canonical_rhs_with(torque, t, y, params, dydt):
         dydt[4 + i] = 0.5 * b[i] + 2.0 * c[i]
 
 
-@jit
-def canonical_rhs_builtin(t, y, params, dydt):
-    """Eq. 7 with a built-in potential (cacheable: the torque is a global kernel)."""
-    canonical_rhs_with(builtin_torque, t, y, params, dydt)
-
-
-@jit
-def dop853_canonical_builtin(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on eq. 7 with a built-in potential: the cached entry point."""
-    return dop853_run(
-        canonical_rhs_builtin,
-        params,
-        y0,
-        t0,
-        t_out,
-        y_out,
-        work,
-        tstate,
-        counters,
-        rtol,
-        atol,
-        t_end,
-        max_step,
-        max_steps,
-    )
-
-
-@jit(inline="always")
+@jit_generic
 def diagnostics_with(potential, t, y, params, out):
     """Per-sample diagnostics of canonical states ``y`` (m, 8) into ``out`` (m, 13).
 
@@ -102,43 +74,3 @@ def diagnostics_with(potential, t, y, params, out):
         out[k, 10] = (nq - 1.0) / (1.0 + nq**0.5)
         out[k, 11] = w[0]
         out[k, 12] = U
-
-
-@jit
-def diagnostics_builtin(t, y, params, out):
-    """:func:`diagnostics_with` for a built-in potential (cached)."""
-    diagnostics_with(builtin_potential, t, y, params, out)
-
-
-# User kernels ---------------------------------------------------------------------------------
-# A user torque or potential is a compiled function handed in from Python. numba cannot cache a
-# function that receives it, so the wrappers below close over it and are compiled once per process
-# and kernel (memoised here; the entries keep the kernels alive, so their ids are not reused).
-_USER_RHS: dict[tuple[int, int], tuple] = {}
-_USER_DIAG: dict[int, tuple] = {}
-
-
-def user_rhs(rhs_with, torque):
-    """Compiled ``rhs(t, y, params, dydt)`` = ``rhs_with(torque, t, y, params, dydt)``."""
-    key = (id(rhs_with), id(torque))
-    if key not in _USER_RHS:
-
-        @jit(cache=False)
-        def rhs(t, y, params, dydt):
-            rhs_with(torque, t, y, params, dydt)
-
-        _USER_RHS[key] = (rhs, rhs_with, torque)
-    return _USER_RHS[key][0]
-
-
-def user_diagnostics(potential):
-    """Compiled ``diag(t, y, params, out)``: :func:`diagnostics_with` for a user potential."""
-    key = id(potential)
-    if key not in _USER_DIAG:
-
-        @jit(cache=False)
-        def diag(t, y, params, out):
-            diagnostics_with(potential, t, y, params, out)
-
-        _USER_DIAG[key] = (diag, potential)
-    return _USER_DIAG[key][0]

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._jit import jit
+from orbit._shared_jit import jit
 
 __all__ = [
     "ellipf_sc",

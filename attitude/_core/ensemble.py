@@ -6,27 +6,13 @@ own parameter row ``params[i]`` (inertia, kind code, potential numbers; see
 across them, so a member's result does not depend on how many members run beside it, how they
 are chunked, or on how many threads run the loop: bit for bit.
 
-Built-in potentials: the member body :func:`member_builtin` calls the cached single-run entry
-points of :func:`attitude.propagate`, :func:`attitude._core.dynamics.dop853_canonical_builtin`
-and :func:`~attitude._core.dynamics.diagnostics_builtin`: a member runs the very machine code
-of a single propagation, and the ensemble kernels compile in a moment once those exist.
+:func:`member_run` is the member body; it calls the model's single-run entry points
+(``dop853_canonical`` and ``diagnostics`` of :mod:`attitude._core.entry_points`), so a member
+runs the very machine code of a single propagation. The drivers over it (``prange`` over
+members, and a serial GIL-free loop for Dask worker threads) are entry points too:
+``ensemble_member``, ``ensemble_parallel``, ``ensemble_serial``.
 
-Two drivers over that member body:
-
-``run_builtin_parallel``
-    ``prange`` over members (numba ``parallel=True``; threads set by ``numba.set_num_threads``).
-``run_builtin_serial``
-    A plain loop, releasing the GIL (``nogil``): what a Dask worker thread runs, since the
-    worker's own threads already provide the parallelism (and numba's threading layers are
-    not all safe under concurrent launches from several Python threads).
-
-Everything is cached on disk. User kernels (``CustomPotential``, ``CustomTorque``) get the same
-two drivers from :func:`make_user_drivers`, with the DOP853 loop inlined around the user's
-right-hand side, compiled per process (not cacheable: numba cannot cache a function closing
-over another dispatcher that is not a module global).
-
-Diagnostics are computed for members that succeeded (a failed member fails its chunk, whose
-results are not used).
+Diagnostics are computed for members that succeeded.
 
 Array layout (N members, m output times)
 ----------------------------------------
@@ -40,26 +26,11 @@ All C-contiguous.
 
 from __future__ import annotations
 
-import numba
+from orbit._shared_jit import jit, jit_generic
 
-from orbit._jit import jit, parallel_jit
+from .rk import SUCCESS, WORK_ROWS
 
-from .dynamics import (
-    canonical_rhs_with,
-    diagnostics_builtin,
-    diagnostics_with,
-    dop853_canonical_builtin,
-    user_rhs,
-)
-from .rk import SUCCESS, WORK_ROWS, dop853_run
-
-__all__ = [
-    "WORK_ROWS",
-    "make_user_drivers",
-    "member_builtin",
-    "run_builtin_parallel",
-    "run_builtin_serial",
-]
+__all__ = ["WORK_ROWS", "member_run"]
 
 
 @jit(inline="always")
@@ -74,10 +45,10 @@ def _fresh(w, ts, c):
         c[j] = 0
 
 
-@jit(inline="always")
-def _member(
-    rhs,
-    potential,
+@jit_generic
+def member_run(
+    dop853,
+    diagnostics,
     i,
     params,
     y0,
@@ -102,249 +73,8 @@ def _member(
     _fresh(w, ts, c)
     p = params[i]
     yo = y_out[i]
-    st, k = dop853_run(
-        rhs, p, y0[i], t[0], t, yo, w, ts, c, rtol, atol, t[m - 1], max_step, max_steps
-    )
+    st, k = dop853(p, y0[i], t[0], t, yo, w, ts, c, rtol, atol, t[m - 1], max_step, max_steps)
     status[i] = st
     n_done[i] = k
     if st == SUCCESS:
-        diagnostics_with(potential, t, yo, p, diag[i])
-
-
-@jit(nogil=True)
-def member_builtin(
-    i,
-    params,
-    y0,
-    t,
-    y_out,
-    diag,
-    work,
-    tstate,
-    counters,
-    status,
-    n_done,
-    rtol,
-    atol,
-    max_step,
-    max_steps,
-):
-    """Member ``i`` with a built-in potential: the one compiled body both drivers call."""
-    m = t.shape[0]
-    w = work[i]
-    ts = tstate[i]
-    c = counters[i]
-    _fresh(w, ts, c)
-    p = params[i]
-    yo = y_out[i]
-    st, k = dop853_canonical_builtin(
-        p, y0[i], t[0], t, yo, w, ts, c, rtol, atol, t[m - 1], max_step, max_steps
-    )
-    status[i] = st
-    n_done[i] = k
-    if st == SUCCESS:
-        diagnostics_builtin(t, yo, p, diag[i])
-
-
-@parallel_jit(nogil=True)
-def run_builtin_parallel(
-    params,
-    y0,
-    t,
-    y_out,
-    diag,
-    work,
-    tstate,
-    counters,
-    status,
-    n_done,
-    rtol,
-    atol,
-    max_step,
-    max_steps,
-):
-    """All members with a built-in potential, in parallel over members (``prange``)."""
-    for i in numba.prange(y0.shape[0]):
-        member_builtin(
-            i,
-            params,
-            y0,
-            t,
-            y_out,
-            diag,
-            work,
-            tstate,
-            counters,
-            status,
-            n_done,
-            rtol,
-            atol,
-            max_step,
-            max_steps,
-        )
-
-
-@jit(nogil=True)
-def run_builtin_serial(
-    params,
-    y0,
-    t,
-    y_out,
-    diag,
-    work,
-    tstate,
-    counters,
-    status,
-    n_done,
-    rtol,
-    atol,
-    max_step,
-    max_steps,
-):
-    """All members with a built-in potential, one after the other (GIL released)."""
-    for i in range(y0.shape[0]):
-        member_builtin(
-            i,
-            params,
-            y0,
-            t,
-            y_out,
-            diag,
-            work,
-            tstate,
-            counters,
-            status,
-            n_done,
-            rtol,
-            atol,
-            max_step,
-            max_steps,
-        )
-
-
-_USER_DRIVERS: dict[tuple[int, int], tuple] = {}
-
-
-def make_user_drivers(torque, potential):
-    """(parallel, serial) drivers for user kernels ``torque(q, t, params)``, ``potential``.
-
-    Compiled once per process and pair of kernels (not cached on disk).
-    """
-    key = (id(torque), id(potential))
-    if key in _USER_DRIVERS:
-        return _USER_DRIVERS[key]
-
-    rhs = user_rhs(canonical_rhs_with, torque)
-
-    @jit(cache=False, nogil=True)
-    def member(
-        i,
-        params,
-        y0,
-        t,
-        y_out,
-        diag,
-        work,
-        tstate,
-        counters,
-        status,
-        n_done,
-        rtol,
-        atol,
-        max_step,
-        max_steps,
-    ):
-        _member(
-            rhs,
-            potential,
-            i,
-            params,
-            y0,
-            t,
-            y_out,
-            diag,
-            work,
-            tstate,
-            counters,
-            status,
-            n_done,
-            rtol,
-            atol,
-            max_step,
-            max_steps,
-        )
-
-    @parallel_jit(cache=False, nogil=True)
-    def run_parallel(
-        params,
-        y0,
-        t,
-        y_out,
-        diag,
-        work,
-        tstate,
-        counters,
-        status,
-        n_done,
-        rtol,
-        atol,
-        max_step,
-        max_steps,
-    ):
-        for i in numba.prange(y0.shape[0]):
-            member(
-                i,
-                params,
-                y0,
-                t,
-                y_out,
-                diag,
-                work,
-                tstate,
-                counters,
-                status,
-                n_done,
-                rtol,
-                atol,
-                max_step,
-                max_steps,
-            )
-
-    @jit(cache=False, nogil=True)
-    def run_serial(
-        params,
-        y0,
-        t,
-        y_out,
-        diag,
-        work,
-        tstate,
-        counters,
-        status,
-        n_done,
-        rtol,
-        atol,
-        max_step,
-        max_steps,
-    ):
-        for i in range(y0.shape[0]):
-            member(
-                i,
-                params,
-                y0,
-                t,
-                y_out,
-                diag,
-                work,
-                tstate,
-                counters,
-                status,
-                n_done,
-                rtol,
-                atol,
-                max_step,
-                max_steps,
-            )
-
-    _USER_DRIVERS[key] = (run_parallel, run_serial)
-    return _USER_DRIVERS[key]
+        diagnostics(t, yo, p, diag[i])

@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from collections import namedtuple
 
-from orbit._jit import jit
+from orbit._shared_jit import jit
 
 from .elliptic import ellipj_reduced, ellipkm1, ellippi_complete, ellippi_sc
 from .quat import mul

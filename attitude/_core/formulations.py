@@ -1,12 +1,9 @@
-"""Right-hand sides of the non-canonical formulations, and their cached integrator entry points.
+"""Right-hand sides of the non-canonical formulations.
 
 Each right-hand side is written once with the body torque as a function argument
-``torque(q, t, params)`` (so user potentials run through the same code) and wrapped at module
-level with the built-in torque :func:`~attitude._core.potentials.builtin_torque`, which makes
-the wrapper and the DOP853 loop that calls it cacheable on disk (the pattern of
-:func:`attitude._core.dynamics.dop853_canonical_builtin`). The ``*_with`` functions are
-inlined at the numba-IR level (``inline="always"``) so that the torque dispatcher never
-becomes a run-time constant (which would make the wrapper uncacheable).
+``torque(q, t, params)`` (``jit_generic``: inlined, never cached on its own); the cached
+entry points that bind it to a model, with the DOP853 loop around it, are in
+:mod:`attitude._core.entry_points`.
 
 Parameter vector
 ----------------
@@ -32,11 +29,9 @@ from __future__ import annotations
 
 import math
 
-from orbit._jit import jit
+from orbit._shared_jit import jit, jit_generic
 
-from .potentials import builtin_torque
 from .quat import conj_mul, mul, mul_vec
-from .rk import dop853_run
 
 N_EXTRA = 6
 X_MIN_SIN = -6
@@ -124,7 +119,7 @@ def euler_angles_quaternion(y):
     return (ch * math.cos(sp), sh * math.cos(dp), sh * math.sin(dp), ch * math.sin(sp))
 
 
-@jit(inline="always")
+@jit_generic
 def euler_angles_rhs_with(torque, t, y, params, dydt):
     """Hamilton's equations of eq. 10 with the potential entering through ``torque``.
 
@@ -150,35 +145,6 @@ def euler_angles_rhs_with(torque, t, y, params, dydt):
     dydt[3] = f[0]
     dydt[4] = k[3] + f[1]
     dydt[5] = k[4] + f[2]
-
-
-@jit
-def euler_angles_rhs_builtin(t, y, params, dydt):
-    """:func:`euler_angles_rhs_with` with a built-in potential (cacheable)."""
-    euler_angles_rhs_with(builtin_torque, t, y, params, dydt)
-
-
-@jit
-def dop853_euler_angles_builtin(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on the Euler-angle equations with a built-in potential: cached entry point."""
-    return dop853_run(
-        euler_angles_rhs_builtin,
-        params,
-        y0,
-        t0,
-        t_out,
-        y_out,
-        work,
-        tstate,
-        counters,
-        rtol,
-        atol,
-        t_end,
-        max_step,
-        max_steps,
-    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -234,7 +200,7 @@ def schwab_accelerations(q, qd, tau, inertia1, inertia2, inertia3):
     return (r[0] / nq, r[1] / nq, r[2] / nq, r[3] / nq), lam
 
 
-@jit(inline="always")
+@jit_generic
 def schwab_rhs_with(torque, t, y, params, dydt):
     """First-order form of eq. 23 in (q, q̇); the torque is evaluated at the attitude q/|q|."""
     q = y[0:4]
@@ -247,41 +213,12 @@ def schwab_rhs_with(torque, t, y, params, dydt):
         dydt[4 + i] = qdd[i]
 
 
-@jit
-def schwab_rhs_builtin(t, y, params, dydt):
-    """:func:`schwab_rhs_with` with a built-in potential (cacheable)."""
-    schwab_rhs_with(builtin_torque, t, y, params, dydt)
-
-
-@jit
-def dop853_schwab_builtin(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on Schwab's equations with a built-in potential: cached entry point."""
-    return dop853_run(
-        schwab_rhs_builtin,
-        params,
-        y0,
-        t0,
-        t_out,
-        y_out,
-        work,
-        tstate,
-        counters,
-        rtol,
-        atol,
-        t_end,
-        max_step,
-        max_steps,
-    )
-
-
 # --------------------------------------------------------------------------------------------
 # Euler's equations with the quaternion kinematics
 # --------------------------------------------------------------------------------------------
 
 
-@jit(inline="always")
+@jit_generic
 def euler_equations_rhs_with(torque, t, y, params, dydt):
     """q̇ = ½ q∘(0, ω) (Schwab eq. 16), I ω̇ = τ − ω × Iω (Schwab eq. 19).
 
@@ -303,32 +240,3 @@ def euler_equations_rhs_with(torque, t, y, params, dydt):
     dydt[4] = (tau[0] - (w2 * I3 * w3 - w3 * I2 * w2)) / I1
     dydt[5] = (tau[1] - (w3 * I1 * w1 - w1 * I3 * w3)) / I2
     dydt[6] = (tau[2] - (w1 * I2 * w2 - w2 * I1 * w1)) / I3
-
-
-@jit
-def euler_equations_rhs_builtin(t, y, params, dydt):
-    """:func:`euler_equations_rhs_with` with a built-in potential (cacheable)."""
-    euler_equations_rhs_with(builtin_torque, t, y, params, dydt)
-
-
-@jit
-def dop853_euler_equations_builtin(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on Euler's equations with a built-in potential: cached entry point."""
-    return dop853_run(
-        euler_equations_rhs_builtin,
-        params,
-        y0,
-        t0,
-        t_out,
-        y_out,
-        work,
-        tstate,
-        counters,
-        rtol,
-        atol,
-        t_end,
-        max_step,
-        max_steps,
-    )

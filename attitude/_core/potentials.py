@@ -15,10 +15,12 @@ the tangential part of ∂U/∂q, so |q| = 1 and q·Q = 0 stay invariants of the
 
 from __future__ import annotations
 
-from orbit._jit import jit
-from orbit._kernels import radius_and_radial_unit
+import numpy as np
 
-from .quat import cross, rotate, rotate_inverse
+from orbit._kernels import radius_and_radial_unit
+from orbit._shared_jit import jit, jit_generic
+
+from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
 KIND_HEAVY_TOP = 1
@@ -96,3 +98,37 @@ def builtin_potential(q, t, params):
     if kind == KIND_GRAVITY_GRADIENT:
         return gravity_gradient_potential(q, t, params)
     return 0.0
+
+
+# User models ----------------------------------------------------------------------------------
+# The bodies of the user kernels of attitude._user_kernels (CustomTorque, CustomPotential).
+
+#: Complex-step size: derivatives are exact to round-off for any h this small
+#: (Squire & Trapp, SIAM Rev. 40, 110, 1998): Im U(q + i h e_k) / h = ∂U/∂q_k + O(h²).
+COMPLEX_STEP = 1e-30
+
+
+@jit_generic
+def user_torque(tau_fn, q, t):
+    """A user's ``tau(q, t)`` (tuple or array) as a 3-tuple of floats."""
+    tau = tau_fn(q, t)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def complex_step_torque(potential_fn, q, t):
+    """τ_B = −½ vec(q̃∘∇U) of a user's ``U(q, t)``, ∇U by complex steps (exact to round-off).
+
+    The generalised force 2 q∘(0, τ_B) (Schwab eq. 25) is then minus the tangential part of
+    ∇U; a radial part (U not homogeneous of degree 0 in q) drops out.
+    """
+    h = COMPLEX_STEP
+    qc = np.empty(4, dtype=np.complex128)
+    grad = np.empty(4)
+    for i in range(4):
+        for j in range(4):
+            qc[j] = q[j]
+        qc[i] = q[i] + 1j * h
+        grad[i] = potential_fn(qc, t).imag / h
+    w = conj_mul(q, grad)
+    return (-0.5 * w[1], -0.5 * w[2], -0.5 * w[3])

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from orbit._jit import jit
+from orbit._shared_jit import jit, jit_generic
 
 from .tableaux import DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5
 
@@ -79,7 +79,7 @@ def _rms_scaled(v, y1, y2, rtol, atol, n):
     return math.sqrt(s / n)
 
 
-@jit(inline="always")
+@jit_generic
 def _initial_step(rhs, params, t0, y0, f0, direction, rtol, atol, t_span, work, counters):
     # Hairer, Nørsett & Wanner, Sect. II.4, "Starting step size".
     n = y0.shape[0]
@@ -106,7 +106,7 @@ def _initial_step(rhs, params, t0, y0, f0, direction, rtol, atol, t_span, work, 
     return min(100.0 * h0, h1, t_span)
 
 
-@jit(inline="always")
+@jit_generic
 def _dense_coefficients(rhs, params, work, tstate, counters):
     """The 7th-order interpolant of the last step (three extra stages, HNW II.10)."""
     n = work.shape[1]
@@ -151,7 +151,7 @@ def _interpolate(work, tstate, t, out):
         out[i] = acc + work[YOLD, i]
 
 
-@jit(inline="always")
+@jit_generic
 def dop853_run(
     rhs,
     params,

@@ -45,10 +45,9 @@ import math
 
 import numpy as np
 
-from orbit._jit import jit
+from orbit._shared_jit import jit, jit_generic
 
 from .exact import free_flow
-from .potentials import builtin_torque
 from .quat import mul, rotate_inverse
 
 # Sub-flow codes.
@@ -284,7 +283,7 @@ def canonical_to_state(y, state):
 # --------------------------------------------------------------------------------------------
 
 
-@jit(inline="always")
+@jit_generic
 def composition_run(
     torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
 ):
@@ -352,36 +351,3 @@ def composition_run(
             return NONFINITE, k
         t_a = t_b
     return SUCCESS, m
-
-
-# The generic loop is inlined (numba IR inlining) into its entry points, so that the torque is a
-# compile-time constant there: a function that passes a dispatcher *value* on to a separately
-# compiled function holds its address as a "dynamic global" and cannot be cached on disk.
-
-
-@jit
-def composition_run_builtin(
-    params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
-):
-    """:func:`composition_run` with a built-in potential: the cached entry point."""
-    return composition_run(
-        builtin_torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
-    )
-
-
-_USER_RUNNERS: dict[int, object] = {}
-
-
-def composition_run_user(torque):
-    """The entry point for a user torque kernel (compiled once per kernel, not cached on disk)."""
-    key = id(torque)
-    if key not in _USER_RUNNERS:
-
-        @jit(cache=False)
-        def run(params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters):
-            return composition_run(
-                torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
-            )
-
-        _USER_RUNNERS[key] = (torque, run)  # keep torque alive: ids are not reused meanwhile
-    return _USER_RUNNERS[key][1]

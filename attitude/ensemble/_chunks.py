@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from .._core import ensemble as _ke
+from .._core import entry_points as _builtin_entry_points
 from .._core import rk as _rk
 
 _N_DIAG = 13
@@ -46,11 +46,12 @@ def _compute_chunk(
     }
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
-    if setup.user_potential is None:
-        fn = _ke.run_builtin_parallel if parallel else _ke.run_builtin_serial
-    else:
-        torque, potential = setup.user_potential._kernels()
-        fn = _ke.make_user_drivers(torque, potential)[0 if parallel else 1]
+    entry = (
+        _builtin_entry_points
+        if setup.user_potential is None
+        else setup.user_potential._entry_points()
+    )
+    fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
     fn(
         params,
         y0,
@@ -84,7 +85,7 @@ PARALLEL_CHUNK = 8
 @contextlib.contextmanager
 def _numba_threads(threads: int | None):
     """Run the parallel driver with ``threads`` numba threads (restored afterwards)."""
-    from orbit._jit import JIT_DISABLED
+    from orbit._shared_jit import JIT_DISABLED
 
     if JIT_DISABLED:
         yield

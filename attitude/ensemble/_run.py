@@ -216,7 +216,7 @@ def propagate_ensemble(
     else:  # a dispersion sampler (run_scenario): already validated
         members, unit, pot, pots = _source
         n = members.n
-    user = pot if pot._kernels() is not None else None
+    user = pot if pot._kind is None else None
 
     out_path = None if path is None else Path(path)
     if out_path is not None and out_path.is_dir():
@@ -249,7 +249,7 @@ def propagate_ensemble(
                 ) from None
         n_threads = _worker_threads(client)
     else:
-        from orbit._jit import JIT_DISABLED
+        from orbit._shared_jit import JIT_DISABLED
 
         if threads is not None:
             n_threads = int(threads)
@@ -366,7 +366,7 @@ def propagate_ensemble(
 
 def _local_results(setup, members, bounds, threads):
     """Chunks computed here with the parallel driver, one after the other (generator)."""
-    from orbit._jit import JIT_DISABLED
+    from orbit._shared_jit import JIT_DISABLED
 
     for start, stop in bounds:
         try:

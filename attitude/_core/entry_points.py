@@ -1,0 +1,192 @@
+"""Compiled entry points: every integrator and evaluation loop, for one torque model.
+
+This module is written against two module globals, the model:
+
+``torque(q, t, params) -> (τ1, τ2, τ3)``
+    body-frame torque at the unit attitude ``q`` and time ``t``;
+``potential(q, t, params) -> U``
+    its potential energy (0 where none is known).
+
+Here they are the built-in models (:mod:`attitude._core.potentials`: one kind switch over
+parameter vectors), so every function below is cached on disk with the package and a fresh
+process integrates without compiling.
+
+For a user model (``CustomPotential``, ``CustomTorque``) :mod:`attitude._user_kernels` writes a
+copy of this file into the user cache directory with the block between the ``model`` markers
+replaced by the user's kernels, one module per model, named after a hash of the user's source:
+the same entry points, cached there, so the package's cache never holds a user's code and a
+user model compiles once per change of its source file, not once per process.
+
+Why whole entry points and not a function argument: numba cannot cache a function compiled
+for a *function-typed argument* without recording the caller's function type in the cache
+index (which then fails to load in any process where that function's module is missing). The
+generic loops (``dop853_run``, ``canonical_rhs_with``, ...) therefore take the model as an
+argument but are never compiled on their own (``jit_generic``: inlined, never cached); they
+are inlined here, where the model is a module global.
+
+Every import below is absolute, so the file also works as the template of a user module.
+"""
+
+from __future__ import annotations
+
+import numba
+
+from attitude._core.dynamics import canonical_rhs_with, diagnostics_with
+from attitude._core.ensemble import member_run
+from attitude._core.formulations import (
+    euler_angles_rhs_with,
+    euler_equations_rhs_with,
+    schwab_rhs_with,
+)
+from attitude._core.potentials import builtin_potential, builtin_torque
+from attitude._core.rk import dop853_run
+from attitude._core.splitting import composition_run
+from orbit._shared_jit import jit, parallel_jit
+
+# --- model: begin (replaced in user modules) ---
+torque = builtin_torque
+potential = builtin_potential
+# --- model: end ---
+
+
+# Evaluation ----------------------------------------------------------------------------------
+
+
+@jit
+def evaluate(q, t, params, tau_out, u_out):
+    """Torque ``tau_out`` (m, 3) and potential ``u_out`` (m,) at attitudes ``q`` (m, 4)."""
+    for k in range(q.shape[0]):
+        tau = torque(q[k], t[k], params)
+        tau_out[k, 0] = tau[0]
+        tau_out[k, 1] = tau[1]
+        tau_out[k, 2] = tau[2]
+        u_out[k] = potential(q[k], t[k], params)
+
+
+@jit
+def diagnostics(t, y, params, out):
+    """Diagnostics of canonical states ``y`` (m, 8) into ``out`` (m, 13): see ``dynamics``."""
+    diagnostics_with(potential, t, y, params, out)
+
+
+# Canonical equations (Arribas et al. eq. 7) ----------------------------------------------------
+
+
+@jit
+def canonical_rhs(t, y, params, dydt):
+    """Eq. 7 with the model's torque, written into ``dydt``."""
+    canonical_rhs_with(torque, t, y, params, dydt)
+
+
+@jit
+def dop853_canonical(
+    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
+):
+    """DOP853 on eq. 7 (layout of the arguments: :func:`attitude._core.rk.dop853_run`)."""
+    return dop853_run(
+        canonical_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
+        rtol, atol, t_end, max_step, max_steps,
+    )  # fmt: skip
+
+
+@jit
+def composition(params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters):
+    """The splitting methods (:func:`attitude._core.splitting.composition_run`)."""
+    return composition_run(
+        torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
+    )
+
+
+# Other formulations (attitude.formulations) ----------------------------------------------------
+
+
+@jit
+def euler_angles_rhs(t, y, params, dydt):
+    """3-1-3 Euler-angle Hamiltonian (Arribas et al. eq. 10)."""
+    euler_angles_rhs_with(torque, t, y, params, dydt)
+
+
+@jit
+def dop853_euler_angles(
+    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
+):
+    """DOP853 on the Euler-angle equations."""
+    return dop853_run(
+        euler_angles_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
+        rtol, atol, t_end, max_step, max_steps,
+    )  # fmt: skip
+
+
+@jit
+def schwab_rhs(t, y, params, dydt):
+    """Schwab's Euler-parameter equations (eqs. 19-25)."""
+    schwab_rhs_with(torque, t, y, params, dydt)
+
+
+@jit
+def dop853_schwab(
+    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
+):
+    """DOP853 on Schwab's equations."""
+    return dop853_run(
+        schwab_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
+        rtol, atol, t_end, max_step, max_steps,
+    )  # fmt: skip
+
+
+@jit
+def euler_equations_rhs(t, y, params, dydt):
+    """Euler's equations with the quaternion kinematics."""
+    euler_equations_rhs_with(torque, t, y, params, dydt)
+
+
+@jit
+def dop853_euler_equations(
+    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
+):
+    """DOP853 on Euler's equations."""
+    return dop853_run(
+        euler_equations_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
+        rtol, atol, t_end, max_step, max_steps,
+    )  # fmt: skip
+
+
+# Ensembles (attitude.ensemble; array layout in attitude._core.ensemble) ------------------------
+
+
+@jit(nogil=True)
+def ensemble_member(
+    i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """Member ``i`` from a fresh integrator state: the one body both drivers call."""
+    member_run(
+        dop853_canonical, diagnostics, i, params, y0, t, y_out, diag, work, tstate, counters,
+        status, n_done, rtol, atol, max_step, max_steps,
+    )  # fmt: skip
+
+
+@parallel_jit(nogil=True)
+def ensemble_parallel(
+    params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """All members, in parallel over members (``prange``)."""
+    for i in numba.prange(y0.shape[0]):
+        ensemble_member(
+            i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+            rtol, atol, max_step, max_steps,
+        )  # fmt: skip
+
+
+@jit(nogil=True)
+def ensemble_serial(
+    params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """All members one after the other, GIL released (what a Dask worker thread runs)."""
+    for i in range(y0.shape[0]):
+        ensemble_member(
+            i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+            rtol, atol, max_step, max_steps,
+        )  # fmt: skip
