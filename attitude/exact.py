@@ -22,9 +22,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ._core.exact import torque_free_kernel
+from ._methods import Problem, RunResult
 from ._validation import as_float_array, as_quaternion
 from .body import RigidBody
 from .errors import AttitudeValueError
+from .potentials import TorqueFree
 
 __all__ = ["UNIT_NORM_TOL", "torque_free", "torque_free_states"]
 
@@ -135,10 +137,8 @@ torque_free_states = torque_free
 # propagate(..., method="exact")
 
 
-def _run_exact(problem: Any, **_: Any) -> Any:
-    """Method runner for :func:`attitude.propagate`: the closed form at every output time."""
-    from .potentials import TorqueFree
-    from .propagate import RunResult
+def run_exact(problem: Problem, **_: Any) -> RunResult:
+    """Method runner ``"exact"`` of :func:`attitude.propagate`: the closed form at every time."""
 
     if not isinstance(problem.potential, TorqueFree):
         raise AttitudeValueError(
@@ -154,12 +154,3 @@ def _run_exact(problem: Any, **_: Any) -> Any:
     out_Q = np.empty((t.shape[0], 4))
     torque_free_kernel(I1, I2, I3, problem.y0[:4].copy(), problem.y0[4:].copy(), dt, out_q, out_Q)
     return RunResult(np.concatenate([out_q, out_Q], axis=1), stats={"n_steps": 0})
-
-
-def _register() -> None:
-    from .propagate import METHODS
-
-    METHODS["exact"] = _run_exact
-
-
-_register()

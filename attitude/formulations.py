@@ -37,6 +37,7 @@ import numpy as np
 
 from ._core import formulations as _kf
 from ._core import rk as _rk
+from ._methods import RunResult
 from .canonical import from_euler_canonical, to_euler_canonical
 from .errors import AttitudeTypeError, AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
@@ -125,7 +126,7 @@ class Formulation:
 
         Parameters
         ----------
-        problem : attitude.propagate.Problem
+        problem : attitude._methods.Problem
             Validated problem; ``problem.y0`` is the projected canonical initial state.
         method : str
             ``"dop853"`` or ``"scipy:<solver>"``.
@@ -138,11 +139,9 @@ class Formulation:
 
         Returns
         -------
-        attitude.propagate.RunResult
+        attitude._methods.RunResult
             ``y`` of shape (n_done, 8): canonical (q, Q) at ``problem.t[:n_done]``.
         """
-        from .propagate import RunResult
-
         if not self.applies_to(method):
             raise AttitudeValueError(_method_message(self.name, method))
         y0 = self.initial_state(problem)
@@ -294,10 +293,10 @@ class Canonical(Formulation):
 
     def run(self, problem: Any, method: str, runner: Callable | None = None, **options: Any):
         if runner is None:
-            from .propagate import _lookup_method
-
-            runner, extra = _lookup_method(method)
-            options = {**extra, **options}
+            raise AttitudeTypeError(
+                "runner: the canonical formulation runs the method's own runner; call it "
+                "through attitude.propagate"
+            )
         result = runner(problem, **options)
         result.stats.setdefault("formulation", self.name)
         return result

@@ -1,5 +1,9 @@
 """Quaternion algebra and conversions between attitude representations.
 
+One concept, the quaternion and its conversions to every other attitude representation (matrices,
+Euler angles of all twelve sequences, rotation vectors, MRPs, scipy rotations), hence one module
+longer than the others.
+
 Conventions (see ``docs/conventions.md`` for the full page with the seed equations):
 
 * A quaternion is a plain float array of shape ``(..., 4)``, **scalar first** ``(w, x, y, z)``;

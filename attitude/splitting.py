@@ -1,7 +1,7 @@
 """Symplectic, time-reversible fixed-step methods: ``"nosquish"`` and ``"splitting"``.
 
-Importing this module registers both in :data:`attitude.propagate.METHODS` (``propagate`` does
-it on first use), so they are called as ``propagate(..., method="splitting", dt=..., order=4)``.
+Their runners are in :data:`attitude.propagate.METHODS`, so they are called as
+``propagate(..., method="splitting", dt=..., order=4)``.
 
 ``"nosquish"``
     The NO_SQUISH splitting of Miller et al., J. Chem. Phys. 116, 8649 (2002), written for the
@@ -44,8 +44,8 @@ import numpy as np
 
 from ._core import rk as _rk
 from ._core import splitting as _ks
+from ._methods import Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError
-from .propagate import METHODS, Problem, RunResult
 
 __all__ = ["ORDERS", "run_nosquish", "run_splitting"]
 
@@ -163,5 +163,3 @@ def _pick(options: dict[str, Any]) -> dict[str, Any]:
 
 run_nosquish.streams = True  # type: ignore[attr-defined]
 run_splitting.streams = True  # type: ignore[attr-defined]
-METHODS["nosquish"] = run_nosquish
-METHODS["splitting"] = run_splitting

@@ -33,9 +33,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from attitude import canonical as C
 from attitude import quaternion as qt
+from attitude._methods import run_dop853
 from attitude.body import RigidBody
 from attitude.potentials import HeavyTop, as_potential
-from attitude.propagate import METHODS, Problem, _load_plugins, _run_dop853, propagate
+from attitude.propagate import METHODS, Problem, propagate
 
 I_PAPER = np.array([1.25, 1.0, 0.75])
 T_END = 1000.0
@@ -151,7 +152,7 @@ def run_case(title, q0, Q0, potential, truth_q, settings, heyoka_tols, target):
         add(
             "dop853",
             f"rtol={rtol:.0e}",
-            lambda rtol=rtol: _run_dop853(problem, rtol=rtol, atol=rtol * 1e-2).y,
+            lambda rtol=rtol: run_dop853(problem, rtol=rtol, atol=rtol * 1e-2).y,
             lambda rtol=rtol: propagate(
                 I_PAPER, q0, Q0, t, potential=potential, rtol=rtol, atol=rtol * 1e-2
             ),
@@ -222,7 +223,6 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="fewer settings")
     args = parser.parse_args(argv)
     warnings.simplefilter("ignore")
-    _load_plugins()
     q0, Q0 = paper_state()
     t = np.linspace(0.0, T_END, N_OUT)
 

@@ -17,7 +17,7 @@ from attitude.potentials import (
     HeavyTop,
     TorqueFree,
 )
-from attitude.propagate import METHODS, _load_plugins, propagate
+from attitude.propagate import METHODS, propagate
 
 I_SAT = np.array([400.0, 500.0, 600.0])  # kg km², Arribas et al. Sect. 6.2
 
@@ -246,7 +246,6 @@ def test_paper_keplerian_all_methods_agree():
     t = np.linspace(0.0, 1000.0, 11)
     ref = propagate(I_SAT, q0, Q0, t, potential=pot, rtol=1e-13, atol=1e-15)
     runs = {"scipy:DOP853": {"rtol": 1e-12, "atol": 1e-14}}
-    _load_plugins()
     for name in ("splitting", "nosquish"):
         if name in METHODS:
             runs[name] = {"dt": 0.5, "order": 6}
