@@ -104,7 +104,8 @@ def propagate_ensemble(
         One potential for all (default torque-free), or one built-in potential per member, all
         of the same kind (e.g. ``[GravityGradient(orbit_i) for ...]`` for per-member orbits,
         ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
-        supported as one potential for all members (their kernels are compiled per process).
+        supported as one potential for all members (compiled into the user cache, see
+        docs/potentials.md).
     method : str
         ``"dop853"`` (the only method of the compiled ensemble loop).
     rtol, atol : float
