@@ -11,17 +11,50 @@ this module (``"dop853"``, ``"scipy:<solver>"``) and the modules of the other me
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from . import _interrupt
 from ._core import rk as _rk
 from .body import RigidBody
+from .errors import AttitudeValueError
 from .potentials import Potential
 
-__all__ = ["SCIPY_SOLVERS", "Problem", "RunResult", "run_dop853", "run_scipy"]
+__all__ = [
+    "SAMPLE_BUDGET",
+    "SCIPY_SOLVERS",
+    "STEP_BUDGET",
+    "Problem",
+    "RunResult",
+    "check_work",
+    "dop853_call",
+    "run_dop853",
+    "run_scipy",
+]
+
+#: Most integration steps one compiled call takes before it returns to Python, where a pending
+#: Ctrl-C (KeyboardInterrupt) is raised: a step costs 1-15 µs (torque-free to gravity gradient;
+#: more with a user potential), so a call lasts ~0.02-0.3 s. Results do not depend on it: the
+#: integrator state lives in caller arrays and a call continues bit for bit where the last one
+#: stopped (tests/test_reliability.py).
+STEP_BUDGET = 20_000
+#: Most output samples one compiled call fills (dense output and diagnostics), for the same
+#: reason: a run of 1e7 samples in one call would not answer Ctrl-C for seconds.
+SAMPLE_BUDGET = 65_536
+
+#: Steps after which an adaptive run estimates its work: (steps so far) + (time left) / (step
+#: size reached). The first step itself is no guide: DOP853's starting-step formula (Hairer,
+#: Nørsett & Wanner II.4) is 10 to 19 000 times smaller than the steps the controller settles
+#: on (torque-free to gravity gradient, measured), while this estimate is within a factor
+#: 0.2-1.7 of the steps taken over whole runs (tests/test_reliability.py).
+PROBE_STEPS = 64
+#: A run estimated to need more than this many times ``max_steps`` is stopped right after the
+#: probe, with an AttitudeValueError (it cannot finish); above ``max_steps`` it warns.
+WORK_MARGIN = 100.0
 
 #: ``scipy.integrate.solve_ivp`` methods reachable as ``method="scipy:<name>"``.
 SCIPY_SOLVERS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
@@ -61,6 +94,102 @@ class RunResult:
 # --------------------------------------------------------------------------------------------
 
 
+def check_work(steps: int, t: float, h: float, t_end: float, max_steps: int) -> None:
+    """After ``steps`` steps at ``t`` with step size ``h``: refuse or warn about the run.
+
+    Raises
+    ------
+    AttitudeValueError
+        The estimated number of steps exceeds ``WORK_MARGIN * max_steps``: the run cannot
+        finish (a rotation too fast, a span too long or tolerances too tight for max_steps).
+    """
+    if not (math.isfinite(h) and h > 0.0 and math.isfinite(t)):
+        return
+    need = steps + abs(t_end - t) / h
+    if need <= max_steps:
+        return
+    what = (
+        f"this run needs about {need:.2g} steps (its step size settles at {h:.3g} after "
+        f"{steps} steps, with {abs(t_end - t):.6g} of the time span left), more than "
+        f"max_steps = {max_steps}"
+    )
+    if need > WORK_MARGIN * max_steps:
+        raise AttitudeValueError(
+            f"max_steps: {what}: it cannot finish; shorten the time span, loosen rtol/atol, "
+            "or raise max_steps (a body spinning that fast needs steps that short)"
+        )
+    warnings.warn(f"{what}: it will probably stop early", RuntimeWarning, stacklevel=_user_level())
+
+
+def _user_level() -> int:
+    """``stacklevel`` of the first caller outside the package (for warnings from runners)."""
+    import os
+    import sys
+
+    pkg = os.path.dirname(os.path.abspath(__file__)) + os.sep
+    f, level = sys._getframe(2), 2
+    while f is not None and os.path.abspath(f.f_code.co_filename).startswith(pkg):
+        f, level = f.f_back, level + 1
+    return level
+
+
+def dop853_call(
+    entry: Callable,
+    params: np.ndarray,
+    y0: np.ndarray,
+    t0: float,
+    t_out: np.ndarray,
+    y_out: np.ndarray,
+    work: np.ndarray,
+    tstate: np.ndarray,
+    counters: np.ndarray,
+    rtol: float,
+    atol: float,
+    t_end: float,
+    max_step: float,
+    max_steps: int,
+    on_pause: Callable[[int], None] | None = None,
+) -> tuple[int, int]:
+    """A compiled DOP853 entry point through ``t_out``, at most :data:`STEP_BUDGET` steps a call.
+
+    The arguments are those of :func:`attitude._core.rk.dop853_run` (``entry`` is one of the
+    ``dop853_*`` entry points). Each call is given the step limit ``min(max_steps, steps so far
+    + STEP_BUDGET)``; when it stops at that limit short of ``max_steps`` it is called again,
+    continuing from the stored state bit for bit, after Python has had the chance to raise a
+    pending ``KeyboardInterrupt`` (and :func:`attitude._interrupt.check`). ``on_pause(k)`` is
+    called then with the number of rows of ``y_out`` filled so far (a progress report). A
+    fresh run (``counters`` all 0) first takes :data:`PROBE_STEPS` steps and estimates its work
+    (:func:`check_work`: an error if it cannot finish within ``max_steps``).
+
+    Returns
+    -------
+    status, n_done : int
+        As :func:`~attitude._core.rk.dop853_run` over the whole of ``t_out``.
+    """
+    k = 0
+    probe = int(counters[0]) == 0  # a fresh run: estimate the work after its first steps
+    while True:
+        budget = PROBE_STEPS if probe else STEP_BUDGET
+        limit = min(max_steps, int(counters[0]) + budget)
+        status, kk = entry(
+            params, y0, t0, t_out[k:], y_out[k:], work, tstate, counters,
+            rtol, atol, t_end, max_step, limit,
+        )  # fmt: skip
+        k += int(kk)
+        _interrupt.check()
+        if int(status) == _rk.TOO_MANY_STEPS and (limit < max_steps or probe):
+            if probe:
+                probe = False
+                h = min(float(tstate[1]), max_step)
+                check_work(int(counters[0]), float(tstate[0]), h, t_end, max_steps)
+                if limit >= max_steps:
+                    return int(status), k
+            if on_pause is not None:
+                on_pause(k)
+            continue
+        return int(status), k
+
+
 def run_dop853(
     problem: Problem,
     *,
@@ -75,35 +204,33 @@ def run_dop853(
 ) -> RunResult:
     t = problem.t
     m = t.shape[0]
-    chunk = m if chunk is None else max(1, int(chunk))
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     # Streaming (on_chunk): one chunk-sized buffer, handed out and reused, so memory is
     # bounded whatever the number of output samples.
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, 8))
     work, tstate, counters = _rk.new_state(8)
+    t0, t_end = float(t[0]), float(t[m - 1])
     done = 0
+    k = 0
     status = _rk.SUCCESS
+    y_chunk = y_out[:0]
     while done < m:
         stop = min(m, done + chunk)
-        t_chunk = t[done:stop]
+        t_chunk = np.ascontiguousarray(t[done:stop])
         y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
-        status, k = problem.entry.dop853_canonical(
-            problem.params,
-            problem.y0,
-            t[0],
-            t_chunk,
-            y_chunk,
-            work,
-            tstate,
-            counters,
-            rtol,
-            atol,
-            t[-1],
-            max_step,
-            max_steps,
-        )
+        pause = None
+        if progress is not None:
+
+            def pause(kk, done=done):
+                progress(done + kk, m, float(tstate[0]))
+
+        status, k = dop853_call(
+            problem.entry.dop853_canonical, problem.params, problem.y0, t0, t_chunk, y_chunk,
+            work, tstate, counters, rtol, atol, t_end, max_step, max_steps, pause,
+        )  # fmt: skip
         if on_chunk is not None and k:
-            on_chunk(done, y_chunk[: int(k)])
-        done += int(k)
+            on_chunk(done, y_chunk[:k])
+        done += k
         if progress is not None:
             progress(done, m, float(tstate[0]))
         if status != _rk.SUCCESS:
@@ -119,7 +246,7 @@ def run_dop853(
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     if on_chunk is not None:  # keep only the last state (the samples went to on_chunk)
         last = max(done - 1, 0)
-        y_last = y_chunk[: int(k)][-1:].copy()
+        y_last = y_chunk[:k][-1:].copy()
         return RunResult(y_last, int(status), msg, stats, first=last, t_stop=t_stop)
     return RunResult(y_out[:done], int(status), msg, stats, t_stop=t_stop)
 
@@ -128,9 +255,27 @@ run_dop853.streams = True  # type: ignore[attr-defined]
 
 
 def run_scipy(
-    problem: Problem, *, solver: str, rtol: float, atol: float, max_step=math.inf, **_: Any
+    problem: Problem,
+    *,
+    solver: str,
+    rtol: float,
+    atol: float,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
+    on_chunk: Callable[[int, np.ndarray], None] | None = None,
+    **_: Any,
 ) -> RunResult:
-    from scipy.integrate import solve_ivp
+    """``scipy.integrate`` solver ``solver`` on eq. 7, stepped here, output streamed.
+
+    The loop is that of ``solve_ivp(..., t_eval=t)`` (one ``step()`` of the solver, then its
+    dense output at the output times the step passed), so the samples are those of
+    ``solve_ivp``; but the output times are taken a chunk at a time and the samples handed to
+    ``on_chunk`` as they are computed, so memory does not grow with the number of samples
+    (``solve_ivp`` keeps every sample and an interpolant per step).
+    """
+    import scipy.integrate
 
     rhs = problem.rhs
     params = problem.params
@@ -141,23 +286,99 @@ def run_scipy(
         return out
 
     t = problem.t
-    if t.shape[0] == 1:
-        return RunResult(problem.y0[None, :].copy(), stats={"rtol": rtol, "atol": atol, "n_rhs": 0})
-    sol = solve_ivp(
-        fun,
-        (t[0], t[-1]),
-        problem.y0,
-        method=solver,
-        t_eval=t,
-        rtol=rtol,
-        atol=atol,
-        max_step=max_step,
+    m = t.shape[0]
+    stats: dict[str, Any] = {"rtol": rtol, "atol": atol, "n_steps": 0, "n_rhs": 0}
+    if m == 1:
+        y1 = problem.y0[None, :].copy()
+        if on_chunk is not None:
+            on_chunk(0, y1)
+        return RunResult(y1, stats=stats)
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
+    streaming = on_chunk is not None
+    t0, tf = float(t[0]), float(t[m - 1])
+    ode = getattr(scipy.integrate, solver)(
+        fun, t0, problem.y0, tf, rtol=rtol, atol=atol, max_step=max_step
     )
-    y = sol.y.T.copy()
-    stats = {"rtol": rtol, "atol": atol, "n_rhs": int(sol.nfev)}
-    ok = sol.status == 0 and np.all(np.isfinite(y))
-    if ok:
-        return RunResult(y, stats=stats)
-    good = np.all(np.isfinite(y), axis=1)
-    n = int(np.argmin(good)) if not np.all(good) else y.shape[0]
-    return RunResult(y[:n], _rk.NONFINITE, f"scipy {solver}: {sol.message}", stats)
+    direction = 1.0 if tf > t0 else -1.0
+    y_all = None if streaming else np.empty((m, 8))
+    buf = np.empty((chunk if streaming else 0, 8))  # samples not handed out yet
+    n_buf = 0
+    done = 0  # samples computed
+    win0, win = 0, np.ascontiguousarray(t[0 : min(m, 2 * SAMPLE_BUDGET)])  # upcoming times
+    status, message = _rk.SUCCESS, "success"
+    n_steps = 0
+    last = problem.y0
+
+    def emit(rows: np.ndarray) -> None:
+        nonlocal n_buf
+        if not streaming:
+            y_all[done : done + rows.shape[0]] = rows
+            return
+        i = 0
+        while i < rows.shape[0]:
+            take = min(chunk - n_buf, rows.shape[0] - i)
+            buf[n_buf : n_buf + take] = rows[i : i + take]
+            n_buf += take
+            i += take
+            if n_buf == chunk:
+                on_chunk(done - n_buf + i, buf[:n_buf])
+                n_buf = 0
+
+    while done < m:
+        if n_steps >= max_steps:
+            status, message = _rk.TOO_MANY_STEPS, _rk.STATUS_MESSAGES[_rk.TOO_MANY_STEPS]
+            break
+        msg = ode.step()
+        n_steps += 1
+        if ode.status == "failed":
+            status, message = _rk.NONFINITE, f"scipy {solver}: {msg}"
+            break
+        tn = ode.t
+        if n_steps == PROBE_STEPS:
+            check_work(n_steps, float(tn), float(ode.step_size or math.nan), tf, max_steps)
+        sol = None
+        # The output times this step passed (those equal to tn included), evaluated as
+        # solve_ivp does, in one call, unless there are more than SAMPLE_BUDGET of them.
+        while done < m:
+            if done + SAMPLE_BUDGET > win0 + win.shape[0] and win0 + win.shape[0] < m:
+                win0, win = done, np.ascontiguousarray(t[done : min(m, done + 2 * SAMPLE_BUDGET)])
+            piece = win[done - win0 : done - win0 + SAMPLE_BUDGET]
+            j = int(np.searchsorted(direction * piece, direction * tn, side="right"))
+            if j == 0:
+                break
+            if sol is None:
+                sol = ode.dense_output()
+            rows = sol(piece[:j]).T
+            ok = np.all(np.isfinite(rows), axis=1)
+            if not ok.all():
+                good = int(np.argmin(ok))
+                emit(rows[:good])
+                done += good
+                status, message = _rk.NONFINITE, _rk.STATUS_MESSAGES[_rk.NONFINITE]
+                break
+            emit(rows)
+            done += j
+            last = rows[-1]
+            if j < piece.shape[0]:
+                break
+        if status != _rk.SUCCESS:
+            break
+        if progress is not None:
+            progress(done, m, float(tn))
+        if n_steps % 64 == 0:
+            _interrupt.check()
+        if ode.status == "finished" and done < m:  # cannot happen: tn == tf serves the rest
+            status, message = _rk.NONFINITE, f"scipy {solver}: stopped at t = {tn!r}"
+            break
+    stats.update(n_steps=n_steps, n_rhs=int(ode.nfev))
+    t_stop = None if status == _rk.SUCCESS else float(ode.t)
+    if streaming:
+        if n_buf:
+            on_chunk(done - n_buf, buf[:n_buf])
+        y_last = np.asarray(last, dtype=np.float64).reshape(1, 8).copy()
+        return RunResult(y_last if done else y_last[:0], status, message, stats,
+                         first=max(done - 1, 0), t_stop=t_stop)  # fmt: skip
+    return RunResult(y_all[:done], status, message, stats, t_stop=t_stop)
+
+
+run_scipy.streams = True  # type: ignore[attr-defined]

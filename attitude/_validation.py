@@ -10,15 +10,30 @@ from typing import Any
 
 import numpy as np
 
+from ._times import TimeGrid
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
     "as_float_array",
+    "as_int",
+    "as_positive",
     "as_quaternion",
+    "as_scalar",
     "as_times",
     "as_vector",
     "to_value",
 ]
+
+#: dtype kinds that are not real numbers: strings, bytes, void, booleans, complex, dates.
+_NOT_REAL = {
+    "U": "strings",
+    "S": "bytes",
+    "V": "raw bytes",
+    "b": "booleans",
+    "c": "complex numbers",
+    "m": "time deltas",
+    "M": "dates",
+}
 
 
 def to_value(x: Any, name: str, unit: Any = None) -> Any:
@@ -60,10 +75,27 @@ def as_float_array(
         If the trailing dimension or ndim is wrong or any entry is NaN or infinite.
     """
     x = to_value(x, name, unit)
+    if isinstance(x, (str, bytes)):
+        raise AttitudeTypeError(f"{name}: expected real numbers, got the string {_short(x)}")
     try:
-        arr = np.asarray(x, dtype=np.float64)
+        raw = np.asarray(x)
+    except (TypeError, ValueError) as exc:  # ragged nested sequences, odd objects
+        raise AttitudeTypeError(
+            f"{name}: expected an array of real numbers, got {_short(x)}"
+        ) from exc
+    kind = raw.dtype.kind
+    if kind in _NOT_REAL:
+        raise AttitudeTypeError(
+            f"{name}: expected real numbers, got {_NOT_REAL[kind]} ({_short(x)}); give float values"
+        )
+    try:
+        arr = raw.astype(np.float64, copy=False)
+    except OverflowError as exc:
+        raise AttitudeValueError(f"{name}: a value is too large for double precision") from exc
     except (TypeError, ValueError) as exc:
-        raise AttitudeTypeError(f"{name}: expected an array of real numbers, got {x!r}") from exc
+        raise AttitudeTypeError(
+            f"{name}: expected an array of real numbers, got {_short(x)}"
+        ) from exc
     if ndim is not None and arr.ndim != ndim:
         raise AttitudeValueError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
     if trailing is not None and (arr.ndim == 0 or arr.shape[-1] != trailing):
@@ -72,6 +104,46 @@ def as_float_array(
         bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise AttitudeValueError(f"{name}: contains a non-finite value (NaN or inf) at index {bad}")
     return arr
+
+
+def _short(x: Any) -> str:
+    r = repr(x)
+    return r if len(r) <= 60 else r[:57] + "..."
+
+
+def as_scalar(x: Any, name: str, *, unit: Any = None) -> float:
+    """One finite real number (a Python or numpy number, a 0-d array or a scalar Quantity).
+
+    Strings, booleans, complex numbers and arrays are refused with an
+    :class:`~attitude.errors.AttitudeTypeError` naming ``name``.
+    """
+    if isinstance(x, (bool, np.bool_)):
+        raise AttitudeTypeError(f"{name}: expected a number, got the boolean {x!r}")
+    arr = as_float_array(x, name, unit=unit)
+    if arr.ndim != 0:
+        raise AttitudeTypeError(
+            f"{name}: expected a single number, got an array of shape {arr.shape}"
+        )
+    return float(arr)
+
+
+def as_positive(x: Any, name: str, *, unit: Any = None, allow_inf: bool = False) -> float:
+    """A positive finite number (``math.inf`` too if ``allow_inf``), see :func:`as_scalar`."""
+    if allow_inf and isinstance(x, (int, float)) and not isinstance(x, bool) and x == np.inf:
+        return float("inf")
+    v = as_scalar(x, name, unit=unit)
+    if not v > 0:
+        raise AttitudeValueError(f"{name}: must be a positive number, got {v!r}")
+    return v
+
+
+def as_int(x: Any, name: str, *, low: int = 1) -> int:
+    """An integer >= ``low`` (Python or numpy integer; booleans and floats are refused)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+        raise AttitudeTypeError(f"{name}: expected an integer >= {low}, got {_short(x)}")
+    if x < low:
+        raise AttitudeValueError(f"{name}: expected an integer >= {low}, got {x!r}")
+    return int(x)
 
 
 def as_quaternion(x: Any, name: str = "q", *, nonzero: bool = True) -> np.ndarray:
@@ -88,8 +160,14 @@ def as_vector(x: Any, name: str = "v", *, unit: Any = None) -> np.ndarray:
     return as_float_array(x, name, trailing=3, unit=unit)
 
 
-def as_times(t: Any, name: str = "t", *, unit: Any = "s") -> np.ndarray:
-    """Convert output times to a finite, strictly increasing 1-D float array (at least 1 entry)."""
+def as_times(t: Any, name: str = "t", *, unit: Any = "s", lazy: bool = False) -> Any:
+    """Convert output times to a finite, strictly increasing 1-D float array (at least 1 entry).
+
+    A :class:`~attitude._times.TimeGrid` is valid by construction: it is returned as it is
+    with ``lazy=True`` (the caller slices it), else materialised.
+    """
+    if isinstance(t, TimeGrid):
+        return t if lazy else np.asarray(t)
     arr = as_float_array(t, name, unit=unit)
     if arr.ndim == 0:
         arr = arr.reshape(1)

@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from ._files import OutputFile, file_error
 from ._version import __version__
 from .errors import AttitudeValueError
 
@@ -184,9 +185,9 @@ def write_aem(
         meta.append(_kvn("INTERPOLATION_DEGREE", min(int(interpolation[1]), n - 1)))
     meta += ["META_STOP", "", "DATA_START"]
 
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+    target = OutputFile(path, "path")  # atomic; pipes and devices written through
+    target.prepare()
+    tmp = target.tmp
     try:
         with open(tmp, "w", encoding="latin-1", errors="replace", newline="\n") as fh:
             fh.write("\n".join(head + meta) + "\n")
@@ -203,10 +204,11 @@ def write_aem(
                 )
             fh.write("DATA_STOP\n")
             fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, out)
+        target.commit()
+    except OSError as exc:
+        target.discard()
+        raise file_error(exc, target.target) from None
     except BaseException:
-        if tmp.exists():
-            tmp.unlink()
+        target.discard()
         raise
-    return out
+    return target.path

@@ -17,6 +17,7 @@ All functions broadcast over leading dimensions and return float arrays.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -265,8 +266,11 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
     """
     q = as_quaternion(q, "q0")
     Q = as_float_array(Q, "Q0", trailing=4)
-    nq = float(np.linalg.norm(q))
-    nQ = float(np.linalg.norm(Q))
+    # Norms and q·Q of copies scaled by a power of two (exact, so the results are those of the
+    # unscaled formulas bit for bit wherever these do not overflow): a plain |Q| of
+    # (1e155, 1e155, 0, 0) is inf, which made any q·Q look relatively 0.
+    sq = _pow2(q)
+    nq = float(np.linalg.norm(q / sq)) * sq
     dn = abs(nq - 1.0)
     if dn > tol:
         raise AttitudeValueError(
@@ -274,8 +278,12 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
             f"(attitude.quaternion.normalize) if that is what you mean"
         )
     qn = q / nq
-    qQ = float(np.dot(qn, Q))
-    dq = abs(qQ) / max(nQ, 1.0)
+    sQ = _pow2(Q)
+    Qs = Q / sQ
+    nQs = float(np.linalg.norm(Qs))  # |Q| / sQ
+    qQs = float(np.dot(qn, Qs))  # q·Q / sQ
+    qQ = qQs * sQ
+    dq = abs(qQs) / nQs if nQs * sQ >= 1.0 else abs(qQ)  # |q·Q| / max(|Q|, 1)
     if dq > tol:
         raise AttitudeValueError(
             f"Q0: q0·Q0 = {qQ:.3g} is not 0 (relative {dq:.3g} > {tol:g}); the momenta must be "
@@ -283,3 +291,11 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
             f"(attitude.canonical.momenta_from_body_angular_momentum)"
         )
     return qn, Q - qQ * qn, max(dn, dq)
+
+
+def _pow2(x: np.ndarray) -> float:
+    """A power of two within a factor 2 of max|x| (1.0 for x = 0): an exact scale for norms."""
+    m = float(np.max(np.abs(x)))
+    if m == 0.0:
+        return 1.0
+    return math.ldexp(1.0, math.frexp(m)[1] - 1)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
+import os
 import sys
 import time
 from pathlib import Path
@@ -171,19 +171,42 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
         print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0)))
 
 
+def _output_path(given: str | None, default: Path) -> Path:
+    """``-o``: a file name; a directory (existing, or given with a trailing '/') gets the
+    scenario's file name inside it."""
+    if not given:
+        return default
+    out = Path(given)
+    try:
+        is_dir = os.path.isdir(out)
+    except (OSError, ValueError):  # a name too long, a NUL byte: reported by the writer
+        is_dir = False
+    if given.endswith(("/", os.sep)) or is_dir:
+        return out / default.name
+    return out
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from . import scenario as S
+    from ._files import OutputFile, is_stdout
+    from ._times import TimeGrid
 
     sc = S.load(args.scenario)
     if args.stop is not None:
+        if not math.isfinite(args.stop):
+            raise BadInput(f"--stop {args.stop}: must be a finite time")
         stop = args.stop * sc.time_scale
-        keep = sc.t <= stop * (1 + 1e-12) + 1e-300
-        if keep.sum() < 2:
+        limit = stop * (1 + 1e-12) + 1e-300
+        if isinstance(sc.t, TimeGrid):
+            n_keep = len(sc.t.head(limit)) if sc.t[0] <= limit else 0
+        else:
+            n_keep = int(np.count_nonzero(np.asarray(sc.t) <= limit))
+        if n_keep < 2:
             raise BadInput(f"--stop {args.stop}: leaves fewer than 2 output samples")
-        sc.t = sc.t[keep]
+        sc.t = sc.t.head(limit) if isinstance(sc.t, TimeGrid) else sc.t[sc.t <= limit]
     for name in ("rtol", "atol", "dt"):
         v = getattr(args, name)
-        if v is not None and not v > 0:
+        if v is not None and not (v > 0 and math.isfinite(v)):
             raise BadInput(f"--{name}: must be a positive number, got {v}")
     if args.method is not None:
         from .propagate import _lookup_method
@@ -192,11 +215,12 @@ def cmd_run(args: argparse.Namespace) -> int:
             _lookup_method(args.method)
         except ValueError as exc:
             raise BadInput(f"--method: {str(exc).split(': ', 1)[-1]}") from None
-    out = Path(args.output) if args.output else sc.output
-    if out.exists() and out.is_dir():
-        raise BadInput(f"-o {out}: is a directory")
+    out = _output_path(args.output, sc.output)
+    OutputFile(out, "-o" if args.output else "output.path")  # checked before any work
+    args._to_stdout = is_stdout(out)
     if sc.ensemble is not None:  # [ensemble] table: docs/ensemble.md
         _run_ensemble(sc, out, args)
+        args._written = out
         return EXIT_OK
     if args.scheduler:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
@@ -215,9 +239,10 @@ def cmd_run(args: argparse.Namespace) -> int:
         )
     finally:
         progress.close()
+    args._written = out
     wall = time.monotonic() - t_start
     if not args.quiet:
-        _summary(sc, info, wall)
+        _summary(sc, info, wall, file=sys.stderr if args._to_stdout else sys.stdout)
     return EXIT_OK
 
 
@@ -238,11 +263,12 @@ def _statistics(a: dict[str, Any]) -> str:
     return ", ".join(parts) or "-"
 
 
-def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
-    import os
-
+def _summary(sc: Any, a: dict[str, Any], wall: float, file: Any = None) -> None:
     p = Path(a["path"])
-    size = os.path.getsize(p) / 1e6
+    try:
+        size = os.path.getsize(p) / 1e6 if p.is_file() else 0.0
+    except OSError:
+        size = 0.0
     unit = "s" if not sc.body.is_dimensionless else "1"
     n = int(a.get("n_samples", len(sc.t)))
     lines = [
@@ -258,79 +284,144 @@ def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
     inv = _invariant_lines(a)
     lines.append("invariants  " + ("\n            ".join(inv) if inv else "-"))
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
-    print("\n".join(lines))
+    print("\n".join(lines), file=file)
+
+
+#: Errors of reading a file that is not a (complete) result file: exit code 2.
+_READ_ERRORS = (OSError, RuntimeError, ValueError, KeyError, IndexError, TypeError)
 
 
 def _open(path: str) -> Any:
+    """A result file, lazily; a clear error (exit 2) for anything else."""
     from . import io
 
     try:
-        return io.read(path, load=False)
+        ds = io.read(path, load=False)
     except ValueError as exc:
         raise BadInput(str(exc)) from None
+    problem = None
+    if "time" not in ds.dims or ds.sizes["time"] == 0:
+        problem = "no 'time' dimension with samples"
+    elif "q" not in ds.data_vars or ds["q"].dims[-2:] != ("time", "component"):
+        problem = "no attitude quaternion variable q(time, component)"
+    if problem:
+        ds.close()
+        raise BadInput(f"{path}: not an attitude result file ({problem})")
+    return ds
+
+
+def _unreadable(path: str, exc: BaseException) -> BadInput:
+    why = str(exc).splitlines()[0] if str(exc) else ""
+    return BadInput(
+        f"{path}: cannot be read ({type(exc).__name__}: {why}); the file is truncated, corrupt "
+        "or not an attitude result file"
+    )
 
 
 def cmd_info(args: argparse.Namespace) -> int:
     ds = _open(args.file)
     try:
-        a = dict(ds.attrs)
-        n = ds.sizes["time"]
-        t = ds["time"].values
-        unit = ds["time"].attrs.get("units", "")
-        if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
-            from .io import iter_chunks
-            from .scenario import InvariantTracker
-
-            tr = InvariantTracker()
-            for c in iter_chunks(ds):
-                tr.update(c)
-            a.update(tr.attrs(str(a.get("potential_name", ""))))
-        inertia = a.get("inertia")
-        rows = [
-            ("file", args.file),
-            ("scenario", f"{a.get('scenario', '-')}: {a.get('title', '')}"),
-            ("status", a.get("run_status", "complete")),
-            ("time span", _span(a, float(t[0]), float(t[-1]), n, str(unit))),
-            (
-                "body",
-                f"inertia {np.asarray(inertia).tolist() if inertia is not None else '-'} "
-                f"{a.get('inertia_units', '')}",
-            ),
-            ("potential", a.get("potential", "-")),
-            ("initial", a.get("initial_state_form", "-")),
-            (
-                "method",
-                f"{a.get('method')} ({a.get('formulation', 'canonical')}), {_numerics(a)}",
-            ),
-            (
-                "statistics",
-                _statistics(a),
-            ),
-            (
-                "variables",
-                ", ".join(f"{v} [{ds[v].attrs.get('units', '?')}]" for v in ds.data_vars),
-            ),
-            ("version", a.get("source", "-")),
-            ("history", a.get("history", "-")),
-        ]
+        try:
+            rows, inv = _info_rows(args, ds)
+        except BadInput:
+            raise
+        except _READ_ERRORS as exc:
+            raise _unreadable(args.file, exc) from None
         for k, v in rows:
             print(f"{k:<11} {v}")
-        inv = _invariant_lines(a)
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
     finally:
         ds.close()
     return EXIT_OK
 
 
+def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]], list[str]]:
+    a = dict(ds.attrs)
+    n = ds.sizes["time"]
+    t = ds["time"].values
+    unit = ds["time"].attrs.get("units", "")
+    if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
+        from .io import iter_chunks
+        from .scenario import InvariantTracker
+
+        tr = InvariantTracker()
+        for c in iter_chunks(ds):
+            tr.update(c)
+        a.update(tr.attrs(str(a.get("potential_name", ""))))
+    inertia = a.get("inertia")
+    rows = [
+        ("file", args.file),
+        ("scenario", f"{a.get('scenario', '-')}: {a.get('title', '')}"),
+        ("status", a.get("run_status", "complete")),
+        ("time span", _span(a, float(t[0]), float(t[-1]), n, str(unit))),
+        (
+            "body",
+            f"inertia {np.asarray(inertia).tolist() if inertia is not None else '-'} "
+            f"{a.get('inertia_units', '')}",
+        ),
+        ("potential", a.get("potential", "-")),
+        ("initial", a.get("initial_state_form", "-")),
+        (
+            "method",
+            f"{a.get('method')} ({a.get('formulation', 'canonical')}), {_numerics(a)}",
+        ),
+        (
+            "statistics",
+            _statistics(a),
+        ),
+        (
+            "variables",
+            ", ".join(f"{v} [{ds[v].attrs.get('units', '?')}]" for v in ds.data_vars),
+        ),
+        ("version", a.get("source", "-")),
+        ("history", a.get("history", "-")),
+    ]
+    return rows, _invariant_lines(a)
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
+    from matplotlib.figure import Figure
+
+    from ._files import OutputFile, file_error
     from .plotting import plot_result
 
+    default = Path(args.file).with_suffix(".png")
+    out = _output_path(args.output, Path(default.name)) if args.output else default
+    formats = Figure().canvas.get_supported_filetypes()
+    if not out.suffix:  # matplotlib would add ".png": name the file that is written
+        out = out.with_name(out.name + ".png")
+    fmt = out.suffix[1:].lower()
+    if fmt not in formats:
+        raise BadInput(
+            f"-o {out}: unknown figure format {out.suffix!r}; use one of "
+            + ", ".join(f".{f}" for f in sorted(formats))
+        )
+    if not (isinstance(args.dpi, int) and 1 <= args.dpi <= 2400):
+        raise BadInput(f"--dpi {args.dpi}: expected an integer 1..2400")
+    target = OutputFile(out, "-o")  # checked before drawing; written atomically
     ds = _open(args.file)
     try:
-        out = Path(args.output) if args.output else Path(args.file).with_suffix(".png")
-        plot_result(ds, out, dpi=args.dpi)
+        try:
+            fig = plot_result(ds)
+        except _READ_ERRORS as exc:
+            raise _unreadable(args.file, exc) from None
     finally:
         ds.close()
+    import matplotlib.pyplot as plt
+
+    target.prepare()
+    try:
+        fig.savefig(target.tmp, dpi=args.dpi, format=fmt)
+        target.commit()
+    except OSError as exc:
+        target.discard()
+        raise file_error(exc, target.target) from None
+    except BaseException:
+        target.discard()
+        raise
+    finally:
+        plt.close(fig)
+    args._written = out
     print(f"figure      {out}")
     return EXIT_OK
 
@@ -358,6 +449,8 @@ def cmd_export(args: argparse.Namespace) -> int:
             )
         except ValueError as exc:
             raise BadInput(str(exc)) from None
+        except (OSError, RuntimeError, KeyError, IndexError, TypeError) as exc:
+            raise _unreadable(args.file, exc) from None
     finally:
         ds.close()
     print(f"CCSDS AEM   {path}")
@@ -481,12 +574,21 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _on_sigterm(signum, frame):  # turn SIGTERM into KeyboardInterrupt: temp files are removed
-    raise KeyboardInterrupt
+def _reset_unhandled_interrupt() -> None:
+    """Forget a KeyboardInterrupt that escaped an ``exec`` of a string (CPython 3.8-3.13).
+
+    CPython sets a global flag when a KeyboardInterrupt escapes *any* code run by ``exec`` of
+    a string (numba, dataclasses and others exec generated source), and on exit kills the
+    process with SIGINT if the flag is set, even though :func:`main` handled the interrupt:
+    the exit status was then -2 (killed by SIGINT), not 130. An ``exec`` of our own resets it.
+    """
+    exec("None")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``attitude`` command. Returns the exit code."""
+    from . import _interrupt
+
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -495,18 +597,31 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return EXIT_BAD_INPUT
-    if hasattr(signal, "SIGTERM"):
-        try:
-            signal.signal(signal.SIGTERM, _on_sigterm)
-        except ValueError:  # not in the main thread
-            pass
+    try:
+        # Ctrl-C and SIGTERM are recorded before KeyboardInterrupt is raised, so one that is
+        # swallowed on the way (a ctypes callback, a __del__) is raised again at the next check
+        # between compiled calls, or before the output file is renamed into place.
+        with _interrupt.handling():
+            code = _run_command(args)
+            _interrupt.check()  # a request that was swallowed after the last check
+            return code
+    except KeyboardInterrupt:
+        written = getattr(args, "_written", None)
+        if written is not None:
+            sys.stderr.write(f"attitude: interrupted after {written} was written (complete)\n")
+        else:
+            sys.stderr.write("attitude: interrupted (no output file written)\n")
+        _reset_unhandled_interrupt()
+        return 130
+    finally:
+        _interrupt.clear()
+
+
+def _run_command(args: argparse.Namespace) -> int:
     from .errors import AttitudeError, PropagationError
 
     try:
         return int(args.func(args))
-    except KeyboardInterrupt:
-        sys.stderr.write("attitude: interrupted (no output file written)\n")
-        return 130
     except PropagationError as exc:
         if args.debug:
             raise

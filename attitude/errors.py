@@ -11,6 +11,7 @@ from typing import Any
 
 __all__ = [
     "AttitudeError",
+    "AttitudeFileError",
     "AttitudeTypeError",
     "AttitudeValueError",
     "PropagationError",
@@ -28,6 +29,14 @@ class AttitudeValueError(AttitudeError, ValueError):
 
 class AttitudeTypeError(AttitudeError, TypeError):
     """An argument has the wrong type or units that cannot be converted."""
+
+
+class AttitudeFileError(AttitudeValueError, OSError):
+    """A file cannot be written or read where asked: a bad path, a directory, no permission, a
+    full disk, a file that is not a result file. The message names the path and the fix.
+
+    Also an ``OSError``, as the errors of ``open()`` are; ``errno`` is not set.
+    """
 
 
 class SingularityError(AttitudeValueError):

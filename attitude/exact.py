@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _interrupt
 from ._core.exact import torque_free_kernel
-from ._methods import Problem, RunResult
+from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from ._validation import as_float_array, as_quaternion
 from .body import RigidBody
 from .errors import AttitudeValueError
@@ -137,8 +138,19 @@ torque_free_states = torque_free
 # propagate(..., method="exact")
 
 
-def run_exact(problem: Problem, **_: Any) -> RunResult:
-    """Method runner ``"exact"`` of :func:`attitude.propagate`: the closed form at every time."""
+def run_exact(
+    problem: Problem,
+    *,
+    progress: Any = None,
+    chunk: int | None = None,
+    on_chunk: Any = None,
+    **_: Any,
+) -> RunResult:
+    """Method runner ``"exact"`` of :func:`attitude.propagate`: the closed form at every time.
+
+    Evaluated a chunk of output times at a time (bounded compiled calls: Ctrl-C acts in
+    between); with ``on_chunk`` the samples are handed out as they are computed (streaming).
+    """
 
     if not isinstance(problem.potential, TorqueFree):
         raise AttitudeValueError(
@@ -148,9 +160,31 @@ def run_exact(problem: Problem, **_: Any) -> RunResult:
         )
     I1, I2, I3 = (float(x) for x in problem.params[:3])
     t = problem.t
-    # The solution is evaluated from the initial epoch t[0]: elapsed times t − t[0].
-    dt = np.ascontiguousarray(t - t[0])
-    out_q = np.empty((t.shape[0], 4))
-    out_Q = np.empty((t.shape[0], 4))
-    torque_free_kernel(I1, I2, I3, problem.y0[:4].copy(), problem.y0[4:].copy(), dt, out_q, out_Q)
-    return RunResult(np.concatenate([out_q, out_Q], axis=1), stats={"n_steps": 0})
+    m = t.shape[0]
+    t0 = float(t[0])
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
+    streaming = on_chunk is not None
+    y = np.empty((min(chunk, m) if streaming else m, 8))
+    q0, Q0 = problem.y0[:4].copy(), problem.y0[4:].copy()
+    out_q = np.empty((min(chunk, m), 4))
+    out_Q = np.empty((min(chunk, m), 4))
+    rows = y[:0]
+    for i in range(0, m, chunk):
+        j = min(m, i + chunk)
+        # The solution is evaluated from the initial epoch t[0]: elapsed times t − t[0].
+        dt = np.ascontiguousarray(np.asarray(t[i:j]) - t0)
+        torque_free_kernel(I1, I2, I3, q0, Q0, dt, out_q[: j - i], out_Q[: j - i])
+        rows = y[: j - i] if streaming else y[i:j]
+        rows[:, :4] = out_q[: j - i]
+        rows[:, 4:] = out_Q[: j - i]
+        _interrupt.check()
+        if streaming:
+            on_chunk(i, rows)
+        if progress is not None:
+            progress(j, m, float(t[j - 1]))
+    if streaming:  # keep only the last state (the samples went to on_chunk)
+        return RunResult(rows[-1:].copy(), stats={"n_steps": 0}, first=m - 1)
+    return RunResult(y, stats={"n_steps": 0})
+
+
+run_exact.streams = True  # type: ignore[attr-defined]

@@ -37,7 +37,7 @@ import numpy as np
 
 from ._core import formulations as _kf
 from ._core import rk as _rk
-from ._methods import RunResult
+from ._methods import SAMPLE_BUDGET, RunResult, dop853_call
 from .canonical import from_euler_canonical, to_euler_canonical
 from .errors import AttitudeTypeError, AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
@@ -175,7 +175,7 @@ class Formulation:
         n = self.n_state
         y_out = np.empty((m, n))
         work, tstate, counters = _rk.new_state(n)
-        chunk = m if chunk is None else max(1, int(chunk))
+        chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
         entry = getattr(problem.entry, f"dop853_{self.name}")
         done = 0
         status = _rk.SUCCESS
@@ -196,7 +196,7 @@ class Formulation:
                 max_step,
                 max_steps,
             )
-            status, k = entry(*args)
+            status, k = dop853_call(entry, *args)  # in step budgets: Ctrl-C acts
             done += int(k)
             if progress is not None:
                 progress(done, m, float(tstate[0]))

@@ -6,10 +6,13 @@ arrays; see "Attribute types" below). :class:`StreamWriter` appends chunks of ou
 they are computed (``propagate(..., on_chunk=writer.append)``), so a run of 10⁷ samples needs
 memory for one chunk only.
 
-Atomicity: everything is written to a temporary file beside the target (``.NAME.<pid>.tmp``),
-flushed to disk and renamed over the final name only when complete (``os.replace``, atomic on
-POSIX and Windows). A crash or interrupt therefore leaves either no file or the previous one
-under the final name, never a half-written file. A propagation that fails midway is still
+Atomicity: everything is written to a temporary file beside the target
+(``.NAME.attitude-<pid>.tmp``), flushed to disk and renamed over the final name only when
+complete (``os.replace``, atomic on POSIX and Windows). A crash or interrupt therefore leaves
+either no file or the previous one under the final name, never a half-written file; every
+failure removes the temporary file, and the temporary files of killed processes are removed by
+the next write to the same name. Pipes and character devices (``/dev/stdout``) are written
+through, never replaced; see :mod:`attitude._files`. A propagation that fails midway is still
 committed, with what it computed and ``run_status = "failed: ..."`` in the attrs.
 
 Attribute types
@@ -31,7 +34,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .errors import AttitudeTypeError, AttitudeValueError
+from ._files import OutputFile, file_error, input_path, tmp_path_for
+from .errors import AttitudeError, AttitudeFileError, AttitudeTypeError, AttitudeValueError
 
 __all__ = ["StreamWriter", "read", "write"]
 
@@ -42,7 +46,7 @@ COMPLEVEL = 4
 
 
 def _tmp_path(path: Path) -> Path:
-    return path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    return tmp_path_for(path)
 
 
 def _attr_value(name: str, value: Any) -> Any:
@@ -52,23 +56,71 @@ def _attr_value(name: str, value: Any) -> Any:
     if isinstance(value, str):
         return value
     if isinstance(value, (int, np.integer)):
+        if not -(2**63) <= int(value) < 2**63:
+            raise AttitudeValueError(
+                f"attrs[{name!r}]: the integer {value} does not fit in a netCDF int64; store it "
+                "as a string or a float"
+            )
         return np.int64(value)
     if isinstance(value, (float, np.floating)):
         return np.float64(value)
     if isinstance(value, (list, tuple, np.ndarray)):
-        arr = np.asarray(value)
+        try:
+            arr = np.asarray(value)
+        except (ValueError, TypeError):
+            arr = np.asarray(None)
         if arr.ndim == 1 and arr.size and arr.dtype.kind in "iuf":
             return arr.astype(np.int64 if arr.dtype.kind in "iu" else np.float64)
     return str(value)
 
 
-def _set_attrs(obj: Any, attrs: Mapping[str, Any]) -> None:
+_SCRATCH: list[Any] = []
+
+
+def _scratch() -> Any:
+    """An in-memory netCDF4 dataset to try attributes on (never written to disk)."""
+    if not _SCRATCH:
+        import netCDF4
+
+        _SCRATCH.append(
+            netCDF4.Dataset("attitude-attr-check.nc", "w", diskless=True, persist=False)
+        )
+    return _SCRATCH[0]
+
+
+def check_attrs(attrs: Mapping[Any, Any], where: str = "attrs") -> dict[str, Any]:
+    """The attrs as they will be stored, or an error naming the attribute, before any writing.
+
+    Each name and value is tried on an in-memory netCDF4 dataset: what netCDF refuses (a name
+    with '/', a string that is not valid UTF-8, an integer beyond int64) is found here, not
+    after the data are written.
+    """
+    out: dict[str, Any] = {}
+    nc = _scratch()
     for k, v in attrs.items():
         if v is None:
             continue
         if not isinstance(k, str) or not k:
-            raise AttitudeTypeError(f"attrs: netCDF attribute names must be strings, got {k!r}")
-        obj.setncattr(k, _attr_value(k, v))
+            raise AttitudeTypeError(f"{where}: netCDF attribute names must be strings, got {k!r}")
+        val = _attr_value(k, v)
+        if isinstance(val, str) and "\x00" in val:
+            raise AttitudeValueError(f"{where}[{k!r}]: a netCDF string cannot hold a NUL byte")
+        try:
+            nc.setncattr(k, val)
+            nc.delncattr(k)
+        except (AttributeError, RuntimeError, ValueError, TypeError, UnicodeError) as exc:
+            raise AttitudeValueError(
+                f"{where}[{k!r}]: netCDF cannot store this attribute ({type(exc).__name__}: "
+                f"{exc}); use a name of letters, digits and '_' and a str, int, float or 1-D "
+                "numeric array value"
+            ) from None
+        out[k] = val
+    return out
+
+
+def _set_attrs(obj: Any, attrs: Mapping[str, Any]) -> None:
+    for k, v in check_attrs(attrs).items():
+        obj.setncattr(k, v)
 
 
 class StreamWriter:
@@ -92,8 +144,14 @@ class StreamWriter:
     """
 
     def __init__(self, path: str | os.PathLike, *, complevel: int = COMPLEVEL):
-        self.path = Path(path)
-        self.tmp = _tmp_path(self.path)
+        # The path is checked now, before any work (type, NUL bytes, a directory, a device).
+        self._out = OutputFile(path, "path")
+        self.path = self._out.path
+        self.tmp = self._out.tmp
+        if isinstance(complevel, bool) or not isinstance(complevel, (int, np.integer)):
+            raise AttitudeTypeError(f"complevel: expected an integer 0..9, got {complevel!r}")
+        if not 0 <= complevel <= 9:
+            raise AttitudeValueError(f"complevel: expected an integer 0..9, got {complevel!r}")
         self.complevel = int(complevel)
         self.attrs: dict[str, Any] = {}
         self.n = 0
@@ -102,14 +160,27 @@ class StreamWriter:
         self._done = False
 
     # -- writing ----------------------------------------------------------------------------
-    def _create(self, ds: xr.Dataset) -> None:
+    def _open_tmp(self) -> Any:
+        """Create the temporary netCDF4 file (parents made, stale temporaries removed)."""
         import netCDF4
 
+        self._out.prepare()
+        try:
+            self._nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        except AttitudeError:
+            self.abort()
+            raise
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            raise file_error(exc, self._out.target) from None
+        return self._nc
+
+    def _create(self, ds: xr.Dataset) -> None:
         if "time" not in ds.dims:
             raise AttitudeValueError("ds: a result Dataset has a 'time' dimension")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-        self._nc = nc
+        for name in ds.variables:  # every attr checked before anything is written
+            check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
+        nc = self._open_tmp()
         nc.createDimension("time", None)
         for dim, size in ds.sizes.items():
             if dim != "time":
@@ -148,39 +219,58 @@ class StreamWriter:
         """Append the samples of ``ds`` (same schema as the first chunk) along ``time``.
 
         The attrs of the first chunk are kept as the file's global attrs unless replaced
-        through :attr:`attrs` before :meth:`commit`.
+        through :attr:`attrs` before :meth:`commit`. Any failure removes the temporary file.
         """
         if self._done:
             raise AttitudeValueError("append: the file was already committed or aborted")
-        if self._nc is None:
-            self._create(ds)
-            self.attrs = dict(ds.attrs)
-        k = ds.sizes["time"]
-        if k == 0:
-            return
-        for name in self._vars:
-            var = ds[name].variable.transpose("time", ...)
-            self._nc.variables[name][self.n : self.n + k, ...] = var.values
-        self.n += k
+        try:
+            if self._nc is None:
+                self._create(ds)
+                self.attrs = dict(ds.attrs)
+            k = ds.sizes["time"]
+            if k == 0:
+                return
+            for name in self._vars:
+                var = ds[name].variable.transpose("time", ...)
+                self._nc.variables[name][self.n : self.n + k, ...] = var.values
+            self.n += k
+        except AttitudeError:
+            self.abort()
+            raise
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            raise file_error(exc, self._out.target) from None
+        except BaseException:
+            self.abort()
+            raise
 
     def commit(self) -> Path:
-        """Write the global attrs, flush to disk and rename into place. Returns the path."""
+        """Write the global attrs, flush to disk and put the file in place. Returns the path.
+
+        The attrs are checked before anything else; any failure removes the temporary file and
+        leaves the target as it was.
+        """
         if self._done:
             return self.path
         if self._nc is None:
+            self.abort()
             raise AttitudeValueError(f"{self.path}: nothing was written (no samples)")
-        _set_attrs(self._nc, self.attrs)
-        self._nc.close()
-        self._nc = None
-        with open(self.tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(self.tmp, self.path)
-        with contextlib.suppress(OSError):  # persist the rename (POSIX)
-            fd = os.open(self.path.parent, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+        try:
+            attrs = check_attrs(self.attrs, "attrs")
+            for k, v in attrs.items():
+                self._nc.setncattr(k, v)
+            nc, self._nc = self._nc, None
+            nc.close()
+            self._out.commit()
+        except AttitudeError:
+            self.abort()
+            raise
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            raise file_error(exc, self._out.target) from None
+        except BaseException:
+            self.abort()
+            raise
         self._done = True
         return self.path
 
@@ -190,8 +280,7 @@ class StreamWriter:
             with contextlib.suppress(Exception):
                 self._nc.close()
             self._nc = None
-        with contextlib.suppress(FileNotFoundError):
-            self.tmp.unlink()
+        self._out.discard()
         self._done = True
 
     def __enter__(self) -> StreamWriter:
@@ -223,15 +312,18 @@ def write(ds: xr.Dataset, path: str | os.PathLike, *, complevel: int = COMPLEVEL
     """
     if not isinstance(ds, xr.Dataset):
         raise AttitudeTypeError(f"ds: expected an xarray.Dataset, got {type(ds).__name__}")
+    n = ds.sizes.get("time", 0)
+    if n == 0:
+        raise AttitudeValueError("ds: no output samples to write (time has length 0)")
+    check_attrs(ds.attrs, "ds.attrs")  # before anything is written
+    for name in ds.variables:
+        check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
     with StreamWriter(path, complevel=complevel) as w:
-        n = ds.sizes.get("time", 0)
-        if n == 0:
-            raise AttitudeValueError("ds: no output samples to write (time has length 0)")
         step = 16 * TIME_CHUNK
         for i in range(0, n, step):
             w.append(ds.isel(time=slice(i, i + step)))
         w.attrs = dict(ds.attrs)
-    return Path(path)
+    return w.path
 
 
 def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
@@ -248,10 +340,13 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
     -------
     xarray.Dataset
         Identical to the Dataset that was written (values bit for bit, attrs, coordinates).
+
+    Raises
+    ------
+    AttitudeFileError
+        No such file, a directory, not a netCDF4 file, or a truncated or corrupt one.
     """
-    p = Path(path)
-    if not p.is_file():
-        raise AttitudeValueError(f"{p}: no such file")
+    p = input_path(path, "path")
     try:
         ds = xr.open_dataset(
             p,
@@ -261,16 +356,20 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
             mask_and_scale=False,
             decode_coords=False,
         )
-    except OSError as exc:
-        raise AttitudeValueError(f"{p}: not a netCDF4 file ({exc})") from None
-    # String coordinates come back as object arrays; make them the fixed-width unicode the
-    # Dataset builder uses.
-    for name in list(ds.coords):
-        if ds[name].dtype.kind == "O":
-            ds = ds.assign_coords({name: ds[name].copy(data=np.asarray(ds[name].values, str))})
-    if load:
-        with ds:
-            ds = ds.load()
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+        raise AttitudeFileError(f"{p}: not a netCDF4 file ({exc})") from None
+    try:
+        # String coordinates come back as object arrays; make them the fixed-width unicode the
+        # Dataset builder uses.
+        for name in list(ds.coords):
+            if ds[name].dtype.kind == "O":
+                ds = ds.assign_coords({name: ds[name].copy(data=np.asarray(ds[name].values, str))})
+        if load:
+            with ds:
+                ds = ds.load()
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+        ds.close()
+        raise file_error(exc, p, "read") from None
     return ds
 
 

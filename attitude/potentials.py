@@ -26,7 +26,7 @@ from orbit._shared_jit import JIT_DISABLED
 from . import _user_kernels
 from ._core import entry_points as _entry_points
 from ._core import potentials as _kp
-from ._validation import as_float_array, as_quaternion
+from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
@@ -174,7 +174,7 @@ class HeavyTop(Potential):
     _kind = _kp.KIND_HEAVY_TOP
 
     def __init__(self, weight: Any, center_of_mass: Any):
-        w = float(as_float_array(weight, "weight", unit="kg km / s2"))
+        w = as_scalar(weight, "weight", unit="kg km / s2")
         if not w > 0:
             raise AttitudeValueError(f"weight: must be M g > 0, got {w}")
         c = as_float_array(center_of_mass, "center_of_mass", unit="km")

@@ -31,8 +31,8 @@ import numpy as np
 import xarray as xr
 
 from ._core import rk as _rk
-from ._methods import SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
-from ._validation import as_float_array, as_times
+from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
+from ._validation import as_float_array, as_int, as_positive, as_times
 from .body import RigidBody
 from .canonical import project_state
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
@@ -46,6 +46,17 @@ __all__ = ["METHODS", "Problem", "RunResult", "propagate"]
 
 #: Relative defect of the initial state above which a projection warns.
 PROJECTION_WARN = 1e-12
+
+#: Smallest accepted ``atol``. The error norm divides by atol + rtol |y| and squares: for a
+#: component that is 0, below ~1e-154 the square overflows and every step is rejected as
+#: non-finite (the run stops at t0). 1e-100 leaves a wide margin; a tolerance that small is
+#: purely relative anyway (rtol governs every component that is not 0).
+ATOL_MIN = 1e-100
+
+#: Largest number of output samples that is computed in memory before being handed to
+#: ``on_chunk`` by the methods that do not stream (the non-canonical formulations): ~170 bytes
+#: a sample, 0.34 GB at the limit.
+MAX_UNSTREAMED_SAMPLES = 2_000_000
 
 
 #: Registered methods: name -> runner(problem, **options) -> RunResult.
@@ -81,10 +92,26 @@ def _as_body(body: Any) -> RigidBody:
 
 
 def _positive(x: Any, name: str) -> float:
-    v = float(as_float_array(x, name))
-    if not v > 0:
-        raise AttitudeValueError(f"{name}: must be a positive number, got {v}")
-    return v
+    return as_positive(x, name)
+
+
+def _check_max_step(span: float, max_step: float, max_steps: int) -> None:
+    """Steps are at most ``max_step`` long: more than ``max_steps`` of them is certain failure."""
+    if span / max_step > max_steps:
+        raise AttitudeValueError(
+            f"max_step: {max_step!r} over the time span {span:g} means at least "
+            f"{span / max_step:.3g} steps, more than max_steps = {max_steps}: the run cannot "
+            "finish; raise max_step (or max_steps)"
+        )
+
+
+def _check_work(problem: Problem, max_step: float, max_steps: int) -> None:
+    """Refuse up front what cannot finish in ``max_steps`` (the work estimate of the adaptive
+    methods is made from their first steps: :func:`attitude._methods.check_work`)."""
+    t = problem.t
+    span = abs(float(t[t.shape[0] - 1]) - float(t[0]))
+    if span > 0.0:
+        _check_max_step(span, max_step, max_steps)
 
 
 def propagate(
@@ -181,25 +208,41 @@ def propagate(
     Q0a = as_float_array(
         Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg km2 / s"
     )
-    tt = as_times(t, "t")
-    rtol = _positive(rtol, "rtol")
-    atol = _positive(atol, "atol")
+    tt = as_times(t, "t", lazy=True)
+    rtol = as_positive(rtol, "rtol")
+    atol = as_positive(atol, "atol")
     if rtol < 1e-15:
         raise AttitudeValueError(
             f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
         )
+    if atol < ATOL_MIN:
+        raise AttitudeValueError(
+            f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
+            "double precision below ~1e-154); use atol >= 1e-100 (rtol controls every "
+            "component that is not 0)"
+        )
     if dt is not None:
-        dt = _positive(dt, "dt")
+        dt = as_positive(dt, "dt")
     if not isinstance(order, (int, np.integer)) or isinstance(order, bool):
         raise AttitudeTypeError(f"order: expected an integer (2, 4 or 6), got {order!r}")
-    if not (isinstance(max_step, (int, float)) and max_step == math.inf):
-        max_step = _positive(max_step, "max_step")
-    if not isinstance(max_steps, (int, np.integer)) or max_steps <= 0:
-        raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
+    max_step = as_positive(max_step, "max_step", allow_inf=True)
+    max_steps = as_int(max_steps, "max_steps")
+    if chunk is not None:
+        chunk = as_int(chunk, "chunk")
     if progress is not None and not callable(progress):
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, t)")
     if on_chunk is not None and not callable(on_chunk):
         raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
+    streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
+    if not (streaming or isinstance(tt, np.ndarray)):
+        if on_chunk is not None and tt.shape[0] > MAX_UNSTREAMED_SAMPLES:
+            raise AttitudeValueError(
+                f"t: {tt.shape[0]} output samples with method {method!r} and formulation "
+                f"{formulation!r}, which are computed in memory before they are handed out "
+                f"(at most {MAX_UNSTREAMED_SAMPLES} samples); use formulation='canonical' "
+                "(streamed), or fewer samples"
+            )
+        tt = np.asarray(tt)
 
     q0p, Q0p, correction = project_state(q0a, Q0a)
     if correction > PROJECTION_WARN:
@@ -215,6 +258,7 @@ def propagate(
         t=tt,
         entry=pot._entry_points(),
     )
+    _check_work(problem, max_step, max_steps)
     options = dict(
         rtol=rtol,
         atol=atol,
@@ -226,7 +270,6 @@ def propagate(
         chunk=chunk,
         **extra,
     )
-    streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
     if on_chunk is not None:
         options["chunk"] = chunk = 4096 if chunk is None else chunk
     if streaming:
@@ -275,8 +318,9 @@ def finish_dataset(
     n = y.shape[0]
     t = problem.t[first : first + n]
     diag = np.empty((n, 13))
-    if n:
-        problem.entry.diagnostics(t, y, problem.params, diag)
+    for i in range(0, n, SAMPLE_BUDGET):  # bounded compiled calls: Ctrl-C acts in between
+        j = min(n, i + SAMPLE_BUDGET)
+        problem.entry.diagnostics(t[i:j], y[i:j], problem.params, diag[i:j])
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
     return build_dataset(t, y, diag, problem.body, problem.potential, attrs)

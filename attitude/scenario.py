@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from ._times import TimeGrid
 from .body import RigidBody
 from .ensemble.dispersions import DISTRIBUTIONS, Dispersions
 from .errors import AttitudeError, AttitudeValueError, PropagationError
@@ -272,7 +273,7 @@ class Scenario:
     q0: np.ndarray
     Q0: np.ndarray
     potential: Any
-    t: np.ndarray
+    t: Any  # output times: a TimeGrid (generated a chunk at a time) or an array
     time_unit: str
     time_scale: float = 1.0  # internal time units per unit of the [time] table
     method: str = "dop853"
@@ -743,7 +744,7 @@ def _epoch(s: str) -> str:
     return t.isot + "Z"
 
 
-def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
+def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[TimeGrid, str, float]:
     for k in tt:
         if k not in ("start", "stop", "step", "count", "unit"):
             raise _fail(f"time.{k}", "unknown key (allowed: start, stop, step or count, unit)")
@@ -766,9 +767,19 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
         tunit = "s"
     start = r.number(tt, "start", "time", 0.0) * scale
     stop = r.number(tt, "stop", "time") * scale
+    for key, v in (("start", start), ("stop", stop)):
+        if not math.isfinite(v):
+            raise _fail(f"time.{key}", f"{v / scale!r} {tt.get('unit', '')} overflows in seconds")
     if not stop > start:
         raise _fail(
             "time.stop", f"must be after time.start ({stop / scale!r} <= {start / scale!r})"
+        )
+    span = stop - start
+    if not math.isfinite(span):
+        raise _fail(
+            "time",
+            f"the span time.stop - time.start = {stop / scale!r} - {start / scale!r} overflows "
+            "double precision; give start and stop closer together",
         )
     if ("step" in tt) == ("count" in tt):
         raise _fail("time", "give exactly one of time.step (sample spacing) or time.count")
@@ -780,7 +791,16 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
         step = r.number(tt, "step", "time") * scale
         if not step > 0:
             raise _fail("time.step", f"must be positive, got {step / scale!r}")
-        ratio = (stop - start) / step
+        if step > span * (1 + 1e-9):
+            raise _fail(
+                "time.step",
+                f"{step / scale!r} is longer than the time span {span / scale!r} "
+                "(time.stop - time.start): the run would have one sample and propagate "
+                "nothing; give a step of at most the span",
+            )
+        ratio = span / step
+        if not ratio <= 10**9:
+            raise _fail("time", f"about {ratio:.3g} output samples is too many (at most 1e9)")
         n = round(ratio) + 1
         if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
             raise _fail(
@@ -790,7 +810,10 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
             )
     if n > 10**9:
         raise _fail("time", f"{n} output samples is too many (at most 1e9)")
-    t = np.linspace(start, stop, int(n))
+    try:
+        t = TimeGrid(start, stop, int(n))  # generated a chunk at a time (bounded memory)
+    except AttitudeValueError as exc:
+        raise _fail("time", str(exc).split(": ", 1)[-1]) from None
     return t, tunit, scale
 
 

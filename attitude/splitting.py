@@ -42,9 +42,11 @@ from typing import Any
 
 import numpy as np
 
+from . import _interrupt
 from ._core import rk as _rk
 from ._core import splitting as _ks
-from ._methods import Problem, RunResult
+from . import _methods
+from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["ORDERS", "run_nosquish", "run_splitting"]
@@ -72,12 +74,16 @@ def _check(method: str, dt: Any, order: Any) -> tuple[float, int]:
     return dtf, int(order)
 
 
-def _count_steps(t: np.ndarray, dt: float) -> int:
-    spans = np.abs(np.diff(t))
-    spans = spans[spans > 0]
-    if spans.size == 0:
-        return 0
-    return int(np.sum(np.maximum(1, np.ceil(spans / dt * (1.0 - 1e-9)))))
+def _count_steps(t: Any, dt: float) -> int:
+    """Steps over the output times ``t`` (an array or a TimeGrid, read a slice at a time)."""
+    m = t.shape[0]
+    total = 0
+    for i in range(0, m - 1, SAMPLE_BUDGET):
+        spans = np.abs(np.diff(np.asarray(t[i : min(m, i + SAMPLE_BUDGET + 1)])))
+        spans = spans[spans > 0]
+        if spans.size:
+            total += int(np.sum(np.maximum(1, np.ceil(spans / dt * (1.0 - 1e-9)))))
+    return total
 
 
 def _run(
@@ -101,29 +107,38 @@ def _run(
             f"max_steps={max_steps}; use a larger dt or raise max_steps"
         )
     kinds, coefs, toffs = _ks.method_tables(name, order)
-    chunk = m if chunk is None else max(1, int(chunk))
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     streaming = on_chunk is not None
     # Streaming: one chunk-sized buffer, handed to on_chunk and reused (bounded memory).
     y_out = np.empty((min(chunk, m) if streaming else m, 8))
     state = np.empty(8)
     _ks.canonical_to_state(problem.y0, state)
-    counters = np.zeros(3, dtype=np.int64)
+    counters = np.zeros(_ks.N_COUNTERS, dtype=np.int64)
+    counters[4] = _methods.STEP_BUDGET  # steps per compiled call: Ctrl-C acts in between
     run = problem.entry.composition
     done = 0
     status = _ks.SUCCESS
     buf = y_out[:0]
+    filled = 0
     while done < m:
         stop = min(m, done + chunk)
         buf = y_out[: stop - done] if streaming else y_out[done:stop]
-        first = 0
+        pos = 0
         if done == 0:  # the initial state is the first sample, as given
             buf[0] = problem.y0
-            first = 1
-        status, k = run(
-            problem.params, kinds, coefs, toffs, state, t[done + first - 1],
-            t[done + first : stop], dt, buf[first:], counters,
-        )  # fmt: skip
-        filled = first + int(k)
+            pos = 1
+        while True:
+            status, k = run(
+                problem.params, kinds, coefs, toffs, state, float(t[done + pos - 1]),
+                np.ascontiguousarray(t[done + pos : stop]), dt, buf[pos:], counters,
+            )  # fmt: skip
+            pos += int(k)
+            _interrupt.check()
+            if status != _ks.PAUSED:
+                break
+            if progress is not None:
+                progress(done + pos, m, float(t[done + pos - 1]))
+        filled = pos
         if streaming and filled:
             on_chunk(done, buf[:filled])
         done += filled

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import _kernels as _k
-from .errors import OrbitValueError
+from .errors import OrbitTypeError, OrbitValueError
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
 
 __all__ = ["KeplerOrbit", "earth_mu"]
@@ -33,6 +33,8 @@ def earth_mu() -> float:
 
 
 def _scalar(x: Any, name: str, unit: Any) -> float:
+    if isinstance(x, (bool, np.bool_)) or np.iscomplexobj(x):
+        raise OrbitTypeError(f"{name}: expected a real number, got {x!r}")
     arr = _as_array(x, name, unit)
     if arr.ndim != 0:
         if arr.size == 1:
@@ -176,7 +178,10 @@ class KeplerOrbit:
                 M0_ = _k.mean_from_eccentric_scalar(_k.eccentric_from_true_scalar(f0_, e_), e_)
             elif abs(M0_) > MAX_MEAN_ANOMALY:
                 raise OrbitValueError(f"M0: |M0| must be at most 2**50 rad, got {M0_!r}")
-        n = math.sqrt(mu_ / abs(a_) ** 3)
+        try:  # |a|³ overflows (a = 1e300 km) or vanishes (a = 1e-300 km): no orbit
+            n = math.sqrt(mu_ / abs(a_) ** 3)
+        except (OverflowError, ZeroDivisionError):
+            n = math.nan
         if not (math.isfinite(n) and n > 0.0):
             raise OrbitValueError(
                 f"a, mu: the mean motion sqrt(mu/|a|³) is not a positive finite number "

@@ -306,19 +306,21 @@ def test_failing_member_is_named_and_done_chunks_are_kept(tmp_path):
     with pytest.raises(PropagationError, match=r"member\(s\) 7 failed") as exc:
         propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, chunk_size=5, path=path)
     assert "maximum number of steps" in str(exc.value)
-    assert "members 0..4 are in" in str(exc.value)
+    assert "all 12 are in" in str(exc.value)
     back = io.read(path)
-    np.testing.assert_array_equal(back.member.values, np.arange(5))
+    # every member is kept (issue 12): the failed one marked, the later chunks computed
+    np.testing.assert_array_equal(back.member.values, np.arange(n))
+    assert back.member_status.values[7] != 0 and np.count_nonzero(back.member_status.values) == 1
     assert back.attrs["run_status"].startswith("failed: member(s) 7")
     exc.value.partial.close()
-    # in memory: .partial holds the chunks before the failing one
+    # in memory: .partial holds every member
     with pytest.raises(PropagationError) as exc:
         propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, chunk_size=5)
-    assert exc.value.partial.sizes["member"] == 5
-    # a failure in the first chunk writes nothing
+    assert exc.value.partial.sizes["member"] == n
+    # a failure in the only chunk still writes the other members
     with pytest.raises(PropagationError):
-        propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, path=tmp_path / "none.nc")
-    assert not (tmp_path / "none.nc").exists()
+        propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, path=tmp_path / "one.nc")
+    assert io.read(tmp_path / "one.nc").sizes["member"] == n
     assert not list(tmp_path.glob(".*.tmp"))
 
 

@@ -12,7 +12,10 @@ runs the very machine code of a single propagation. The drivers over it (``prang
 members, and a serial GIL-free loop for Dask worker threads) are entry points too:
 ``ensemble_member``, ``ensemble_parallel``, ``ensemble_serial``.
 
-Diagnostics are computed for members that succeeded.
+A member that fails keeps the samples it computed, with their diagnostics; the rest of its
+rows are NaN. A call runs each member for at most ``budget`` steps (0: no limit) and leaves it
+``RUNNING``; the next call continues it bit for bit (the DOP853 state is in the caller's
+arrays), so a chunk of members returns to Python often enough for Ctrl-C to act.
 
 Array layout (N members, m output times)
 ----------------------------------------
@@ -20,17 +23,25 @@ Array layout (N members, m output times)
 ``y_out`` (N, m, 8) canonical states · ``diag`` (N, m, 13) diagnostics
 (:func:`attitude._core.dynamics.diagnostics_with` columns) · ``work`` (N, WORK_ROWS, 8),
 ``tstate`` (N, 4), ``counters`` (N, 5): the DOP853 state of each member (layout in
-:mod:`attitude._core.rk`) · ``status`` (N,) int64 · ``n_done`` (N,) int64 output rows filled.
-All C-contiguous.
+:mod:`attitude._core.rk`) · ``status`` (N,) int64: ``NOT_STARTED`` before the first call, then
+``RUNNING`` or a final code of :mod:`attitude._core.rk` · ``n_done`` (N,) int64 output rows
+filled. All C-contiguous.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from orbit._shared_jit import jit, jit_generic
 
-from .rk import SUCCESS, WORK_ROWS
+from .rk import TOO_MANY_STEPS, WORK_ROWS
 
-__all__ = ["WORK_ROWS", "member_run"]
+__all__ = ["NOT_STARTED", "RUNNING", "WORK_ROWS", "member_run"]
+
+#: ``status`` of a member not integrated yet.
+NOT_STARTED = -2
+#: ``status`` of a member paused at the end of its step budget (call again).
+RUNNING = -1
 
 
 @jit(inline="always")
@@ -64,17 +75,38 @@ def member_run(
     atol,
     max_step,
     max_steps,
+    budget,
 ):
-    """Integrate member ``i`` from a fresh integrator state, then its diagnostics."""
+    """Integrate member ``i`` (from a fresh state, or on from where it paused), for at most
+    ``budget`` steps (0: to the end); when it ends, its diagnostics and NaN after a failure."""
+    st0 = status[i]
+    if st0 != RUNNING and st0 != NOT_STARTED:
+        return
     m = t.shape[0]
     w = work[i]
     ts = tstate[i]
     c = counters[i]
-    _fresh(w, ts, c)
+    k0 = 0
+    if st0 == NOT_STARTED:
+        _fresh(w, ts, c)
+    else:
+        k0 = n_done[i]
     p = params[i]
     yo = y_out[i]
-    st, k = dop853(p, y0[i], t[0], t, yo, w, ts, c, rtol, atol, t[m - 1], max_step, max_steps)
-    status[i] = st
+    limit = max_steps
+    if budget > 0 and c[0] + budget < max_steps:
+        limit = c[0] + budget
+    st, k = dop853(p, y0[i], t[0], t[k0:], yo[k0:], w, ts, c, rtol, atol, t[m - 1], max_step, limit)
+    k += k0
     n_done[i] = k
-    if st == SUCCESS:
-        diagnostics(t, yo, p, diag[i])
+    if st == TOO_MANY_STEPS and limit < max_steps:
+        status[i] = RUNNING
+        return
+    status[i] = st
+    d = diag[i]
+    diagnostics(t[:k], yo[:k], p, d[:k])
+    for r in range(k, m):  # a failed member: the samples it did not reach
+        for j in range(yo.shape[1]):
+            yo[r, j] = np.nan
+        for j in range(d.shape[1]):
+            d[r, j] = np.nan

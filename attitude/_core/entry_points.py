@@ -157,36 +157,37 @@ def dop853_euler_equations(
 @jit(nogil=True)
 def ensemble_member(
     i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
-    """Member ``i`` from a fresh integrator state: the one body both drivers call."""
+    """Member ``i`` (fresh, or on from its pause) for ``budget`` steps: the body both drivers
+    call."""
     member_run(
         dop853_canonical, diagnostics, i, params, y0, t, y_out, diag, work, tstate, counters,
-        status, n_done, rtol, atol, max_step, max_steps,
+        status, n_done, rtol, atol, max_step, max_steps, budget,
     )  # fmt: skip
 
 
 @parallel_jit(nogil=True)
 def ensemble_parallel(
     params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members, in parallel over members (``prange``)."""
     for i in numba.prange(y0.shape[0]):
         ensemble_member(
             i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps,
+            rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
 
 
 @jit(nogil=True)
 def ensemble_serial(
     params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members one after the other, GIL released (what a Dask worker thread runs)."""
     for i in range(y0.shape[0]):
         ensemble_member(
             i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps,
+            rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip

@@ -58,6 +58,11 @@ FREE = 2
 # Status codes (same meaning as in attitude._core.rk).
 SUCCESS = 0
 NONFINITE = 1
+#: The call's step budget (``counters[4]``) ran out inside an interval: call again.
+PAUSED = 2
+
+#: Length of the ``counters`` array of :func:`composition_run`.
+N_COUNTERS = 5
 
 # --------------------------------------------------------------------------------------------
 # Coefficients (all of them, in one place)
@@ -294,12 +299,17 @@ def composition_run(
     the state at each output time is written to ``y_out[k]`` as (q, Q), and ``state`` holds the
     last one on return (a later call continues from it: chunked runs are bit-for-bit identical).
 
-    ``counters`` (int64, 3): steps, kick (torque) evaluations, free-flow evaluations.
+    ``counters`` (int64, :data:`N_COUNTERS`): steps, kick (torque) evaluations, free-flow
+    evaluations; ``counters[3]`` the step at which the first interval resumes (0: from its
+    start); ``counters[4]`` the most steps this call takes (0: no limit). When that budget runs
+    out inside an interval the call returns ``PAUSED`` with ``state`` mid-interval and
+    ``counters[3]`` set; called again with the same ``t_start`` and the remaining ``t_out`` it
+    continues bit for bit (the pending merged stage is recomputed: it is ``coefs[-1] h``).
 
     Returns
     -------
     status : int
-        ``SUCCESS`` or ``NONFINITE``.
+        ``SUCCESS``, ``NONFINITE`` or ``PAUSED``.
     n_done : int
         Rows of ``y_out`` filled.
     """
@@ -308,14 +318,25 @@ def composition_run(
     q = state[0:4]
     w = state[4:8]
     t_a = t_start
+    budget = counters[4]
+    taken = 0
     for k in range(m):
         t_b = t_out[k]
         span = t_b - t_a
         if span != 0.0:
             n = n_steps_for(span, dt)
             h = span / n
+            j0 = counters[3]
+            counters[3] = 0
             pend = 0.0
-            for j in range(n):
+            if j0 > 0:
+                pend = coefs[nops - 1] * h  # the merged last stage of step j0 - 1
+            for j in range(j0, n):
+                if budget > 0 and taken >= budget:
+                    counters[3] = j
+                    return PAUSED, k
+                taken += 1
+                counters[0] += 1
                 ts = t_a + j * h
                 last = j == n - 1
                 for o in range(nops):
@@ -341,7 +362,6 @@ def composition_run(
                     else:
                         free_flow_state(q, w, tau, params)
                         counters[2] += 1
-            counters[0] += n
         state_to_canonical(state, y_out[k])
         ok = True
         for i in range(8):

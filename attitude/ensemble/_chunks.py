@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from .. import _interrupt
+from .._core import ensemble as _ke
 from .._core import entry_points as _builtin_entry_points
 from .._core import rk as _rk
 
@@ -30,10 +32,35 @@ class _Setup:
     user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
 
 
+#: Integration steps per compiled call, summed over the members of a chunk and divided among
+#: the threads (as ``attitude._methods.STEP_BUDGET`` for one run): each member gets
+#: ``max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * threads // members)`` steps a call, then the
+#: chunk returns to Python (Ctrl-C acts) and goes on where it stopped, bit for bit.
+ENSEMBLE_STEP_BUDGET = 20_000
+MIN_MEMBER_BUDGET = 16
+
+#: ``member_status`` of the members of a chunk whose task failed as a whole (an exception in
+#: the worker, not a member's integration): their rows are NaN.
+CHUNK_FAILED = 4
+
+#: CF ``flag_values``/``flag_meanings`` of ``member_status``.
+STATUS_FLAGS = {
+    _rk.SUCCESS: "success",
+    _rk.NONFINITE: "state_became_non_finite",
+    _rk.STEP_TOO_SMALL: "step_size_below_round_off",
+    _rk.TOO_MANY_STEPS: "max_steps_reached",
+    CHUNK_FAILED: "chunk_task_failed",
+}
+
+
 def _compute_chunk(
-    setup: _Setup, params: np.ndarray, y0: np.ndarray, *, parallel: bool
+    setup: _Setup, params: np.ndarray, y0: np.ndarray, *, parallel: bool, threads: int = 1
 ) -> dict[str, np.ndarray]:
-    """Integrate the members of one chunk; arrays of the chunk's results."""
+    """Integrate the members of one chunk; arrays of the chunk's results.
+
+    Every member is run to its end, failed or not (``status``, ``n_done``, ``t_stop`` say
+    how it ended; a failed member's rows after its last sample are NaN).
+    """
     c = y0.shape[0]
     t = setup.t
     m = t.shape[0]
@@ -41,8 +68,8 @@ def _compute_chunk(
         "y": np.empty((c, m, 8)),
         "diag": np.empty((c, m, _N_DIAG)),
         "counters": np.empty((c, 5), dtype=np.int64),
-        "status": np.empty(c, dtype=np.int64),
-        "n_done": np.empty(c, dtype=np.int64),
+        "status": np.full(c, _ke.NOT_STARTED, dtype=np.int64),
+        "n_done": np.zeros(c, dtype=np.int64),
     }
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
@@ -52,24 +79,44 @@ def _compute_chunk(
         else setup.user_potential._entry_points()
     )
     fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
-    fn(
-        params,
-        y0,
-        t,
-        out["y"],
-        out["diag"],
-        work,
-        tstate,
-        out["counters"],
-        out["status"],
-        out["n_done"],
-        setup.rtol,
-        setup.atol,
-        setup.max_step,
-        setup.max_steps,
-    )
+    budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * max(1, threads) // max(1, c))
+    while True:
+        fn(
+            params,
+            y0,
+            t,
+            out["y"],
+            out["diag"],
+            work,
+            tstate,
+            out["counters"],
+            out["status"],
+            out["n_done"],
+            setup.rtol,
+            setup.atol,
+            setup.max_step,
+            setup.max_steps,
+            budget,
+        )
+        _interrupt.check()
+        if not np.any(out["status"] == _ke.RUNNING):
+            break
     out["t_stop"] = tstate[:, 0].copy()  # time each member's integration reached
     return out
+
+
+def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, np.ndarray]:
+    """The arrays of a chunk whose task failed as a whole: NaN rows, status CHUNK_FAILED."""
+    m = setup.t.shape[0]
+    return {
+        "y": np.full((c, m, 8), np.nan),
+        "diag": np.full((c, m, _N_DIAG), np.nan),
+        "counters": np.zeros((c, 5), dtype=np.int64),
+        "status": np.full(c, CHUNK_FAILED, dtype=np.int64),
+        "n_done": np.zeros(c, dtype=np.int64),
+        "t_stop": np.full(c, float(setup.t[0])),
+        "error": f"{type(exc).__name__}: {exc}",
+    }
 
 
 def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, np.ndarray]:
@@ -103,15 +150,78 @@ def _numba_threads(threads: int | None):
         numba.set_parallel_chunksize(old_chunk)
 
 
+def _ranges(idx: list[int]) -> str:
+    """'3, 7-9, 12' for [3, 7, 8, 9, 12] (sorted member indices)."""
+    parts = []
+    i = 0
+    while i < len(idx):
+        j = i
+        while j + 1 < len(idx) and idx[j + 1] == idx[j] + 1:
+            j += 1
+        parts.append(str(idx[i]) if i == j else f"{idx[i]}-{idx[j]}")
+        i = j + 1
+    return ", ".join(parts)
+
+
+class _Failures:
+    """The failed members of a run, chunk by chunk; one message that names every one."""
+
+    def __init__(self, m: int):
+        self.m = m  # output samples per member
+        self.by_status: dict[int, list[int]] = {}
+        self.first: tuple[int, float, int, str] | None = None  # member, t_stop, n_done, why
+        self.errors: list[str] = []
+
+    def add(self, out: dict[str, Any], start: int) -> np.ndarray:
+        """Record the failed members of a chunk; returns their positions in the chunk."""
+        bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+        for b in bad:
+            st = int(out["status"][b])
+            self.by_status.setdefault(st, []).append(int(start + b))
+            if self.first is None:
+                why = self._why(st, out)
+                self.first = (int(start + b), float(out["t_stop"][b]), int(out["n_done"][b]), why)
+        if bad.size and "error" in out:
+            self.errors.append(
+                f"members {start}-{start + out['status'].shape[0] - 1}: {out['error']}"
+            )
+        return bad
+
+    @staticmethod
+    def _why(st: int, out: dict[str, Any]) -> str:
+        if st == CHUNK_FAILED:
+            return f"its chunk's task failed ({out.get('error', '')})"
+        return _rk.STATUS_MESSAGES.get(st, "failed")
+
+    @property
+    def count(self) -> int:
+        return sum(len(v) for v in self.by_status.values())
+
+    @property
+    def members(self) -> list[int]:
+        return sorted(i for v in self.by_status.values() for i in v)
+
+    def message(self, n: int) -> str:
+        """'member(s) 30, 170 failed (2 of 200): ...' naming every failed member and why."""
+        first = self.first
+        assert first is not None
+        groups = "; ".join(
+            f"{_ranges(sorted(v))}: {STATUS_FLAGS.get(st, str(st)).replace('_', ' ')}"
+            for st, v in sorted(self.by_status.items())
+        )
+        msg = (
+            f"member(s) {_ranges(self.members)} failed ({self.count} of {n}): member {first[0]} "
+            f"stopped at t = {first[1]!r}: {first[3]} ({first[2]} of {self.m} output samples "
+            f"computed)"
+        )
+        if len(self.by_status) > 1 or self.count > 1:
+            msg += f"; by cause: {groups}"
+        return msg
+
+
 def _failure_message(out, bad, start, t) -> tuple[str, float]:
-    idx = [int(start + i) for i in bad]
-    shown = ", ".join(map(str, idx[:10])) + (f", ... ({len(idx)} in all)" if len(idx) > 10 else "")
-    first = int(bad[0])
-    msg = _rk.STATUS_MESSAGES.get(int(out["status"][first]), "failed")
-    k = int(out["n_done"][first])
-    t_stop = float(out["t_stop"][first])
-    return (
-        f"member(s) {shown} failed: member {idx[0]} stopped at t = {t_stop!r}: {msg} "
-        f"({k} of {t.shape[0]} output samples computed)",
-        t_stop,
-    )
+    """Message naming every failed member of one chunk, and the time the first one stopped."""
+    f = _Failures(t.shape[0])
+    f.add(out, start)
+    first = f.first
+    return f.message(out["status"].shape[0]), (first[1] if first else float("nan"))

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
-import os
 from pathlib import Path
 from typing import Any
 
@@ -11,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from .._core import rk as _rk
-from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
+from ..errors import AttitudeError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ._chunks import _N_DIAG, _chunk_task, _compute_chunk, _failure_message, _Setup
 
 #: Seconds to wait for a Dask scheduler to answer.
@@ -78,11 +76,9 @@ def _dask_results(client, setup, members, bounds, n_threads):
         fut, inertia, corr = pending.popleft()
         try:
             out = fut.result()
-        except Exception as exc:
-            for f, _, _ in pending:
-                f.cancel()
+        except Exception as exc:  # this chunk's task failed: the others go on
             yield exc
-            return
+            continue
         finally:
             fut.release()
         yield out, inertia, corr
@@ -125,20 +121,26 @@ def _lazy_result(setup, members, bounds, asm) -> xr.Dataset:
 
 def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
     """``ds.to_netcdf`` to a temporary name, computed by ``client`` (or dask), then renamed."""
-    from ..io import _attr_value, _tmp_path
+    from .._files import OutputFile, file_error
+    from ..io import check_attrs
 
     ds = ds.copy()
-    ds.attrs = {k: _attr_value(k, v) for k, v in ds.attrs.items() if v is not None}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _tmp_path(path)
+    ds.attrs = check_attrs(ds.attrs, "attrs")
+    out = OutputFile(path, "path")
+    out.prepare()
     try:
-        job = ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", compute=False)
+        job = ds.to_netcdf(out.tmp, engine="netcdf4", format="NETCDF4", compute=False)
         if client is not None:
             client.compute(job).result()
         else:
             job.compute()
-        os.replace(tmp, path)
+        out.commit()
+    except AttitudeError:
+        out.discard()
+        raise
+    except (OSError, RuntimeError) as exc:
+        out.discard()
+        raise file_error(exc, out.target) from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        out.discard()
         raise

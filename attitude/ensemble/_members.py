@@ -57,8 +57,14 @@ class _Members:
 
 
 def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """Members' states projected onto |q| = 1, q·Q = 0 (canonical.project_state, row-wise)."""
-    nq = np.sqrt(np.sum(q * q, axis=1))
+    """Members' states projected onto |q| = 1, q·Q = 0 (canonical.project_state, row-wise).
+
+    Norms and q·Q are taken of rows scaled by a power of two (exact: the unscaled results bit
+    for bit wherever those do not overflow), so |Q| up to 1.8e308 is checked correctly.
+    """
+    sq = _pow2_rows(q)
+    qs = q / sq[:, None]
+    nq = np.sqrt(np.sum(qs * qs, axis=1)) * sq
     dn = np.abs(nq - 1.0)
     if np.any(dn > PROJECTION_TOL):
         i = int(np.argmax(dn > PROJECTION_TOL))
@@ -69,9 +75,14 @@ def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.
     if np.any(np.all(q == 0.0, axis=1)):  # pragma: no cover - caught by the norm check
         raise AttitudeValueError("q0: the zero quaternion does not represent a rotation")
     qn = q / nq[:, None]
-    qQ = np.sum(qn * Q, axis=1)
-    nQ = np.sqrt(np.sum(Q * Q, axis=1))
-    dq = np.abs(qQ) / np.maximum(nQ, 1.0)
+    sQ = _pow2_rows(Q)
+    Qs = Q / sQ[:, None]
+    qQs = np.sum(qn * Qs, axis=1)
+    nQs = np.sqrt(np.sum(Qs * Qs, axis=1))
+    qQ = qQs * sQ
+    big = nQs * sQ >= 1.0
+    dq = np.abs(qQ)  # |q·Q| / max(|Q|, 1)
+    dq[big] = np.abs(qQs[big]) / nQs[big]
     if np.any(dq > PROJECTION_TOL):
         i = int(np.argmax(dq > PROJECTION_TOL))
         raise AttitudeValueError(
@@ -81,6 +92,13 @@ def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.
         )
     corr = float(max(np.max(dn, initial=0.0), np.max(dq, initial=0.0)))
     return qn, Q - qQ[:, None] * qn, corr
+
+
+def _pow2_rows(x: np.ndarray) -> np.ndarray:
+    """Per row, a power of two within a factor 2 of max|x| (an exact scale; 1 for 0 rows)."""
+    m = np.max(np.abs(x), axis=1)
+    e = np.frexp(m)[1]
+    return np.where(m > 0.0, np.ldexp(1.0, e - 1), 1.0)
 
 
 def _member_states(q0: Any, Q0: Any) -> tuple[np.ndarray, np.ndarray, int]:

@@ -9,10 +9,10 @@ import numpy as np
 import xarray as xr
 
 from ..body import RigidBody
-from ..errors import AttitudeValueError
+from ..errors import AttitudeError, AttitudeValueError
 from ..io import StreamWriter
 from ..results import build_dataset
-from ._chunks import _N_DIAG
+from ._chunks import _N_DIAG, STATUS_FLAGS
 
 _STAT_VARS = ("member_n_steps", "member_n_rhs", "member_n_rejected", "member_status")
 
@@ -88,11 +88,11 @@ class _Assembler:
             ("member_n_rejected", cnt[:, 2], "rejected integration steps"),
             ("member_status", out["status"], "integration status (0: success)"),
         ):
-            data_vars[name] = xr.Variable(
-                ("member",),
-                arr(col, np.int64),
-                {"units": "1", "long_name": long},
-            )
+            attrs = {"units": "1", "long_name": long}
+            if name == "member_status":  # the reason a member failed (CF flags)
+                attrs["flag_values"] = np.array(list(STATUS_FLAGS), dtype=np.int64)
+                attrs["flag_meanings"] = " ".join(STATUS_FLAGS.values())
+            data_vars[name] = xr.Variable(("member",), arr(col, np.int64), attrs)
         coords = {
             "member": (
                 "member",
@@ -113,13 +113,16 @@ class _Assembler:
         return _plain(orbit.frame_quaternion(self.t), None)
 
     def account(self, out) -> None:
-        """Add a successful chunk to the totals and invariant maxima."""
+        """Add a chunk to the totals, and its successful members to the invariant maxima."""
         cnt = out["counters"]
         self.totals["n_steps"] += int(cnt[:, 0].sum())
         self.totals["n_rhs"] += int(cnt[:, 1].sum())
         self.totals["n_rejected"] += int(cnt[:, 2].sum())
         self.n_members += cnt.shape[0]
-        d = out["diag"]
+        ok = np.asarray(out["status"]) == 0
+        if not ok.any():
+            return
+        d = out["diag"] if ok.all() else out["diag"][ok]
         upd = {
             "max_abs_norm_error": float(np.max(np.abs(d[:, :, 10]))),
             "max_abs_qQ": float(np.max(np.abs(d[:, :, 11]))),
@@ -159,13 +162,11 @@ class _MemberWriter(StreamWriter):
     """
 
     def _create(self, ds: xr.Dataset) -> None:
-        import netCDF4
+        from ..io import _set_attrs, check_attrs
 
-        from ..io import _set_attrs
-
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-        self._nc = nc
+        for name in ds.variables:  # every attr checked before anything is written
+            check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
+        nc = self._open_tmp()
         nc.createDimension("member", None)
         for dim, size in ds.sizes.items():
             if dim != "member":
@@ -202,15 +203,27 @@ class _MemberWriter(StreamWriter):
         return [members, *rest]
 
     def append(self, ds: xr.Dataset) -> None:
+        from .._files import file_error
+
         if self._done:
             raise AttitudeValueError("append: the file was already committed or aborted")
-        if self._nc is None:
-            self._create(ds)
-            self.attrs = dict(ds.attrs)
-        k = ds.sizes["member"]
-        for name in self._vars:
-            self._nc.variables[name][self.n : self.n + k, ...] = ds[name].values
-        self.n += k
+        try:
+            if self._nc is None:
+                self._create(ds)
+                self.attrs = dict(ds.attrs)
+            k = ds.sizes["member"]
+            for name in self._vars:
+                self._nc.variables[name][self.n : self.n + k, ...] = ds[name].values
+            self.n += k
+        except AttitudeError:
+            self.abort()
+            raise
+        except (OSError, RuntimeError) as exc:
+            self.abort()
+            raise file_error(exc, self._out.target) from None
+        except BaseException:
+            self.abort()
+            raise
 
 
 def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:

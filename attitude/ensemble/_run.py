@@ -14,15 +14,21 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._core import rk as _rk
-from .._validation import as_float_array, as_times
+from .._validation import as_int, as_positive, as_times
 from ..body import RigidBody
 from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL
 from ..potentials import Potential
-from ..propagate import PROJECTION_WARN
+from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
 from . import _dask
-from ._chunks import _N_DIAG, _compute_chunk, _failure_message, _numba_threads, _Setup
+from ._chunks import (
+    _N_DIAG,
+    _compute_chunk,
+    _failed_chunk,
+    _Failures,
+    _numba_threads,
+    _Setup,
+)
 from ._dask import (
     _connect,
     _dask_results,
@@ -45,10 +51,14 @@ MAX_CHUNK = 4096
 
 
 def _positive(x: Any, name: str) -> float:
-    v = float(as_float_array(x, name))
-    if not v > 0:
-        raise AttitudeValueError(f"{name}: must be a positive number, got {v}")
-    return v
+    return as_positive(x, name)
+
+
+def _max_threads() -> int:
+    """The most threads numba can run (NUMBA_NUM_THREADS, fixed when numba starts)."""
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)
 
 
 def _default_chunk(n: int, m: int, threads: int) -> int:
@@ -185,21 +195,32 @@ def propagate_ensemble(
             f"{method!r}; for other methods loop over attitude.propagate"
         )
     tt = as_times(t, "t")
-    rtol = _positive(rtol, "rtol")
-    atol = _positive(atol, "atol")
+    rtol = as_positive(rtol, "rtol")
+    atol = as_positive(atol, "atol")
     if rtol < 1e-15:
         raise AttitudeValueError(
             f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
         )
-    if not (isinstance(max_step, (int, float)) and max_step == math.inf):
-        max_step = _positive(max_step, "max_step")
-    if not isinstance(max_steps, (int, np.integer)) or isinstance(max_steps, bool):
-        raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
-    if max_steps <= 0:
-        raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
-    for name, v in (("chunk_size", chunk_size), ("threads", threads)):
-        if v is not None and (not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1):
-            raise AttitudeValueError(f"{name}: expected a positive integer, got {v!r}")
+    if atol < ATOL_MIN:
+        raise AttitudeValueError(
+            f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
+            "double precision below ~1e-154); use atol >= 1e-100"
+        )
+    max_step = as_positive(max_step, "max_step", allow_inf=True)
+    max_steps = as_int(max_steps, "max_steps")
+    _check_max_step(abs(float(tt[-1]) - float(tt[0])), max_step, max_steps)
+    if chunk_size is not None:
+        chunk_size = as_int(chunk_size, "chunk_size")
+    if threads is not None:
+        threads = as_int(threads, "threads")
+        from orbit._shared_jit import JIT_DISABLED
+
+        if not JIT_DISABLED and threads > _max_threads():
+            raise AttitudeValueError(
+                f"threads: numba can run at most {_max_threads()} threads in this process "
+                f"(NUMBA_NUM_THREADS, set before numba starts), got {threads}; give at most "
+                f"{_max_threads()}, or set NUMBA_NUM_THREADS in the environment"
+            )
     if progress is not None and not callable(progress):
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, steps)")
     if scheduler_timeout is None:
@@ -301,36 +322,36 @@ def propagate_ensemble(
 
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
-    failure: PropagationError | None = None
+    failures = _Failures(m)
     try:
-        try:
-            if client is None:
-                results = _local_results(setup, members, bounds, threads)
+        if client is None:
+            results = _local_results(setup, members, bounds, threads)
+        else:
+            results = _dask_results(client, setup, members, bounds, n_threads)
+        for (start, stop), got in zip(bounds, results, strict=False):
+            if isinstance(got, BaseException):
+                # The chunk's task failed as a whole: its members are marked and NaN, the
+                # other chunks go on.
+                _, _, inertia, corr = members.block(start, stop)
+                out = _failed_chunk(setup, stop - start, got)
             else:
-                results = _dask_results(client, setup, members, bounds, n_threads)
-            for (start, stop), got in zip(bounds, results, strict=False):
-                if isinstance(got, BaseException):
-                    raise PropagationError(
-                        f"chunk of members {start}..{stop - 1} failed: {type(got).__name__}: {got}"
-                    ) from got
                 out, inertia, corr = got
-                bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
-                if bad.size:
-                    msg, t_fail = _failure_message(out, bad, start, tt)
-                    raise PropagationError(msg, time=t_fail)
-                asm.max_projection = max(asm.max_projection, corr)
-                asm.account(out)
-                ds = asm.dataset(start, out, inertia)
-                if writer is not None:
-                    writer.append(ds)
-                else:
-                    kept.append(ds)
-                if progress is not None:
-                    progress(stop, n, asm.totals["n_steps"])
-        except PropagationError as exc:
-            failure = exc
+            failures.add(out, start)
+            asm.max_projection = max(asm.max_projection, corr)
+            asm.account(out)
+            ds = asm.dataset(start, out, inertia)
+            if writer is not None:
+                writer.append(ds)
+            else:
+                kept.append(ds)
+            if progress is not None:
+                progress(stop, n, asm.totals["n_steps"])
+        failure: PropagationError | None = None
+        if failures.count:
+            failure = PropagationError(failures.message(n), time=failures.first[1])
         status = "complete" if failure is None else f"failed: {failure}"
         final = asm.final_attrs(status)
+        final["n_members_failed"] = np.int64(failures.count)
         final["wall_time"] = time.perf_counter() - t_start
         if writer is not None:
             if writer.n:
@@ -358,15 +379,24 @@ def propagate_ensemble(
     else:
         result = _concat(kept, final) if kept else None
     if failure is not None:
-        where = f"; members 0..{asm.n_members - 1} are in {out_path}" if writer and writer.n else ""
-        raise PropagationError(
-            f"{failure}{where}", time=failure.time, partial=result
-        ) from failure.__cause__
+        ok = asm.n_members - failures.count
+        where = (
+            f"; the {ok} other members are complete; all {asm.n_members} are in {out_path} "
+            "(member_status marks the failed ones, their samples after the failure are NaN)"
+            if writer is not None and writer.n
+            else f"; the {ok} other members are complete (in .partial; member_status marks "
+            "the failed ones)"
+        )
+        raise PropagationError(f"{failure}{where}", time=failure.time, partial=result)
     return result
 
 
 def _local_results(setup, members, bounds, threads):
-    """Chunks computed here with the parallel driver, one after the other (generator)."""
+    """Chunks computed here with the parallel driver, one after the other (generator).
+
+    A chunk that raises (not a member's integration: that is in its status) yields the
+    exception and the next chunks go on.
+    """
     from orbit._shared_jit import JIT_DISABLED
 
     for start, stop in bounds:
@@ -376,12 +406,16 @@ def _local_results(setup, members, bounds, threads):
                 if JIT_DISABLED:
                     out = _compute_chunk(setup, params, y0, parallel=False)
                 else:
-                    out = _compute_chunk(setup, params, y0, parallel=True)
+                    import numba
+
+                    out = _compute_chunk(
+                        setup, params, y0, parallel=True, threads=numba.get_num_threads()
+                    )
         except (AttitudeValueError, AttitudeTypeError):
             raise
         except Exception as exc:
             yield exc
-            return
+            continue
         yield out, inertia, corr
 
 

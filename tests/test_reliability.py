@@ -1,0 +1,752 @@
+"""Regression tests of the reliability defects of issue 12 (fuzzing, interrupts, full disks).
+
+One test (or parametrized case) per defect; each failed before its fix. The hypothesis-driven
+fuzz suites of the same campaign are in tests/test_fuzz.py (``pytest -m slow``).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import stat
+import subprocess
+import sys
+import textwrap
+import threading
+import time
+import tracemalloc
+import warnings
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+import pytest
+
+import attitude
+from attitude import _methods, io, scenario
+from attitude import canonical as C
+from attitude.cli import main
+from attitude.errors import (
+    AttitudeError,
+    AttitudeFileError,
+    AttitudeTypeError,
+    AttitudeValueError,
+    PropagationError,
+)
+from attitude.potentials import HeavyTop
+from attitude.propagate import propagate
+from orbit import KeplerOrbit
+from orbit.errors import OrbitError, OrbitTypeError, OrbitValueError
+
+ROOT = Path(__file__).resolve().parent.parent
+SCEN = ROOT / "scenarios"
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+I_PAPER = [1.25, 1.0, 0.75]
+Q_UNIT = [1.0, 0.0, 0.0, 0.0]
+
+
+def _Q(omega, q=Q_UNIT):
+    return C.momenta_from_angular_velocity(q, omega, I_PAPER)
+
+
+def _temps(d: Path) -> list[Path]:
+    return sorted(p for p in d.rglob(".*") if p.name.endswith(".tmp"))
+
+
+def _scenario_text(**time_table) -> str:
+    t = {"stop": 2.0, "step": 0.5, **time_table}
+    rows = "\n".join(f"{k} = {v!r}" for k, v in t.items())
+    return (
+        textwrap.dedent(
+            """
+        [body]
+        inertia = [1.25, 1.0, 0.75]
+        [initial_state]
+        form = "body_rates"
+        q = [1.0, 0.0, 0.0, 0.0]
+        omega = [0.3, 0.2, 0.1]
+        [time]
+        """
+        )
+        + rows
+    )
+
+
+@pytest.fixture(scope="module")
+def small_ds():
+    return propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 1.0, 11))
+
+
+# ------------------------------------------------------------------------------------------------
+# runs that did nothing, or should have been refused before any work
+# ------------------------------------------------------------------------------------------------
+
+
+def test_time_step_longer_than_the_span_is_refused(tmp_path):
+    # was: exit 0, "time span 0 .. 0 (1 samples)", nothing propagated
+    with pytest.raises(scenario.ScenarioError, match=r"time\.step"):
+        scenario.loads(_scenario_text(stop=2.0, step=1e7))
+    (tmp_path / "s.toml").write_text(_scenario_text(stop=2.0, step=1e7))
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(tmp_path / "s.nc"), "-q"]) == 2
+    assert not (tmp_path / "s.nc").exists()
+
+
+def test_fast_rotation_is_refused_after_a_probe():
+    # was: 1e6 steps (minutes at the default max_steps), then a PropagationError
+    with pytest.raises(AttitudeValueError, match=r"max_steps.*cannot finish"):
+        propagate(I_PAPER, Q_UNIT, _Q([1e12, 0.0, 1e11]), [0.0, 1000.0], max_steps=10**6)
+
+
+def test_long_span_is_refused_after_a_probe():
+    # was: t = [0, 1e12] ran max_steps steps (100-215 s at the default) before failing
+    with pytest.raises(AttitudeValueError, match="max_steps"):
+        propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), [0.0, 1e12], max_steps=10**5)
+
+
+def test_scipy_methods_estimate_their_work_too():
+    with pytest.raises(AttitudeValueError, match="max_steps"):
+        propagate(
+            I_PAPER, Q_UNIT, _Q([1e9, 0.0, 1e8]), [0.0, 100.0], method="scipy:RK45",
+            max_steps=10**5,
+        )  # fmt: skip
+
+
+def test_probe_estimate_warns_and_keeps_the_partial_run():
+    # A run that needs a few times max_steps: a warning before, the partial samples after.
+    t = np.linspace(0.0, 100.0, 11)
+    with pytest.warns(RuntimeWarning, match="more than max_steps = 100"):
+        with pytest.raises(PropagationError, match="maximum number of steps") as info:
+            propagate(I_PAPER, Q_UNIT, _Q([0.3, 2.0, 0.1]), t, max_steps=100)
+    assert 0 < info.value.partial.sizes["time"] < 11
+
+
+def test_the_probe_estimate_is_close_to_the_steps_taken():
+    # the estimate made after PROBE_STEPS steps against the steps of the whole run
+    I = attitude.RigidBody([400.0, 500.0, 600.0], units="kg km2")
+    o = KeplerOrbit(7000.0 / 0.3, 0.7, 0.5, 0.7, 0.1)
+    q0 = attitude.quaternion.from_euler([0.3, 1.0, 0.2], "313")
+    Q0 = C.momenta_from_angular_velocity(q0, [1e-3, 0.0, 2e-3], I)
+    pot = attitude.GravityGradient(o)
+    t = [0.0, 5 * o.period]
+    full = propagate(I, q0, Q0, t, potential=pot)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the estimate must not warn: max_steps is enough
+        propagate(I, q0, Q0, t, potential=pot, max_steps=int(2 * full.attrs["n_steps"]))
+    with pytest.raises(AttitudeValueError, match="max_steps"):  # 1/1000 of it: refused
+        propagate(I, q0, Q0, t, potential=pot, max_steps=int(full.attrs["n_steps"]) // 1000)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"max_step": 1e-300, "max_steps": 10**5}, "max_step"),
+        ({"atol": 1e-200}, "atol"),
+        ({"atol": 1e-300}, "atol"),
+    ],
+)
+def test_what_cannot_work_is_refused_up_front(kwargs, match):
+    # was: max_step=1e-300 ran until max_steps; atol <= 1e-200 "state became non-finite" at t0
+    with pytest.raises(AttitudeValueError, match=match):
+        propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), [0.0, 10.0], **kwargs)
+
+
+def test_ensemble_threads_beyond_numba_are_refused():
+    import numba
+
+    # was: PropagationError at run time ("chunk of members ... failed: ValueError")
+    q0 = np.tile(Q_UNIT, (4, 1))
+    with pytest.raises(AttitudeValueError, match="threads"):
+        attitude.propagate_ensemble(
+            I_PAPER, q0, _Q([0.3, 0.2, 0.1]), [0.0, 1.0],
+            threads=numba.config.NUMBA_NUM_THREADS + 1,
+        )  # fmt: skip
+
+
+def test_huge_Q0_is_checked_without_overflow():
+    # was: |Q| = inf, so q.Q looked relatively 0: another Q came back with correction 0.0
+    with pytest.raises(AttitudeValueError, match="Q0"):
+        C.project_state([1.0, 0.0, 0.0, 0.0], [1e155, 1e155, 0.0, 0.0])
+    with pytest.raises(AttitudeValueError, match="Q0"):
+        attitude.propagate_ensemble(
+            I_PAPER, np.tile(Q_UNIT, (3, 1)), [1e155, 1e155, 0.0, 0.0], [0.0, 1.0]
+        )
+    _, Q, corr = C.project_state([1.0, 0.0, 0.0, 0.0], [0.0, 1e300, -1e300, 1e300])
+    assert corr == 0.0 and np.array_equal(Q, [0.0, 1e300, -1e300, 1e300])
+
+
+def test_scaled_projection_is_the_unscaled_one_bit_for_bit():
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        q *= 1.0 + rng.uniform(-5e-7, 5e-7)
+        Q = rng.normal(size=4) * 10.0 ** rng.uniform(-8, 8)
+        Q -= np.dot(q, Q) / np.dot(q, q) * q * (1.0 - rng.uniform(0, 1e-8))
+        qn = q / np.linalg.norm(q)
+        qQ = float(np.dot(qn, Q))
+        ref = Q - qQ * qn
+        got = C.project_state(q, Q)
+        assert np.array_equal(got[0], qn) and np.array_equal(got[1], ref)
+
+
+# ------------------------------------------------------------------------------------------------
+# errors that were not the package's
+# ------------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "exc", "match"),
+    [
+        ({"rtol": np.array([1e-8, 1e-9])}, AttitudeTypeError, "rtol"),
+        ({"atol": np.array([1e-8, 1e-9])}, AttitudeTypeError, "atol"),
+        ({"max_step": np.array([1.0, 2.0])}, AttitudeTypeError, "max_step"),
+        ({"method": "splitting", "dt": np.array([0.1, 0.2])}, AttitudeTypeError, "dt"),
+        ({"rtol": "1e-8"}, AttitudeTypeError, "rtol"),
+        ({"atol": b"1e-8"}, AttitudeTypeError, "atol"),
+        ({"rtol": 1e-8 + 0j}, AttitudeTypeError, "rtol"),
+        ({"rtol": True}, AttitudeTypeError, "rtol"),
+        ({"max_steps": True}, AttitudeTypeError, "max_steps"),
+        ({"max_steps": 1e5}, AttitudeTypeError, "max_steps"),
+        ({"chunk": "a"}, AttitudeTypeError, "chunk"),
+        ({"chunk": 0}, AttitudeValueError, "chunk"),
+        ({"chunk": -5}, AttitudeValueError, "chunk"),
+        ({"q0": [1.0 + 0.5j, 0.0, 0.0, 0.0]}, AttitudeTypeError, "q0"),
+        ({"q0": ["1", "0", "0", "0"]}, AttitudeTypeError, "q0"),
+        ({"t": [0.0, 1.0 + 1j]}, AttitudeTypeError, "t"),
+    ],
+)
+def test_bad_scalars_and_arrays_name_the_parameter(kwargs, exc, match):
+    args = {"q0": Q_UNIT, "t": [0.0, 1.0], **kwargs}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # numpy's ComplexWarning is not an answer
+        with pytest.raises(exc, match=match):
+            propagate(I_PAPER, args.pop("q0"), _Q([0.3, 0.2, 0.1]), args.pop("t"), **args)
+
+
+def test_heavy_top_weight_array_is_named():
+    with pytest.raises(AttitudeTypeError, match="weight"):
+        HeavyTop(np.array([1.0, 2.0]), [1.0, 0.0, 0.0])
+    with pytest.raises(AttitudeTypeError, match="weight"):
+        HeavyTop("2", [1.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("a", [1e300, 1e-300, -1e300])
+def test_extreme_semi_major_axes_are_orbit_errors(a):
+    # was: OverflowError / ZeroDivisionError
+    e = 1.5 if a < 0 else 0.1
+    with pytest.raises(OrbitValueError, match="a"):
+        KeplerOrbit(a, e, 0.5, 0.1, 0.2)
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"a": True}, {"e": 0.1 + 0.2j}, {"inc": "0.5"}, {"a": [7000.0, 8000.0]}]
+)
+def test_keplerorbit_refuses_non_real_elements(kwargs):
+    args = {"a": 7000.0, "e": 0.1, "inc": 0.5, "raan": 0.1, "argp": 0.2, **kwargs}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(OrbitError):
+            KeplerOrbit(**args)
+    with pytest.raises(OrbitTypeError):
+        KeplerOrbit(True, 0.1, 0.5, 0.1, 0.2)
+
+
+@pytest.mark.parametrize("path", [None, 3, 3.5, "a\x00b.nc", b"a\x00b.nc", ""])
+def test_io_bad_paths_are_package_errors_and_leave_nothing(path, small_ds, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(AttitudeError):
+        io.write(small_ds, path)
+    with pytest.raises(AttitudeError):
+        io.read(path)
+    assert list(tmp_path.iterdir()) == []  # was: a stray ".a" (the name cut at the NUL)
+
+
+def test_long_file_names(small_ds, tmp_path):
+    # 250 characters: a valid name, whose ".NAME.<pid>.tmp" was not
+    name = "y" * 247 + ".nc"
+    io.write(small_ds, tmp_path / name)
+    assert io.read(tmp_path / name).sizes["time"] == 11
+    with pytest.raises(AttitudeFileError, match="too long"):
+        io.write(small_ds, tmp_path / ("x" * 300 + ".nc"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
+def test_scenario_start_overflow_is_a_scenario_error():
+    # was: OverflowError (round(inf))
+    with pytest.raises(scenario.ScenarioError, match="time"):
+        scenario.loads(_scenario_text(start=-1e308, stop=1e308, step=1.0))
+    with pytest.raises(scenario.ScenarioError, match="time"):
+        scenario.loads(_scenario_text(stop=1e300, step=1e-300))
+
+
+def test_cli_bad_output_paths_exit_2_without_stray_files(tmp_path, capsys):
+    text = _scenario_text() + '\n[output]\npath = "a\\u0000b.nc"\n'
+    (tmp_path / "s.toml").write_text(text)
+    os.chdir(tmp_path)
+    try:
+        assert main(["run", "s.toml", "-q"]) == 2
+        assert "NUL" in capsys.readouterr().err
+        assert main(["run", "s.toml", "-o", "x" * 300 + ".nc", "-q"]) == 2
+        assert "too long" in capsys.readouterr().err
+    finally:
+        os.chdir(ROOT)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s.toml"]
+
+
+def _mount_tmpfs(where: Path, opts: str) -> bool:
+    if os.geteuid() != 0 or not shutil.which("mount"):
+        return False
+    where.mkdir(exist_ok=True)
+    r = subprocess.run(["mount", "-t", "tmpfs", "-o", opts, "tmpfs", str(where)],
+                       capture_output=True)  # fmt: skip
+    return r.returncode == 0
+
+
+@pytest.fixture
+def full_disk(tmp_path):
+    """A 256 kB file system (root can mount one; skipped otherwise)."""
+    mnt = tmp_path / "full"
+    if not _mount_tmpfs(mnt, "size=256k"):
+        pytest.skip("needs root and tmpfs to make a small file system")
+    yield mnt
+    subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+@pytest.fixture
+def read_only_dir(tmp_path):
+    mnt = tmp_path / "ro"
+    if _mount_tmpfs(mnt, "ro,size=64k"):
+        yield mnt
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+        return
+    if os.geteuid() == 0:
+        pytest.skip("root ignores permissions and cannot mount here")
+    mnt.mkdir()
+    mnt.chmod(0o555)
+    yield mnt
+    mnt.chmod(0o755)
+
+
+def test_full_disk_says_so_and_leaves_nothing(full_disk, tmp_path, capsys):
+    ds = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 100.0, 20001))
+    with pytest.raises(AttitudeFileError, match="disk is full"):
+        io.write(ds, full_disk / "x.nc")  # was: RuntimeError: NetCDF: HDF error
+    assert list(full_disk.iterdir()) == []
+    (tmp_path / "s.toml").write_text(_scenario_text(stop=100.0, step=0.005))
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(full_disk / "s.nc"), "-q"]) == 2
+    assert "disk is full" in capsys.readouterr().err
+    assert list(full_disk.iterdir()) == []
+
+
+def test_read_only_directory_exit_2(read_only_dir, tmp_path, small_ds, capsys):
+    with pytest.raises(AttitudeFileError, match=r"read-only|permission"):
+        io.write(small_ds, read_only_dir / "x.nc")
+    (tmp_path / "s.toml").write_text(_scenario_text())
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(read_only_dir / "s.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "read-only" in err or "permission" in err
+
+
+def test_info_on_foreign_and_truncated_files_exit_2(tmp_path, small_ds, capsys):
+    with netCDF4.Dataset(tmp_path / "foreign.nc", "w") as nc:
+        nc.createDimension("x", 3)
+        nc.createVariable("v", "f8", ("x",))[:] = [1.0, 2.0, 3.0]
+    assert main(["info", str(tmp_path / "foreign.nc")]) == 2  # was: exit 1, KeyError
+    assert "not an attitude result file" in capsys.readouterr().err
+    big = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 100.0, 50001))
+    io.write(big, tmp_path / "full.nc")
+    data = (tmp_path / "full.nc").read_bytes()
+    (tmp_path / "cut.nc").write_bytes(data[: len(data) // 2])
+    for cmd in (["info"], ["plot"], ["export", "--ccsds-aem", str(tmp_path / "c.aem")]):
+        assert main([cmd[0], str(tmp_path / "cut.nc"), *cmd[1:]]) == 2, cmd
+        err = capsys.readouterr().err
+        assert err.startswith("attitude: error:") and err.count("\n") == 1, err
+    with pytest.raises(AttitudeFileError):
+        io.read(tmp_path / "cut.nc")
+    assert not (tmp_path / "c.aem").exists() and not _temps(tmp_path)
+
+
+# ------------------------------------------------------------------------------------------------
+# files
+# ------------------------------------------------------------------------------------------------
+
+
+def test_write_to_a_directory_leaves_no_temporary(small_ds, tmp_path):
+    (tmp_path / "adir").mkdir()
+    with pytest.raises(AttitudeFileError, match="directory"):
+        io.write(small_ds, tmp_path / "adir")  # was: IsADirectoryError after the data
+    assert not _temps(tmp_path)
+
+
+@pytest.mark.parametrize(
+    "attrs", [{"bad/name": 1.0}, {"big": 2**70}, {"s": "a\udcffb"}, {"nul": "a\x00b"}, {3: 1.0}]
+)
+def test_attrs_are_checked_before_anything_is_written(attrs, small_ds, tmp_path):
+    path = tmp_path / "x.nc"
+    path.write_bytes(b"previous")
+    ds = small_ds.copy()
+    ds.attrs.update(attrs)
+    with pytest.raises(AttitudeError, match="attr"):
+        io.write(ds, path)  # was: the data written first, then a raw error, temp left
+    assert path.read_bytes() == b"previous" and not _temps(tmp_path)
+    w = io.StreamWriter(path)
+    w.append(small_ds)
+    w.attrs.update(attrs)
+    with pytest.raises(AttitudeError, match="attr"):
+        w.commit()
+    assert path.read_bytes() == b"previous" and not _temps(tmp_path)
+
+
+def _dead_pid() -> int:
+    p = subprocess.Popen([sys.executable, "-c", "pass"])
+    p.wait()
+    return p.pid
+
+
+def test_stale_temporaries_of_dead_processes_are_removed(small_ds, tmp_path):
+    dead = _dead_pid()
+    stale = [tmp_path / f".out.nc.attitude-{dead}.tmp", tmp_path / f".out.nc.{dead}.tmp"]
+    alive = tmp_path / ".out.nc.attitude-1.tmp"  # pid 1 runs, and started before the file
+    other = tmp_path / f".other.nc.attitude-{dead}.tmp"  # another target: not ours to remove
+    for p in [*stale, alive, other]:
+        p.write_bytes(b"x" * 1000)
+    io.write(small_ds, tmp_path / "out.nc")
+    assert not any(p.exists() for p in stale)
+    assert alive.exists() and other.exists()
+
+
+def test_a_killed_run_is_cleaned_up_by_the_next(tmp_path):
+    out = tmp_path / "out.nc"
+    text = (SCEN / "paper_torque_free.toml").read_text().replace("stop = 20.0", "stop = 1e5")
+    (tmp_path / "long.toml").write_text(text)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "attitude", "run", str(tmp_path / "long.toml"), "-o", str(out)],
+        env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+    deadline = time.monotonic() + 120
+    while not _temps(tmp_path):
+        assert proc.poll() is None and time.monotonic() < deadline
+        time.sleep(0.05)
+    proc.kill()
+    proc.wait()
+    assert _temps(tmp_path) and not out.exists()
+    assert (
+        main(["run", str(SCEN / "paper_torque_free.toml"), "-o", str(out), "--stop", "1", "-q"])
+        == 0
+    )
+    assert not _temps(tmp_path)  # was: 117 MB temporaries that nothing removed
+
+
+def test_symlink_target_is_written_through_the_link(small_ds, tmp_path):
+    real = tmp_path / "real.nc"
+    real.write_bytes(b"old")
+    link = tmp_path / "link.nc"
+    link.symlink_to(real)
+    io.write(small_ds, link)
+    assert link.is_symlink() and os.readlink(link) == str(real)  # was: the link replaced
+    assert io.read(real).sizes["time"] == 11
+
+
+def test_fifo_is_written_through(small_ds, tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    got = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_bytes()))
+    reader.start()
+    io.write(small_ds, fifo)
+    reader.join(30)
+    assert stat.S_ISFIFO(fifo.lstat().st_mode)  # was: replaced by a regular file
+    (tmp_path / "copy.nc").write_bytes(got[0])
+    back = io.read(tmp_path / "copy.nc")
+    np.testing.assert_array_equal(back.q.values, small_ds.q.values)
+
+
+def test_character_device_is_never_replaced(small_ds, tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("mknod of a character device needs root")
+    null = tmp_path / "null"
+    try:
+        os.mknod(null, stat.S_IFCHR | 0o666, os.makedev(1, 3))  # a private /dev/null
+    except OSError:
+        pytest.skip("cannot create device nodes here")
+    io.write(small_ds, null)
+    assert stat.S_ISCHR(null.lstat().st_mode)  # was: renamed over: a regular file
+    (tmp_path / "s.toml").write_text(_scenario_text())
+    assert main(["run", str(tmp_path / "s.toml"), "-o", str(null), "-q"]) == 0
+    assert stat.S_ISCHR(null.lstat().st_mode)
+    assert not _temps(tmp_path)
+
+
+def test_block_devices_and_sockets_are_refused(small_ds, tmp_path):
+    import socket
+
+    sock = tmp_path / "s.sock"
+    s = socket.socket(socket.AF_UNIX)
+    try:
+        s.bind(str(sock))
+        with pytest.raises(AttitudeFileError, match="socket"):
+            io.write(small_ds, sock)
+    finally:
+        s.close()
+
+
+def test_output_to_stdout_is_the_netcdf_and_the_summary_goes_to_stderr(tmp_path):
+    (tmp_path / "s.toml").write_text(_scenario_text())
+    r = subprocess.run(
+        [sys.executable, "-m", "attitude", "run", "s.toml", "-o", "/dev/stdout"],
+        cwd=tmp_path, env=ENV, capture_output=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert r.stdout[:4] == b"\x89HDF"
+    assert b"scenario" in r.stderr
+    (tmp_path / "o.nc").write_bytes(r.stdout)
+    assert io.read(tmp_path / "o.nc").sizes["time"] == 5
+
+
+def test_output_directory_naming(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(_scenario_text())
+    # was: "-o newdir/" wrote a file named "newdir"
+    assert main(["run", "s.toml", "-o", "newdir/", "-q"]) == 0
+    assert (tmp_path / "newdir" / "s.nc").is_file()
+    assert main(["run", "s.toml", "-o", "newdir", "-q"]) == 0  # an existing directory too
+    (tmp_path / "adir").mkdir()
+    # was: "plot -o adir" wrote adir.png but printed "adir"
+    assert main(["plot", "newdir/s.nc", "-o", "fig"]) == 0
+    assert capsys.readouterr().out.strip().endswith("fig.png") and (tmp_path / "fig.png").is_file()
+    assert main(["plot", "newdir/s.nc", "-o", "adir"]) == 0
+    assert capsys.readouterr().out.strip().endswith("adir/s.png")
+    assert (tmp_path / "adir" / "s.png").is_file()
+    assert main(["plot", "newdir/s.nc", "-o", "f.xyz"]) == 2
+    assert "format" in capsys.readouterr().err and not _temps(tmp_path)
+
+
+# ------------------------------------------------------------------------------------------------
+# interruption
+# ------------------------------------------------------------------------------------------------
+
+
+def test_results_do_not_depend_on_the_step_budget(monkeypatch):
+    from attitude._core import splitting as _ks
+    from attitude.ensemble import _chunks
+
+    t = np.linspace(0.0, 60.0, 4)
+    Q0 = _Q([0.3, 2.0, 0.1])
+    pot = HeavyTop(0.5, [0.0, 0.0, 1.0])
+    runs = [
+        dict(potential=pot),
+        dict(potential=pot, formulation="euler_equations"),
+        dict(potential=pot, method="splitting", dt=0.01),
+    ]
+    ref = [propagate(I_PAPER, Q_UNIT, Q0, t, **kw) for kw in runs]
+    ens = attitude.propagate_ensemble(I_PAPER, np.tile(Q_UNIT, (5, 1)), Q0, t, pot)
+    monkeypatch.setattr(_methods, "STEP_BUDGET", 7)
+    monkeypatch.setattr(_chunks, "ENSEMBLE_STEP_BUDGET", 1)
+    monkeypatch.setattr(_chunks, "MIN_MEMBER_BUDGET", 3)
+    assert _ks.N_COUNTERS == 5
+    calls = []
+    for kw, r in zip(runs, ref, strict=True):
+        got = propagate(I_PAPER, Q_UNIT, Q0, t, progress=lambda *a: calls.append(a), **kw)
+        assert np.array_equal(got.q.values, r.q.values), kw
+        assert np.array_equal(got.Q.values, r.Q.values), kw
+    assert len(calls) > 100  # the compiled calls returned every few steps
+    ens2 = attitude.propagate_ensemble(I_PAPER, np.tile(Q_UNIT, (5, 1)), Q0, t, pot)
+    assert np.array_equal(ens.q.values, ens2.q.values)
+    assert np.array_equal(ens.member_n_steps.values, ens2.member_n_steps.values)
+
+
+def test_ctrl_c_acts_inside_a_long_compiled_run():
+    # One output interval of ~3e7 steps: a single compiled call before the fix (tens of s).
+    Q0 = _Q([3000.0, 0.0, 500.0])
+    calls = []
+
+    def alarm(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, 0.5)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            propagate(I_PAPER, Q_UNIT, Q0, [0.0, 1e4], progress=lambda *a: calls.append(a))
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert calls and calls[-1][2] < 1e4  # interrupted midway, not after the run
+
+
+def _runner(tmp_path: Path, body: str) -> Path:
+    """A package ``runner`` whose __main__ patches the CLI, then runs it (python -m runner)."""
+    pkg = tmp_path / "runner"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "__main__.py").write_text(
+        "import os, signal, sys\nimport attitude.cli as cli\n"
+        + textwrap.dedent(body)
+        + "\nraise SystemExit(cli.main(sys.argv[1:]))\n"
+    )
+    return pkg
+
+
+def test_a_swallowed_interrupt_is_not_lost(tmp_path):
+    # Third-party code swallows a KeyboardInterrupt (here: a bare except around a SIGINT);
+    # was: the run went on and exited 0 with the file written (2 of 89 Ctrl-C).
+    _runner(
+        tmp_path,
+        """
+        _orig = cli.Progress.__call__
+        def _call(self, *a):
+            if not getattr(cli, "_sent", False):
+                cli._sent = True
+                try:
+                    os.kill(os.getpid(), signal.SIGINT)
+                    for _ in range(1000):
+                        pass
+                except KeyboardInterrupt:
+                    pass
+            return _orig(self, *a)
+        cli.Progress.__call__ = _call
+        """,
+    )
+    (tmp_path / "s.toml").write_text(_scenario_text(stop=200.0, step=0.001))
+    r = subprocess.run(
+        [sys.executable, "-m", "runner", "run", "s.toml", "-o", "s.nc"],
+        cwd=tmp_path, env={**ENV, "PYTHONPATH": f"{ROOT}{os.pathsep}{tmp_path}"},
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 130, r.stderr
+    assert "interrupted" in r.stderr and not (tmp_path / "s.nc").exists()
+    assert not _temps(tmp_path)
+
+
+def test_interrupt_exit_status_is_130_not_a_signal(tmp_path):
+    # A KeyboardInterrupt that escapes an exec() of a string (numba does those) made CPython
+    # kill the process with SIGINT at exit: status -2 instead of 130 (15 of 40 Ctrl-C).
+    _runner(
+        tmp_path,
+        """
+        _orig = cli.Progress.__call__
+        def _call(self, *a):
+            exec("raise KeyboardInterrupt")
+        cli.Progress.__call__ = _call
+        """,
+    )
+    (tmp_path / "s.toml").write_text(_scenario_text())
+    r = subprocess.run(
+        [sys.executable, "-m", "runner", "run", "s.toml", "-o", "s.nc"],
+        cwd=tmp_path, env={**ENV, "PYTHONPATH": f"{ROOT}{os.pathsep}{tmp_path}"},
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert r.returncode == 130, (r.returncode, r.stderr)
+    assert not (tmp_path / "s.nc").exists()
+
+
+def test_ctrl_c_stops_a_fast_spinning_cli_run(tmp_path):
+    # Two output samples, ~4e7 steps between them: before, Ctrl-C waited for the whole
+    # compiled call (minutes on this machine; 96 s in the campaign).
+    text = _scenario_text(stop=1e4, step=1e4).replace("[0.3, 0.2, 0.1]", "[3000.0, 0.0, 500.0]")
+    (tmp_path / "s.toml").write_text(text)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "attitude", "run", "s.toml", "-o", "s.nc", "--progress", "always"],
+        cwd=tmp_path, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    seen = threading.Event()
+
+    def watch():
+        while proc.stderr.read(1):  # the progress bar: the integration is under way
+            seen.set()
+
+    threading.Thread(target=watch, daemon=True).start()
+    assert seen.wait(120), "no progress bar"
+    proc.send_signal(signal.SIGINT)
+    try:
+        proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130
+    assert not (tmp_path / "s.nc").exists() and not _temps(tmp_path)
+
+
+# ------------------------------------------------------------------------------------------------
+# ensembles
+# ------------------------------------------------------------------------------------------------
+
+
+def test_failing_members_do_not_discard_the_others(tmp_path):
+    n = 200
+    q0 = np.tile(Q_UNIT, (n, 1))
+    w = np.tile([0.0, 0.0, 0.1], (n, 1))
+    w[[30, 170], 2] = 30.0  # these two need far more steps than max_steps
+    Q0 = C.momenta_from_angular_velocity(q0, w, I_PAPER)
+    t = np.linspace(0.0, 10.0, 3)
+    path = tmp_path / "e.nc"
+    with pytest.raises(PropagationError, match=r"member\(s\) 30, 170 failed") as info:
+        attitude.propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, chunk_size=50, path=path)
+    info.value.partial.close()
+    back = io.read(path)  # was: no file (both failures in chunks that were discarded)
+    assert back.sizes["member"] == n
+    status = back.member_status.values
+    assert set(np.flatnonzero(status)) == {30, 170} and status[30] == 3
+    meanings = back.member_status.attrs["flag_meanings"].split()
+    assert meanings[list(back.member_status.attrs["flag_values"]).index(3)] == "max_steps_reached"
+    assert back.attrs["run_status"].startswith("failed: member(s) 30, 170")
+    assert back.attrs["n_members_failed"] == 2
+    assert np.all(np.isnan(back.q.values[30, -1])) and np.all(np.isfinite(back.q.values[31]))
+    single = propagate(I_PAPER, q0[171], Q0[171], t)
+    np.testing.assert_array_equal(back.q.values[171], single.q.values)
+    # in memory too: every member in .partial
+    with pytest.raises(PropagationError, match="30, 170") as info:
+        attitude.propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, chunk_size=64)
+    assert info.value.partial.sizes["member"] == n
+    assert not _temps(tmp_path)
+
+
+# ------------------------------------------------------------------------------------------------
+# memory
+# ------------------------------------------------------------------------------------------------
+
+
+def test_cli_streaming_does_not_hold_the_time_grid(tmp_path):
+    # 1e6 samples: the grid alone is 8 MB; a run streams chunks of 4096.
+    text = _scenario_text(stop=1000.0, step=0.001)
+    sc = scenario.loads(text)
+    assert isinstance(sc.t, attitude._times.TimeGrid) and len(sc.t) == 1_000_001
+    np.testing.assert_array_equal(sc.t[999_990:], np.linspace(0.0, 1000.0, 1_000_001)[999_990:])
+    sc.run_to_file(tmp_path / "warm.nc", rtol=1e-6)  # compile outside the measurement
+    tracemalloc.start()
+    try:
+        sc = scenario.loads(text)
+        sc.run_to_file(tmp_path / "m.nc", rtol=1e-6)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 4e6, f"peak {peak / 1e6:.1f} MB"  # was: > 8 MB of times (1 GB at 3e7)
+    assert io.read(tmp_path / "m.nc", load=False).sizes["time"] == 1_000_001
+
+
+def test_scipy_methods_stream(tmp_path):
+    n = 200_001
+    sc = scenario.loads(_scenario_text(stop=200.0, step=0.001))
+    sc.run_to_file(tmp_path / "w.nc", method="scipy:RK45", rtol=1e-6)
+    tracemalloc.start()
+    try:
+        sc.run_to_file(tmp_path / "s.nc", method="scipy:RK45", rtol=1e-6)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    # in memory the samples alone take 200 001 x 8 x 8 B = 12.8 MB (was 677 MB at 1e6)
+    assert peak < 6e6, f"peak {peak / 1e6:.1f} MB"
+    back = io.read(tmp_path / "s.nc")
+    assert back.sizes["time"] == n
+    ref = sc.run(method="scipy:RK45", rtol=1e-6)
+    np.testing.assert_array_equal(back.q.values, ref.q.values)
+
+
+def test_non_streamed_formulations_refuse_huge_outputs():
+    with pytest.raises(AttitudeValueError, match="formulation"):
+        propagate(
+            I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]),
+            attitude._times.TimeGrid(0.0, 1e3, 3_000_001),
+            formulation="euler_equations", on_chunk=lambda ds: None,
+        )  # fmt: skip
