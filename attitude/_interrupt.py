@@ -52,8 +52,16 @@ def _handler(signum, frame):
 
 
 @contextlib.contextmanager
-def handling(signals: tuple[str, ...] = ("SIGINT", "SIGTERM")) -> Iterator[None]:
-    """Install recording handlers for ``signals`` (restored on exit); no-op off the main thread."""
+def handling(
+    signals: tuple[str, ...] = ("SIGINT", "SIGTERM"), *, then_ignore: bool = False
+) -> Iterator[None]:
+    """Install recording handlers for ``signals``; no-op off the main thread.
+
+    On exit the previous handlers are restored, or, with ``then_ignore`` (a process that is
+    about to exit: the command line), the signals are ignored: one that arrives after the
+    command has finished must not kill the process on its way out (exit status -2 with a
+    complete output file).
+    """
     clear()
     old = {}
     for name in signals:
@@ -69,4 +77,4 @@ def handling(signals: tuple[str, ...] = ("SIGINT", "SIGTERM")) -> Iterator[None]
     finally:
         for sig, h in old.items():
             with contextlib.suppress(ValueError, TypeError):
-                signal.signal(sig, h)
+                signal.signal(sig, signal.SIG_IGN if then_ignore else h)

@@ -25,8 +25,9 @@ import numpy as np
 import xarray as xr
 
 from ._files import OutputFile, file_error
+from ._validation import as_positive
 from ._version import __version__
-from .errors import AttitudeValueError
+from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["write_aem"]
 
@@ -70,6 +71,39 @@ def _abs_times(ds: xr.Dataset, epoch: Any, time_unit_seconds: float | None) -> t
     except ValueError:
         raise AttitudeValueError(f"epoch: {e!r} is not an ISO 8601 UTC time") from None
     return t0.utc, scale
+
+
+def _check_arguments(ds, version, epoch, interpolation, **names) -> None:
+    """Types of the arguments of :func:`write_aem`, before any work."""
+    from astropy.time import Time
+
+    if not isinstance(ds, xr.Dataset):
+        raise AttitudeTypeError(f"ds: expected an xarray.Dataset, got {type(ds).__name__}")
+    if (
+        isinstance(version, bool)
+        or not isinstance(version, (int, np.integer))
+        or version not in (1, 2)
+    ):
+        raise AttitudeValueError(f"version: AEM version 1 or 2, got {version!r}")
+    if epoch is not None and not isinstance(epoch, (str, Time)):
+        raise AttitudeTypeError(
+            f"epoch: expected an ISO 8601 UTC string or an astropy Time, got {type(epoch).__name__}"
+        )
+    for key, v in names.items():
+        if v is not None and not isinstance(v, str):
+            raise AttitudeTypeError(f"{key}: expected a string, got {type(v).__name__}")
+    if interpolation is not None and not (
+        isinstance(interpolation, (tuple, list))
+        and len(interpolation) == 2
+        and isinstance(interpolation[0], str)
+        and isinstance(interpolation[1], (int, np.integer))
+        and not isinstance(interpolation[1], bool)
+        and interpolation[1] >= 1
+    ):
+        raise AttitudeTypeError(
+            f"interpolation: expected (method, degree) such as ('LAGRANGE', 7) or None, got "
+            f"{interpolation!r}"
+        )
 
 
 def _iso(times: Any) -> np.ndarray:
@@ -124,10 +158,17 @@ def write_aem(
     -------
     Path
     """
-    if version not in (1, 2):
-        raise AttitudeValueError(f"version: AEM version 1 or 2, got {version!r}")
+    _check_arguments(
+        ds, version, epoch, interpolation,
+        object_name=object_name, object_id=object_id, center_name=center_name,
+        ref_frame_a=ref_frame_a, ref_frame_b=ref_frame_b, originator=originator,
+        message_id=message_id,
+    )  # fmt: skip
+    if time_unit_seconds is not None:
+        time_unit_seconds = as_positive(time_unit_seconds, "time_unit_seconds")
     if "q" not in ds or "time" not in ds.coords:
         raise AttitudeValueError("ds: not a propagation result (needs variables time and q)")
+    target = OutputFile(path, "path")  # checked before any work; atomic, devices written through
     t0, scale = _abs_times(ds, epoch, time_unit_seconds)
     from astropy.time import TimeDelta
 
@@ -139,7 +180,13 @@ def write_aem(
         raise AttitudeValueError("ds: AEM data lines must have increasing times (backward run?)")
 
     def stamp(x: np.ndarray) -> np.ndarray:
-        return _iso(t0 + TimeDelta(x, format="sec"))
+        try:
+            return _iso(t0 + TimeDelta(x, format="sec"))
+        except (ValueError, OverflowError) as exc:  # erfa: "unacceptable date"
+            raise AttitudeValueError(
+                f"time: the sample times (epoch + t x {scale:g} s) are outside the dates a "
+                f"CCSDS AEM can hold ({exc}); check epoch and time_unit_seconds"
+            ) from None
 
     start, stop = stamp(tt[[0, -1]])
     from datetime import datetime, timezone
@@ -185,7 +232,6 @@ def write_aem(
         meta.append(_kvn("INTERPOLATION_DEGREE", min(int(interpolation[1]), n - 1)))
     meta += ["META_STOP", "", "DATA_START"]
 
-    target = OutputFile(path, "path")  # atomic; pipes and devices written through
     target.prepare()
     tmp = target.tmp
     try:

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_float_array
-from .errors import AttitudeValueError
+from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["RigidBody"]
 
@@ -55,9 +55,13 @@ class RigidBody:
             if units is not None:
                 from astropy import units as u
 
+                if not isinstance(units, str):
+                    raise AttitudeTypeError(
+                        f"units: expected a unit string such as 'kg m2', got {type(units).__name__}"
+                    )
                 try:
                     arr = (arr * u.Unit(units)).to_value("kg km2")
-                except (ValueError, u.UnitConversionError) as exc:
+                except (ValueError, TypeError, u.UnitConversionError) as exc:
                     raise AttitudeValueError(
                         f"units: {units!r} is not a moment-of-inertia unit (e.g. 'kg km2')"
                     ) from exc

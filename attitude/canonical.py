@@ -266,6 +266,11 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
     """
     q = as_quaternion(q, "q0")
     Q = as_float_array(Q, "Q0", trailing=4)
+    for name, a in (("q0", q), ("Q0", Q)):
+        if a.shape != (4,):
+            raise AttitudeValueError(
+                f"{name}: expected one quaternion of shape (4,), got {a.shape}"
+            )
     # Norms and q·Q of copies scaled by a power of two (exact, so the results are those of the
     # unscaled formulas bit for bit wherever these do not overflow): a plain |Q| of
     # (1e155, 1e155, 0, 0) is inf, which made any q·Q look relatively 0.

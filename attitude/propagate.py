@@ -201,6 +201,10 @@ def propagate(
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
     form = None
+    if not isinstance(formulation, str):
+        raise AttitudeTypeError(
+            f"formulation: expected a name such as 'canonical', got {type(formulation).__name__}"
+        )
     if formulation != "canonical":
         form = get_formulation(formulation, method)
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
@@ -234,14 +238,14 @@ def propagate(
     if on_chunk is not None and not callable(on_chunk):
         raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
     streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
+    if on_chunk is not None and not streaming and tt.shape[0] > MAX_UNSTREAMED_SAMPLES:
+        raise AttitudeValueError(
+            f"t: {tt.shape[0]} output samples with method {method!r} and formulation "
+            f"{formulation!r}, which are computed in memory before they are handed out "
+            f"(at most {MAX_UNSTREAMED_SAMPLES} samples); use formulation='canonical' "
+            "(streamed), or fewer samples"
+        )
     if not (streaming or isinstance(tt, np.ndarray)):
-        if on_chunk is not None and tt.shape[0] > MAX_UNSTREAMED_SAMPLES:
-            raise AttitudeValueError(
-                f"t: {tt.shape[0]} output samples with method {method!r} and formulation "
-                f"{formulation!r}, which are computed in memory before they are handed out "
-                f"(at most {MAX_UNSTREAMED_SAMPLES} samples); use formulation='canonical' "
-                "(streamed), or fewer samples"
-            )
         tt = np.asarray(tt)
 
     q0p, Q0p, correction = project_state(q0a, Q0a)

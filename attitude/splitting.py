@@ -42,10 +42,9 @@ from typing import Any
 
 import numpy as np
 
-from . import _interrupt
+from . import _interrupt, _methods
 from ._core import rk as _rk
 from ._core import splitting as _ks
-from . import _methods
 from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError
 

@@ -89,7 +89,12 @@ def _as_array(x: Any, name: str, unit: Any = None) -> np.ndarray:
     if isinstance(x, (str, bytes)):
         raise OrbitTypeError(f"{name}: expected real numbers, got {x!r}")
     try:
-        arr = np.asarray(x, dtype=np.float64)
+        raw = np.asarray(x)
+        if isinstance(x, (bool, np.bool_)) or raw.dtype.kind in "bcUSV":  # not real numbers
+            raise TypeError(f"{raw.dtype} values")
+        arr = raw.astype(np.float64, copy=False)
+    except OverflowError as exc:
+        raise OrbitValueError(f"{name}: a value is too large for double precision") from exc
     except (TypeError, ValueError) as exc:
         raise OrbitTypeError(f"{name}: expected real numbers, got {x!r}") from exc
     if not np.all(np.isfinite(arr)):

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import _kernels as _k
-from .errors import OrbitTypeError, OrbitValueError
+from .errors import OrbitValueError
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
 
 __all__ = ["KeplerOrbit", "earth_mu"]
@@ -33,8 +33,6 @@ def earth_mu() -> float:
 
 
 def _scalar(x: Any, name: str, unit: Any) -> float:
-    if isinstance(x, (bool, np.bool_)) or np.iscomplexobj(x):
-        raise OrbitTypeError(f"{name}: expected a real number, got {x!r}")
     arr = _as_array(x, name, unit)
     if arr.ndim != 0:
         if arr.size == 1:

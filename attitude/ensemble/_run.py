@@ -17,7 +17,7 @@ import xarray as xr
 from .._validation import as_int, as_positive, as_times
 from ..body import RigidBody
 from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
-from ..io import COMPLEVEL
+from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
 from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
 from . import _dask
@@ -223,6 +223,10 @@ def propagate_ensemble(
             )
     if progress is not None and not callable(progress):
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, steps)")
+    if attrs is not None:
+        if not isinstance(attrs, dict):
+            raise AttitudeTypeError(f"attrs: expected a dict, got {type(attrs).__name__}")
+        attrs = check_attrs(attrs, "attrs")  # what netCDF can store, before any work
     if scheduler_timeout is None:
         scheduler_timeout = _dask.SCHEDULER_TIMEOUT
     timeout = _positive(scheduler_timeout, "scheduler_timeout")

@@ -1,0 +1,796 @@
+"""The fuzzing campaign of issue 12, kept as hypothesis-driven suites (``pytest -m slow``).
+
+Three suites, each printing its counts (tried / ok / clean error / other) and failing on any
+raw exception (anything that is not an ``attitude``/``orbit`` error class, or a CLI exit that is
+not a clean one-line error), any silent no-op (exit 0 or a normal return without the result
+asked for), and any temporary file left behind:
+
+* :func:`test_fuzz_scenario_files_through_the_cli`: mutated scenario files (and options) run by
+  ``attitude run``, the results read back by ``info``/``plot``/``export``;
+* :func:`test_fuzz_public_api`: bad arguments to ``propagate``, ``propagate_ensemble``,
+  ``RigidBody``, the potentials, ``KeplerOrbit``, ``io.write``/``io.read`` and the AEM export;
+* :func:`test_fuzz_interruptions`: ``attitude run`` interrupted by SIGINT, SIGTERM or SIGKILL
+  at random moments (exit 130 and no output file, or the previous one untouched; the next run
+  removes a killed run's temporary file).
+
+Sizes (the issue's campaign by default) can be set with ``ATTITUDE_FUZZ_SCENARIOS``,
+``ATTITUDE_FUZZ_API`` and ``ATTITUDE_FUZZ_INTERRUPTS``; ``ATTITUDE_FUZZ_SEED`` changes the
+examples (hypothesis is derandomised otherwise, so a run is reproducible).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io as _stdio
+import json
+import math
+import os
+import re
+import signal
+import stat
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import traceback
+import warnings
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+hypothesis = pytest.importorskip("hypothesis")
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+import attitude  # noqa: E402
+from attitude import io  # noqa: E402
+from attitude.cli import main  # noqa: E402
+from attitude.errors import AttitudeError  # noqa: E402
+from orbit.errors import OrbitError  # noqa: E402
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+pytestmark = pytest.mark.slow
+
+ROOT = Path(__file__).resolve().parent.parent
+SCEN = ROOT / "scenarios"
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+N_SCENARIOS = int(os.environ.get("ATTITUDE_FUZZ_SCENARIOS", "600"))
+N_API = int(os.environ.get("ATTITUDE_FUZZ_API", "960"))
+N_INTERRUPTS = int(os.environ.get("ATTITUDE_FUZZ_INTERRUPTS", "120"))
+SEED = int(os.environ.get("ATTITUDE_FUZZ_SEED", "0"))
+#: Seconds a single fuzzed call may take before it is interrupted (counted as "slow").
+TIME_LIMIT = 20.0
+_RAW_CLI = re.compile(r"attitude: failed: [A-Za-z_.]*(Error|Exception|Warning|Interrupt)\b")
+
+
+def _settings(n: int):
+    return settings(
+        max_examples=n,
+        deadline=None,
+        database=None,
+        derandomize=SEED == 0,
+        suppress_health_check=list(HealthCheck),
+        phases=[hypothesis.Phase.generate],  # no shrinking: every example is counted once
+    )
+
+
+def _temps(*dirs: Path) -> list[Path]:
+    out = []
+    for d in dirs:
+        out += [p for p in Path(d).rglob(".*") if p.name.endswith(".tmp")]
+    return out
+
+
+def _own_temps() -> list[Path]:
+    """This process's temporary files in the temp directory (pipes and devices written through)."""
+    return list(Path(tempfile.gettempdir()).glob(f".*.attitude-{os.getpid()}.tmp"))
+
+
+@contextlib.contextmanager
+def _time_limit(seconds: float):
+    """Raise KeyboardInterrupt in this thread after ``seconds`` (SIGALRM)."""
+
+    def alarm(signum, frame):
+        from attitude import _interrupt
+
+        _interrupt.request(signum)  # as Ctrl-C in the command: not lost if swallowed
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def _report(capsys, title: str, counts: Counter, extra: str = "") -> None:
+    with capsys.disabled():
+        keys = ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
+        print(f"\n[fuzz] {title}: {keys}{extra}")
+
+
+# ------------------------------------------------------------------------------------------------
+# TOML
+# ------------------------------------------------------------------------------------------------
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{json.dumps(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(type(v))
+
+
+def _toml(data: dict[str, Any]) -> str:
+    top = [
+        f"{json.dumps(k)} = {_toml_value(v)}" for k, v in data.items() if not isinstance(v, dict)
+    ]
+    tables = [
+        f"[{json.dumps(k)}]\n"
+        + "\n".join(f"{json.dumps(kk)} = {_toml_value(vv)}" for kk, vv in v.items())
+        for k, v in data.items()
+        if isinstance(v, dict)
+    ]
+    return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
+
+
+def _base_scenarios() -> list[dict[str, Any]]:
+    """The repository's scenarios, shortened to a few dozen samples (mutations lengthen them)."""
+    out = []
+    for p in sorted(SCEN.glob("*.toml")):
+        d = tomllib.loads(p.read_text())
+        t = d["time"]
+        start = float(t.get("start", 0.0))
+        span = float(t["stop"]) - start
+        t.pop("step", None)
+        t["count"] = 41
+        t["stop"] = start + span / 20.0
+        if "ensemble" in d:
+            d["ensemble"]["size"] = 24
+        d.get("output", {}).pop("path", None)
+        out.append(d)
+    return out
+
+
+BASES = _base_scenarios()
+
+_WEIRD_SCALARS = [
+    None, "", "abc", "1e-8", "nan", "\x00", "x" * 300, "é", True, False, 0, -1, 1, 2**62,
+    -(2**62), 0.0, -0.0, 5e-324, 1e-308, 1e-300, 1e300, 1e308, -1e308, math.inf, -math.inf,
+    math.nan, 1e-15, 1e15, [], [1.0], [1.0, 2.0], [[1.0, 2.0]], ["a", "b", "c"],
+    [math.nan, 0.0, 0.0], [1e308, 1e308, 1e308], {}, {"a": 1},
+]  # fmt: skip
+_UNITS = ["s", "min", "d", "km", "m", "deg", "rad", "kg m2", "kg km2", "N", "rad/s", "deg/s",
+          "km3 s-2", "kg m2 s-1", "N m s", "furlong", "", "1", "s-1", "m/s", "K"]  # fmt: skip
+
+
+def _numbers():
+    return st.one_of(
+        st.sampled_from([0.0, -1.0, 1e-300, 1e300, -1e300, 1e-12, 1e12, 1e-6, 1e6, math.pi]),
+        st.floats(allow_nan=False, allow_infinity=False, width=64),
+        st.integers(min_value=-(2**63), max_value=2**63 - 1),
+    )
+
+
+@st.composite
+def mutated_scenario(draw) -> tuple[str, list[str]]:
+    """(TOML text, extra CLI options) of a mutated repository scenario."""
+    base = json.loads(json.dumps(draw(st.sampled_from(BASES))))
+    if draw(st.integers(0, 3)) == 0:  # a valid variation: the runs that should succeed
+        it = base.setdefault("integrator", {})
+        it["rtol"] = draw(st.sampled_from([1e-13, 1e-10, 1e-8, 1e-6, 1e-3]))
+        it["atol"] = draw(st.sampled_from([1e-16, 1e-12, 1e-9]))
+        m = draw(st.sampled_from(["dop853", "scipy:DOP853", "splitting", "nosquish"]))
+        if "ensemble" not in base:
+            it["method"] = m
+            if m in ("splitting", "nosquish"):
+                it["dt"] = draw(st.sampled_from([0.01, 0.1, 1.0]))
+                if not r_dimless(base):
+                    it["dt_unit"] = "s"
+        t = base["time"]
+        t["count"] = draw(st.sampled_from([2, 3, 41, 500]))
+        return _toml(base), []
+    n_ops = draw(st.integers(1, 4))
+    for _ in range(n_ops):
+        op = draw(st.sampled_from(
+            ["delete", "weird", "scale", "number", "unit", "unknown", "time", "integrator",
+             "form", "output", "ensemble", "table"]
+        ))  # fmt: skip
+        tables = [k for k, v in base.items() if isinstance(v, dict) and v]
+        if not tables:
+            break
+        tname = draw(st.sampled_from(sorted(tables)))
+        table = base[tname]
+        key = draw(st.sampled_from(sorted(table)))
+        if op == "delete":
+            del table[key]
+        elif op == "weird":
+            v = draw(st.sampled_from(_WEIRD_SCALARS))
+            if v is None:
+                del table[key]
+            else:
+                table[key] = v
+        elif (
+            op == "scale"
+            and isinstance(table[key], (int, float))
+            and not isinstance(table[key], bool)
+        ):
+            k = draw(st.sampled_from([-300, -100, -20, -6, -1, 1, 6, 20, 100, 300]))
+            with contextlib.suppress(OverflowError):
+                table[key] = float(table[key]) * 10.0**k * draw(st.sampled_from([1, -1]))
+        elif op == "scale" and isinstance(table[key], list) and table[key]:
+            i = draw(st.integers(0, len(table[key]) - 1))
+            table[key][i] = draw(_numbers())
+        elif op == "number":
+            table[key] = draw(_numbers())
+        elif op == "unit":
+            table[f"{key.removesuffix('_unit')}_unit"] = draw(st.sampled_from(_UNITS))
+        elif op == "unknown":
+            table[draw(st.sampled_from(["stpe", "rtol2", "x", "unit_unit", ""]))] = 1.0
+        elif op == "time":
+            t = base.setdefault("time", {})
+            t.pop("count", None)
+            t.pop("step", None)
+            t["start"] = draw(st.sampled_from([0.0, -1.0, 1e9, -1e308, 1e-300, 5.0]))
+            t["stop"] = draw(st.sampled_from([2.0, 1e-9, 1e6, 1e308, -3.0, 0.0, 1e12]))
+            if draw(st.booleans()):
+                t["step"] = draw(st.sampled_from([1e7, 1e-3, 0.5, 1e-300, -1.0, 2.0, 1e308]))
+            else:
+                t["count"] = draw(st.sampled_from([1, 2, 10, 10**9, 10**10, 0, -5, 3]))
+        elif op == "integrator":
+            it = base.setdefault("integrator", {})
+            k = draw(st.sampled_from(["method", "rtol", "atol", "max_step", "max_steps", "dt",
+                                      "order", "formulation"]))  # fmt: skip
+            it[k] = draw(st.one_of(
+                st.sampled_from(["dop853", "scipy:RK45", "scipy:LSODA", "exact", "splitting",
+                                 "nosquish", "rk99", "scipy:Euler", "euler_angles", "schwab"]),
+                st.sampled_from([1e-300, 1e-200, 1e-16, 1e-3, 0.5, 2, 6, 10**12, True, -1]),
+            ))  # fmt: skip
+            if k in ("max_step", "dt") and not r_dimless(base):
+                it[f"{k}_unit"] = "s"
+        elif op == "form":
+            ist = base.setdefault("initial_state", {})
+            ist["form"] = draw(st.sampled_from(
+                ["canonical", "body_rates", "euler_canonical", "euler_body_rates", "quux"]
+            ))  # fmt: skip
+        elif op == "output":
+            base.setdefault("output", {})["path"] = draw(st.sampled_from(
+                ["a\x00b.nc", "x" * 300 + ".nc", "newdir/", "deep/er/o.nc", "o.nc", ".", "",
+                 "/proc/version", "link.nc", "dev_null"]
+            ))  # fmt: skip
+        elif op == "ensemble" and "ensemble" not in base:
+            base["ensemble"] = {
+                "size": draw(st.sampled_from([1, 3, 0, -2, 10**9, 2.5])),
+                "seed": draw(st.sampled_from([0, 1, -1])),
+            }
+        elif op == "table":
+            base[draw(st.sampled_from(["time", "body", "potential", "orbit", "quux"]))] = draw(
+                st.sampled_from([{}, 1.0, "x", {"a": {}}])
+            )
+    text = _toml(base)
+    if draw(st.integers(0, 30)) == 0:  # sometimes not even TOML
+        text = text[: draw(st.integers(0, max(0, len(text) - 1)))] + "[[[\n"
+    opts: list[str] = []
+    for name, pool in (
+        ("--rtol", ["1e-8", "0", "-1", "nan", "inf", "1e-300", "abc"]),
+        ("--atol", ["1e-14", "0", "1e-250", "nan"]),
+        ("--dt", ["0.01", "0", "-1", "1e-300", "inf"]),
+        ("--stop", ["1", "0", "-5", "1e300", "nan", "inf", "1e-300"]),
+        ("--method", ["dop853", "scipy:DOP853", "exact", "splitting", "rk99"]),
+        ("--formulation", ["canonical", "euler_angles", "bogus"]),
+        ("--order", ["2", "4", "5", "x"]),
+    ):
+        if draw(st.integers(0, 9)) == 0:
+            opts += [name, draw(st.sampled_from(pool))]
+    return text, opts
+
+
+def r_dimless(data: dict[str, Any]) -> bool:
+    return "inertia_unit" not in data.get("body", {})
+
+
+def _check_cli_result(code: int, err: str, out: Path) -> str | None:
+    """None if the outcome of ``attitude run`` is clean, else what is wrong with it."""
+    if "Traceback" in err:
+        return "traceback"
+    if code not in (0, 1, 2, 130):
+        return f"exit code {code}"
+    lines = [ln for ln in err.splitlines() if ln.startswith("attitude:")]
+    if code in (1, 2):
+        if not lines:
+            return "no error message"
+        if _RAW_CLI.match(lines[-1]):
+            return f"raw exception: {lines[-1]}"
+    if code == 0:  # a silent no-op is a failure
+        if not out.exists():
+            return "exit 0 without an output file"
+        try:
+            with io.read(out, load=False) as ds:
+                n = ds.sizes.get("time", 0)
+                status = ds.attrs.get("run_status", "")
+        except Exception as exc:
+            return f"exit 0 with an unreadable output: {exc!r}"
+        if n < 2 or status != "complete":
+            return f"exit 0 with {n} samples, run_status {status!r}"
+    if code == 1 and out.exists():
+        with io.read(out, load=False) as ds:
+            if not str(ds.attrs.get("run_status", "")).startswith("failed"):
+                return "exit 1 with a file that says complete"
+    return None
+
+
+def _warm_up(work: Path) -> None:
+    """Load (or compile) every compiled entry point the runs use, before any time limit: an
+    interrupt inside numba's compiler leaves its dispatcher unusable in this process."""
+    d = work / "warm"
+    d.mkdir()
+    runs = [
+        [],
+        ["--method", "scipy:RK45"],
+        ["--method", "exact"],
+        ["--formulation", "euler_angles"],
+        ["--formulation", "schwab"],
+        ["--formulation", "euler_equations"],
+        ["--method", "splitting", "--dt", "0.1"],
+        ["--method", "nosquish", "--dt", "0.1"],
+    ]
+    for i, base in enumerate(BASES):
+        (d / f"b{i}.toml").write_text(_toml(base))
+        for j, opts in enumerate(runs):
+            with (
+                contextlib.redirect_stderr(_stdio.StringIO()),
+                contextlib.redirect_stdout(_stdio.StringIO()),
+                warnings.catch_warnings(),
+            ):
+                warnings.simplefilter("ignore")
+                main(["run", str(d / f"b{i}.toml"), "-o", str(d / f"o{i}_{j}.nc"), "-q", *opts])
+
+
+# ------------------------------------------------------------------------------------------------
+# 1. scenario files through the command line
+# ------------------------------------------------------------------------------------------------
+
+
+def test_fuzz_scenario_files_through_the_cli(tmp_path_factory, capsys):
+    counts: Counter = Counter()
+    failures: list[str] = []
+    work = tmp_path_factory.mktemp("fuzz_cli")
+    null = work / "dev_null"
+    if os.geteuid() == 0:
+        with contextlib.suppress(OSError):
+            os.mknod(null, stat.S_IFCHR | 0o666, os.makedev(1, 3))  # a private /dev/null
+    (work / "real.nc").write_bytes(b"")
+    (work / "link.nc").symlink_to(work / "real.nc")
+    seen = [0]
+    _warm_up(work)
+
+    @_settings(N_SCENARIOS)
+    @given(case=mutated_scenario())
+    def run(case):
+        text, opts = case
+        seen[0] += 1
+        d = work / f"c{seen[0]}"
+        d.mkdir()
+        (d / "s.toml").write_text(text, encoding="utf-8")
+        out = d / "o.nc"
+        use_o = "output" not in text or seen[0] % 2 == 0
+        args = ["run", "s.toml", "-q", *opts] + (["-o", str(out)] if use_o else [])
+        buf = _stdio.StringIO()
+        old = os.getcwd()
+        os.chdir(d)
+        try:
+            with contextlib.redirect_stderr(buf), contextlib.redirect_stdout(_stdio.StringIO()):
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    with _time_limit(TIME_LIMIT):
+                        code = main(args)
+        except BaseException as exc:
+            code = -1
+            buf.write(f"Traceback: main raised {exc!r}")
+        finally:
+            os.chdir(old)
+        err = buf.getvalue()
+        counts["tried"] += 1
+        if code == 130:
+            counts["slow (interrupted after 20 s)"] += 1
+        outcome = {0: "ok", 1: "clean failure (exit 1)", 2: "clean error (exit 2)"}.get(code)
+        if outcome:
+            counts[outcome] += 1
+        problem = _check_cli_result(code, err, out if use_o else d / "none")
+        if code == 0 and not use_o:
+            problem = None  # written where output.path says (checked by the temp sweep below)
+        if problem is None and code == 0 and use_o:
+            for cmd in (["info", str(out)], ["export", str(out), "--ccsds-aem", str(d / "a.aem"),
+                        "--epoch", "2024-01-01T00:00:00", "--time-unit-seconds", "1"]):  # fmt: skip
+                b2 = _stdio.StringIO()
+                with contextlib.redirect_stderr(b2), contextlib.redirect_stdout(_stdio.StringIO()):
+                    c2 = main(cmd)
+                if (
+                    c2 not in (0, 2)
+                    or _RAW_CLI.match(b2.getvalue())
+                    or "Traceback" in b2.getvalue()
+                ):
+                    problem = f"{cmd[0]}: exit {c2}: {b2.getvalue()[-300:]}"
+        temps = _temps(d) + _own_temps()
+        if temps:
+            problem = (problem or "") + f" temporary files left: {temps}"
+        if problem:
+            counts["other"] += 1
+            failures.append(f"{problem}\n  options {opts}\n  stderr {err[-400:]!r}\n{text[:1500]}")
+        with contextlib.suppress(OSError):
+            for p in sorted(d.rglob("*"), reverse=True):
+                if p.is_dir() and not p.is_symlink():
+                    p.rmdir()
+                else:
+                    p.unlink()
+            d.rmdir()
+
+    run()
+    if null.exists():
+        assert stat.S_ISCHR(null.lstat().st_mode), "a device was replaced by a regular file"
+    _report(capsys, "scenario files through the CLI", counts)
+    assert not failures, "\n\n".join(failures[:10])
+
+
+# ------------------------------------------------------------------------------------------------
+# 2. the public API
+# ------------------------------------------------------------------------------------------------
+
+
+def _bad_values():
+    from astropy import units as u
+
+    base = [
+        None, "1e-8", b"1", "", True, False, 1 + 2j, np.complex128(1j), math.nan, math.inf,
+        -math.inf, 0, 0.0, -1, -1.0, 1e308, -1e308, 1e-308, 5e-324, 1e300, 1e-300, 2**70,
+        -(2**70), np.int64(2**62), np.float32(1e-8), [], [[]], [1.0], [1.0, 2.0],
+        [[1.0, 2.0], [3.0, 4.0]], ["a", "b", "c", "d"], [math.nan] * 4, [1e308] * 4,
+        [1 + 1j, 0, 0, 0], np.zeros((0, 4)), np.ones((2, 3, 4)), np.array([True] * 4),
+        np.array(["1", "0", "0", "0"]), object(), {}, {"a": 1}, (lambda x: x),
+        1.0 * u.m, [1.0, 2.0, 3.0] * u.s, 1e-8 * u.dimensionless_unscaled, np.ones(10**5),
+    ]  # fmt: skip
+    return base
+
+
+BAD = None
+
+
+def _bad():
+    global BAD
+    if BAD is None:
+        BAD = _bad_values()
+    return st.sampled_from(range(len(BAD))).map(lambda i: BAD[i])
+
+
+def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
+    from attitude import aem
+    from orbit import KeplerOrbit
+
+    I = [1.25, 1.0, 0.75]
+    q0 = [1.0, 0.0, 0.0, 0.0]
+    Q0 = list(attitude.canonical.momenta_from_angular_velocity(q0, [0.3, 0.2, 0.1], I))
+    small = attitude.propagate(I, q0, Q0, np.linspace(0.0, 1.0, 5))
+    orb = KeplerOrbit(7000.0, 0.1, 0.5, 0.2, 0.3)
+    gbody = attitude.RigidBody([400.0, 500.0, 600.0], units="kg km2")
+
+    def write_then_read(ds, path, complevel=4):
+        p = io.write(ds, path, complevel=complevel)
+        return io.read(p)
+
+    return {
+        "propagate": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], potential=None, method="dop853",
+            rtol=1e-10, atol=1e-12, dt=None, order=4, max_step=math.inf, max_steps=10**6,
+            chunk=None, formulation="canonical")),
+        "propagate_splitting": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], method="splitting", dt=0.1, order=4)),
+        "propagate_gg": (attitude.propagate, dict(
+            body=gbody, q0=q0, Q0=[0.0, 1e-4, 0.0, 0.0], t=[0.0, 60.0],
+            potential=attitude.GravityGradient(orb))),
+        "propagate_ensemble": (attitude.propagate_ensemble, dict(
+            bodies_or_body=I, q0=np.tile(q0, (3, 1)), Q0=Q0, t=[0.0, 0.5, 1.0],
+            rtol=1e-10, atol=1e-12, max_step=math.inf, max_steps=10**6, chunk_size=None,
+            threads=None, attrs=None)),
+        "RigidBody": (attitude.RigidBody, dict(inertia=I, units=None)),
+        "RigidBody.from_tensor": (attitude.RigidBody.from_tensor, dict(
+            J=np.diag(I), units=None)),
+        "HeavyTop": (attitude.HeavyTop, dict(weight=0.5, center_of_mass=[1.0, 0.0, 0.0])),
+        "GravityGradient": (attitude.GravityGradient, dict(orbit=orb, inertia=None)),
+        "KeplerOrbit": (KeplerOrbit, dict(
+            a=7000.0, e=0.1, inc=0.5, raan=0.2, argp=0.3, f0=None, mu=None, t0=0.0)),
+        "KeplerOrbit.radius": (orb.radius, dict(t=1.0)),
+        "KeplerOrbit.frame_quaternion": (orb.frame_quaternion, dict(t=[0.0, 1.0])),
+        "project_state": (attitude.canonical.project_state, dict(q=q0, Q=Q0)),
+        "momenta_from_angular_velocity": (attitude.canonical.momenta_from_angular_velocity,
+                                          dict(q=q0, omega=[0.1, 0.2, 0.3], inertia=I)),
+        "io.write+read": (write_then_read, dict(ds=small, path=tmp / "w.nc", complevel=4)),
+        "io.read": (io.read, dict(path=tmp / "w.nc")),
+        "aem.write_aem": (aem.write_aem, dict(
+            ds=small, path=tmp / "a.aem", epoch="2024-01-01T00:00:00", version=2,
+            time_unit_seconds=1.0, object_name="X")),
+    }  # fmt: skip
+
+
+def _check_api_result(name: str, result: Any, kwargs: dict[str, Any]) -> str | None:
+    """Silent no-ops: a normal return without what was asked for."""
+    if name.startswith("propagate") and name != "propagate_ensemble":
+        t = np.atleast_1d(np.asarray(kwargs["t"], dtype=float))
+        if result.sizes["time"] != t.size or not np.all(np.isfinite(result.q.values)):
+            return f"returned {result.sizes['time']} samples for {t.size} times"
+    if name == "propagate_ensemble" and (
+        result is None or not np.all(np.isfinite(result.q.values))
+    ):
+        return "an ensemble result with non-finite states"
+    if name == "io.write+read" and result.sizes.get("time", 0) == 0:
+        return "wrote nothing"
+    if name == "aem.write_aem" and not Path(result).stat().st_size:
+        return "an empty AEM file"
+    return None
+
+
+def test_fuzz_public_api(tmp_path_factory, capsys):
+    counts: Counter = Counter()
+    failures: list[str] = []
+    tmp = tmp_path_factory.mktemp("fuzz_api")
+    targets = _api_targets(tmp)
+    io.write(targets["io.write+read"][1]["ds"], tmp / "w.nc")
+    names = sorted(targets)
+    seen = [0]
+    sigs: Counter = Counter()  # distinct raw exceptions: target, type, where
+    slow: list[str] = []
+
+    @_settings(N_API)
+    @given(
+        name=st.sampled_from(names),
+        data=st.data(),
+    )
+    def run(name, data):
+        func, valid = targets[name]
+        kwargs = dict(valid)
+        n_bad = data.draw(st.integers(1, 2))
+        keys = sorted(kwargs)
+        for _ in range(n_bad):
+            k = data.draw(st.sampled_from(keys))
+            kwargs[k] = data.draw(_bad())
+        if name in ("io.write+read", "aem.write_aem", "io.read") and data.draw(st.booleans()):
+            kwargs["path"] = data.draw(st.sampled_from([
+                None, 3, "a\x00b", tmp / ("x" * 300), tmp, tmp / "sub/", tmp / "nodir" / "f",
+                tmp / "w.nc" / "under_a_file", "/proc/version", tmp / "ok.out",
+            ]))  # fmt: skip
+        seen[0] += 1
+        counts["tried"] += 1
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                warnings.simplefilter("error", np.exceptions.ComplexWarning)
+                with _time_limit(TIME_LIMIT):
+                    result = func(**kwargs)
+        except (AttitudeError, OrbitError):
+            counts["clean error"] += 1
+            return
+        except KeyboardInterrupt:
+            counts["slow (interrupted after 20 s)"] += 1
+            slow.append(f"{name}({_short(kwargs)})")
+            return
+        except BaseException as exc:
+            counts["other"] += 1
+            tb = "".join(traceback.format_exception(exc)[-3:])
+            where = traceback.extract_tb(exc.__traceback__)[-1]
+            sig = f"{name}: {type(exc).__name__} at {Path(where.filename).name}:{where.lineno}"
+            sigs[sig] += 1
+            if sigs[sig] == 1:  # the first example of each distinct failure
+                failures.append(f"{name}({_short(kwargs)}): {type(exc).__name__}: {exc}\n{tb}")
+            return
+        counts["ok"] += 1
+        problem = _check_api_result(name, result, kwargs)
+        with contextlib.suppress(Exception):
+            result.close()
+        if problem:
+            counts["other"] += 1
+            failures.append(f"{name}({_short(kwargs)}): silent no-op: {problem}")
+
+    run()
+    temps = _temps(tmp) + _own_temps()
+    _report(capsys, "public API", counts, f", temporary files left {len(temps)}")
+    if slow:
+        _report(
+            capsys,
+            "public API: calls interrupted after 20 s",
+            Counter(),
+            "\n  " + "\n  ".join(slow),
+        )
+    assert not temps, temps
+    assert not failures, (
+        "\n".join(f"{n} x {k}" for k, n in sigs.most_common())
+        + "\n\n"
+        + ("\n\n".join(failures[:10]))
+    )
+
+
+def _short(kwargs: dict[str, Any]) -> str:
+    parts = []
+    for k, v in kwargs.items():
+        r = repr(v)
+        parts.append(f"{k}={r[:60]}{'...' if len(r) > 60 else ''}")
+    return ", ".join(parts)
+
+
+# ------------------------------------------------------------------------------------------------
+# 3. interruptions
+# ------------------------------------------------------------------------------------------------
+
+_LONG = {
+    "dop853": ("paper_torque_free.toml", {"stop = 20.0": "stop = 400.0"}, []),
+    "spinning": (
+        "paper_torque_free.toml",
+        {
+            "stop = 20.0": "stop = 2000.0",
+            "step = 0.01": "step = 1000.0",
+            "Q = [0.3, -0.848528, 0.141421, -1.5]": "Q = [300.0, -848.528, 141.421, -1500.0]",
+        },
+        [],
+    ),
+    "keplerian": ("paper_keplerian.toml", {"stop = 6000.0": "stop = 600000.0"}, []),
+    "splitting": (
+        "paper_heavy_top.toml",
+        {"stop = 20.0": "stop = 2000.0"},
+        ["--method", "splitting", "--dt", "0.002"],
+    ),
+    "scipy": (
+        "paper_torque_free.toml",
+        {"stop = 20.0": "stop = 300.0"},
+        ["--method", "scipy:DOP853"],
+    ),
+    "exact": ("paper_torque_free.toml", {"stop = 20.0": "stop = 20000.0"}, ["--method", "exact"]),
+    "ensemble": ("ensemble_paper_keplerian.toml", {"size = 1000": "size = 20000"}, []),
+}
+
+
+def _scenario_file(d: Path, kind: str) -> tuple[Path, list[str]]:
+    name, repl, opts = _LONG[kind]
+    text = (SCEN / name).read_text()
+    for a, b in repl.items():
+        assert a in text, (name, a)
+        text = text.replace(a, b)
+    p = d / f"{kind}.toml"
+    p.write_text(text)
+    return p, opts
+
+
+def test_fuzz_interruptions(tmp_path_factory, capsys):
+    counts: Counter = Counter()
+    failures: list[str] = []
+    latencies: list[float] = []
+    work = tmp_path_factory.mktemp("fuzz_sig")
+    seen = [0]
+
+    @_settings(N_INTERRUPTS)
+    @given(
+        kind=st.sampled_from(sorted(_LONG)),
+        sig=st.sampled_from(["SIGINT"] * 6 + ["SIGTERM"] * 3 + ["SIGKILL"]),
+        delay=st.floats(0.0, 3.0),
+        previous=st.booleans(),
+    )
+    def run(kind, sig, delay, previous):
+        seen[0] += 1
+        d = work / f"s{seen[0]}"
+        d.mkdir()
+        scen, opts = _scenario_file(d, kind)
+        out = d / "out.nc"
+        if previous:
+            out.write_bytes(b"previous result")
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "attitude", "run", str(scen), "-o", str(out), "-q",
+             "--progress", "always", *opts],
+            cwd=d, env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        )  # fmt: skip
+        err_chunks: list[bytes] = []
+        ready = threading.Event()
+
+        def reader():
+            while True:
+                b = proc.stderr.read(1)
+                if not b:
+                    break
+                err_chunks.append(b)
+                if b in (b"[", b"e"):  # a progress bar, or the ensemble's progress lines
+                    ready.set()
+            ready.set()
+
+        threading.Thread(target=reader, daemon=True).start()
+        ready.wait(180)
+        time.sleep(delay)
+        alive = proc.poll() is None
+        sent = time.monotonic()
+        if alive:
+            proc.send_signal(getattr(signal, sig))
+        try:
+            proc.wait(timeout=120)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            failures.append(f"{kind} {sig}: still running 120 s after the signal")
+            return
+        latency = time.monotonic() - sent
+        time.sleep(0.05)
+        err = b"".join(err_chunks).decode(errors="replace")
+        counts["tried"] += 1
+        code = proc.returncode
+        problem = None
+        if "Traceback" in err:
+            problem = "traceback"
+        elif not alive:
+            counts["finished before the signal"] += 1
+            if code != 0:
+                problem = f"exit {code} without a signal"
+        elif sig == "SIGKILL":
+            counts["killed"] += 1
+            if out.exists() and out.read_bytes() != (b"previous result" if previous else b""):
+                with contextlib.suppress(Exception):
+                    with io.read(out, load=False) as ds:
+                        if ds.attrs.get("run_status") != "complete":
+                            problem = "a killed run left a partial file under the final name"
+            # the next run to the same path removes the killed run's temporary file
+            r = subprocess.run(
+                [sys.executable, "-m", "attitude", "run", str(SCEN / "paper_torque_free.toml"),
+                 "-o", str(out), "--stop", "1", "-q"],
+                cwd=d, env=ENV, capture_output=True, timeout=300,
+            )  # fmt: skip
+            if r.returncode != 0:
+                problem = f"the run after a SIGKILL failed: {r.stderr[-300:]!r}"
+        else:
+            latencies.append(latency)
+            if code == 130:
+                counts["interrupted (exit 130)"] += 1
+                if "after" in err and "was written" in err:
+                    counts["interrupted after the output was complete"] += 1
+                elif previous:
+                    if out.read_bytes() != b"previous result":
+                        problem = "the previous output was replaced by an interrupted run"
+                elif out.exists():
+                    problem = "an interrupted run left an output file"
+            elif code == 0:
+                counts["finished (signal during the exit)"] += 1
+                if latency > 1.0:
+                    problem = f"the signal was lost: exit 0 {latency:.2f} s after it"
+            else:
+                problem = f"exit {code} after {sig} (expected 130)"
+        temps = _temps(d)
+        if temps:
+            problem = (problem or "") + f" temporary files left: {temps}"
+        if problem:
+            counts["other"] += 1
+            failures.append(f"{kind} {sig} delay {delay:.2f}: {problem}\n{err[-500:]}")
+
+    run()
+    lat = np.array(latencies) if latencies else np.array([math.nan])
+    _report(
+        capsys,
+        "interruptions",
+        counts,
+        f"; signal-to-exit latency median {np.median(lat):.2f} s, max {np.max(lat):.2f} s",
+    )
+    assert not failures, "\n\n".join(failures[:10])
