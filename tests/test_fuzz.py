@@ -72,7 +72,7 @@ _RAW_CLI = re.compile(r"attitude: failed: [A-Za-z_.]*(Error|Exception|Warning|In
 
 
 def _settings(n: int):
-    return settings(
+    conf = settings(
         max_examples=n,
         deadline=None,
         database=None,
@@ -80,6 +80,12 @@ def _settings(n: int):
         suppress_health_check=list(HealthCheck),
         phases=[hypothesis.Phase.generate],  # no shrinking: every example is counted once
     )
+
+    def decorate(f):
+        f = conf(f)
+        return hypothesis.seed(SEED)(f) if SEED else f
+
+    return decorate
 
 
 def _temps(*dirs: Path) -> list[Path]:

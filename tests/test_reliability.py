@@ -108,7 +108,7 @@ def test_scipy_methods_estimate_their_work_too():
     # ~2e4 RK45 steps for max_steps = 100: refused after the probe (was: no step limit at all)
     with pytest.raises(AttitudeValueError, match="max_steps"):
         propagate(
-            I_PAPER, Q_UNIT, _Q([1e4, 0.0, 1e3]), [0.0, 0.02], method="scipy:RK45",
+            I_PAPER, Q_UNIT, _Q([1e4, 0.0, 1e3]), [0.0, 0.05], method="scipy:RK45",
             max_steps=100,
         )  # fmt: skip
 

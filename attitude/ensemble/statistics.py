@@ -26,6 +26,18 @@ def _check_ensemble(ds: Any, var: str) -> xr.DataArray:
     return ds[var]
 
 
+def _successful(ds: xr.Dataset) -> xr.Dataset:
+    """The members that succeeded: failed ones (``member_status`` != 0) hold NaN after their
+    failure and are left out of the statistics."""
+    if "member_status" in ds and ds["member_status"].dims == ("member",):
+        ok = np.asarray(ds["member_status"].values) == 0
+        if not ok.all():
+            if not ok.any():
+                raise AttitudeValueError("ds: every member failed (member_status); no statistics")
+            ds = ds.isel(member=np.flatnonzero(ok))
+    return ds
+
+
 def _percentiles(percentiles: Any) -> np.ndarray:
     p = as_float_array(percentiles, "percentiles")
     p = np.atleast_1d(p)
@@ -117,7 +129,8 @@ def pointing_error_percentiles(
     Parameters
     ----------
     ds : xarray.Dataset
-        An ensemble result (:func:`propagate_ensemble`), in memory or lazy (dask).
+        An ensemble result (:func:`propagate_ensemble`), in memory or lazy (dask). Members
+        that failed (``member_status`` != 0) are left out.
     reference : "mean", int, Dataset or array_like shape (4,) or (time, 4)
         What the error is measured from: ``"mean"`` (default), the average attitude of the
         members at each time (Markley et al. 2007); a member index; a nominal
@@ -135,7 +148,9 @@ def pointing_error_percentiles(
     -------
     xarray.DataArray, dims (percentile, time)
     """
-    q = _check_ensemble(ds, "q")
+    _check_ensemble(ds, "q")
+    ds = _successful(ds)
+    q = ds["q"]
     p = _percentiles(percentiles)
     b = None
     if axis is not None:
@@ -191,7 +206,9 @@ def rate_percentiles(
     xarray.DataArray, dims (percentile, time) or (percentile, time, axis)
         In the variable's units.
     """
-    w = _check_ensemble(ds, variable)
+    _check_ensemble(ds, variable)
+    ds = _successful(ds)
+    w = ds[variable]
     if "axis" not in w.dims:
         raise AttitudeValueError(f"variable: {variable!r} is not a (member, time, axis) vector")
     p = _percentiles(percentiles)
