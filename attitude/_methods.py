@@ -50,7 +50,7 @@ SAMPLE_BUDGET = 65_536
 #: size reached). The first step itself is no guide: DOP853's starting-step formula (Hairer,
 #: Nørsett & Wanner II.4) is 10 to 19 000 times smaller than the steps the controller settles
 #: on (torque-free to gravity gradient, measured), while this estimate is within a factor
-#: 0.2-1.7 of the steps taken over whole runs (tests/test_reliability.py).
+#: 0.2-2.3 of the steps taken over whole runs (17 cases; docs/reliability.md).
 PROBE_STEPS = 64
 #: A run estimated to need more than this many times ``max_steps`` is stopped right after the
 #: probe, with an AttitudeValueError (it cannot finish); above ``max_steps`` it warns.
