@@ -105,9 +105,11 @@ def _check_max_step(span: float, max_step: float, max_steps: int) -> None:
         )
 
 
-def _check_work(problem: Problem, max_step: float, max_steps: int) -> None:
+def _check_work(problem: Problem, method: str, max_step: float, max_steps: int) -> None:
     """Refuse up front what cannot finish in ``max_steps`` (the work estimate of the adaptive
     methods is made from their first steps: :func:`attitude._methods.check_work`)."""
+    if method != "dop853" and not method.startswith("scipy:"):
+        return  # the fixed-step methods count their steps themselves; "exact" takes none
     t = problem.t
     span = abs(float(t[t.shape[0] - 1]) - float(t[0]))
     if span > 0.0:
@@ -158,19 +160,24 @@ def propagate(
         ``"dop853"`` (default), ``"scipy:<solver>"``, and where available ``"exact"``,
         ``"nosquish"``, ``"splitting"``.
     rtol, atol : float
-        Tolerances of the adaptive methods (per-component, on the 8 state variables).
+        Tolerances of the adaptive methods (per-component, on the 8 state variables);
+        ``rtol >= 1e-15``, ``atol >= ATOL_MIN`` (1e-100).
     dt : float, optional
         Step of the fixed-step methods.
     order : int
         Order of the composition methods (2, 4 or 6).
     max_step : float
-        Largest step of the adaptive methods.
+        Largest step of the adaptive methods (span / max_step must not exceed max_steps).
     max_steps : int
-        Give up after this many steps.
+        Give up after this many steps. An adaptive run estimates its work after its first
+        64 steps: more than 100 × max_steps is refused there (AttitudeValueError), more than
+        max_steps warns (RuntimeWarning); see docs/reliability.md.
     progress : callable, optional
         ``progress(n_done, n_total, t_reached)`` called after each chunk of output times.
     chunk : int, optional
-        Output samples per compiled call (with ``progress``); results do not depend on it.
+        Output samples per compiled call (with ``progress``), an integer >= 1; results do not
+        depend on it. Compiled calls also return every ``attitude._methods.STEP_BUDGET``
+        steps, so Ctrl-C acts within a fraction of a second.
     formulation : str
         Equations integrated: ``"canonical"`` (default, eq. 7 in (q, Q)) or another of
         :data:`attitude.formulations.FORMULATIONS` (``"euler_angles"``, ``"schwab"``,
@@ -193,7 +200,8 @@ def propagate(
     Raises
     ------
     AttitudeValueError, AttitudeTypeError
-        Bad input, before any work.
+        Bad input, before any work; or an adaptive run that cannot finish within max_steps
+        (found after its first 64 steps).
     PropagationError
         The integration failed midway; ``.partial`` holds the samples computed so far.
     """
@@ -262,7 +270,7 @@ def propagate(
         t=tt,
         entry=pot._entry_points(),
     )
-    _check_work(problem, max_step, max_steps)
+    _check_work(problem, method, max_step, max_steps)
     options = dict(
         rtol=rtol,
         atol=atol,

@@ -701,6 +701,12 @@ def test_failing_members_do_not_discard_the_others(tmp_path):
     assert np.all(np.isnan(back.q.values[30, -1])) and np.all(np.isfinite(back.q.values[31]))
     single = propagate(I_PAPER, q0[171], Q0[171], t)
     np.testing.assert_array_equal(back.q.values[171], single.q.values)
+    # the statistics leave the failed members out (their NaN would spread)
+    ok = back.isel(member=np.flatnonzero(status == 0))
+    np.testing.assert_array_equal(
+        attitude.rate_percentiles(back).values, attitude.rate_percentiles(ok).values
+    )
+    assert np.all(np.isfinite(attitude.pointing_error_percentiles(back).values))
     # in memory too: every member in .partial
     with pytest.raises(PropagationError, match="30, 170") as info:
         attitude.propagate_ensemble(I_PAPER, q0, Q0, t, max_steps=100, chunk_size=64)
