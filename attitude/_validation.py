@@ -76,7 +76,9 @@ def as_float_array(
     """
     x = to_value(x, name, unit)
     if isinstance(x, (str, bytes)):
-        raise AttitudeTypeError(f"{name}: expected real numbers, got the string {_short(x)}")
+        raise AttitudeTypeError(
+            f"{name}: expected an array of real numbers, got the string {_short(x)}"
+        )
     try:
         raw = np.asarray(x)
     except (TypeError, ValueError) as exc:  # ragged nested sequences, odd objects
@@ -86,7 +88,7 @@ def as_float_array(
     kind = raw.dtype.kind
     if kind in _NOT_REAL:
         raise AttitudeTypeError(
-            f"{name}: expected real numbers, got {_NOT_REAL[kind]} ({_short(x)}); give float values"
+            f"{name}: expected an array of real numbers, got {_NOT_REAL[kind]} ({_short(x)})"
         )
     try:
         arr = raw.astype(np.float64, copy=False)

@@ -37,7 +37,7 @@ from .body import RigidBody
 from .canonical import project_state
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
-from .formulations import get_formulation
+from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
 from .results import build_dataset
 from .splitting import run_nosquish, run_splitting
@@ -209,9 +209,10 @@ def propagate(
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
     form = None
-    if not isinstance(formulation, str):
+    if not isinstance(formulation, (str, Formulation)):
         raise AttitudeTypeError(
-            f"formulation: expected a name such as 'canonical', got {type(formulation).__name__}"
+            f"formulation: expected a name such as 'canonical' or a Formulation, got "
+            f"{type(formulation).__name__}"
         )
     if formulation != "canonical":
         form = get_formulation(formulation, method)
