@@ -111,6 +111,13 @@ def _read_only(where: Path) -> bool:
         return False
 
 
+def _size(n: float) -> str:
+    for unit, f in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= f:
+            return f"{n / f:.3g} {unit}"
+    return f"{n:.0f} bytes"
+
+
 def file_error(exc: BaseException, path: Path, action: str = "write") -> AttitudeFileError:
     """An :class:`AttitudeFileError` for an OS or netCDF/HDF5 error while writing/reading.
 
@@ -321,6 +328,22 @@ class OutputFile:
             raise AttitudeFileError(
                 f"{self.what}: the file name {name[:40]!r}... is {size} bytes long: too long, "
                 f"file systems allow at most {_NAME_MAX}"
+            )
+
+    def check_space(self, nbytes: float, what: str = "the output") -> None:
+        """Refuse before any work an output that cannot fit on the file system.
+
+        ``nbytes`` is the uncompressed size; the file is zlib-compressed, so it is refused
+        only if a quarter of it does not fit (a write-through target is not checked).
+        """
+        if self.through:
+            return
+        free = _free_bytes(self.target)
+        if free is not None and nbytes / 4.0 > free:
+            raise AttitudeFileError(
+                f"{self.what}: {what} needs about {_size(nbytes)} ({_size(nbytes / 4.0)} "
+                f"compressed at best), but the file system of {self.target.parent} has "
+                f"{_size(free)} free; write it elsewhere, or ask for fewer samples or members"
             )
 
     def prepare(self) -> None:

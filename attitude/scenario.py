@@ -393,6 +393,8 @@ class Scenario:
         kw = self._kwargs(overrides)
         tracker = InvariantTracker()
         writer = StreamWriter(out)
+        per_sample = 8 * (22 + (6 if getattr(self.potential, "orbit", None) else 0))
+        writer._out.check_space(per_sample * len(self.t), f"{len(self.t)} samples")
 
         def sink(ds: xr.Dataset) -> None:
             tracker.update(ds)

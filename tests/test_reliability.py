@@ -335,13 +335,30 @@ def read_only_dir(tmp_path):
 
 
 def test_full_disk_says_so_and_leaves_nothing(full_disk, tmp_path, capsys):
-    ds = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 100.0, 20001))
-    with pytest.raises(AttitudeFileError, match="disk is full"):
-        io.write(ds, full_disk / "x.nc")  # was: RuntimeError: NetCDF: HDF error
-    assert list(full_disk.iterdir()) == []
-    (tmp_path / "s.toml").write_text(_scenario_text(stop=100.0, step=0.005))
+    # 5001 samples: small enough for the up-front size check, too large for 256 kB
+    ds = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 50.0, 5001))
+    for _ in range(2):
+        with pytest.raises(AttitudeFileError, match="disk is full"):
+            io.write(ds, full_disk / "x.nc")  # was: RuntimeError: NetCDF: HDF error
+        assert list(full_disk.iterdir()) == []
+        # the space is given back (HDF5 could not close the file and kept it open)
+        assert shutil.disk_usage(full_disk).free > 200_000
+    (tmp_path / "s.toml").write_text(_scenario_text(stop=50.0, step=0.01))
     assert main(["run", str(tmp_path / "s.toml"), "-o", str(full_disk / "s.nc"), "-q"]) == 2
     assert "disk is full" in capsys.readouterr().err
+    assert list(full_disk.iterdir()) == []
+
+
+def test_outputs_that_cannot_fit_are_refused_before_any_work(full_disk, tmp_path):
+    # was: a 1e9-member ensemble ran (for days) until the disk was full
+    sc = scenario.loads(_scenario_text(stop=1000.0, step=0.01))  # 1e5 samples, ~17 MB
+    with pytest.raises(AttitudeFileError, match="needs about"):
+        sc.run_to_file(full_disk / "s.nc")
+    with pytest.raises(AttitudeFileError, match="needs about"):
+        attitude.propagate_ensemble(
+            I_PAPER, np.tile(Q_UNIT, (100_000, 1)), _Q([0.3, 0.2, 0.1]),
+            np.linspace(0.0, 1.0, 101), path=full_disk / "e.nc",
+        )  # fmt: skip
     assert list(full_disk.iterdir()) == []
 
 
@@ -735,6 +752,17 @@ def test_cli_streaming_does_not_hold_the_time_grid(tmp_path):
     # the times are generated a chunk at a time, bit for bit those of numpy.linspace
     assert len(sc.t) == 1_000_001 and sc.t.nbytes == 8_000_008
     np.testing.assert_array_equal(sc.t[999_990:], np.linspace(0.0, 1000.0, 1_000_001)[999_990:])
+
+
+def test_streamed_chunks_reach_the_disk_as_they_are_written(tmp_path):
+    # netCDF's default chunk cache (64 MiB a variable) kept up to ~0.7 GB of a streamed run in
+    # memory (359 MB measured at 2e6 samples) and made closing or aborting take seconds.
+    w = io.StreamWriter(tmp_path / "s.nc")
+    t = np.linspace(0.0, 5000.0, 500_001)
+    propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), t, rtol=1e-6, on_chunk=w.append, chunk=4096)
+    assert w.tmp.stat().st_size > 20e6  # was: 16 kB until close (all of it in the cache)
+    w.abort()
+    assert not _temps(tmp_path)
 
 
 def test_scipy_methods_stream(tmp_path):

@@ -245,8 +245,13 @@ def propagate_ensemble(
     user = pot if pot._kind is None else None
 
     out_path = None if path is None else Path(path)
-    if out_path is not None and out_path.is_dir():
-        raise AttitudeValueError(f"path: {out_path} is a directory; give a file name")
+    if out_path is not None:
+        from .._files import OutputFile
+
+        # checked before any work: type, a directory or device, room on the disk
+        OutputFile(path, "path").check_space(
+            float(n) * tt.shape[0] * (8 + _N_DIAG) * 8, f"{n} members x {tt.shape[0]} samples"
+        )
 
     owned = False
     if lazy:
