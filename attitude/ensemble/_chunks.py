@@ -216,6 +216,8 @@ class _Failures:
         )
         if len(self.by_status) > 1 or self.count > 1:
             msg += f"; by cause: {groups}"
+        if self.errors:
+            msg += "; failed tasks: " + "; ".join(self.errors[:3])
         return msg
 
 
