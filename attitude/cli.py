@@ -317,9 +317,36 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"{k:<11} {v}")
         inv = _invariant_lines(a)
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
+        budget = _torque_budget(ds)
+        print("torques     " + ("\n            ".join(budget) if budget else "-"))
     finally:
         ds.close()
     return EXIT_OK
+
+
+def _torque_budget(ds: Any) -> list[str]:
+    """Max and RMS of the torque magnitude per model term (streamed over the file's chunks)."""
+    if "torque" not in ds.data_vars or "model" not in ds.dims:
+        return []
+    labels = [str(x) for x in ds["model_label"].values] if "model_label" in ds else []
+    n_model = ds.sizes["model"]
+    peak = np.zeros(n_model)
+    sq = np.zeros(n_model)
+    n = 0
+    step = 65536
+    for i in range(0, ds.sizes["time"], step):
+        tau = np.asarray(ds["torque"].isel(time=slice(i, i + step)).values, dtype=np.float64)
+        mag = np.sqrt(np.sum(tau * tau, axis=-1))  # (time, model)
+        peak = np.maximum(peak, np.max(mag, axis=0, initial=0.0))
+        sq += np.sum(mag * mag, axis=0)
+        n += mag.shape[0]
+    unit = ds["torque"].attrs.get("units", "")
+    width = max((len(x) for x in labels), default=5)
+    out = [f"{'model':<{width}}  {'max |tau|':>11}  {'rms |tau|':>11}  [{unit}]"]
+    for j in range(n_model):
+        name = labels[j] if j < len(labels) else str(j)
+        out.append(f"{name:<{width}}  {peak[j]:11.4g}  {np.sqrt(sq[j] / max(n, 1)):11.4g}")
+    return out
 
 
 def cmd_plot(args: argparse.Namespace) -> int:

@@ -36,24 +36,29 @@ __all__ = [
     "GravityGradient",
     "HeavyTop",
     "Potential",
+    "Sum",
     "TorqueFree",
 ]
 
 
 class Potential:
-    """Base class: a potential or torque model acting on a rigid body.
+    """Base class: a torque model acting on a rigid body, with its potential where it has one.
 
-    Subclasses provide either a built-in kind code and parameters (the package's cached entry
-    points, :mod:`attitude._core.entry_points`) or user functions, compiled into entry points
-    of their own in the user cache (:mod:`attitude._user_kernels`).
+    Models add: ``GravityGradient(orbit) + CustomTorque(tau)`` is one model (:class:`Sum`)
+    whose torque is the sum of its terms' torques. Subclasses provide either a built-in kind
+    code and numbers (the package's cached entry points, :mod:`attitude._core.entry_points`)
+    or user functions, compiled into entry points of their own in the user cache
+    (:mod:`attitude._user_kernels`).
     """
 
-    #: Short name recorded in result attrs.
+    #: Short name recorded in result attrs and naming the model's torque in results.
     name: str = "potential"
     #: Whether U is known (False for a torque given without its potential).
     has_potential: bool = True
     #: Whether the model depends explicitly on time.
     time_dependent: bool = False
+    #: Whether the torque depends on the body angular velocity (e.g. damping).
+    rate_dependent: bool = False
 
     # --- compiled-layer hooks -------------------------------------------------------------
     _kind: int | None = None  # built-in kind code, or None for user kernels
@@ -63,34 +68,74 @@ class Potential:
 
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         """Parameter vector for the compiled kernels (inertia first, see _core.potentials)."""
-        kind = -1 if self._kind is None else self._kind
+        kind = _kp.KIND_USER if self._kind is None else self._kind
         return np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
+
+    def _user_terms(self) -> tuple:
+        """The user terms (kind, torque, potential) compiled into a user module; () if none."""
+        return ()
 
     def _entry_points(self):
         """The compiled entry points of this model (:mod:`attitude._core.entry_points`)."""
-        return _entry_points
+        terms = self._user_terms()
+        return _user_kernels.entry_points(terms) if terms else _entry_points
 
     def _inertia_for_eval(self) -> np.ndarray:
         return np.ones(3)
 
+    @property
+    def terms(self) -> tuple[Potential, ...]:
+        """The models this one adds up, in the order of the compiled terms (itself if one)."""
+        return (self,)
+
+    def term_names(self) -> list[str]:
+        """Names of the terms (unique: a repeated name gets ``_2``, ``_3``, ...)."""
+        out: list[str] = []
+        for term in self.terms:
+            name, k = term.name, 2
+            while name in out:
+                name, k = f"{term.name}_{k}", k + 1
+            out.append(name)
+        return out
+
+    def __add__(self, other: Any) -> Potential:
+        if not isinstance(other, Potential):
+            return NotImplemented
+        return Sum(self, other)
+
+    def __radd__(self, other: Any) -> Potential:
+        if isinstance(other, (int, float)) and other == 0:  # sum([...]) starts from 0
+            return self
+        return NotImplemented
+
     # --- public evaluation --------------------------------------------------------------------
-    def _eval(self, q: Any, t: Any) -> tuple[np.ndarray, np.ndarray]:
+    def _eval(self, q: Any, t: Any, omega: Any = None) -> tuple[np.ndarray, np.ndarray]:
         q = as_quaternion(q, "q")
         nq = np.linalg.norm(q, axis=-1)
         if np.any(np.abs(nq - 1.0) > 1e-6):
             raise AttitudeValueError("q: potentials are evaluated at unit quaternions")
         t = as_float_array(t, "t", unit="s")
-        shape = np.broadcast_shapes(q.shape[:-1], t.shape)
+        if omega is None:
+            if self.rate_dependent:
+                raise AttitudeValueError(
+                    f"omega: the {self.name} torque depends on the body angular velocity; give "
+                    "omega= (rad/s, body axes)"
+                )
+            w = np.zeros(3)
+        else:
+            w = as_float_array(omega, "omega", trailing=3, unit="rad / s")
+        shape = np.broadcast_shapes(q.shape[:-1], t.shape, w.shape[:-1])
         qf = np.ascontiguousarray(np.broadcast_to(q, (*shape, 4)).reshape(-1, 4))
+        wf = np.ascontiguousarray(np.broadcast_to(w, (*shape, 3)).reshape(-1, 3))
         tf = np.ascontiguousarray(np.broadcast_to(t, shape).reshape(-1))
         params = self._params(self._inertia_for_eval())
         tau = np.empty((qf.shape[0], 3))
         u = np.empty(qf.shape[0])
-        self._entry_points().evaluate(qf, tf, params, tau, u)
+        self._entry_points().evaluate(qf, wf, tf, params, tau, u)
         return tau.reshape((*shape, 3)), u.reshape(shape)
 
     def value(self, q: Any, t: Any = 0.0) -> np.ndarray:
-        """Potential energy U(q, t).
+        """Potential energy U(q, t) (of a sum: of the terms that have one).
 
         Parameters
         ----------
@@ -110,16 +155,25 @@ class Potential:
             )
         return self._eval(q, t)[1]
 
-    def torque(self, q: Any, t: Any = 0.0) -> np.ndarray:
-        """Body-frame torque τ_B(q, t).
+    def torque(self, q: Any, t: Any = 0.0, omega: Any = None) -> np.ndarray:
+        """Body-frame torque τ_B(q, ω, t).
+
+        Parameters
+        ----------
+        q : array_like, shape (..., 4)
+            Unit attitude quaternion (body → space).
+        t : float or array_like
+            Time (broadcast against q).
+        omega : array_like, shape (..., 3), optional
+            Body angular velocity (rad/s, body axes); needed by rate-dependent models only.
 
         Returns
         -------
         tau : ndarray, shape (..., 3)
         """
-        return self._eval(q, t)[0]
+        return self._eval(q, t, omega)[0]
 
-    def generalized_force(self, q: Any, t: Any = 0.0) -> np.ndarray:
+    def generalized_force(self, q: Any, t: Any = 0.0, omega: Any = None) -> np.ndarray:
         """Generalised force 2 q∘(0, τ_B) of Schwab eq. 25 (the Q̇ term of eq. 7).
 
         Returns
@@ -128,7 +182,7 @@ class Potential:
         """
         from .quaternion import multiply
 
-        tau = self.torque(q, t)
+        tau = self.torque(q, t, omega)
         q = as_quaternion(q, "q")
         return 2.0 * multiply(q, np.concatenate([np.zeros((*tau.shape[:-1], 1)), tau], -1))
 
@@ -306,24 +360,38 @@ class CustomPotential(Potential):
                 f"{str(exc).splitlines()[0] if str(exc) else ''}"
             ) from None
 
-    def _entry_points(self):
-        return _user_kernels.entry_points("potential", None, self._U)
+    def _user_terms(self) -> tuple:
+        return (("potential", None, self._U),)
 
     def __repr__(self) -> str:
         return f"CustomPotential({getattr(self._U, '__name__', 'U')}, name={self.name!r})"
 
 
 class CustomTorque(Potential):
-    """A user torque τ_B(q, t) given directly (optionally with its potential, for energies).
+    """A user torque τ_B given directly (optionally with its potential, for energies).
 
     Parameters
     ----------
     torque : callable
-        ``tau(q, t) -> (3,)`` body-frame torque (tuple or array), numba-compilable.
+        ``tau(q, t)`` or, for a torque that depends on the body rates, ``tau(q, omega, t)``,
+        returning the body-frame torque (3 numbers, tuple or array; N·m for a body in SI
+        units). ``q`` is the unit attitude quaternion (length-4 array, body → space),
+        ``omega`` the body angular velocity (length-3 array, rad/s, body axes), ``t`` the time
+        (s). Numba-compilable (a plain function is jitted for you).
     potential : callable, optional
-        ``U(q, t) -> float``; without it results report the kinetic energy only.
+        ``U(q, t) -> float`` (J); without it results report the kinetic energy only.
     name : str, optional
+        Names the torque in results (``torque`` variable, ``model`` dimension).
     time_dependent : bool
+        Whether the torque depends on t explicitly.
+
+    Examples
+    --------
+    Linear rate damping τ = −k ω:
+
+    >>> def damping(q, omega, t):                                     # doctest: +SKIP
+    ...     return -1e-3 * omega
+    >>> attitude.CustomTorque(damping, name="damper")                  # doctest: +SKIP
     """
 
     def __init__(
@@ -334,30 +402,140 @@ class CustomTorque(Potential):
         name: str = "custom_torque",
         time_dependent: bool = True,
     ):
+        if not isinstance(name, str) or not name.isidentifier():
+            raise AttitudeValueError(
+                f"name: expected a short identifier such as 'damper' (it names the torque in "
+                f"results), got {name!r}"
+            )
+        n_args = _arity(torque, "torque", (2, 3), "tau(q, t) or tau(q, omega, t)")
         tau = _compile_user(torque, "torque")
         U = None if potential is None else _compile_user(potential, "potential")
         self.name = name
         self.time_dependent = bool(time_dependent)
+        self.rate_dependent = n_args == 3
         self.has_potential = U is not None
         self._tau = tau
         self._U = U
+        q = np.array([1.0, 0.0, 0.0, 0.0])
+        form = "tau(q, omega, t)" if self.rate_dependent else "tau(q, t)"
         try:
-            r = tau(np.array([1.0, 0.0, 0.0, 0.0]), 0.0)
+            r = tau(q, np.zeros(3), 0.0) if self.rate_dependent else tau(q, 0.0)
             if len(r) != 3 or not all(math.isfinite(float(x)) for x in r):
                 raise ValueError("it must return three finite numbers")
         except Exception as exc:
             raise AttitudeTypeError(
-                "torque: must be a numba-compilable function tau(q, t) returning the three "
+                f"torque: must be a numba-compilable function {form} returning the three "
                 f"body-frame torque components; calling it failed: {type(exc).__name__}: "
                 f"{str(exc).splitlines()[0] if str(exc) else ''}"
             ) from None
 
-    def _entry_points(self):
-        kind = "torque" if self._U is None else "torque+potential"
-        return _user_kernels.entry_points(kind, self._tau, self._U)
+    def _user_terms(self) -> tuple:
+        return (("torque_rates" if self.rate_dependent else "torque", self._tau, self._U),)
 
     def __repr__(self) -> str:
         return f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r})"
+
+
+def _arity(func: Any, what: str, allowed: tuple[int, ...], forms: str) -> int:
+    """Number of positional parameters of a user function (checked against ``allowed``)."""
+    import inspect
+
+    f = getattr(func, "py_func", func)
+    if not callable(f):
+        raise AttitudeTypeError(f"{what}: expected a function {forms}, got {type(func).__name__}")
+    try:
+        sig = inspect.signature(f)
+    except (TypeError, ValueError):  # builtins without a signature: let the call check it
+        return allowed[0]
+    kinds = (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+    n = sum(1 for prm in sig.parameters.values() if prm.kind in kinds)
+    if n not in allowed:
+        raise AttitudeTypeError(f"{what}: expected a function {forms}, got one of {n} arguments")
+    return n
+
+
+class Sum(Potential):
+    """Models that add up: the torque is the sum of the terms' torques.
+
+    Made by ``+`` (``GravityGradient(o) + CustomTorque(tau)``); a sum of sums is flattened and
+    torque-free terms are dropped, and a "sum" of one model is that model itself, so it runs
+    exactly as alone (bit for bit). Built-in terms are data behind the package's cached kernels
+    (a sum of built-in models compiles nothing in a fresh process); user terms are compiled like
+    any user kernel.
+
+    The potential energy is that of the terms that have one; results name the terms that do
+    not (``energy`` then excludes them). The compiled terms, and the ``model`` dimension of the
+    per-model torque in results, list the built-in terms first, then the user terms, each in
+    the order given.
+    """
+
+    name = "sum"
+    _kind = _kp.KIND_SUM
+
+    def __new__(cls, *terms: Potential) -> Any:
+        flat: list[Potential] = []
+        for k, term in enumerate(terms):
+            if not isinstance(term, Potential):
+                raise AttitudeTypeError(
+                    f"terms[{k}]: expected an attitude.potentials model, got {type(term).__name__}"
+                )
+            flat.extend(t for t in term.terms if not isinstance(t, TorqueFree))
+        if not flat:
+            return TorqueFree()
+        if len(flat) == 1:
+            return flat[0]
+        self = super().__new__(cls)
+        builtin = [t for t in flat if t._kind is not None]
+        user = [t for t in flat if t._kind is None]
+        self._terms = tuple(builtin + user)
+        self._builtin = tuple(builtin)
+        self._user = tuple(user)
+        self.time_dependent = any(t.time_dependent for t in flat)
+        self.rate_dependent = any(t.rate_dependent for t in flat)
+        self.has_potential = any(t.has_potential for t in flat)
+        return self
+
+    @property
+    def terms(self) -> tuple[Potential, ...]:
+        return self._terms
+
+    @property
+    def terms_without_potential(self) -> list[str]:
+        """Names of the terms whose potential is unknown (energies exclude them)."""
+        return [
+            n for n, t in zip(self.term_names(), self._terms, strict=True) if not t.has_potential
+        ]
+
+    def _params(self, inertia: np.ndarray) -> np.ndarray:
+        # [I1, I2, I3, KIND_SUM, n, offsets (n), blocks]: _core.potentials
+        n = len(self._builtin)
+        if n == 0:
+            return np.array([*inertia, _kp.KIND_USER], dtype=np.float64)
+        blocks = [[t._kind, *t._potential_params()] for t in self._builtin]
+        offsets, at = [], _kp.P_OFFSETS + n
+        for b in blocks:
+            offsets.append(at)
+            at += len(b)
+        flat = [x for b in blocks for x in b]
+        return np.array([*inertia, _kp.KIND_SUM, n, *offsets, *flat], dtype=np.float64)
+
+    def _user_terms(self) -> tuple:
+        return tuple(u for t in self._user for u in t._user_terms())
+
+    def _inertia_for_eval(self) -> np.ndarray:
+        for t in self._terms:
+            if getattr(t, "inertia", None) is not None:
+                return t._inertia_for_eval()
+        return np.ones(3)
+
+    def bind(self, body: RigidBody) -> Potential:
+        return Sum(*(t.bind(body) for t in self._terms))
+
+    def describe(self) -> str:
+        return repr(self)
+
+    def __repr__(self) -> str:
+        return " + ".join(repr(t) for t in self._terms)
 
 
 def as_potential(potential: Any) -> Potential:
@@ -367,6 +545,7 @@ def as_potential(potential: Any) -> Potential:
     if isinstance(potential, Potential):
         return potential
     raise AttitudeTypeError(
-        f"potential: expected an attitude.potentials.Potential (TorqueFree, HeavyTop, "
-        f"GravityGradient, CustomPotential, CustomTorque) or None, got {type(potential).__name__}"
+        f"potential: expected an attitude.potentials model (TorqueFree, HeavyTop, "
+        f"GravityGradient, CustomPotential, CustomTorque, or a sum of them with +) or None, "
+        f"got {type(potential).__name__}"
     )

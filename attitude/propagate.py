@@ -275,8 +275,11 @@ def finish_dataset(
     n = y.shape[0]
     t = problem.t[first : first + n]
     diag = np.empty((n, 13))
+    n_terms = len(problem.potential.terms)
+    torques = np.empty((n, n_terms + 1, 3))
     if n:
         problem.entry.diagnostics(t, y, problem.params, diag)
+        problem.entry.term_torques(t, y, problem.params, torques)
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    return build_dataset(t, y, diag, problem.body, problem.potential, attrs)
+    return build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)

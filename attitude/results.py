@@ -38,7 +38,7 @@ class UnitSystem:
     def __init__(self, body: RigidBody):
         if body.units is None:
             self.time = self.inertia = self.momentum = self.energy = self.rate = "1"
-            self.length = "1"
+            self.length = self.torque = "1"
         else:
             self.time = "s"
             self.inertia = "kg km2"
@@ -46,6 +46,7 @@ class UnitSystem:
             self.energy = "kg km2 s-2"
             self.rate = "rad s-1"
             self.length = "km"
+            self.torque = "kg km2 s-2"
 
 
 def build_dataset(
@@ -55,6 +56,7 @@ def build_dataset(
     body: RigidBody,
     potential: Any,
     attrs: dict[str, Any],
+    torques: np.ndarray | None = None,
 ) -> xr.Dataset:
     """Assemble the result Dataset.
 
@@ -70,6 +72,8 @@ def build_dataset(
     potential : Potential
     attrs : dict
         Run description (method, tolerances, statistics...).
+    torques : ndarray, shape (m, n_terms + 1, 3), optional
+        Body torque of each term of the model and their sum (``_core.dynamics.term_torques_with``).
     """
     u = UnitSystem(body)
     comp = ["w", "x", "y", "z"]
@@ -113,7 +117,28 @@ def build_dataset(
             "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
             "z_O orbit normal), scalar first",
         )
+    extra_coords = {}
+    if torques is not None:
+        names = [*potential.term_names(), "total"]
+        data_vars["torque"] = var(
+            ("time", "model", "axis"),
+            torques,
+            u.torque,
+            "body-frame torque of each model term and their sum (model = total)",
+        )
+        extra_coords = {
+            "model": (
+                "model",
+                np.arange(len(names), dtype=np.int64),
+                {"long_name": "index of the torque model term (labels in model_label)"},
+            ),
+            "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
+        }
+        missing = getattr(potential, "terms_without_potential", None)
+        if missing:
+            attrs = {**attrs, "terms_without_potential": ", ".join(missing)}
     coords = {
+        **extra_coords,
         "time": (
             "time",
             np.asarray(t, dtype=np.float64),

@@ -92,6 +92,12 @@ def _run(
     on_chunk: Callable[[int, np.ndarray], None] | None = None,
 ) -> RunResult:
     dt, order = _check(name, dt, order)
+    if problem.potential.rate_dependent:
+        raise AttitudeValueError(
+            f"method: {name!r} composes exact flows of the potential, so its torque must depend "
+            f"on the attitude and time only; the {problem.potential.name} model depends on the "
+            "body rates: use method='dop853'"
+        )
     t = problem.t
     m = t.shape[0]
     n_total = _count_steps(t, dt)

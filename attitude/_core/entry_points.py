@@ -1,11 +1,14 @@
 """Compiled entry points: every integrator and evaluation loop, for one torque model.
 
-This module is written against two module globals, the model:
+This module is written against four module globals, the model:
 
-``torque(q, t, params) -> (τ1, τ2, τ3)``
-    body-frame torque at the unit attitude ``q`` and time ``t``;
+``torque(q, w, t, params) -> (τ1, τ2, τ3)``
+    body-frame torque at the unit attitude ``q``, body angular velocity ``w`` (a 3-tuple) and
+    time ``t``;
 ``potential(q, t, params) -> U``
-    its potential energy (0 where none is known).
+    its potential energy (the sum over the terms that have one);
+``term_torque(j, q, w, t, params)``, ``n_terms(params)``
+    the torque of each term of a sum of models, for the per-model torque output.
 
 Here they are the built-in models (:mod:`attitude._core.potentials`: one kind switch over
 parameter vectors), so every function below is cached on disk with the package and a fresh
@@ -31,14 +34,19 @@ from __future__ import annotations
 
 import numba
 
-from attitude._core.dynamics import canonical_rhs_with, diagnostics_with
+from attitude._core.dynamics import canonical_rhs_with, diagnostics_with, term_torques_with
 from attitude._core.ensemble import member_run
 from attitude._core.formulations import (
     euler_angles_rhs_with,
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
-from attitude._core.potentials import builtin_potential, builtin_torque
+from attitude._core.potentials import (
+    builtin_n_terms,
+    builtin_potential,
+    builtin_term_torque,
+    builtin_torque,
+)
 from attitude._core.rk import dop853_run
 from attitude._core.splitting import composition_run
 from orbit._shared_jit import jit, parallel_jit
@@ -46,6 +54,8 @@ from orbit._shared_jit import jit, parallel_jit
 # --- model: begin (replaced in user modules) ---
 torque = builtin_torque
 potential = builtin_potential
+term_torque = builtin_term_torque
+n_terms = builtin_n_terms
 # --- model: end ---
 
 
@@ -53,10 +63,11 @@ potential = builtin_potential
 
 
 @jit
-def evaluate(q, t, params, tau_out, u_out):
-    """Torque ``tau_out`` (m, 3) and potential ``u_out`` (m,) at attitudes ``q`` (m, 4)."""
+def evaluate(q, w, t, params, tau_out, u_out):
+    """Torque ``tau_out`` (m, 3) and potential ``u_out`` (m,) at attitudes ``q`` (m, 4), body
+    angular velocities ``w`` (m, 3) and times ``t`` (m,)."""
     for k in range(q.shape[0]):
-        tau = torque(q[k], t[k], params)
+        tau = torque(q[k], (w[k, 0], w[k, 1], w[k, 2]), t[k], params)
         tau_out[k, 0] = tau[0]
         tau_out[k, 1] = tau[1]
         tau_out[k, 2] = tau[2]
@@ -67,6 +78,12 @@ def evaluate(q, t, params, tau_out, u_out):
 def diagnostics(t, y, params, out):
     """Diagnostics of canonical states ``y`` (m, 8) into ``out`` (m, 13): see ``dynamics``."""
     diagnostics_with(potential, t, y, params, out)
+
+
+@jit
+def term_torques(t, y, params, out):
+    """Torque of every term (m, n_terms + 1, 3; the last row their sum) at canonical states."""
+    term_torques_with(term_torque, n_terms(params), t, y, params, out)
 
 
 # Canonical equations (Arribas et al. eq. 7) ----------------------------------------------------

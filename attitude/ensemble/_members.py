@@ -176,16 +176,19 @@ def _member_potentials(potential: Any, n: int, inertia: np.ndarray):
                     f"potential[{i}]: expected an attitude.potentials.Potential, got "
                     f"{type(p).__name__}"
                 )
-            if p._kind is None:
+            if p._user_terms():
                 raise AttitudeTypeError(
                     f"potential[{i}]: per-member potentials must be built-in (TorqueFree, "
-                    f"HeavyTop, GravityGradient); a {type(p).__name__} is compiled code, so "
-                    "give one for all members (its numbers can live in the function)"
+                    f"HeavyTop, GravityGradient, or sums of them); a {type(p).__name__} holds "
+                    "compiled code, so give one for all members (its numbers can live in the "
+                    "function)"
                 )
-            if p._kind != pots[0]._kind:
+            kinds = [t._kind for t in p.terms]
+            if kinds != [t._kind for t in pots[0].terms]:
                 raise AttitudeValueError(
                     f"potential[{i}]: all members need the same kind of potential; member 0 "
-                    f"has {pots[0].name}, member {i} has {p.name}"
+                    f"has {' + '.join(pots[0].term_names())}, member {i} has "
+                    f"{' + '.join(p.term_names())}"
                 )
         ref = inertia if inertia.ndim == 1 else inertia[0]
         rows = [p._params(ref) for p in pots]

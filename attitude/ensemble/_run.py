@@ -217,7 +217,7 @@ def propagate_ensemble(
     else:  # a dispersion sampler (run_scenario): already validated
         members, unit, pot, pots = _source
         n = members.n
-    user = pot if pot._kind is None else None
+    user = pot if pot._user_terms() else None
 
     out_path = None if path is None else Path(path)
     if out_path is not None and out_path.is_dir():
