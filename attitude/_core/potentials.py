@@ -16,7 +16,8 @@ the tangential part of ∂U/∂q, so |q| = 1 and q·Q = 0 stay invariants of the
 from __future__ import annotations
 
 from orbit._jit import jit
-from orbit._kernels import radius_and_radial_unit
+from orbit._state_kernels import MU as ORBIT_MU
+from orbit._state_kernels import orbit_radial
 
 from .quat import cross, rotate, rotate_inverse
 
@@ -28,7 +29,9 @@ P_KIND = 3  # index of the kind code
 P0 = 4  # first potential parameter
 
 # Heavy top: params[4] = weight M g, params[5:8] = centre of mass in body axes.
-# Gravity gradient: params[4:13] = orbit element array (orbit._kernels layout).
+# Gravity gradient: params[4:] = the orbit's kernel_data() (orbit._state_kernels layout: a type
+# code, μ, the valid span, then Kepler / secular-J2 elements or a Hermite table), read only
+# through the dispatcher orbit_radial, so every orbit source runs in the same cached kernels.
 
 
 @jit
@@ -52,10 +55,9 @@ def heavy_top_potential(q, params):
 @jit
 def gravity_gradient_terms(q, t, params):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
-    el = params[P0 : P0 + 9]
-    r, ux, uy, uz = radius_and_radial_unit(el, t)
-    mu = el[7]
-    k = 3.0 * mu / (r * r * r)
+    d = params[P0:]
+    r, ux, uy, uz = orbit_radial(d, t)
+    k = 3.0 * d[ORBIT_MU] / (r * r * r)
     xb = rotate_inverse(q, (ux, uy, uz))  # x̂_B = q̃∘x̂_S∘q
     ixb = (params[0] * xb[0], params[1] * xb[1], params[2] * xb[2])
     return k, xb, ixb
