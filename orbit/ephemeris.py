@@ -6,7 +6,7 @@ evaluated in compiled code (:mod:`orbit._state_kernels`), also inside the attitu
 integrators' right-hand sides. Times outside the table are an error, never an extrapolation.
 
 Interpolation error (Hermite remainder, h = node spacing): |Δr| <= 7.8e-6 h⁸ max|r⁽⁸⁾| on inner
-intervals (~3× that on the first and last). For a circular orbit of radius r and mean motion n,
+intervals, 2.5e-5 h⁸ max|r⁽⁸⁾| on the first and last (per component). For a circular orbit of radius r and mean motion n,
 |r⁽⁸⁾| = n⁸ r: in LEO (7000 km) at h = 60 s that is 2e-11 km, far below the 1 mm required;
 h = 300 s gives ~1e-5 km. docs/orbit.md has the table and the measured errors.
 
@@ -44,6 +44,10 @@ __all__ = ["EphemerisOrbit", "check_tle"]
 
 #: Largest table accepted (nodes): 1e7 nodes are 560 MB of floats.
 MAX_NODES = 10_000_000
+#: Step [s] of the central differences giving a TLE table's velocities (truncation
+#: δ⁴/30 |r⁽⁵⁾| ~ 5e-12 km/s in LEO; SGP4's 1e-12 rad Kepler tolerance noise / δ ~ 4e-9 km/s;
+#: measured: interpolated positions within 8e-9 km of SGP4 at off-grid times, δ = 1 to 4 s).
+FD_STEP = 2.0
 #: Reference frames of an OEM that are accepted (Earth-centred): EME2000 is rotated to GCRS.
 OEM_FRAMES = ("EME2000", "GCRF", "GCRS", "ICRF")
 #: Time systems of an OEM that are accepted.
@@ -352,8 +356,12 @@ class EphemerisOrbit(OrbitBase):
         default). Its time argument (minutes since the element-set epoch) is taken as elapsed
         SI seconds, so a leap second between the TLE epoch and ``start`` does not shift the
         orbit by 7 km; without a leap second in between this is what ``Satrec.sgp4_array(jd,
-        fr)`` computes from UTC Julian dates. Velocities are TEME velocities transformed by
-        astropy (which includes the rotation of TEME against GCRS).
+        fr)`` computes from UTC Julian dates. The table's velocities are the time derivative of
+        the SGP4 position in GCRS (5-point central differences with δ = ``FD_STEP`` = 2 s),
+        not SGP4's velocity output, which is not the derivative of its position (it leaves out
+        part of the short-period terms' rates: ~5 mm/s in LEO); so the interpolated positions
+        follow SGP4's to ~1e-8 km between nodes, and the velocities differ from SGP4's output
+        by up to ~2 cm/s.
 
         Raises
         ------
@@ -388,13 +396,20 @@ class EphemerisOrbit(OrbitBase):
             since = _grid(span, h)
             times = t_start + TimeDelta(since, format="sec")
             offset = float((t_start - tle_epoch).sec)
-            tsince_days = (offset + since) / 86400.0
-            jd = np.full(since.size, sat.jdsatepoch)
+            # SGP4 at the nodes and at ±δ, ±2δ around them: the table's velocity is the time
+            # derivative of the SGP4 position (5-point central difference), because SGP4's own
+            # velocity output is not (it differs by ~5 mm/s in LEO), and Hermite interpolation
+            # with inconsistent velocities would err by ~0.1 m between nodes.
+            offs = FD_STEP * np.array([-2.0, -1.0, 0.0, 1.0, 2.0])
+            tall = (since[:, None] + offs[None, :]).ravel()
+            tsince_days = (offset + tall) / 86400.0
+            jd = np.full(tall.size, sat.jdsatepoch)
             fr = sat.jdsatepochF + tsince_days
-            err, r, v = sat.sgp4_array(jd, fr)
+            err, r, _ = sat.sgp4_array(jd, fr)
+            err = err.reshape(since.size, 5)
             if np.any(err != 0):
-                k = int(np.argmax(err != 0))
-                code = int(err[k])
+                k = int(np.argmax(np.any(err != 0, axis=1)))
+                code = int(err[k][np.argmax(err[k] != 0)])
                 when = times[k].utc
                 when.precision = 3
                 name = "start" if k == 0 else "stop"
@@ -405,9 +420,12 @@ class EphemerisOrbit(OrbitBase):
                     f"{SGP4_ERRORS.get(code, 'unknown error')}. Shorten the span or use a "
                     "newer element set"
                 )
-            from .frames import teme_to_gcrs
+            from .frames import teme_to_gcrs_positions
 
-            rg, vg = teme_to_gcrs(times, r, v)
+            tabs = t_start + TimeDelta(tall, format="sec")
+            rg5 = teme_to_gcrs_positions(tabs, r).reshape(since.size, 5, 3)
+            rg = np.ascontiguousarray(rg5[:, 2])
+            vg = (rg5[:, 0] - 8.0 * rg5[:, 1] + 8.0 * rg5[:, 3] - rg5[:, 4]) / (12.0 * FD_STEP)
             t = since + float((t_start - ep).sec)
         from sgp4 import __version__ as sgp4_version
 

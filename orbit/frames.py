@@ -25,6 +25,7 @@ __all__ = [
     "gcrs_to_itrs",
     "geodetic_from_itrs",
     "teme_to_gcrs",
+    "teme_to_gcrs_positions",
 ]
 
 
@@ -72,6 +73,17 @@ def teme_to_gcrs(times: Any, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, 
         rg = cr.xyz.to_value(u.km).T
         vg = cr.differentials["s"].d_xyz.to_value(u.km / u.s).T
     return np.ascontiguousarray(rg), np.ascontiguousarray(vg)
+
+
+def teme_to_gcrs_positions(times: Any, r: np.ndarray) -> np.ndarray:
+    """TEME positions [km], shape (n, 3), at ``times`` → GCRS positions [km] (astropy)."""
+    from astropy import units as u
+    from astropy.coordinates import GCRS, TEME, CartesianRepresentation
+
+    rep = CartesianRepresentation(np.asarray(r).T * u.km)
+    with offline_iers():
+        g = TEME(rep, obstime=times).transform_to(GCRS(obstime=times))
+        return np.ascontiguousarray(g.cartesian.xyz.to_value(u.km).T)
 
 
 def gcrs_to_itrs(times: Any, r: np.ndarray, name: str = "t") -> np.ndarray:
