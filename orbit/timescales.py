@@ -116,8 +116,9 @@ def check_iers_range(times: Any, name: str = "t") -> None:
         warnings.warn(
             f"{name}: {int(bad.sum())} time(s), the first {first} UTC, lie outside the IERS "
             f"Earth-orientation table ({Time(lo, format='mjd').iso[:10]} to "
-            f"{Time(hi, format='mjd').iso[:10]}); UT1 − UTC and polar motion are held at the "
-            "table's end values there, so Earth-fixed positions (ITRS, geodetic) degrade by "
+            f"{Time(hi, format='mjd').iso[:10]}); UT1 − UTC is held at the table's last value "
+            "and polar motion falls back to astropy's 50-year mean there, so Earth-fixed "
+            "positions (ITRS, geodetic) degrade by "
             "roughly 0.5 m per day beyond the table (UT1 drifts ~1 ms/day). Give a newer "
             "finals2000A.all with orbit.timescales.set_iers_table(path).",
             IERSRangeWarning,
