@@ -765,8 +765,9 @@ def _orbit(
     r: _Reader, ot: Mapping[str, Any], t: np.ndarray, epoch: str | None, path: Path | None
 ) -> tuple[Any, str | None]:
     """The orbit of an [orbit] table and the run's epoch (docs/scenarios.md)."""
-    import orbit as O
     from astropy import units as u
+
+    import orbit as O
 
     if "tle" in ot and "oem" in ot:
         raise _fail("orbit.oem", "give either orbit.tle or orbit.oem, not both")
@@ -814,15 +815,31 @@ def _orbit(
             f0 = r.value(ot, "f0", "orbit", "angle", default=0.0) * u.rad
             if kind == "kepler":
                 orb = O.KeplerOrbit(
-                    a * u.km, e, ang["inc"], ang["raan"], ang["argp"], f0=f0, mu=mu_q,
-                    t0=t0 * u.s, epoch=epoch,
+                    a * u.km,
+                    e,
+                    ang["inc"],
+                    ang["raan"],
+                    ang["argp"],
+                    f0=f0,
+                    mu=mu_q,
+                    t0=t0 * u.s,
+                    epoch=epoch,
                 )
             else:
                 j2 = r.number(ot, "j2", "orbit", None)
                 rad = r.value(ot, "radius", "orbit", "length", default=None)
                 orb = O.SecularJ2Orbit(
-                    a * u.km, e, ang["inc"], ang["raan"], ang["argp"], f0=f0, epoch=epoch,
-                    mu=mu_q, j2=j2, radius=None if rad is None else rad * u.km, t0=t0 * u.s,
+                    a * u.km,
+                    e,
+                    ang["inc"],
+                    ang["raan"],
+                    ang["argp"],
+                    f0=f0,
+                    epoch=epoch,
+                    mu=mu_q,
+                    j2=j2,
+                    radius=None if rad is None else rad * u.km,
+                    t0=t0 * u.s,
                 )
             return orb, epoch
         if kind == "tle":
@@ -839,14 +856,15 @@ def _orbit(
                 raise _fail("orbit.tle", str(exc)) from None
             step = r.value(ot, "step", "orbit", "time", default=60.0)
             if epoch is None:  # the element set's own epoch
+                from astropy.time import Time
                 from sgp4.api import Satrec
 
                 from orbit.timescales import format_epoch
 
-                from astropy.time import Time
-
                 sat = Satrec.twoline2rv(l1, l2)
-                epoch = format_epoch(Time(sat.jdsatepoch, sat.jdsatepochF, format="jd", scale="utc"))
+                epoch = format_epoch(
+                    Time(sat.jdsatepoch, sat.jdsatepochF, format="jd", scale="utc")
+                )
             from astropy.time import Time, TimeDelta
 
             e0 = Time(epoch.rstrip("Z"), scale="utc")

@@ -15,7 +15,10 @@ boundary.
 
 from __future__ import annotations
 
+from .base import Orbit
+from .ephemeris import EphemerisOrbit
 from .errors import OrbitError, OrbitTypeError, OrbitValueError
+from .j2 import SecularJ2Orbit
 from .kepler import (
     eccentric_from_true,
     hyperbolic_from_true,
@@ -30,9 +33,6 @@ from .kepler import (
     true_from_mean,
     true_from_mean_hyperbolic,
 )
-from .base import Orbit
-from .ephemeris import EphemerisOrbit
-from .j2 import SecularJ2Orbit
 from .keplerorbit import KeplerOrbit, earth_mu
 from .timescales import IERSRangeWarning
 

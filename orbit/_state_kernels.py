@@ -62,7 +62,8 @@ for the velocity (:func:`hermite4`). Error bound (|t − t_j| products of the He
                                          <= 2.5e-5 h⁸ max|r⁽⁸⁾|     (first and last interval)
 
 per component. For a circular orbit |r⁽⁸⁾| = n⁸ r: 7000 km, h = 60 s gives 2e-11 km
-(measured 1e-11 km; 300 s: 2.0e-5 km at the ends). Tables with 2 or 3 nodes use the cubic/quintic Hermite
+(measured 1e-11 km; 300 s: 2.0e-5 km at the ends). Tables with 2 or 3 nodes use the
+cubic/quintic Hermite
 polynomial through all of them.
 
 Reuse: :func:`table_interval` (index of the interval holding t, O(1) on uniform grids,
@@ -293,9 +294,7 @@ def hermite4(d, toff, roff, ncomp, n, h, t, c):
     if n < 4:
         return _hermite_general(d, toff, roff, stride, 0, n, t, c, True)
     j0 = min(max(i - 1, 0), n - 4)
-    w = hermite_weights4(
-        t, d[toff + j0], d[toff + j0 + 1], d[toff + j0 + 2], d[toff + j0 + 3]
-    )
+    w = hermite_weights4(t, d[toff + j0], d[toff + j0 + 1], d[toff + j0 + 2], d[toff + j0 + 3])
     val = 0.0
     der = 0.0
     for j in range(4):
@@ -402,7 +401,8 @@ def _j2_state(d, t):
     si = d[J_SINI]
     k = d[J_RATIO]
     x, y, z, vx, vy, vz = _rotate_perifocal(xp, yp, k * vxp, k * vyp, cO, sO, ci, si, cw, sw)
-    # dr/dt = (in-plane motion at rate n̄) + Ω̇ ẑ × r + ω̇ ĥ × r, ĥ = (sin Ω sin i, −cos Ω sin i, cos i)
+    # dr/dt = (in-plane motion at rate n̄) + Ω̇ ẑ × r + ω̇ ĥ × r,
+    # ĥ = (sin Ω sin i, −cos Ω sin i, cos i)
     od = d[J_RAAN_DOT]
     wd = d[J_ARGP_DOT]
     hx, hy, hz = sO * si, -cO * si, ci

@@ -6,7 +6,8 @@ evaluated in compiled code (:mod:`orbit._state_kernels`), also inside the attitu
 integrators' right-hand sides. Times outside the table are an error, never an extrapolation.
 
 Interpolation error (Hermite remainder, h = node spacing): |Δr| <= 7.8e-6 h⁸ max|r⁽⁸⁾| on inner
-intervals, 2.5e-5 h⁸ max|r⁽⁸⁾| on the first and last (per component). For a circular orbit of radius r and mean motion n,
+intervals, 2.5e-5 h⁸ max|r⁽⁸⁾| on the first and last (per component). For a circular orbit of
+radius r and mean motion n,
 |r⁽⁸⁾| = n⁸ r: in LEO (7000 km) at h = 60 s that is 2e-11 km, far below the 1 mm required;
 h = 300 s gives ~1e-5 km. docs/orbit.md has the table and the measured errors.
 
@@ -104,7 +105,7 @@ def check_tle(line1: Any, line2: Any) -> tuple[str, str]:
 
 def _grid(span: float, step: float) -> np.ndarray:
     """Equal intervals no longer than ``step`` covering [0, span] (nodes 0 ... span)."""
-    n = max(2, int(math.ceil(span / step * (1.0 - 1e-12))) + 1)
+    n = max(2, math.ceil(span / step * (1.0 - 1e-12)) + 1)
     if n > MAX_NODES:
         raise OrbitValueError(
             f"step: {n} nodes over {span!r} s is more than {MAX_NODES}; use a larger step"
@@ -265,9 +266,7 @@ class EphemerisOrbit(OrbitBase):
 
     # -- sources ------------------------------------------------------------------------------
     @classmethod
-    def from_orbit(
-        cls, orbit: Any, start: Any, stop: Any, step: Any = 60.0
-    ) -> EphemerisOrbit:
+    def from_orbit(cls, orbit: Any, start: Any, stop: Any, step: Any = 60.0) -> EphemerisOrbit:
         """Sample any orbit (the :class:`orbit.base.Orbit` interface) into a table.
 
         Parameters
@@ -318,9 +317,7 @@ class EphemerisOrbit(OrbitBase):
         r = np.asarray(orbit.position(t), dtype=np.float64)
         v = np.asarray(orbit.velocity(t), dtype=np.float64)
         src = getattr(orbit, "source", type(orbit).__name__)
-        return cls(
-            t, r, v, epoch=epoch, mu=orbit.mu, source=f"sampled every {h:g} s from {src}"
-        )
+        return cls(t, r, v, epoch=epoch, mu=orbit.mu, source=f"sampled every {h:g} s from {src}")
 
     @classmethod
     def from_tle(

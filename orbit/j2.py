@@ -1,10 +1,10 @@
-"""Kepler motion with the first-order secular drift of Ω, ω and M due to J2: :class:`SecularJ2Orbit`.
+"""Kepler motion with the first-order secular J2 drift of Ω, ω and M: :class:`SecularJ2Orbit`.
 
 Mean elements a, e, i are constant; the node, the argument of periapsis and the mean anomaly
 drift linearly (first-order secular theory of the Earth's oblateness; Vallado, *Fundamentals of
-Astrodynamics and Applications*, 4th ed. 2013, Ch. 9, secular J2 effects; Montenbruck &
-Gill, *Satellite Orbits* 2000, Ch. 3, the secular perturbations of the oblateness). With n = √(μ/a³), p = a (1 − e²), η = √(1 − e²)
-and k = J2 (R/p)²::
+Astrodynamics and Applications*, 4th ed. 2013, Ch. 9, secular J2 effects; Montenbruck & Gill,
+*Satellite Orbits* 2000, Ch. 3, the secular perturbations of the oblateness). With n = √(μ/a³),
+p = a (1 − e²), η = √(1 − e²) and k = J2 (R/p)²::
 
     dΩ/dt = −(3/2) n k cos i
     dω/dt =  (3/4) n k (5 cos² i − 1)
@@ -37,7 +37,7 @@ from . import _kernels as _k
 from . import _state_kernels as _sk
 from .base import OrbitBase
 from .errors import OrbitValueError
-from .keplerorbit import KeplerOrbit, _scalar, earth_mu
+from .keplerorbit import KeplerOrbit, _scalar
 
 __all__ = ["EARTH_J2", "EARTH_RADIUS", "SecularJ2Orbit", "j2_secular_rates"]
 

@@ -84,7 +84,9 @@ def set_iers_table(table: Any = None) -> None:
         try:
             t = iers.IERS_A.open(str(table))
         except (OSError, ValueError) as exc:
-            raise OrbitValueError(f"table: cannot read an IERS-A file from {table!r}: {exc}") from None
+            raise OrbitValueError(
+                f"table: cannot read an IERS-A file from {table!r}: {exc}"
+            ) from None
     _TABLE[:] = [t]
 
 

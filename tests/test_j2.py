@@ -51,8 +51,15 @@ def test_rates_agree_with_sgp4_secular_rates():
     l2 = "2 28057  98.4283 247.6961 0000884  88.1964 271.9322 14.35478080140550"
     s = Satrec.twoline2rv(l1, l2)
     o = SecularJ2Orbit(
-        s.a * s.radiusearthkm, s.ecco, s.inclo, s.nodeo, s.argpo,
-        M0=s.mo, mu=s.mu, j2=s.j2, radius=s.radiusearthkm,
+        s.a * s.radiusearthkm,
+        s.ecco,
+        s.inclo,
+        s.nodeo,
+        s.argpo,
+        M0=s.mo,
+        mu=s.mu,
+        j2=s.j2,
+        radius=s.radiusearthkm,
     )
     assert o.raan_rate * 60 == pytest.approx(s.nodedot, rel=5e-3)  # rad/min
     assert o.argp_rate * 60 == pytest.approx(s.argpdot, rel=5e-3)
@@ -103,7 +110,9 @@ def test_velocity_is_the_derivative_of_position():
     t = np.linspace(0.0, DAY, 37)
     h = 2.0  # truncation ~6e-12 km/s, rounding of M ~ 100 rad: ~1e-10 km/s
     fd = (
-        -o.position(t + 2 * h) + 8 * o.position(t + h) - 8 * o.position(t - h)
+        -o.position(t + 2 * h)
+        + 8 * o.position(t + h)
+        - 8 * o.position(t - h)
         + o.position(t - 2 * h)
     ) / (12 * h)
     np.testing.assert_allclose(o.velocity(t), fd, rtol=0, atol=3e-10)
@@ -129,11 +138,11 @@ def test_zero_j2_is_the_kepler_orbit_and_sampling_works():
 @pytest.mark.parametrize(
     "kw,match",
     [
-        (dict(e=1.5, a=-7000.0), "^e: SecularJ2Orbit is for closed orbits"),
-        (dict(j2=-1e-3), "^j2: must be a finite number >= 0"),
-        (dict(radius=0.0), "^radius: equatorial radius must be > 0"),
-        (dict(e=-0.1), "^e:"),
-        (dict(epoch="not a date"), "^epoch:"),
+        (dict(e=1.5, a=-7000.0), r"^e: SecularJ2Orbit is for closed orbits"),
+        (dict(j2=-1e-3), r"^j2: must be a finite number >= 0"),
+        (dict(radius=0.0), r"^radius: equatorial radius must be > 0"),
+        (dict(e=-0.1), r"^e:"),
+        (dict(epoch="not a date"), r"^epoch:"),
     ],
 )
 def test_errors(kw, match):
