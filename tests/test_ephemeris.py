@@ -358,3 +358,51 @@ def test_orbit_protocol_members():
         assert o.frame_quaternion(5.0).shape == (4,)
         assert o.kernel_data()[SK.TYPE] in (0, 1, 2)
     assert KeplerOrbit(7000.0, 0.1, 1.0, 0.3, 0.5).frame == "inertial"
+
+
+def test_generic_hermite_table_kernel():
+    """hermite4 on a two-component table (values then derivatives per row), as environment
+    tables will use it: sin and cos sampled every 0.1 rad, value and derivative at 1e-10."""
+    x = np.linspace(0.0, 3.0, 31)
+    rows = np.stack([np.sin(x), np.cos(x), np.cos(x), -np.sin(x)], axis=1)
+    d = np.concatenate([[0.0, 0.0], x, rows.ravel()])
+    for t in (0.0, 0.05, 1.2345, 2.99, 3.0):
+        for c, (f, fp) in enumerate(((np.sin, np.cos), (np.cos, lambda s: -np.sin(s)))):
+            v, dv = SK.hermite4(d, 2, 2 + 31, 2, 31, 0.1, t, c)
+            assert v == pytest.approx(f(t), abs=1e-12)
+            assert dv == pytest.approx(fp(t), abs=1e-10)
+
+
+def test_dispatcher_runs_as_plain_python():
+    import os
+    import subprocess
+    import sys
+
+    code = (
+        "import numpy as np, orbit\n"
+        "from orbit import _state_kernels as SK\n"
+        "assert not hasattr(SK.orbit_state, 'py_func')\n"
+        "k = orbit.KeplerOrbit(7000.0, 0.1, 1.0, 0.3, 0.5)\n"
+        "j = orbit.SecularJ2Orbit(7000.0, 0.1, 1.0, 0.3, 0.5)\n"
+        "e = orbit.EphemerisOrbit.from_orbit(k, 0.0, 600.0, 60.0)\n"
+        "print(repr([list(SK.orbit_state(o.kernel_data(), 123.0)) + "
+        "list(SK.orbit_frame(o.kernel_data(), 123.0)) for o in (k, j, e)]))\n"
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1", ATTITUDE_DISABLE_JIT="1")
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+    ).stdout
+    got = np.array(eval(out))
+    k = KeplerOrbit(7000.0, 0.1, 1.0, 0.3, 0.5)
+    j = orbit.SecularJ2Orbit(7000.0, 0.1, 1.0, 0.3, 0.5)
+    e = EphemerisOrbit.from_orbit(k, 0.0, 600.0, 60.0)
+    want = np.array(
+        [
+            list(SK.orbit_state(o.kernel_data(), 123.0))
+            + list(SK.orbit_frame(o.kernel_data(), 123.0))
+            for o in (k, j, e)
+        ]
+    )
+    np.testing.assert_allclose(got, want, rtol=1e-14, atol=1e-12)
