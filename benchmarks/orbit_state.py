@@ -90,8 +90,10 @@ def main() -> None:
         _state(d, t[:10])
         r = best_of(lambda d=d: _radial(d, t), a.repeat) / a.n * 1e9
         s = best_of(lambda d=d: _state(d, t), a.repeat) / a.n * 1e9
-        print(f"{name:>22}: orbit_radial {r:6.1f} ns ({base / r:4.2f}x baseline), "
-              f"orbit_state {s:6.1f} ns")
+        print(
+            f"{name:>22}: orbit_radial {r:6.1f} ns ({base / r:4.2f}x baseline), "
+            f"orbit_state {s:6.1f} ns"
+        )
 
     import attitude
 
@@ -109,8 +111,10 @@ def main() -> None:
 
             ds = go()
             w = best_of(go, a.repeat)
-        print(f"GG paper case, 10 orbits, rtol 1e-12, {name:>20}: {w * 1e3:6.1f} ms, "
-              f"{int(ds.attrs['n_rhs'])} right-hand sides")
+        print(
+            f"GG paper case, 10 orbits, rtol 1e-12, {name:>20}: {w * 1e3:6.1f} ms, "
+            f"{int(ds.attrs['n_rhs'])} right-hand sides"
+        )
 
 
 if __name__ == "__main__":
