@@ -74,8 +74,9 @@ class AttitudeAccessor:
 
         if self.epoch is None:
             raise AttitudeValueError(
-                "epoch: this run has no epoch attr (give the scenario an epoch) so its times "
-                "are only relative: use ds.attitude.quantity('time')"
+                "epoch: this run has no epoch attr (give the scenario, the orbit or "
+                "propagate(..., epoch=...) an epoch) so its times are only relative: use "
+                "ds.attitude.quantity('time')"
             )
         dt = self.quantity("time")
         return self.epoch + TimeDelta(dt.to_value("s"), format="sec")

@@ -297,6 +297,12 @@ def cmd_info(args: argparse.Namespace) -> int:
                 f"{a.get('inertia_units', '')}",
             ),
             ("potential", a.get("potential", "-")),
+            *(
+                [("orbit", a["orbit"]), ("frame", a.get("orbit_frame", "-"))]
+                if a.get("orbit")
+                else []
+            ),
+            ("epoch", a.get("epoch") or "- (times are relative)"),
             ("initial", a.get("initial_state_form", "-")),
             (
                 "method",

@@ -190,6 +190,9 @@ class Potential:
         """One-line description recorded in result attrs."""
         return repr(self)
 
+    def check_times(self, t: Any, name: str = "t") -> None:
+        """Raise if the model is undefined at some of the times ``t`` (default: never)."""
+
     def bind(self, body: RigidBody) -> Potential:
         """The potential as used with ``body`` (checks consistency; most return self)."""
         return self
@@ -247,16 +250,18 @@ class HeavyTop(Potential):
 
 
 class GravityGradient(Potential):
-    """Gravity-gradient torque of a central mass on a body in a Keplerian orbit (eq. 20).
+    """Gravity-gradient torque of a central mass on a body moving along an orbit (eq. 20).
 
-    U = 3μ/(2r³) x̂_B·I x̂_B, x̂_B = q̃∘(p∘s1∘p̃)∘q, with r(t) and the orbital-frame quaternion
-    p(t) from the orbit at the same t, evaluated inside the compiled right-hand side (Arribas
-    et al. Sect. 6.2). Torque τ_B = 3μ/r³ x̂_B × (I x̂_B).
+    U = 3μ/(2r³) x̂_B·I x̂_B, x̂_B = q̃∘r̂_S∘q, with r(t) and the radial direction r̂_S(t) from the
+    orbit at the same t, evaluated inside the compiled right-hand side (Arribas et al.
+    Sect. 6.2). Torque τ_B = 3μ/r³ x̂_B × (I x̂_B).
 
     Parameters
     ----------
-    orbit : orbit.KeplerOrbit
-        The orbit of the centre of mass (km, s; μ in km³ s⁻²).
+    orbit : orbit.KeplerOrbit, orbit.SecularJ2Orbit or orbit.EphemerisOrbit
+        The orbit of the centre of mass (any :class:`orbit.base.Orbit`: km, s; μ in km³ s⁻²).
+        The compiled kernels read it through ``orbit.kernel_data()`` (one dispatcher over the
+        orbit types), so every source runs in the same cached integrator.
     inertia : RigidBody or array_like, optional
         The body's principal moments (kg km²). Needed only to evaluate ``value``/``torque``
         directly; :func:`attitude.propagate` takes them from the body.
@@ -267,12 +272,13 @@ class GravityGradient(Potential):
     time_dependent = True
 
     def __init__(self, orbit: Any, inertia: Any = None):
-        if not hasattr(orbit, "kernel_elements"):
+        if not hasattr(orbit, "kernel_data"):
             raise AttitudeTypeError(
-                f"orbit: expected an orbit.KeplerOrbit, got {type(orbit).__name__}"
+                "orbit: expected an orbit (orbit.KeplerOrbit, orbit.SecularJ2Orbit, "
+                f"orbit.EphemerisOrbit), got {type(orbit).__name__}"
             )
         self.orbit = orbit
-        self._el = np.asarray(orbit.kernel_elements(), dtype=np.float64)
+        self._orbit_data = np.ascontiguousarray(orbit.kernel_data(), dtype=np.float64)
         if inertia is None:
             self.inertia = None
         elif isinstance(inertia, RigidBody):
@@ -280,8 +286,16 @@ class GravityGradient(Potential):
         else:
             self.inertia = RigidBody(inertia).inertia
 
+    def _params(self, inertia: np.ndarray) -> np.ndarray:
+        head = np.array([*inertia, self._kind], dtype=np.float64)
+        return np.concatenate([head, self._orbit_data])
+
     def _potential_params(self) -> list[float]:
-        return list(self._el)
+        return list(self._orbit_data)
+
+    def check_times(self, t: Any, name: str = "t") -> None:
+        """Raise if the orbit is not defined at some of the times (an ephemeris table's span)."""
+        self.orbit.check_times(t, name)
 
     def _inertia_for_eval(self) -> np.ndarray:
         if self.inertia is None:
@@ -290,6 +304,10 @@ class GravityGradient(Potential):
                 "the torque; give GravityGradient(orbit, inertia=...) (propagate supplies them)"
             )
         return self.inertia
+
+    def _eval(self, q: Any, t: Any) -> tuple[np.ndarray, np.ndarray]:
+        self.check_times(as_float_array(t, "t", unit="s"), "t")
+        return super()._eval(q, t)
 
     def bind(self, body: RigidBody) -> GravityGradient:
         if self.inertia is not None and not np.allclose(self.inertia, body.inertia, rtol=1e-12):
@@ -436,6 +454,27 @@ class CustomTorque(Potential):
         return f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r})"
 
 
+def _common_orbit(terms: list[Potential]) -> Any:
+    """The one orbit of the terms that have one (they must share its epoch), or None."""
+    orbits = [t.orbit for t in terms if getattr(t, "orbit", None) is not None]
+    if not orbits:
+        return None
+    first = orbits[0]
+    for other in orbits[1:]:
+        e1, e2 = getattr(first, "epoch", None), getattr(other, "epoch", None)
+        if (e1 is None) != (e2 is None) or (e1 is not None and abs((e1 - e2).sec) > 0.0):
+            from orbit.timescales import format_epoch
+
+            def show(e):
+                return "none" if e is None else format_epoch(e)
+
+            raise AttitudeValueError(
+                f"orbit: the terms of this model use orbits with different epochs ({show(e1)} "
+                f"and {show(e2)}); one run has one time origin: build them on one orbit"
+            )
+    return first
+
+
 def _arity(func: Any, what: str, allowed: tuple[int, ...], forms: str) -> int:
     """Number of positional parameters of a user function (checked against ``allowed``)."""
     import inspect
@@ -493,6 +532,7 @@ class Sum(Potential):
         self.time_dependent = any(t.time_dependent for t in flat)
         self.rate_dependent = any(t.rate_dependent for t in flat)
         self.has_potential = any(t.has_potential for t in flat)
+        self.orbit = _common_orbit(flat)
         return self
 
     @property
@@ -521,6 +561,10 @@ class Sum(Potential):
 
     def _user_terms(self) -> tuple:
         return tuple(u for t in self._user for u in t._user_terms())
+
+    def check_times(self, t: Any, name: str = "t") -> None:
+        for term in self._terms:
+            term.check_times(t, name)
 
     def _inertia_for_eval(self) -> np.ndarray:
         for t in self._terms:

@@ -105,6 +105,7 @@ def propagate(
     chunk: int | None = None,
     formulation: str = "canonical",
     on_chunk: Callable[[xr.Dataset], None] | None = None,
+    epoch: Any = None,
 ) -> xr.Dataset:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -154,6 +155,11 @@ def propagate(
         when the run fails midway). With the canonical ``"dop853"`` runner the samples are
         not kept, so memory stays bounded (see :func:`attitude.io.write_streaming`); the
         returned Dataset then holds only the last sample (with the complete attrs).
+    epoch : astropy Time or str, optional
+        Date of t = 0 (ISO 8601 strings are UTC unless a scale follows). Default: the epoch of
+        the potential's orbit, if it has one. Recorded in the attrs (``epoch``, UTC ISO 8601),
+        so ``ds.attitude.times()`` and the AEM export need nothing else. An epoch different
+        from the orbit's is an error (one run has one time origin).
 
     Returns
     -------
@@ -200,6 +206,11 @@ def propagate(
         raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, t)")
     if on_chunk is not None and not callable(on_chunk):
         raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
+    run_attrs = _epoch_attrs(pot, epoch)
+    try:
+        pot.check_times(tt, "t")  # e.g. an ephemeris orbit's table span
+    except ValueError as exc:
+        raise AttitudeValueError(str(exc)) from None
 
     q0p, Q0p, correction = project_state(q0a, Q0a)
     if correction > PROJECTION_WARN:
@@ -230,7 +241,7 @@ def propagate(
     if on_chunk is not None:
         options["chunk"] = chunk = 4096 if chunk is None else chunk
     if streaming:
-        chunk_attrs = {"method": method, "formulation": formulation}
+        chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
         def emit(first: int, y: np.ndarray) -> None:
             on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
@@ -244,6 +255,7 @@ def propagate(
         result = form.run(problem, method=method, runner=runner, **options)
 
     attrs: dict[str, Any] = {
+        **run_attrs,
         "method": method,
         "formulation": formulation,
         "initial_projection": float(correction),
@@ -266,6 +278,33 @@ def propagate(
             partial=ds,
         )
     return ds
+
+
+def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
+    """Attrs ``epoch`` (UTC ISO 8601) and the orbit's description; checks the epochs agree."""
+    from orbit.errors import OrbitError
+    from orbit.timescales import as_epoch, format_epoch, same_epoch
+
+    try:
+        run_epoch = as_epoch(epoch, "epoch")
+    except OrbitError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    orbit = getattr(pot, "orbit", None)
+    orbit_epoch = getattr(orbit, "epoch", None)
+    if run_epoch is not None and orbit_epoch is not None and not same_epoch(run_epoch, orbit_epoch):
+        raise AttitudeValueError(
+            f"epoch: the run's epoch {format_epoch(run_epoch)} differs from the orbit's epoch "
+            f"{format_epoch(orbit_epoch)} (potential.orbit.epoch); one run has one time origin: "
+            "leave epoch=None to use the orbit's, or build the orbit with the same epoch"
+        )
+    out: dict[str, Any] = {}
+    e = run_epoch if run_epoch is not None else orbit_epoch
+    if e is not None:
+        out["epoch"] = format_epoch(e)
+    if orbit is not None and hasattr(orbit, "describe"):
+        out["orbit"] = orbit.describe()
+        out["orbit_frame"] = str(getattr(orbit, "frame", ""))
+    return out
 
 
 def finish_dataset(

@@ -89,6 +89,8 @@ _TABLES: dict[str, dict[str, str | None]] = {
     },
     "potential": {"kind": None, "weight": "force", "center_of_mass": "length"},
     "orbit": {
+        "type": None,
+        "epoch": None,
         "a": "length",
         "e": None,
         "inc": "angle",
@@ -96,6 +98,11 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "argp": "angle",
         "f0": "angle",
         "mu": "mu",
+        "j2": None,
+        "radius": "length",
+        "tle": None,
+        "oem": None,
+        "step": "time",
     },
     "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
     "integrator": {
@@ -356,7 +363,14 @@ class Scenario:
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", "initial state projected")
                 ds = propagate(
-                    self.body, self.q0, self.Q0, self.t, self.potential, progress=progress, **kw
+                    self.body,
+                    self.q0,
+                    self.Q0,
+                    self.t,
+                    self.potential,
+                    progress=progress,
+                    epoch=self.epoch,
+                    **kw,
                 )
         except PropagationError as exc:
             if exc.partial is not None:
@@ -412,6 +426,7 @@ class Scenario:
                         # ~200 chunks: a smooth progress bar, bounded memory
                         chunk=chunk or max(64, min(TIME_CHUNK, len(self.t) // 200)),
                         on_chunk=sink,
+                        epoch=self.epoch,
                         **kw,
                     )
                 status = "complete"
@@ -565,7 +580,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
                 "orbit",
                 "an orbit needs a body with units: give body.inertia_unit (e.g. 'kg m2')",
             )
-        orbit = _orbit(r, ot, t0=float(t[0]))
+        orbit, epoch = _orbit(r, ot, t, epoch, path)
     potential = _potential(r, pt, kind, orbit)
 
     # [initial_state]
@@ -730,17 +745,18 @@ def _only(t, where, what, required, always, selector):
             raise _fail(f"{where}.{k}", f"missing (needed by {selector} = {what!r})")
 
 
-def _epoch(s: str) -> str:
-    from astropy.time import Time
+def _epoch(s: str, key: str = "scenario.epoch") -> str:
+    from orbit.errors import OrbitError
+    from orbit.timescales import as_epoch, format_epoch
 
     try:
-        t = Time(s.rstrip("Z"), scale="utc")
-    except ValueError:
+        return format_epoch(as_epoch(s, key, allow_none=False))
+    except OrbitError:
         raise _fail(
-            "scenario.epoch", f"expected an ISO 8601 UTC time like '2024-03-20T12:00:00', got {s!r}"
+            key,
+            f"expected an ISO 8601 time like '2024-03-20T12:00:00' (UTC; or followed by a "
+            f"scale: TAI, TT, TDB, GPS), got {s!r}",
         ) from None
-    t.precision = 6
-    return t.isot + "Z"
 
 
 def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
@@ -794,34 +810,146 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
     return t, tunit, scale
 
 
-def _orbit(r: _Reader, ot: Mapping[str, Any], t0: float) -> Any:
+_ORBIT_TYPES = ("kepler", "secular_j2", "tle", "oem")
+_ELEMENT_KEYS = ("a", "e", "inc", "raan", "argp", "f0", "mu")
+
+
+def _orbit(
+    r: _Reader, ot: Mapping[str, Any], t: np.ndarray, epoch: str | None, path: Path | None
+) -> tuple[Any, str | None]:
+    """The orbit of an [orbit] table and the run's epoch (docs/scenarios.md)."""
     from astropy import units as u
 
-    for k in ("a", "e", "inc", "raan", "argp"):
-        if k not in ot:
+    import orbit as O
+
+    if "tle" in ot and "oem" in ot:
+        raise _fail("orbit.oem", "give either orbit.tle or orbit.oem, not both")
+    default = "tle" if "tle" in ot else "oem" if "oem" in ot else "kepler"
+    kind = r.string(ot, "type", "orbit", default)
+    if kind not in _ORBIT_TYPES:
+        raise _fail("orbit.type", f"expected one of {', '.join(_ORBIT_TYPES)}, got {kind!r}")
+    keys = {
+        "kepler": ("a", "e", "inc", "raan", "argp", "f0", "mu"),
+        "secular_j2": ("a", "e", "inc", "raan", "argp", "f0", "mu", "j2", "radius"),
+        "tle": ("tle", "step", "mu"),
+        "oem": ("oem", "mu"),
+    }[kind]
+    for k in ot:
+        base = k[:-5] if k.endswith("_unit") else k
+        if base not in (*keys, "type", "epoch"):
             raise _fail(
-                f"orbit.{k}", "missing (orbit needs a, e, inc, raan, argp; f0, mu optional)"
+                f"orbit.{k}",
+                f"not used with an orbit of type {kind!r} (which takes: {', '.join(keys)}, epoch)",
             )
-    a = r.value(ot, "a", "orbit", "length")
-    e = r.number(ot, "e", "orbit")
-    vals = {k: r.value(ot, k, "orbit", "angle") for k in ("inc", "raan", "argp")}
-    f0 = r.value(ot, "f0", "orbit", "angle", default=0.0)
+    # One run, one epoch: [scenario] epoch and [orbit] epoch must agree.
+    if "epoch" in ot:
+        oe = _epoch(r.string(ot, "epoch", "orbit"), "orbit.epoch")
+        if epoch is not None and oe != epoch:
+            raise _fail(
+                "orbit.epoch",
+                f"{oe} differs from scenario.epoch {epoch}; a run has one time origin (give "
+                "one of them, or the same instant in both)",
+            )
+        epoch = oe
     mu = r.value(ot, "mu", "orbit", "mu", default=None)
+    mu_q = None if mu is None else mu * u.Unit("km3 s-2")
+    t0 = float(t[0])
     try:
-        from orbit import KeplerOrbit
-    except ImportError:  # not re-exported yet
-        from orbit.keplerorbit import KeplerOrbit
-    try:
-        return KeplerOrbit(
-            a * u.km,
-            e,
-            vals["inc"] * u.rad,
-            vals["raan"] * u.rad,
-            vals["argp"] * u.rad,
-            f0=f0 * u.rad,
-            mu=None if mu is None else mu * u.Unit("km3 s-2"),
-            t0=t0 * u.s,
-        )
+        if kind in ("kepler", "secular_j2"):
+            for k in ("a", "e", "inc", "raan", "argp"):
+                if k not in ot:
+                    raise _fail(
+                        f"orbit.{k}",
+                        "missing (orbit needs a, e, inc, raan, argp; f0, mu optional)",
+                    )
+            a = r.value(ot, "a", "orbit", "length")
+            e = r.number(ot, "e", "orbit")
+            ang = {k: r.value(ot, k, "orbit", "angle") * u.rad for k in ("inc", "raan", "argp")}
+            f0 = r.value(ot, "f0", "orbit", "angle", default=0.0) * u.rad
+            if kind == "kepler":
+                orb = O.KeplerOrbit(
+                    a * u.km,
+                    e,
+                    ang["inc"],
+                    ang["raan"],
+                    ang["argp"],
+                    f0=f0,
+                    mu=mu_q,
+                    t0=t0 * u.s,
+                    epoch=epoch,
+                )
+            else:
+                j2 = r.number(ot, "j2", "orbit", None)
+                rad = r.value(ot, "radius", "orbit", "length", default=None)
+                orb = O.SecularJ2Orbit(
+                    a * u.km,
+                    e,
+                    ang["inc"],
+                    ang["raan"],
+                    ang["argp"],
+                    f0=f0,
+                    epoch=epoch,
+                    mu=mu_q,
+                    j2=j2,
+                    radius=None if rad is None else rad * u.km,
+                    t0=t0 * u.s,
+                )
+            return orb, epoch
+        if kind == "tle":
+            lines = ot.get("tle")
+            if (
+                not isinstance(lines, list)
+                or len(lines) != 2
+                or not all(isinstance(x, str) for x in lines)
+            ):
+                raise _fail("orbit.tle", 'expected the two TLE lines: tle = ["1 ...", "2 ..."]')
+            try:
+                l1, l2 = O.ephemeris.check_tle(*lines)
+            except O.OrbitError as exc:
+                raise _fail("orbit.tle", str(exc)) from None
+            step = r.value(ot, "step", "orbit", "time", default=60.0)
+            if epoch is None:  # the element set's own epoch
+                from astropy.time import Time
+                from sgp4.api import Satrec
+
+                from orbit.timescales import format_epoch
+
+                sat = Satrec.twoline2rv(l1, l2)
+                epoch = format_epoch(
+                    Time(sat.jdsatepoch, sat.jdsatepochF, format="jd", scale="utc")
+                )
+            from astropy.time import Time, TimeDelta
+
+            e0 = Time(epoch.rstrip("Z"), scale="utc")
+            start = e0 + TimeDelta(float(t[0]), format="sec")
+            stop = e0 + TimeDelta(float(t[-1]), format="sec")
+            try:
+                orb = O.EphemerisOrbit.from_tle(l1, l2, start, stop, step, epoch=e0, mu=mu_q)
+            except O.OrbitError as exc:
+                msg = str(exc)
+                key = "time.stop" if msg.startswith("stop:") else "orbit.tle"
+                raise _fail(key, msg) from None
+            return orb, epoch
+        # oem
+        fname = r.string(ot, "oem", "orbit")
+        fp = Path(fname)
+        if not fp.is_absolute() and path is not None:
+            fp = Path(path).parent / fp
+        try:
+            orb = O.EphemerisOrbit.from_oem(fp, epoch=epoch, mu=mu_q)
+        except O.OrbitError as exc:
+            raise _fail("orbit.oem", str(exc)) from None
+        if epoch is None:
+            from orbit.timescales import format_epoch
+
+            epoch = format_epoch(orb.epoch)
+        try:
+            orb.check_times(t, "time")
+        except O.OrbitError as exc:
+            raise _fail("time", str(exc).split(": ", 1)[-1]) from None
+        return orb, epoch
+    except ScenarioError:
+        raise
     except ValueError as exc:
         raise _fail("orbit", str(exc)) from None
 
@@ -845,12 +973,20 @@ def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:
 
 
 def _orbital_rate_body(orbit: Any, q_rel: np.ndarray, t0: float) -> np.ndarray:
-    """Angular velocity of the orbital frame, in body axes: ḟ z_O read in the body frame."""
+    """Angular velocity of the orbital frame, in body axes: ḟ z_O read in the body frame.
+
+    ḟ = |r × v|/r² (exact for a Keplerian orbit; for the others the slow rotation of the
+    orbital plane itself, < 1e-6 rad/s, is left out).
+    """
     from .quaternion import rotate_inverse
 
     rr = float(np.asarray(orbit.radius(t0)))
-    p = orbit.a * (1.0 - orbit.e**2)
-    fdot = math.sqrt(orbit.mu * p) / rr**2  # h / r², Keplerian true-anomaly rate
+    if hasattr(orbit, "semi_latus_rectum"):  # Keplerian: h = sqrt(μ p)
+        p = orbit.a * (1.0 - orbit.e**2)
+        fdot = math.sqrt(orbit.mu * p) / rr**2
+    else:
+        rv, vv = np.asarray(orbit.position(t0)), np.asarray(orbit.velocity(t0))
+        fdot = float(np.linalg.norm(np.cross(rv, vv))) / rr**2
     return rotate_inverse(q_rel, np.array([0.0, 0.0, fdot]))
 
 

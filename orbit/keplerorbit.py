@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 from . import _kernels as _k
+from . import _state_kernels as _sk
+from .base import OrbitBase
 from .errors import OrbitValueError
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
 
@@ -58,7 +60,42 @@ def _wrap_2pi(x: float) -> float:
     return 0.0 if y >= 2.0 * math.pi else y
 
 
-class KeplerOrbit:
+def kepler_kernel_data(el: np.ndarray) -> np.ndarray:
+    """The dispatcher array (:mod:`orbit._state_kernels`, type Kepler) of a 9-element ``el``.
+
+    The cos/sin of the constant angles are computed here once, with the same expressions the
+    kernels of :mod:`orbit._kernels` evaluate per call, so results are bit-identical.
+    """
+    d = np.empty(_sk.K_LEN, dtype=np.float64)
+    d[_sk.TYPE] = _sk.TYPE_KEPLER
+    d[_sk.MU] = el[_k.MU]
+    d[_sk.T_MIN] = -math.inf
+    d[_sk.T_MAX] = math.inf
+    d[_sk.K_EL : _sk.K_EL + _k.NEL] = el
+    raan, inc, argp = float(el[_k.RAAN]), float(el[_k.INC]), float(el[_k.ARGP])
+    d[_sk.K_TRIG : _sk.K_TRIG + 6] = (
+        math.cos(raan),
+        math.sin(raan),
+        math.cos(inc),
+        math.sin(inc),
+        math.cos(argp),
+        math.sin(argp),
+    )
+    hp = 0.5 * (raan + argp)
+    hm = 0.5 * (raan - argp)
+    d[_sk.K_HALF : _sk.K_HALF + 6] = (
+        math.cos(0.5 * inc),
+        math.sin(0.5 * inc),
+        math.cos(hp),
+        math.sin(hp),
+        math.cos(hm),
+        math.sin(hm),
+    )
+    d.setflags(write=False)
+    return d
+
+
+class KeplerOrbit(OrbitBase):
     """A Keplerian orbit about a point mass: elliptic (0 <= e < 1) or hyperbolic (e > 1).
 
     Parameters
@@ -82,6 +119,10 @@ class KeplerOrbit:
         Epoch of ``f0``/``M0``: seconds since the origin of the times passed to the methods.
     M0 : float or Quantity [rad], keyword-only, optional
         Mean anomaly at ``t0``, instead of ``f0``.
+    epoch : astropy Time or str, keyword-only, optional
+        The date of t = 0 (ISO 8601 strings are UTC unless a scale follows, e.g.
+        ``"2024-03-20T12:00:00 TT"``). With an epoch the space frame is the GCRS and
+        :meth:`geodetic` / :meth:`itrs_position` are available; times t stay seconds since it.
 
     Raises
     ------
@@ -119,7 +160,11 @@ class KeplerOrbit:
         t0: Any = 0.0,
         *,
         M0: Any = None,
+        epoch: Any = None,
     ) -> None:
+        from .timescales import as_epoch
+
+        self._epoch = as_epoch(epoch, "epoch")
         a_ = _scalar(a, "a", "km")
         e_ = _scalar(e, "e", None)
         inc_ = _scalar(inc, "inc", "rad")
@@ -195,10 +240,13 @@ class KeplerOrbit:
         el.setflags(write=False)
         self._el = el
         self._f0 = f0_
+        self._data = kepler_kernel_data(el)
 
     # -----------------------------------------------------------------------------------------
     @classmethod
-    def from_state(cls, r: Any, v: Any, mu: Any = None, t0: Any = 0.0) -> KeplerOrbit:
+    def from_state(
+        cls, r: Any, v: Any, mu: Any = None, t0: Any = 0.0, *, epoch: Any = None
+    ) -> KeplerOrbit:
         """The orbit through position ``r`` with velocity ``v`` at time ``t0``.
 
         Parameters
@@ -211,6 +259,8 @@ class KeplerOrbit:
             Gravitational parameter; default Earth's GM.
         t0 : float or Quantity [s], optional
             Time of the state (the epoch of the returned elements).
+        epoch : astropy Time or str, optional
+            Date of t = 0 (the state is then in the GCRS).
 
         Returns
         -------
@@ -269,7 +319,7 @@ class KeplerOrbit:
         x_m = -rv[0] * sO * ci + rv[1] * cO * ci + rv[2] * si
         u = math.atan2(x_m, x_n)
         argp = _wrap_2pi(u - f)
-        return cls(a, e, inc, _wrap_2pi(raan), argp, f0=f, mu=mu_, t0=t0)
+        return cls(a, e, inc, _wrap_2pi(raan), argp, f0=f, mu=mu_, t0=t0, epoch=epoch)
 
     # -----------------------------------------------------------------------------------------
     @property
@@ -320,6 +370,12 @@ class KeplerOrbit:
         return float(self._el[_k.MU])
 
     @property
+    def source(self) -> str:
+        """'Kepler elements' (for attrs and ``attitude info``)."""
+        kind = "hyperbolic" if self.is_hyperbolic else "elliptic"
+        return f"Kepler elements ({kind}, a = {self.a!r} km, e = {self.e!r})"
+
+    @property
     def mean_motion(self) -> float:
         """Mean motion n = sqrt(mu/|a|³) [rad/s]."""
         return float(self._el[_k.N])
@@ -356,7 +412,12 @@ class KeplerOrbit:
 
     # -----------------------------------------------------------------------------------------
     def _times(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
-        ta = _as_array(t, "t", "s")
+        from astropy.time import Time
+
+        if isinstance(t, Time):
+            ta = np.asarray(self.seconds_since_epoch(t, "t"), dtype=np.float64)
+        else:
+            ta = _as_array(t, "t", "s")
         flat = np.ascontiguousarray(ta).ravel()
         if not self.is_hyperbolic and flat.size:
             m = self.M0 + self.mean_motion * (flat - self.t0)
@@ -527,8 +588,9 @@ class KeplerOrbit:
 
     def __repr__(self) -> str:
         kind = "hyperbolic" if self.is_hyperbolic else "elliptic"
+        ep = "" if self._epoch is None else f", epoch={self._epoch.utc.isot!r}"
         return (
             f"KeplerOrbit(a={self.a!r}, e={self.e!r}, inc={self.inc!r}, raan={self.raan!r}, "
-            f"argp={self.argp!r}, M0={self.M0!r}, mu={self.mu!r}, t0={self.t0!r})  # {kind}, "
-            "km, rad, s"
+            f"argp={self.argp!r}, M0={self.M0!r}, mu={self.mu!r}, t0={self.t0!r}{ep})  # "
+            f"{kind}, km, rad, s"
         )

@@ -31,8 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from orbit._kernels import radius_and_radial_unit
 from orbit._shared_jit import jit, jit_generic
+from orbit._state_kernels import MU as ORBIT_MU
+from orbit._state_kernels import orbit_radial
 
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
@@ -48,7 +49,9 @@ P_NTERMS = 4  # KIND_SUM: number of terms
 P_OFFSETS = 5  # KIND_SUM: first term offset
 
 # Heavy top: block [kind, weight M g, centre of mass (3, body axes)].
-# Gravity gradient: block [kind, orbit element array (orbit._kernels layout, 9 numbers)].
+# Gravity gradient: block [kind, the orbit's kernel_data()] (orbit._state_kernels layout: a type
+# code, μ, the valid span, then Kepler / secular-J2 elements or a Hermite table), read only
+# through the dispatcher orbit_radial, so every orbit source runs in the same cached kernels.
 
 ZERO3 = (0.0, 0.0, 0.0)
 
@@ -74,10 +77,9 @@ def heavy_top_potential(q, params, base):
 @jit
 def gravity_gradient_terms(q, t, params, base):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
-    el = params[base + 1 : base + 10]
-    r, ux, uy, uz = radius_and_radial_unit(el, t)
-    mu = el[7]
-    k = 3.0 * mu / (r * r * r)
+    d = params[base + 1 :]
+    r, ux, uy, uz = orbit_radial(d, t)
+    k = 3.0 * d[ORBIT_MU] / (r * r * r)
     xb = rotate_inverse(q, (ux, uy, uz))  # x̂_B = q̃∘x̂_S∘q
     ixb = (params[0] * xb[0], params[1] * xb[1], params[2] * xb[2])
     return k, xb, ixb

@@ -1,0 +1,113 @@
+"""Frame conversions of orbit states, all through astropy/ERFA (vectorised, outside hot loops).
+
+* The space frame of an orbit with an epoch is the **GCRS** (geocentric celestial reference
+  system, axes of the ICRS). EME2000 (mean equator and equinox of J2000.0, the frame of most
+  flight-dynamics products) differs from it by the constant IAU 2000 *frame bias*, a rotation of
+  about 23 mas (ξ0 = −16.6 mas, η0 = −6.8 mas, dα0 = −14.6 mas; IERS Conventions 2010,
+  Sect. 5.5.1): 0.8 m at 7000 km. :func:`eme2000_to_gcrs` applies it (ERFA ``bp06``).
+* TEME (the frame of SGP4 output) → GCRS: astropy's ``TEME`` → ``GCRS`` transformation
+  (:func:`teme_to_gcrs`), never by hand.
+* GCRS → ITRS (Earth-fixed) and WGS 84 geodetic coordinates: astropy, with the IERS policy of
+  :mod:`orbit.timescales` (bundled tables, no network).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from .timescales import check_iers_range, offline_iers
+
+__all__ = [
+    "eme2000_to_gcrs",
+    "gcrs_to_itrs",
+    "geodetic_from_itrs",
+    "teme_to_gcrs",
+    "teme_to_gcrs_positions",
+]
+
+
+@lru_cache(maxsize=1)
+def _frame_bias() -> np.ndarray:
+    """The IAU 2006 frame-bias matrix B (x_EME2000 = B x_GCRS), from ERFA ``bp06``."""
+    import erfa
+
+    rb, _, _ = erfa.bp06(2451545.0, 0.0)  # B is constant; any date
+    return np.array(rb, dtype=np.float64)
+
+
+def eme2000_to_gcrs(x: np.ndarray) -> np.ndarray:
+    """Rotate vectors (..., 3) from EME2000 (J2000 mean equator/equinox) to GCRS axes."""
+    return np.asarray(x, dtype=np.float64) @ _frame_bias()  # Bᵀ x, row vectors
+
+
+def gcrs_to_eme2000(x: np.ndarray) -> np.ndarray:
+    """Rotate vectors (..., 3) from GCRS to EME2000 axes (inverse of :func:`eme2000_to_gcrs`)."""
+    return np.asarray(x, dtype=np.float64) @ _frame_bias().T
+
+
+def teme_to_gcrs(times: Any, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """TEME position [km] and velocity [km/s], shape (n, 3), at ``times`` → GCRS (astropy).
+
+    The TEME → GCRS chain (through ITRS and CIRS) uses UT1 and polar motion twice with opposite
+    effect (GMST82 and the Earth rotation angle advance with UT1 at rates equal to 1e-7), so a
+    UT1 error of 1 s changes the result by ~1e-11 rad: no IERS range warning is given for it.
+    """
+    from astropy import units as u
+    from astropy.coordinates import (
+        GCRS,
+        TEME,
+        CartesianDifferential,
+        CartesianRepresentation,
+    )
+
+    rep = CartesianRepresentation(
+        np.asarray(r).T * u.km,
+        differentials=CartesianDifferential(np.asarray(v).T * (u.km / u.s)),
+    )
+    with offline_iers():
+        g = TEME(rep, obstime=times).transform_to(GCRS(obstime=times))
+        cr = g.cartesian
+        rg = cr.xyz.to_value(u.km).T
+        vg = cr.differentials["s"].d_xyz.to_value(u.km / u.s).T
+    return np.ascontiguousarray(rg), np.ascontiguousarray(vg)
+
+
+def teme_to_gcrs_positions(times: Any, r: np.ndarray) -> np.ndarray:
+    """TEME positions [km], shape (n, 3), at ``times`` → GCRS positions [km] (astropy)."""
+    from astropy import units as u
+    from astropy.coordinates import GCRS, TEME, CartesianRepresentation
+
+    rep = CartesianRepresentation(np.asarray(r).T * u.km)
+    with offline_iers():
+        g = TEME(rep, obstime=times).transform_to(GCRS(obstime=times))
+        return np.ascontiguousarray(g.cartesian.xyz.to_value(u.km).T)
+
+
+def gcrs_to_itrs(times: Any, r: np.ndarray, name: str = "t") -> np.ndarray:
+    """GCRS positions [km], shape (n, 3), at ``times`` → ITRS (Earth-fixed) positions [km]."""
+    from astropy import units as u
+    from astropy.coordinates import GCRS, ITRS, CartesianRepresentation
+
+    check_iers_range(times, name)
+    rep = CartesianRepresentation(np.asarray(r).T * u.km)
+    with offline_iers():
+        it = GCRS(rep, obstime=times).transform_to(ITRS(obstime=times))
+        return np.ascontiguousarray(it.cartesian.xyz.to_value(u.km).T)
+
+
+def geodetic_from_itrs(r_itrs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """WGS 84 geodetic latitude [rad], longitude [rad] in (−π, π] and height [km]."""
+    from astropy import units as u
+    from astropy.coordinates import EarthLocation
+
+    r = np.asarray(r_itrs, dtype=np.float64)
+    loc = EarthLocation.from_geocentric(r[..., 0], r[..., 1], r[..., 2], unit=u.km)
+    g = loc.to_geodetic("WGS84")
+    return (
+        np.asarray(g.lat.to_value(u.rad), dtype=np.float64),
+        np.asarray(g.lon.wrap_at(180 * u.deg).to_value(u.rad), dtype=np.float64),
+        np.asarray(g.height.to_value(u.km), dtype=np.float64),
+    )
