@@ -115,6 +115,7 @@ class Potential:
         if np.any(np.abs(nq - 1.0) > 1e-6):
             raise AttitudeValueError("q: potentials are evaluated at unit quaternions")
         t = as_float_array(t, "t", unit="s")
+        self.check_times(t, "t")  # e.g. an ephemeris orbit's table span
         if omega is None:
             if self.rate_dependent:
                 raise AttitudeValueError(
@@ -304,10 +305,6 @@ class GravityGradient(Potential):
                 "the torque; give GravityGradient(orbit, inertia=...) (propagate supplies them)"
             )
         return self.inertia
-
-    def _eval(self, q: Any, t: Any) -> tuple[np.ndarray, np.ndarray]:
-        self.check_times(as_float_array(t, "t", unit="s"), "t")
-        return super()._eval(q, t)
 
     def bind(self, body: RigidBody) -> GravityGradient:
         if self.inertia is not None and not np.allclose(self.inertia, body.inertia, rtol=1e-12):
