@@ -41,7 +41,9 @@ def _abs_times(ds: xr.Dataset, epoch: Any, time_unit_seconds: float | None) -> t
     from astropy import units as u
     from astropy.time import Time
 
-    units = str(ds["time"].attrs.get("units", ""))
+    from .results import time_unit
+
+    units = time_unit(ds["time"])
     if units in ("1", ""):
         if time_unit_seconds is None:
             raise AttitudeValueError(
@@ -133,7 +135,9 @@ def write_aem(
     n = ds.sizes["time"]
     if n < 1:
         raise AttitudeValueError("ds: no samples")
-    tt = np.asarray(ds["time"].values, dtype=np.float64) * scale
+    from .results import time_values
+
+    tt = time_values(ds) * scale
     if n > 1 and not np.all(np.diff(tt) > 0):
         raise AttitudeValueError("ds: AEM data lines must have increasing times (backward run?)")
 

@@ -215,8 +215,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     try:
         a = dict(ds.attrs)
         n = ds.sizes["time"]
+        from .results import time_unit
+
         t = ds["time"].values
-        unit = ds["time"].attrs.get("units", "")
+        unit = time_unit(ds["time"])
         if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
             from .io import iter_chunks
             from .scenario import InvariantTracker
@@ -263,6 +265,13 @@ def cmd_info(args: argparse.Namespace) -> int:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    try:
+        import matplotlib  # noqa: F401 - optional: the plot extra
+    except ImportError:
+        raise BadInput(
+            "plot: matplotlib is not installed; install the plot extra: "
+            "pip install 'attitude[plot]'"
+        ) from None
     from .plotting import plot_result
 
     ds = _open(args.file)

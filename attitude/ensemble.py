@@ -174,8 +174,8 @@ def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
             is_q = isinstance(body, u.Quantity)
         except ImportError:  # pragma: no cover
             is_q = False
-        arr = as_float_array(body, "body", unit="kg km2" if is_q else None)
-        unit = "kg km2" if is_q else None
+        arr = as_float_array(body, "body", unit="kg m2" if is_q else None)
+        unit = "kg m^2" if is_q else None  # SI, as RigidBody
         if arr.shape == (3,):
             return RigidBody(arr, units=unit).inertia, unit
     if arr.ndim != 2 or arr.shape[1] != 3:
@@ -482,7 +482,7 @@ class _MemberWriter(StreamWriter):
     def _create(self, ds: xr.Dataset) -> None:
         import netCDF4
 
-        from .io import _set_attrs
+        from .io import _set_attrs, _variable_attrs
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
@@ -508,7 +508,7 @@ class _MemberWriter(StreamWriter):
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
-            _set_attrs(v, var.attrs)
+            _set_attrs(v, _variable_attrs(ds, name))  # CF "coordinates" of the label variables
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:

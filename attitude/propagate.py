@@ -342,7 +342,7 @@ def propagate(
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
     # Q has units of angular momentum: a Quantity is accepted when the body has units.
     Q0a = as_float_array(
-        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg km2 / s"
+        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
     )
     tt = as_times(t, "t")
     rtol = _positive(rtol, "rtol")
