@@ -352,7 +352,9 @@ class _Assembler:
         body = RigidBody(np.ones(3), units=unit) if unit else RigidBody(np.ones(3))
         m = t.shape[0]
         # The single-run schema, for the variables' names, dims, units and long names.
-        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, {})
+        # (with the run's epoch, if any: the CF time units follow it)
+        epoch = {k: v for k, v in (attrs or {}).items() if k == "epoch" and v}
+        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, epoch)
         self.template = tmpl
         self.per_member_orbit = pots is not None and getattr(pot, "orbit", None) is not None
         self.attrs = {k: v for k, v in tmpl.attrs.items() if k != "inertia"}
