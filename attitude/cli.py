@@ -304,6 +304,7 @@ def cmd_export(args: argparse.Namespace) -> int:
                 ref_frame_b=args.ref_frame_b,
                 originator=args.originator,
                 time_unit_seconds=args.time_unit_seconds,
+                attitude_type=args.aem_type,
             )
         except ValueError as exc:
             raise BadInput(str(exc)) from None
@@ -412,6 +413,13 @@ def build_parser() -> argparse.ArgumentParser:
         choices=(1, 2),
         default=2,
         help="2: CCSDS 504.0-B-2 (default); 1: 504.0-B-1 (older readers, e.g. GMAT)",
+    )
+    e.add_argument(
+        "--aem-type",
+        choices=("QUATERNION", "QUATERNION/ANGVEL"),
+        default="QUATERNION",
+        help="ATTITUDE_TYPE: quaternions only (default) or with the body angular velocity "
+        "(QUATERNION/ANGVEL, deg/s; AEM version 2)",
     )
     e.add_argument("--epoch", help="UTC epoch of time 0 (ISO 8601), if the run has none")
     e.add_argument(

@@ -57,6 +57,7 @@ _LEAP_SECOND_NOTE = (
     "'epoch'; attitude reads times exactly (ds.attitude.times(), astropy)."
 )
 
+
 def _utc_now() -> str:
     """Current UTC time as ISO 8601 to the second, with a Z (for the CF ``history`` attr)."""
     import datetime
@@ -224,6 +225,35 @@ def set_time_attrs(ds: xr.Dataset) -> xr.Dataset:
     return ds
 
 
+def index_coords() -> dict[str, Any]:
+    """The ``component``/``axis`` coordinates of every result Dataset.
+
+    CF coordinate variables are numeric and monotonic: indices, with the letters in the
+    auxiliary label coordinates ``component_label``/``axis_label`` (CF 1.10 sect. 6.1).
+    """
+    return {
+        "component": (
+            "component",
+            np.arange(4, dtype=np.int32),
+            {
+                "long_name": "quaternion component index: 0 = w (scalar), 1 = x, 2 = y, 3 = z",
+                "units": "1",
+            },
+        ),
+        "component_label": (
+            "component",
+            np.array(COMPONENT_LABELS),
+            {"long_name": "quaternion component (scalar first)"},
+        ),
+        "axis": (
+            "axis",
+            np.arange(3, dtype=np.int32),
+            {"long_name": "vector component index: 0 = x, 1 = y, 2 = z", "units": "1"},
+        ),
+        "axis_label": ("axis", np.array(AXIS_LABELS), {"long_name": "vector component"}),
+    }
+
+
 def build_dataset(
     t: np.ndarray,
     y: np.ndarray,
@@ -291,27 +321,7 @@ def build_dataset(
         )
     coords = {
         "time": ("time", np.asarray(t, dtype=np.float64), time_attrs(u.time, attrs.get("epoch"))),
-        # CF coordinate variables are numeric and monotonic: indices, with the letters in
-        # auxiliary label coordinates (CF 1.10 sect. 6.1).
-        "component": (
-            "component",
-            np.arange(4, dtype=np.int32),
-            {
-                "long_name": "quaternion component index: 0 = w (scalar), 1 = x, 2 = y, 3 = z",
-                "units": "1",
-            },
-        ),
-        "component_label": (
-            "component",
-            np.array(COMPONENT_LABELS),
-            {"long_name": "quaternion component (scalar first)"},
-        ),
-        "axis": (
-            "axis",
-            np.arange(3, dtype=np.int32),
-            {"long_name": "vector component index: 0 = x, 1 = y, 2 = z", "units": "1"},
-        ),
-        "axis_label": ("axis", np.array(AXIS_LABELS), {"long_name": "vector component"}),
+        **index_coords(),
     }
     base = {
         "Conventions": "CF-1.10",

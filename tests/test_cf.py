@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 import xarray as xr
 from astropy import units as u
-from astropy.time import Time, TimeDelta
+from astropy.time import Time
 
 import attitude.accessor  # noqa: F401 - registers ds.attitude
 from attitude import canonical as C

@@ -212,7 +212,8 @@ def test_units_follow_the_body(paper_state):
     assert u.Unit(ds.g.attrs["units"]) == u.Unit("kg m2 / s")
     assert u.Unit(ds.energy.attrs["units"]) == u.J
     # Quantities at the boundary: Q0 in any angular-momentum unit, t in any time unit
-    ds2 = propagate(body, q0, (Q0 * 1e-6) * u.Unit("kg km2 / s"), np.linspace(0, 10, 3) / 60 * u.min)
+    Q0_km = (Q0 * 1e-6) * u.Unit("kg km2 / s")
+    ds2 = propagate(body, q0, Q0_km, np.linspace(0, 10, 3) / 60 * u.min)
     np.testing.assert_allclose(ds2.q.values, ds.q.values, rtol=0, atol=1e-15)
     with pytest.raises(AttitudeTypeError, match="Q0"):
         propagate(body, q0, Q0 * u.kg, [0.0, 1.0])
