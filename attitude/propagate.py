@@ -297,7 +297,8 @@ def propagate(
     q0 : array_like, shape (4,)
         Initial attitude quaternion (body → space, scalar first).
     Q0 : array_like, shape (4,)
-        Initial conjugate momenta, Q0 = 2 q0∘(0, g0). A state within 1e-6 (relative) of
+        Initial conjugate momenta, Q0 = 2 q0∘(0, g0) (kg m² s⁻¹ for a body with units; a
+        Quantity is converted). A state within 1e-6 (relative) of
         |q| = 1, q·Q = 0 is projected onto it (the correction is recorded in the attrs; a
         warning above 1e-12); anything further off is rejected.
     t : array_like, shape (m,)

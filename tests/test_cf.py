@@ -353,3 +353,34 @@ def test_heavy_top_in_si_and_km_units_is_one_physics():
 
     U0 = top_si.weight * rotate(q0, top_si.center_of_mass)[2]
     assert a.potential_energy.values[0] == pytest.approx(U0, rel=1e-14)
+
+
+def test_heavy_top_scenario_units_convert_to_si():
+    text = """
+    [body]
+    inertia = [2.0e4, 2.5e4, 3.0e4]
+    inertia_unit = "kg cm2"
+    [initial_state]
+    form = "body_rates"
+    q = [1.0, 0.0, 0.0, 0.0]
+    omega = [10.0, 0.0, 5.0]
+    omega_unit = "deg/s"
+    [potential]
+    kind = "heavy_top"
+    weight = 1.5e5
+    weight_unit = "dyn"
+    center_of_mass = [10.0, 0.0, 20.0]
+    center_of_mass_unit = "cm"
+    [time]
+    stop = 1.0
+    step = 0.5
+    unit = "s"
+    """
+    sc = scenario.loads(text)
+    np.testing.assert_allclose(sc.body.inertia, [2.0, 2.5, 3.0], rtol=1e-15)  # kg m²
+    assert sc.potential.weight == pytest.approx(1.5, rel=1e-15)  # N (1 dyn = 1e-5 N)
+    np.testing.assert_allclose(sc.potential.center_of_mass, [0.1, 0.0, 0.2], rtol=1e-15)  # m
+    ds = sc.run()
+    assert ds.potential_energy.attrs["units"] == "J"
+    with pytest.raises(scenario.ScenarioError, match=r"center_of_mass_unit.*position"):
+        scenario.loads(text.replace('center_of_mass_unit = "cm"', 'center_of_mass_unit = "s"'))
