@@ -144,6 +144,6 @@ def test_docs_dask_example_runs_as_a_script(tmp_path):
     script = tmp_path / "mc_dask.py"
     script.write_text(code.replace("n = 1000", "n = 64"))
     r = subprocess.run([sys.executable, str(script)], cwd=tmp_path, capture_output=True,
-                       text=True, timeout=300)  # fmt: skip
+                       text=True, timeout=300, start_new_session=True)  # fmt: skip
     assert r.returncode == 0, r.stderr[-2000:]
     assert "'member': 64" in r.stdout and (tmp_path / "mc.nc").exists()
