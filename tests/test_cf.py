@@ -95,6 +95,25 @@ def test_compliance_checker_no_errors_on_ensemble_file(tmp_path):
     back.close()
 
 
+def test_compliance_checker_no_errors_on_lazy_ensemble_file(tmp_path):
+    """The Dask-graph writer (``lazy=True``, xarray's to_netcdf) writes CF files as well."""
+    pytest.importorskip("dask")
+    from attitude.ensemble import propagate_ensemble
+
+    sc = scenario.load(SCEN / "paper_keplerian.toml")
+    q0, Q0, _ = C.project_state(sc.q0, sc.Q0)
+    rng = np.random.default_rng(5)
+    from attitude import quaternion as qt
+
+    q = qt.multiply(q0, qt.from_rotation_vector(0.05 * rng.normal(size=(6, 3))))
+    Q = C.momenta_from_body_angular_momentum(q, C.body_angular_momentum(q0, Q0))
+    path = tmp_path / "lazy.nc"
+    ds = propagate_ensemble(sc.body, q, Q, np.linspace(0.0, 600.0, 5), sc.potential,
+                            path=path, lazy=True, attrs={"epoch": sc.epoch})  # fmt: skip
+    ds.close()
+    assert cf_errors(path, tmp_path) == []
+
+
 def test_dataset_in_memory_is_the_file(tmp_path):
     sc = scenario.load(SCEN / "gg_stabilised_leo.toml")
     sc.t = sc.t[:5]
