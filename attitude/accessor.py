@@ -2,7 +2,7 @@
 
 >>> import attitude.accessor                                     # doctest: +SKIP
 >>> ds.attitude.quantity("G")        # astropy Quantity, units from the variable's attrs
->>> ds.attitude.euler_angles("321")  # DataArray (time, angle) in rad
+>>> ds.attitude.euler_angles("321")  # DataArray (time, angle): angle_1, angle_2, angle_3, rad
 >>> ds.attitude.matrix()             # DataArray (time, row, col): x_S = R x_B
 >>> ds.attitude.angle_between(other) # DataArray (time,) in rad
 """
@@ -16,6 +16,7 @@ import xarray as xr
 
 from . import quaternion as _qt
 from .errors import AttitudeValueError
+from .results import time_unit, time_values
 
 __all__ = ["AttitudeAccessor"]
 
@@ -40,7 +41,8 @@ class AttitudeAccessor:
         Parameters
         ----------
         name : str
-            e.g. ``"time"``, ``"q"``, ``"G"``, ``"energy"``, ``"r"``.
+            e.g. ``"time"``, ``"q"``, ``"G"``, ``"energy"``, ``"r"``. ``"time"`` gives the
+            time since the epoch (s), also from a file whose times xarray decoded to datetimes.
 
         Returns
         -------
@@ -53,6 +55,8 @@ class AttitudeAccessor:
                 f"name: no variable {name!r} in this Dataset; it has "
                 + ", ".join(sorted(map(str, ds.variables)))
             )
+        if name == "time":
+            return time_values(ds) * _unit(time_unit(ds["time"]))
         units = ds[name].attrs.get("units")
         if units is None:
             raise AttitudeValueError(f"name: variable {name!r} has no units attr")
@@ -97,14 +101,22 @@ class AttitudeAccessor:
         Returns
         -------
         DataArray, shape (time, 3)
-            Angles in rad, dims ``(time, angle)``.
+            Angles in rad, dims ``(time, angle)``; ``angle`` is labelled by position
+            (``angle_1``, ``angle_2``, ``angle_3``: the rotations about the axes ``seq[0]``,
+            ``seq[1]``, ``seq[2]``), the sequence is the attr ``sequence``.
         """
         a = _qt.to_euler(self._q(), seq)
         return xr.DataArray(
             a,
             dims=("time", "angle"),
-            coords={"time": self._ds["time"], "angle": [f"a{seq[0]}", f"a{seq[1]}", f"a{seq[2]}"]},
-            attrs={"units": "rad", "long_name": f"intrinsic {seq} Euler angles, body to space"},
+            coords={"time": self._ds["time"], "angle": ["angle_1", "angle_2", "angle_3"]},
+            attrs={
+                "units": "rad",
+                "long_name": f"intrinsic {seq} Euler angles, body to space",
+                "sequence": seq,
+                "convention": "intrinsic (rotations about the body axes), "
+                f"q = q{seq[0]}(angle_1) o q{seq[1]}(angle_2) o q{seq[2]}(angle_3)",
+            },
             name="euler_angles",
         )
 
@@ -199,7 +211,7 @@ class AttitudeAccessor:
         return xr.DataArray(
             rel,
             dims=("time", "component"),
-            coords={"time": self._ds["time"], "component": self._ds["component"]},
+            coords={"time": self._ds["time"], **self._ds["q"].coords},
             attrs={"units": "1", "long_name": "attitude relative to the orbital frame, p~ o q"},
             name="q_rel",
         )

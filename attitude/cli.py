@@ -275,8 +275,10 @@ def cmd_info(args: argparse.Namespace) -> int:
     try:
         a = dict(ds.attrs)
         n = ds.sizes["time"]
+        from .results import time_unit
+
         t = ds["time"].values
-        unit = ds["time"].attrs.get("units", "")
+        unit = time_unit(ds["time"])
         if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
             from .io import iter_chunks
             from .scenario import InvariantTracker
@@ -356,6 +358,13 @@ def _torque_budget(ds: Any) -> list[str]:
 
 
 def cmd_plot(args: argparse.Namespace) -> int:
+    try:
+        import matplotlib  # noqa: F401 - optional: the plot extra
+    except ImportError:
+        raise BadInput(
+            "plot: matplotlib is not installed; install the plot extra: "
+            "pip install 'attitude[plot]'"
+        ) from None
     from .plotting import plot_result
 
     ds = _open(args.file)
@@ -388,6 +397,7 @@ def cmd_export(args: argparse.Namespace) -> int:
                 ref_frame_b=args.ref_frame_b,
                 originator=args.originator,
                 time_unit_seconds=args.time_unit_seconds,
+                attitude_type=args.aem_type,
             )
         except ValueError as exc:
             raise BadInput(str(exc)) from None
@@ -496,6 +506,13 @@ def build_parser() -> argparse.ArgumentParser:
         choices=(1, 2),
         default=2,
         help="2: CCSDS 504.0-B-2 (default); 1: 504.0-B-1 (older readers, e.g. GMAT)",
+    )
+    e.add_argument(
+        "--aem-type",
+        choices=("QUATERNION", "QUATERNION/ANGVEL"),
+        default="QUATERNION",
+        help="ATTITUDE_TYPE: quaternions only (default) or with the body angular velocity "
+        "(QUATERNION/ANGVEL, deg/s; AEM version 2)",
     )
     e.add_argument("--epoch", help="UTC epoch of time 0 (ISO 8601), if the run has none")
     e.add_argument(

@@ -48,7 +48,9 @@ def plot_result(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi: i
     stride = max(1, -(-n // MAX_POINTS))
     d = ds.isel(time=slice(None, None, stride))
     t = d["time"].values
-    tu = _label(str(ds["time"].attrs.get("units", "")))
+    from .results import time_unit
+
+    tu = _label(time_unit(ds["time"]))
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True, constrained_layout=True)
     comp = ["q0", "q1", "q2", "q3"]

@@ -215,10 +215,11 @@ class HeavyTop(Potential):
     Parameters
     ----------
     weight : float or Quantity
-        M g > 0 (force units consistent with the inertia and time units; a Quantity is
-        converted to kg km s⁻²).
+        M g > 0 (force units consistent with the inertia and time units: N for a body in SI,
+        i.e. with units; a Quantity is converted to N).
     center_of_mass : array_like or Quantity, shape (3,)
-        Position of the centre of mass relative to O, in body axes (km for a Quantity).
+        Position of the centre of mass relative to O, in body axes (m for a Quantity). With
+        the inertia in kg m² the torque is in N m and the energy in J.
 
     Notes
     -----
@@ -232,10 +233,10 @@ class HeavyTop(Potential):
     _kind = _kp.KIND_HEAVY_TOP
 
     def __init__(self, weight: Any, center_of_mass: Any):
-        w = float(as_float_array(weight, "weight", unit="kg km / s2"))
+        w = float(as_float_array(weight, "weight", unit="N"))
         if not w > 0:
             raise AttitudeValueError(f"weight: must be M g > 0, got {w}")
-        c = as_float_array(center_of_mass, "center_of_mass", unit="km")
+        c = as_float_array(center_of_mass, "center_of_mass", unit="m")
         if c.shape != (3,):
             raise AttitudeValueError(
                 f"center_of_mass: expected 3 body-axis components, got shape {c.shape}"
@@ -264,8 +265,14 @@ class GravityGradient(Potential):
         The compiled kernels read it through ``orbit.kernel_data()`` (one dispatcher over the
         orbit types), so every source runs in the same cached integrator.
     inertia : RigidBody or array_like, optional
-        The body's principal moments (kg km²). Needed only to evaluate ``value``/``torque``
-        directly; :func:`attitude.propagate` takes them from the body.
+        The body's principal moments (a RigidBody with units is in kg m²). Needed only to
+        evaluate ``value``/``torque`` directly; :func:`attitude.propagate` takes them from the
+        body.
+
+    Notes
+    -----
+    3μ/r³ is in s⁻² whatever the length unit (μ in km³ s⁻², r in km), so a body in SI
+    (kg m²) gets U in J and τ_B in N m with no conversion.
     """
 
     name = "gravity_gradient"

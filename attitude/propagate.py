@@ -46,6 +46,24 @@ __all__ = ["METHODS", "Problem", "RunResult", "propagate"]
 
 #: Relative defect of the initial state above which a projection warns.
 PROJECTION_WARN = 1e-12
+#: Progress reports per run (the default chunk with ``progress``): the compiled loop returns
+#: this often; results do not depend on it (dense output at the requested times).
+PROGRESS_CHUNKS = 200
+
+
+class _ProgressBar:
+    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here)."""
+
+    def __init__(self, total: int):
+        from tqdm import auto
+
+        self.bar = auto.tqdm(total=total, desc="propagate", unit="sample", leave=True)
+
+    def __call__(self, done: int, total: int, t: float) -> None:
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 #: Registered methods: name -> runner(problem, **options) -> RunResult.
@@ -101,7 +119,7 @@ def propagate(
     *,
     max_step: float = math.inf,
     max_steps: int = 100_000_000,
-    progress: Callable[[int, int, float], None] | None = None,
+    progress: bool | Callable[[int, int, float], None] | None = None,
     chunk: int | None = None,
     formulation: str = "canonical",
     on_chunk: Callable[[xr.Dataset], None] | None = None,
@@ -119,7 +137,8 @@ def propagate(
     q0 : array_like, shape (4,)
         Initial attitude quaternion (body → space, scalar first).
     Q0 : array_like, shape (4,)
-        Initial conjugate momenta, Q0 = 2 q0∘(0, g0). A state within 1e-6 (relative) of
+        Initial conjugate momenta, Q0 = 2 q0∘(0, g0) (kg m² s⁻¹ for a body with units; a
+        Quantity is converted). A state within 1e-6 (relative) of
         |q| = 1, q·Q = 0 is projected onto it (the correction is recorded in the attrs; a
         warning above 1e-12); anything further off is rejected.
     t : array_like, shape (m,)
@@ -141,10 +160,14 @@ def propagate(
         Largest step of the adaptive methods.
     max_steps : int
         Give up after this many steps.
-    progress : callable, optional
-        ``progress(n_done, n_total, t_reached)`` called after each chunk of output times.
+    progress : bool or callable, optional
+        ``True``: a tqdm progress bar (on stderr; a widget in Jupyter) that advances during
+        the run. A callable: ``progress(n_done, n_total, t_reached)`` called after each chunk
+        of output times.
     chunk : int, optional
-        Output samples per compiled call (with ``progress``); results do not depend on it.
+        Output samples per compiled call; results do not depend on it. With ``progress`` the
+        default is :data:`PROGRESS_CHUNKS` chunks per run (the compiled loop returns that
+        often to report), else one call for the whole run.
     formulation : str
         Equations integrated: ``"canonical"`` (default, eq. 7 in (q, Q)) or another of
         :data:`attitude.formulations.FORMULATIONS` (``"euler_angles"``, ``"schwab"``,
@@ -185,7 +208,7 @@ def propagate(
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
     # Q has units of angular momentum: a Quantity is accepted when the body has units.
     Q0a = as_float_array(
-        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg km2 / s"
+        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
     )
     tt = as_times(t, "t")
     rtol = _positive(rtol, "rtol")
@@ -202,8 +225,12 @@ def propagate(
         max_step = _positive(max_step, "max_step")
     if not isinstance(max_steps, (int, np.integer)) or max_steps <= 0:
         raise AttitudeValueError(f"max_steps: expected a positive integer, got {max_steps!r}")
-    if progress is not None and not callable(progress):
-        raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, t)")
+    if progress is False:
+        progress = None
+    if progress is not None and progress is not True and not callable(progress):
+        raise AttitudeTypeError(
+            "progress: expected True (a progress bar) or a callable progress(n_done, n_total, t)"
+        )
     if on_chunk is not None and not callable(on_chunk):
         raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
     run_attrs = _epoch_attrs(pot, epoch)
@@ -212,6 +239,8 @@ def propagate(
     except ValueError as exc:
         raise AttitudeValueError(str(exc)) from None
 
+    if progress is not None and chunk is None:  # report during the run, not once at the end
+        chunk = max(1, -(-tt.shape[0] // PROGRESS_CHUNKS))
     q0p, Q0p, correction = project_state(q0a, Q0a)
     if correction > PROJECTION_WARN:
         warnings.warn(
@@ -240,19 +269,28 @@ def propagate(
     streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
     if on_chunk is not None:
         options["chunk"] = chunk = 4096 if chunk is None else chunk
-    if streaming:
-        chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
+    bar = _ProgressBar(tt.shape[0]) if progress is True else None
+    if bar is not None:
+        options["progress"] = bar
+    try:
+        if streaming:
+            chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
-        def emit(first: int, y: np.ndarray) -> None:
-            on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
+            def emit(first: int, y: np.ndarray) -> None:
+                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
 
-        result = runner(problem, **options, on_chunk=emit)
-    elif form is None:
-        result = runner(problem, **options)
-    else:
-        # The formulation converts the canonical initial state to its own variables, integrates
-        # its equations with the same method, and converts the samples back to (q, Q).
-        result = form.run(problem, method=method, runner=runner, **options)
+            result = runner(problem, **options, on_chunk=emit)
+        elif form is None:
+            result = runner(problem, **options)
+        else:
+            # The formulation converts the canonical initial state to its own variables,
+            # integrates its equations with the same method, and converts the samples back.
+            result = form.run(problem, method=method, runner=runner, **options)
+        if bar is not None:  # methods that do not report (scipy) complete the bar here
+            bar(result.first + result.y.shape[0], tt.shape[0], math.nan)
+    finally:
+        if bar is not None:
+            bar.close()
 
     attrs: dict[str, Any] = {
         **run_attrs,

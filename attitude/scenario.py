@@ -30,6 +30,7 @@ import xarray as xr
 from .body import RigidBody
 from .ensemble.dispersions import DISTRIBUTIONS, Dispersions
 from .errors import AttitudeError, AttitudeValueError, PropagationError
+from .results import set_time_attrs
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -43,15 +44,17 @@ class ScenarioError(AttitudeValueError):
     """A scenario file is invalid: the message names the key and what was expected."""
 
 
-# Internal unit system (km, s, kg) for dimensional scenarios.
+# Internal units of dimensional scenarios: the body in SI (kg m², N, m), the orbit in km and s.
+# Any unit astropy converts to these is accepted (e.g. the paper's kg km²).
 _INTERNAL = {
-    "inertia": "kg km2",
-    "momentum": "kg km2 s-1",
+    "inertia": "kg m2",
+    "momentum": "kg m2 s-1",
     "rate": "rad s-1",
     "time": "s",
     "length": "km",
+    "position": "m",
     "angle": "rad",
-    "force": "kg km s-2",
+    "force": "N",
     "mu": "km3 s-2",
 }
 _EXAMPLE = {
@@ -59,7 +62,8 @@ _EXAMPLE = {
     "momentum": "'kg m2 s-1' or 'N m s'",
     "rate": "'rad/s' or 'deg/s'",
     "time": "'s', 'min', 'h' or 'd'",
-    "length": "'m' or 'km'",
+    "length": "'km' or 'm'",
+    "position": "'m' or 'cm'",
     "angle": "'deg' or 'rad'",
     "force": "'N' (a weight M g)",
     "mu": "'km3 s-2'",
@@ -87,7 +91,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "angles": "angle",
         "momenta": "momentum",
     },
-    "potential": {"kind": None, "weight": "force", "center_of_mass": "length"},
+    "potential": {"kind": None, "weight": "force", "center_of_mass": "position"},
     "orbit": {
         "type": None,
         "epoch": None,
@@ -375,8 +379,10 @@ class Scenario:
         except PropagationError as exc:
             if exc.partial is not None:
                 exc.partial.attrs.update(self.attrs(kw), run_status=f"failed: {exc}")
+                set_time_attrs(exc.partial)
             raise
         ds.attrs.update(self.attrs(kw), run_status="complete")
+        set_time_attrs(ds)  # CF time units from the epoch
         ds.attrs["history"] = self._history(ds.attrs)
         return ds
 
@@ -968,7 +974,7 @@ def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:
     if kind == "torque_free":
         return P.TorqueFree()
     weight = r.value(pt, "weight", "potential", "force")
-    com = r.value(pt, "center_of_mass", "potential", "length", n=3)
+    com = r.value(pt, "center_of_mass", "potential", "position", n=3)
     return P.HeavyTop(weight, com)
 
 

@@ -11,7 +11,7 @@ import attitude.accessor  # noqa: F401 - registers ds.attitude
 from attitude import scenario
 from attitude.propagate import propagate
 
-I_SAT = u.Quantity([400.0, 500.0, 600.0], "kg km2")
+I_SAT = u.Quantity([400.0, 500.0, 600.0], "kg m2")
 
 
 @pytest.fixture(scope="module")
@@ -36,12 +36,12 @@ def _scipy(q):
 
 def test_quantity_units(run):
     G = run.attitude.quantity("G")
-    assert G.unit == u.Unit("kg km2 / s")
+    assert G.unit == u.Unit("kg m2 / s")  # SI (was kg km² s⁻¹ before issue 16)
     np.testing.assert_array_equal(G.value, run.G.values)
     assert run.attitude.quantity("q").unit == u.dimensionless_unscaled
     assert run.attitude.quantity("time").to_value("min")[-1] == pytest.approx(10.0)
-    E = run.attitude.quantity("energy").to(u.J)  # kg km² s⁻² = 1e6 J
-    np.testing.assert_allclose(E.value, run.energy.values * 1e6, rtol=1e-15)
+    E = run.attitude.quantity("energy").to(u.erg)  # J = 1e7 erg
+    np.testing.assert_allclose(E.value, run.energy.values * 1e7, rtol=1e-15)
     with pytest.raises(ValueError, match="no variable 'nope'"):
         run.attitude.quantity("nope")
 

@@ -132,7 +132,9 @@ def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = _tmp_path(path)
     try:
-        job = ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", compute=False)
+        # CF: coordinate variables have no _FillValue (xarray adds NaN to floats by default)
+        enc = {c: {"_FillValue": None} for c in ds.coords if ds[c].dtype.kind == "f"}
+        job = ds.to_netcdf(tmp, engine="netcdf4", format="NETCDF4", compute=False, encoding=enc)
         if client is not None:
             client.compute(job).result()
         else:

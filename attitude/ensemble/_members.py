@@ -129,8 +129,8 @@ def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
             is_q = isinstance(body, u.Quantity)
         except ImportError:  # pragma: no cover
             is_q = False
-        arr = as_float_array(body, "body", unit="kg km2" if is_q else None)
-        unit = "kg km2" if is_q else None
+        arr = as_float_array(body, "body", unit="kg m2" if is_q else None)
+        unit = "kg m^2" if is_q else None  # SI, as RigidBody
         if arr.shape == (3,):
             return RigidBody(arr, units=unit).inertia, unit
     if arr.ndim != 2 or arr.shape[1] != 3:

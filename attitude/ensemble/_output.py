@@ -31,7 +31,9 @@ class _Assembler:
         body = RigidBody(np.ones(3), units=unit) if unit else RigidBody(np.ones(3))
         m = t.shape[0]
         # The single-run schema, for the variables' names, dims, units and long names.
-        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, {})
+        # (with the run's epoch, if any: the CF time units follow it)
+        epoch = {k: v for k, v in (attrs or {}).items() if k == "epoch" and v}
+        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, epoch)
         self.template = tmpl
         self.per_member_orbit = pots is not None and getattr(pot, "orbit", None) is not None
         self.attrs = {k: v for k, v in tmpl.attrs.items() if k != "inertia"}
@@ -161,7 +163,7 @@ class _MemberWriter(StreamWriter):
     def _create(self, ds: xr.Dataset) -> None:
         import netCDF4
 
-        from ..io import _set_attrs
+        from ..io import _set_attrs, _variable_attrs
 
         self.path.parent.mkdir(parents=True, exist_ok=True)
         nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
@@ -187,7 +189,7 @@ class _MemberWriter(StreamWriter):
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
-            _set_attrs(v, var.attrs)
+            _set_attrs(v, _variable_attrs(ds, name))  # CF "coordinates" of the label variables
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:

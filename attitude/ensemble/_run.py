@@ -92,7 +92,7 @@ def propagate_ensemble(
     ----------
     bodies_or_body : RigidBody, array_like shape (3,) or (N, 3), or sequence of N RigidBody
         One body for all members, or one row of principal moments per member (an astropy
-        Quantity is converted to kg km²; plain numbers are dimensionless, as in ``propagate``).
+        Quantity is converted to kg m² (SI); plain numbers are dimensionless, as in ``propagate``).
     q0 : array_like, shape (N, 4)
         Initial attitudes (body → space, scalar first). A single (4,) row is shared by all.
     Q0 : array_like, shape (N, 4)
