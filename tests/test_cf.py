@@ -36,6 +36,7 @@ SHORT = {
     "paper_keplerian": 60.0,
     "gg_stabilised_leo": 2.0,
     "tumbling_upper_stage": 60.0,
+    "sso_tle_gravity_gradient": 0.02,  # hours
 }
 
 
@@ -214,6 +215,7 @@ def expected_units():
         "r": u.km,  # the orbit stays in km
         "f": u.rad,
         "p": u.one,
+        "torque": g * rate,  # dg/dt = τ − ω × g: the torque has the units of g/s
     }
 
 
@@ -258,6 +260,7 @@ def test_unit_strings_parse_alike_in_pint_udunits_and_astropy(gg_run):
         "r": "km",
         "f": "rad",
         "p": "1",
+        "torque": "kg m^2 s^-2",
     }
     names = [*gg_run.data_vars, "inertia_units"]
     for name in names:

@@ -101,13 +101,14 @@ def test_per_model_torque_adds_up_to_the_driving_torque():
     )
     np.testing.assert_allclose(tau[:, 1], np.broadcast_to([1e-9, -2e-9, 3e-9], (31, 3)))
     np.testing.assert_allclose(tau[:, 2], tau[:, 0] + tau[:, 1], rtol=0, atol=1e-24)
-    # dG/dt = torque in space axes (Euler's second law), by finite differences of the run
-    tau_s = qt.rotate(ds.q.values, tau[:, 2])
+    # dG/dt = total torque in space axes (Euler's second law), central differences of a run
+    h = 1.0
     dense = attitude.propagate(
-        I_SAT, q0, Q0, np.linspace(0.0, 20.0, 3), potential=gg + ct, rtol=1e-13, atol=1e-16
+        I_SAT, q0, Q0, [0.0, h, 2 * h], potential=gg + ct, rtol=1e-13, atol=1e-16
     )
-    dG = (dense.G.values[2] - dense.G.values[0]) / 20.0
-    np.testing.assert_allclose(dG, tau_s[0], rtol=2e-3)
+    dG = (dense.G.values[2] - dense.G.values[0]) / (2 * h)
+    tau_s = qt.rotate(dense.q.values[1], dense.torque.values[1, 2])
+    np.testing.assert_allclose(dG, tau_s, rtol=1e-5)
 
 
 def test_rate_damping_on_a_sphere_follows_the_closed_form():
@@ -160,7 +161,7 @@ def test_energy_counts_the_conservative_terms_and_names_the_others():
     ct = CustomTorque(_damping, name="damper")
     q0 = np.array([0.5, -(0.5**0.5), 0.0, 0.5])
     Q0 = momenta_from_angular_velocity(q0, [0.2, -0.1, 0.3], [1.25, 1.0, 0.75])
-    t = np.linspace(0.0, 20.0, 201)
+    t = np.linspace(0.0, 20.0, 4001)
     ds = attitude.propagate([1.25, 1.0, 0.75], q0, Q0, t, potential=ht + ct, rtol=1e-12)
     assert ds.attrs["terms_without_potential"] == "damper"
     np.testing.assert_allclose(
@@ -170,4 +171,4 @@ def test_energy_counts_the_conservative_terms_and_names_the_others():
     assert np.all(np.diff(ds.energy.values) < 0)
     dH = np.gradient(ds.energy.values, t)
     want = -2.5e-3 * np.sum(ds.omega.values**2, axis=1)
-    np.testing.assert_allclose(dH[5:-5], want[5:-5], rtol=1e-3)
+    np.testing.assert_allclose(dH[5:-5], want[5:-5], rtol=1e-4)
