@@ -573,15 +573,8 @@ def _perifocal(el, t):
 
 
 @jit
-def state(el, t):
-    """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
-    _, xp, yp, vxp, vyp = _perifocal(el, t)
-    cw = math.cos(el[ARGP])
-    sw = math.sin(el[ARGP])
-    cO = math.cos(el[RAAN])
-    sO = math.sin(el[RAAN])
-    ci = math.cos(el[INC])
-    si = math.sin(el[INC])
+def rotate_perifocal(xp, yp, vxp, vyp, cO, sO, ci, si, cw, sw):
+    """Perifocal (x, y, vx, vy) to space-frame position and velocity, from the trig of Ω, i, ω."""
     # N̂ = (cos Ω, sin Ω, 0) (node line), M̂ = ĥ × N̂ = (−sin Ω cos i, cos Ω cos i, sin i);
     # periapsis P̂ = cos ω N̂ + sin ω M̂, Q̂ = −sin ω N̂ + cos ω M̂.
     mx, my, mz = -sO * ci, cO * ci, si
@@ -594,6 +587,24 @@ def state(el, t):
         vxp * px + vyp * qx,
         vxp * py + vyp * qy,
         vxp * pz + vyp * qz,
+    )
+
+
+@jit
+def state(el, t):
+    """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
+    _, xp, yp, vxp, vyp = _perifocal(el, t)
+    return rotate_perifocal(
+        xp,
+        yp,
+        vxp,
+        vyp,
+        math.cos(el[RAAN]),
+        math.sin(el[RAAN]),
+        math.cos(el[INC]),
+        math.sin(el[INC]),
+        math.cos(el[ARGP]),
+        math.sin(el[ARGP]),
     )
 
 

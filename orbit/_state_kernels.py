@@ -324,27 +324,10 @@ def _kepler_radial(d, t):
 
 
 @jit
-def _rotate_perifocal(xp, yp, vxp, vyp, cO, sO, ci, si, cw, sw):
-    # N̂ = (cos Ω, sin Ω, 0), M̂ = ĥ × N̂ = (−sin Ω cos i, cos Ω cos i, sin i);
-    # periapsis P̂ = cos ω N̂ + sin ω M̂, Q̂ = −sin ω N̂ + cos ω M̂.
-    mx, my, mz = -sO * ci, cO * ci, si
-    px, py, pz = cw * cO + sw * mx, cw * sO + sw * my, sw * mz
-    qx, qy, qz = -sw * cO + cw * mx, -sw * sO + cw * my, cw * mz
-    return (
-        xp * px + yp * qx,
-        xp * py + yp * qy,
-        xp * pz + yp * qz,
-        vxp * px + vyp * qx,
-        vxp * py + vyp * qy,
-        vxp * pz + vyp * qz,
-    )
-
-
-@jit
 def _kepler_state(d, t):
     el = d[K_EL : K_EL + _k.NEL]
     _, xp, yp, vxp, vyp = _k._perifocal(el, t)
-    return _rotate_perifocal(
+    return _k.rotate_perifocal(
         xp,
         yp,
         vxp,
@@ -400,7 +383,7 @@ def _j2_state(d, t):
     ci = d[J_COSI]
     si = d[J_SINI]
     k = d[J_RATIO]
-    x, y, z, vx, vy, vz = _rotate_perifocal(xp, yp, k * vxp, k * vyp, cO, sO, ci, si, cw, sw)
+    x, y, z, vx, vy, vz = _k.rotate_perifocal(xp, yp, k * vxp, k * vyp, cO, sO, ci, si, cw, sw)
     # dr/dt = (in-plane motion at rate n̄) + Ω̇ ẑ × r + ω̇ ĥ × r,
     # ĥ = (sin Ω sin i, −cos Ω sin i, cos i)
     od = d[J_RAAN_DOT]
