@@ -227,7 +227,7 @@ def _load_plugins() -> None:
     # Methods living in their own modules register themselves on import.
     import importlib
 
-    for mod in ("attitude.splitting", "attitude.exact"):
+    for mod in ("attitude.splitting", "attitude.exact", "attitude.taylor"):
         try:
             importlib.import_module(mod)
         except ModuleNotFoundError as exc:  # not built yet in this checkout
