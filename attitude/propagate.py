@@ -223,8 +223,13 @@ def _lookup_method(method: str) -> tuple[Callable[..., RunResult], dict[str, Any
     return METHODS[method], {}
 
 
+_PLUGINS_LOADED: list[bool] = []
+
+
 def _load_plugins() -> None:
-    # Methods living in their own modules register themselves on import.
+    # Methods living in their own modules register themselves on import (once per process).
+    if _PLUGINS_LOADED:
+        return
     import importlib
 
     for mod in ("attitude.splitting", "attitude.exact", "attitude.taylor"):
@@ -233,6 +238,7 @@ def _load_plugins() -> None:
         except ModuleNotFoundError as exc:  # not built yet in this checkout
             if exc.name != mod:
                 raise
+    _PLUGINS_LOADED.append(True)
 
 
 def _as_body(body: Any) -> RigidBody:
