@@ -13,7 +13,7 @@ Methods
     The same right-hand side through ``scipy.integrate.solve_ivp(method=<name>)`` (e.g.
     ``"scipy:DOP853"``, ``"scipy:Radau"``): a reference path, not a fast one.
 
-Further methods (``"exact"``, ``"nosquish"``, ``"splitting"``) register themselves in
+Further methods (``"exact"``, ``"nosquish"``, ``"splitting"``, ``"taylor"``) register themselves in
 :data:`METHODS` from their own modules.
 """
 
@@ -296,7 +296,7 @@ def propagate(
         ``CustomTorque``.
     method : str
         ``"dop853"`` (default), ``"scipy:<solver>"``, and where available ``"exact"``,
-        ``"nosquish"``, ``"splitting"``.
+        ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables).
     dt : float, optional
