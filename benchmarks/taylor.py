@@ -258,12 +258,16 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer tolerances")
     ap.add_argument("--figure", default=None, help="write the work-precision figure here")
+    ap.add_argument("--overhead-only", action="store_true", help="only the propagate() overhead")
     args = ap.parse_args(argv)
     warnings.simplefilter("ignore")
     _load_plugins()
     hy = _heyoka()
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}"
           + (f", heyoka {hy.__version__}" if hy else ", heyoka not installed"))  # fmt: skip
+    if args.overhead_only:
+        overhead()
+        return
     if args.quick:
         tols = [1e-9, 1e-12, 1e-15]
         settings = {"taylor": tols, "dop853": [1e-10, 1e-12, 1e-13], "heyoka": tols}
@@ -290,8 +294,44 @@ def main(argv=None):
         "Gravity gradient (Sect. 6.2, e = 0.2), 10 orbits, 2001 outputs; error over 2 orbits",
         np.array([400.0, 500.0, 600.0]), GravityGradient(o), t, 401, settings, hy,
     )  # fmt: skip
+    overhead()
     if args.figure:
         figure(results, args.figure)
+
+
+def overhead(repeat: int = 2000) -> None:
+    """``propagate`` call overhead: a 2-sample torque-free run (the integration takes µs)."""
+    from attitude.results import build_dataset
+
+    q0, Q0 = paper_state()
+    I_paper = [1.25, 1.0, 0.75]
+    t = np.array([0.0, 1.0])
+    print("\n## propagate() overhead, torque-free, 2 output samples\n")
+    print("| method | propagate() [ms] | runner alone [ms] | Dataset (build_dataset) [ms] |")
+    print("| --- | ---: | ---: | ---: |")
+    problem = make_problem(np.array(I_paper), TorqueFree(), np.concatenate([q0, Q0]), t)
+    for m in ("dop853", "taylor"):
+        run = METHODS[m]
+        tp = min_time(lambda m=m: propagate(I_paper, q0, Q0, t, method=m), repeat)
+        tr = min_time(lambda run=run: run(problem, rtol=1e-10, atol=1e-12), repeat)
+        y = run(problem, rtol=1e-10, atol=1e-12).y
+        tb = min_time(
+            lambda y=y: build_dataset(t, y, DIAG2, problem.body, problem.potential, {}), repeat
+        )
+        print(f"| {m} | {1e3 * tp:.3f} | {1e3 * tr:.3f} | {1e3 * tb:.3f} |")
+
+
+DIAG2 = np.zeros((2, 13))
+
+
+def min_time(fn, repeat):
+    fn()
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
 
 
 if __name__ == "__main__":
