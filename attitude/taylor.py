@@ -147,6 +147,49 @@ class TaylorStepper:
         self.tstate[3] = _kt.order_from_tolerance(self.rtol)
         self.counters[3] = 1
 
+    @classmethod
+    def from_state(
+        cls,
+        body: Any,
+        q0: Any,
+        Q0: Any,
+        t0: float,
+        t_end: float,
+        potential: Any = None,
+        *,
+        rtol: float = 1e-10,
+        atol: float = 1e-12,
+        max_step: float = math.inf,
+    ) -> TaylorStepper:
+        """A stepper from an initial state, validated and projected as by ``propagate``.
+
+        Parameters
+        ----------
+        body : RigidBody or array_like, shape (3,)
+        q0, Q0 : array_like, shape (4,)
+            Initial attitude quaternion and conjugate momenta.
+        t0, t_end : float
+            Initial and final time [s] (``t_end < t0`` integrates backwards).
+        potential : Potential, optional
+            A built-in potential (default torque-free).
+        """
+        from ._validation import as_float_array, as_times
+        from .canonical import project_state
+        from .potentials import as_potential
+        from .propagate import _as_body
+
+        b = _as_body(body)
+        pot = as_potential(potential).bind(b)
+        tt = as_times([t0, t_end], "t0, t_end")
+        q, Q, _ = project_state(
+            as_float_array(q0, "q0", trailing=4, ndim=1),
+            as_float_array(Q0, "Q0", trailing=4, ndim=1),
+        )
+        problem = Problem(
+            b, pot, pot._params(b.inertia), np.concatenate([q, Q]), tt, pot._kernels()
+        )
+        return cls(problem, rtol=rtol, atol=atol, t_end=float(tt[1]), max_step=max_step)
+
     @property
     def order(self) -> int:
         """Order p of the Taylor polynomials."""

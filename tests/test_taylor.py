@@ -381,3 +381,32 @@ def test_not_for_other_formulations():
     q0, Q0 = paper_state()
     with pytest.raises(AttitudeValueError, match="taylor"):
         propagate(I_PAPER, q0, Q0, [0.0, 1.0], method="taylor", formulation="schwab")
+
+
+def test_stepper_from_state_locates_a_crossing_on_the_polynomial():
+    """Event-style use: bisection on the step polynomial finds where q0 crosses zero; the
+    crossing agrees with a dense-output propagate at that time."""
+    q0, Q0 = paper_state()
+    st = TaylorStepper.from_state(I_PAPER, q0, Q0, 0.0, 20.0, HEAVY, rtol=1e-13, atol=1e-15)
+    assert st.order == kt.order_from_tolerance(1e-13)
+    s_prev = st.y[0]
+    crossing = None
+    while st.t < 20.0 and crossing is None:
+        st.step()
+        if np.sign(st.y[0]) != np.sign(s_prev):
+            lo, hi = st.t_old, st.t
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                if np.sign(st.dense(mid)[0]) == np.sign(s_prev):
+                    lo = mid
+                else:
+                    hi = mid
+            crossing = 0.5 * (lo + hi)
+        s_prev = st.y[0]
+    assert crossing is not None
+    ds = propagate(I_PAPER, q0, Q0, [0.0, crossing], potential=HEAVY, rtol=1e-14, atol=1e-16)
+    assert abs(float(ds.q[-1, 0])) < 1e-12
+    with pytest.raises(AttitudeValueError, match="method: 'taylor'"):
+        TaylorStepper.from_state(
+            I_PAPER, q0, Q0, 0.0, 1.0, CustomTorque(lambda q, t: (0.0, 0.0, 0.0))
+        )
