@@ -144,7 +144,7 @@ class TaylorStepper:
         self.work, self.tstate, self.counters = _kt.new_state()
         self.work[_kt.Y, :8] = problem.y0
         self.tstate[0] = self.tstate[2] = float(problem.t[0])
-        self.tstate[3] = _kt.order_from_tolerance(self.rtol)
+        _kt.set_order(self.tstate, _kt.order_from_tolerance(self.rtol))
         self.counters[3] = 1
 
     @classmethod

@@ -48,8 +48,9 @@ Layout of the persistent arrays
 ``work`` : float64, shape (WORK_ROWS, NCOL)
     rows 0..PMAX: Taylor coefficients of the last step (row k = order k; columns below);
     row Y: the current state (8 values, columns 0..7).
-``tstate`` : float64, shape (4,)
-    ``[t, h_last, t_old, order]``: current time, last step, its start, the order p.
+``tstate`` : float64, shape (5,)
+    ``[t, h_last, t_old, p, exp(−2 − 0.7/(p − 1))]``: current time, last step, its start, the
+    order and the step factor of Jorba & Zou.
 ``counters`` : int64, shape (5,)
     ``[n_steps, n_series_terms, 0, started, has_step]``.
 
@@ -93,7 +94,7 @@ _SAFETY_EXP = 0.7  # Jorba & Zou's safety factor exp(−0.7/(p − 1))
 
 def new_state():
     """Fresh persistent arrays ``(work, tstate, counters)``."""
-    return np.zeros((WORK_ROWS, NCOL)), np.zeros(4), np.zeros(5, dtype=np.int64)
+    return np.zeros((WORK_ROWS, NCOL)), np.zeros(5), np.zeros(5, dtype=np.int64)
 
 
 @jit
@@ -101,6 +102,13 @@ def order_from_tolerance(rtol):
     """Jorba & Zou's order p = ⌈−½ ln ε + 1⌉ (eq. 3.8), clipped to [2, PMAX]."""
     p = int(math.ceil(-0.5 * math.log(rtol) + 1.0))  # noqa: RUF046 (numba: float ceil)
     return min(max(p, 2), PMAX)
+
+
+@jit
+def set_order(tstate, p):
+    """Store the order p and Jorba & Zou's step factor exp(−2 − 0.7/(p − 1)) in ``tstate``."""
+    tstate[3] = p
+    tstate[4] = math.exp(-2.0 - _SAFETY_EXP / (p - 1.0))
 
 
 @jit
@@ -366,7 +374,7 @@ def taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step):
     taylor_coefficients(work, p, params, n, c)
     counters[1] += p
     rho = _radius(work, p, rtol, atol)
-    h_abs = rho * math.exp(-2.0 - _SAFETY_EXP / (p - 1.0))
+    h_abs = rho * tstate[4]  # exp(−2 − 0.7/(p − 1)), set with the order
     if not h_abs <= max_step:  # also catches a NaN radius
         if math.isnan(h_abs):
             return NONFINITE
@@ -412,7 +420,7 @@ def taylor_canonical_builtin(
         tstate[0] = t0
         tstate[1] = 0.0
         tstate[2] = t0
-        tstate[3] = order_from_tolerance(rtol)
+        set_order(tstate, order_from_tolerance(rtol))
         counters[3] = 1
         counters[4] = 0
     p = int(tstate[3])
