@@ -266,7 +266,8 @@ def figure(results, path):
         ax.set_xlabel("core time [ms]")
         ax.grid(True, which="both", alpha=0.3)
     np.atleast_1d(axes)[0].set_ylabel("max error (q, Q/|Q|)")
-    np.atleast_1d(axes)[0].legend()
+    for ax in np.atleast_1d(axes):
+        ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     print(f"\nfigure: {path}")
