@@ -91,9 +91,7 @@ def run_taylor(
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     if streaming:  # keep only the last state (the samples went to on_chunk)
         last = max(done - 1, 0)
-        keep = y_chunk[: int(k)][-1:].copy() if k else problem.y0[None, :].copy()
-        if not k and done:
-            keep = y_out[:0].copy()
+        keep = y_chunk[: int(k)][-1:].copy()
         return RunResult(keep, int(status), msg, stats, first=last, t_stop=t_stop)
     return RunResult(y_out[:done], int(status), msg, stats, t_stop=t_stop)
 
@@ -118,12 +116,17 @@ class TaylorStepper:
 
     Examples
     --------
-    Locate a sign change of some function of the state on the step polynomial::
+    Locate a sign change of q0 on the step polynomials (bisection inside the step)::
 
-        st = TaylorStepper(problem, rtol=1e-12, atol=1e-14, t_end=100.0)
+        st = TaylorStepper.from_state(body, q0, Q0, 0.0, 100.0, HeavyTop(0.5, [1, 0, 0]))
         while st.t < 100.0:
+            s0 = st.y[0]
             st.step()
-            y = st.dense(0.5 * (st.t_old + st.t))   # (8,) state inside the last step
+            if s0 * st.y[0] < 0.0:
+                lo, hi = st.t_old, st.t
+                for _ in range(60):
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (mid, hi) if s0 * st.dense(mid)[0] > 0.0 else (lo, mid)
     """
 
     def __init__(
