@@ -13,9 +13,10 @@ Methods
     The same right-hand side through ``scipy.integrate.solve_ivp(method=<name>)`` (e.g.
     ``"scipy:DOP853"``, ``"scipy:Radau"``): a reference path, not a fast one.
 
-``"exact"``, ``"nosquish"``, ``"splitting"``
-    The closed-form torque-free motion (:mod:`attitude.exact`) and the structure-preserving
-    splittings (:mod:`attitude.splitting`).
+``"exact"``, ``"nosquish"``, ``"splitting"``, ``"taylor"``
+    The closed-form torque-free motion (:mod:`attitude.exact`), the structure-preserving
+    splittings (:mod:`attitude.splitting`) and the adaptive Taylor series of eq. 7
+    (:mod:`attitude.taylor`).
 
 :data:`METHODS` maps each name to its runner (:mod:`attitude._methods` says what a runner is).
 """
@@ -41,6 +42,7 @@ from .formulations import get_formulation
 from .potentials import Potential, as_potential
 from .results import build_dataset
 from .splitting import run_nosquish, run_splitting
+from .taylor import run_taylor
 
 __all__ = ["METHODS", "Problem", "RunResult", "propagate"]
 
@@ -72,6 +74,7 @@ METHODS: dict[str, Callable[..., RunResult]] = {
     "exact": run_exact,
     "nosquish": run_nosquish,
     "splitting": run_splitting,
+    "taylor": run_taylor,
 }
 
 
@@ -149,7 +152,7 @@ def propagate(
         ``CustomTorque``.
     method : str
         ``"dop853"`` (default), ``"scipy:<solver>"``, and where available ``"exact"``,
-        ``"nosquish"``, ``"splitting"``.
+        ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables).
     dt : float, optional
