@@ -48,7 +48,9 @@ def gg_orbit():
 def problem(inertia, potential, y0, t):
     body = RigidBody(inertia)
     pot = as_potential(potential).bind(body)
-    return Problem(body, pot, pot._params(body.inertia), np.asarray(y0, float), t, pot._entry_points())
+    return Problem(
+        body, pot, pot._params(body.inertia), np.asarray(y0, float), t, pot._entry_points()
+    )
 
 
 # ---------------------------------------------------------------------------------------------
