@@ -372,8 +372,9 @@ def _dataset(
 
     The public constructor merges and aligns its arguments (about 0.4 ms, most of a short
     ``propagate`` call); here every variable already has its final dims, dtype and attrs and
-    every coordinate is a 1-D dimension coordinate, so the Dataset is put together from its
-    parts (variables, default pandas indexes, dims). tests/test_results_fast.py checks that the
+    every coordinate is 1-D (a dimension coordinate, indexed, or an auxiliary label
+    coordinate), so the Dataset is put together from its parts (variables, default pandas
+    indexes of the dimension coordinates, dims). tests/test_results_fast.py checks that the
     result is identical to the public constructor's; on an xarray without the internals used
     here the public constructor is used.
     """
@@ -384,7 +385,12 @@ def _dataset(
         coord_vars: dict[str, Any] = {}
         indexes: dict[str, Any] = {}
         for name, (dim, values, vattrs) in coords.items():
-            key = (name, tuple(values), tuple(vattrs.items())) if values.dtype.kind == "U" else None
+            values = np.asarray(values)
+            if name != dim:  # an auxiliary (label) coordinate: no index
+                coord_vars[name] = xr.Variable((dim,), values, dict(vattrs))
+                continue
+            const = values.dtype.kind in "iU"  # the index coordinates (component, axis, model)
+            key = (name, tuple(values.tolist()), tuple(vattrs.items())) if const else None
             if key is not None and key in _COORD_CACHE:
                 idx, cvar = _COORD_CACHE[key]
                 cvar = cvar.copy(deep=False)  # own attrs dict; the index is immutable
@@ -406,5 +412,5 @@ def _dataset(
         )
 
 
-# Default indexes of the constant string coordinates ("component", "axis"), reused.
+# Default indexes of the constant index coordinates ("component", "axis", "model"), reused.
 _COORD_CACHE: dict[tuple, Any] = {}
