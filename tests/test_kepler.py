@@ -11,15 +11,14 @@ import math
 import os
 from fractions import Fraction
 
+import mpmath as mp
 import numpy as np
 import pytest
 
-mp = pytest.importorskip("mpmath")
-
-from orbit import _kernels as K  # noqa: E402
-from orbit._jit import JIT_DISABLED  # noqa: E402
-from orbit.errors import OrbitTypeError, OrbitValueError  # noqa: E402
-from orbit.kepler import (  # noqa: E402
+from orbit import _kernels as K
+from orbit._jit import JIT_DISABLED
+from orbit.errors import OrbitTypeError, OrbitValueError
+from orbit.kepler import (
     eccentric_from_true,
     hyperbolic_from_true,
     mean_from_eccentric,
@@ -125,9 +124,45 @@ def test_solve_kepler_against_mpmath_dense_grid():
         worst_res = max(worst_res, float(res / (4e-16 * max(1.0, abs(Mi)))))
         if abs(Ei) > 1e-290:  # normal range: the relative error is meaningful
             worst_ulp = max(worst_ulp, float(err / ulp(Ei)))
-    assert worst_err <= 1e-14
-    assert worst_res <= 1.0
-    assert worst_ulp <= 1.5  # ~correctly rounded: documented "about 1.3 ulp"
+    # Measured 2.52e-16 to 2.54e-16 rad over nine seeds (README: "within 2.5e-16 rad"): the
+    # grid's largest |E| is π, where one ulp is 4.4e-16.
+    assert worst_err <= 4e-16
+    assert worst_res <= 1.0  # measured 0.73-0.82
+    # ~correctly rounded: measured 1.12-1.32 ulp over nine seeds (documented "about 1.3 ulp")
+    assert worst_ulp <= 1.5
+
+
+def test_kepler_residual_is_exact_but_for_the_sine():
+    """The solver's residual E − e sin E − (M + M_lo) is evaluated in double-double: on [1, π]
+    the only rounding left is the one of sin E, on [0, 1) the one of the series E − sin E. So
+    with those two floats taken as they are, the residual must equal the exact one to the
+    rounding of the double-double sum (a few 2^-106 M), at the root (total cancellation) and
+    at a starter-sized distance from it. Dropping any low-order part of the error-free sums
+    and products (or M_lo) makes the difference ~2^-53 M."""
+    rng = np.random.default_rng(SEED + 7)
+    n = 1500
+    M = np.concatenate([10 ** rng.uniform(-12, math.log10(math.pi), n), rng.uniform(0.5, 3.1, n)])
+    e = np.concatenate([1 - 10 ** rng.uniform(-9, 0, n), rng.uniform(0, 1, n)])
+    root = solve_kepler(M, e)
+    M_lo = rng.uniform(-0.5, 0.5, M.size) * ulp(M)  # the low part of a reduced M
+    worst = {"below 1": 0.0, "above 1": 0.0}
+    for rel in (0.0, 1e-4):  # at the root, and where Markley's starter lands (rel. error 3e-4)
+        E = np.minimum(root * (1 + rel * rng.uniform(-1, 1, M.size)), math.pi)
+        for Ei, Mi, li, ei in zip(E.tolist(), M.tolist(), M_lo.tolist(), e.tolist(), strict=True):
+            f0, _, sn, _ = K._kepler_residual(Ei, Mi, li, ei, 1.0 - ei)
+            if Ei < 1.0:
+                S = K._x_minus_sin(Ei)  # the series value the kernel uses
+                exact = mp.mpf(1.0 - ei) * Ei + mp.mpf(ei) * S - Mi - li
+                key = "below 1"
+            else:
+                exact = mp.mpf(Ei) - mp.mpf(ei) * sn - Mi - li
+                key = "above 1"
+            # allowance: the final rounding of f0 itself, plus the double-double sum
+            err = abs(mp.mpf(f0) - exact) - 2.0**-53 * abs(f0)
+            worst[key] = max(worst[key], float(err / (2.0**-106 * Mi)))
+    # measured 2.8 (E < 1) and 1.7 (E >= 1) units of 2^-106 M beyond the rounding of f0;
+    # a dropped low-order part or M_lo: ~2^52 units
+    assert max(worst.values()) <= 16.0, worst
 
 
 def test_solve_kepler_large_mean_anomaly_reduction():
@@ -306,7 +341,8 @@ def test_hyperbolic_conversions_against_mpmath():
 
 
 def test_units_are_converted():
-    u = pytest.importorskip("astropy.units")
+    from astropy import units as u
+
     assert solve_kepler(60 * u.deg, 0.3) == pytest.approx(solve_kepler(math.pi / 3, 0.3), 1e-15)
     assert true_from_mean(1 * u.rad, 0.1 * u.one) == true_from_mean(1.0, 0.1)
     with pytest.raises(OrbitTypeError, match="M"):
