@@ -8,7 +8,6 @@ import re
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import netCDF4
@@ -179,21 +178,24 @@ def test_interrupted_run_leaves_old_file_or_none(sig, tmp_path):
         assert main(args) == 0
         before = out.read_bytes()
     proc = subprocess.Popen(
-        [sys.executable, "-m", "attitude", "run", str(_long_scenario(tmp_path)), "-o", str(out)],
+        [sys.executable, "-m", "attitude", "run", str(_long_scenario(tmp_path)), "-o", str(out),
+         "--progress", "always"],
         cwd=tmp_path,
         env=ENV,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        text=True,
-    )
-    deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(".out.nc.*.tmp")):
-        assert proc.poll() is None, proc.communicate()
-        assert time.monotonic() < deadline
-        time.sleep(0.05)
-    time.sleep(0.5)  # well inside the streaming phase
+    )  # fmt: skip
+    # Event, not a clock: the progress line is drawn after a chunk of samples has been appended
+    # to the temporary file, so once it reports n > 0 samples the run is streaming.
+    seen = b""
+    while not any(int(n) > 0 for n in re.findall(rb"(\d+)/\d+ samples", seen)):
+        part = os.read(proc.stderr.fileno(), 4096)
+        assert part, (proc.wait(), seen)  # the run ended before it streamed anything
+        seen += part
+    assert list(tmp_path.glob(".out.nc.*.tmp"))
     proc.send_signal(sig)
-    _, err = proc.communicate(timeout=60)
+    _, rest = proc.communicate(timeout=300)  # a guard against a hang only
+    err = (seen + rest).decode()
     if sig == signal.SIGKILL:
         assert not out.exists()  # a temporary file may remain, never a partial final file
     else:
