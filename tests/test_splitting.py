@@ -50,10 +50,8 @@ def _attitude_error(q, q_ref):
 
 
 def _kepler_orbit():
-    try:
-        from orbit.keplerorbit import KeplerOrbit
-    except ImportError:
-        pytest.skip("orbit.KeplerOrbit is not available in this checkout")
+    from orbit.keplerorbit import KeplerOrbit
+
     # Arribas et al. Sect. 6.2: a = 7000 km, e = 0.2, i = π/6, Ω = π/4, ω = π/12, f(t0) = 0.
     return KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12)
 
