@@ -79,6 +79,20 @@ def test_generalized_force_is_minus_tangential_gradient():
     assert abs(np.dot(pot.generalized_force(q), q)) < 1e-15
 
 
+def test_torque_free_has_no_potential_energy():
+    """No potential: U = 0 exactly and H = T = ½ ω·g (found by cosmic-ray: a torque-free
+    potential energy of 1 survived, shifting every energy by a constant)."""
+    rng = np.random.default_rng(24)
+    q = qt.normalize(rng.normal(size=(6, 4)))
+    assert np.all(TorqueFree().value(q) == 0.0)
+    assert np.all(TorqueFree().torque(q) == 0.0)
+    q0, Q0, _ = C.project_state([0.5, -(0.5**0.5), 0, 0.5], [0.3, -0.848528, 0.141421, -1.5])
+    ds = propagate([1.25, 1.0, 0.75], q0, Q0, np.linspace(0.0, 5.0, 6))
+    assert np.all(ds.potential_energy.values == 0.0)
+    T = 0.5 * np.sum(ds.omega.values * ds.g.values, axis=1)
+    np.testing.assert_allclose(ds.energy.values, T, rtol=1e-14)
+
+
 def test_heavy_top_sign_is_physical():
     """V = W z_c: the hanging top has the lower energy (eq. 18 as printed has the other sign)."""
     pot = HeavyTop(2.0, [0.0, 0.0, 1.5])  # centre of mass on b3
