@@ -41,6 +41,7 @@ from attitude._core.dynamics import canonical_rhs_with, diagnostics_with, term_t
 from attitude._core.ensemble import member_run
 from attitude._core.events import (
     builtin_event,
+    composition_events_run,
     dop853_events_run,
     event_values_with,
     member_events_run,
@@ -140,6 +141,18 @@ def dop853_canonical_events(
 def event_values(t, y, params, evd, out):
     """``out[k, j]``: event function j at the canonical states ``y[k]`` (m, 8) and times t."""
     event_values_with(event, t, y, params, evd, out)
+
+
+@jit
+def composition_events(
+    params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
+    evd, evs, ev_count, rec_t, rec_k, rec_y,
+):  # fmt: skip
+    """The splitting methods with events (:func:`attitude._core.events.composition_events_run`)."""
+    return composition_events_run(
+        torque, event, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
+        evd, evs, ev_count, rec_t, rec_k, rec_y,
+    )  # fmt: skip
 
 
 # Other formulations (attitude.formulations) ----------------------------------------------------

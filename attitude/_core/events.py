@@ -59,14 +59,22 @@ from orbit.sun import conical_shadow
 
 from .frames import frame_eval
 from .quat import conj_mul, rotate
+from .splitting import (
+    KICK,
+    ROTOR,
+    free_flow_state,
+    n_steps_for,
+    rotor_flow,
+    state_to_canonical,
+)
 from .rk import (
     EVENT,
     EVENT_BUFFER_FULL,
     F0,
+    NONFINITE,
     SUCCESS,
     TOO_MANY_STEPS,
     Y,
-    YOLD,
     _dense_coefficients,
     _initial_step,
     _interpolate,
@@ -583,3 +591,150 @@ def member_events_run(
                 yo[r, j] = math.nan
             for j in range(diag.shape[2]):
                 diag[i, r, j] = math.nan
+
+
+# ---------------------------------------------------------------------------------------------
+# the fixed-step methods (attitude._core.splitting) with events
+@jit_generic
+def composition_step(torque, params, kinds, coefs, toffs, state, ts, h, counters):
+    """One whole step of a composition method (every stage; no merging with the next step)."""
+    q = state[0:4]
+    w = state[4:8]
+    for o in range(kinds.shape[0]):
+        tau = coefs[o] * h
+        kind = kinds[o]
+        if kind == KICK:
+            om = (0.5 * w[1] / params[0], 0.5 * w[2] / params[1], 0.5 * w[3] / params[2])
+            tq = torque(q, om, ts + toffs[o] * h, params)
+            f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+            w[1] += f * tq[0]
+            w[2] += f * tq[1]
+            w[3] += f * tq[2]
+            counters[1] += 1
+        elif kind == ROTOR:
+            rotor_flow(q, w, tau, params)
+            counters[2] += 1
+        else:
+            free_flow_state(q, w, tau, params)
+            counters[2] += 1
+
+
+@jit_generic
+def composition_events_run(
+    torque,
+    event,
+    params,
+    kinds,
+    coefs,
+    toffs,
+    state,
+    t_start,
+    t_out,
+    dt,
+    y_out,
+    counters,
+    evd,
+    evs,
+    ev_count,
+    rec_t,
+    rec_k,
+    rec_y,
+):
+    """:func:`attitude._core.splitting.composition_run` with events.
+
+    The steps are those of ``composition_run`` (the fewest equal steps <= dt between output
+    times), each applied whole; g is evaluated at every step's end, and a sign change is
+    refined by Brent's method on g(t_s + τ, Φ_τ(y_s)), Φ_τ one step of the method of size τ
+    from the step's start y_s. ``evs[:, EVS_G]`` must hold g at ``t_start`` on the first call.
+
+    Returns (status, n_done) as ``composition_run``, or ``EVENT`` (``state`` then holds the
+    state at the terminal event, also the last record) or ``EVENT_BUFFER_FULL`` (at an output
+    time: enlarge the records and call again from there).
+    """
+    m = t_out.shape[0]
+    n_ev = int(evd[EV_N])
+    cap = rec_t.shape[0]
+    sbak = np.empty(8)
+    trial = np.empty(8)
+    yc = np.empty(8)
+    gb = np.empty(max(n_ev, 1))
+    ct = np.empty(max(n_ev, 1))
+    cj = np.empty(max(n_ev, 1))
+    cs = np.empty(max(n_ev, 1))
+    zs = np.empty(6)
+    direction = 1.0 if (m == 0 or t_out[m - 1] >= t_start) else -1.0
+    t_a = t_start
+    for k in range(m):
+        t_b = t_out[k]
+        span = t_b - t_a
+        if span != 0.0:
+            n = n_steps_for(span, dt)
+            if cap > 0 and cap - ev_count[0] < n_ev * n:
+                return EVENT_BUFFER_FULL, k
+            h = span / n
+            for j in range(n):
+                ts = t_a + j * h
+                for i in range(8):
+                    sbak[i] = state[i]
+                composition_step(torque, params, kinds, coefs, toffs, state, ts, h, counters)
+                counters[0] += 1
+                te = t_b if j == n - 1 else ts + h
+                state_to_canonical(state, yc)
+                for e in range(n_ev):
+                    gb[e] = event_at(event, e, te, yc, params, evd)
+                nc = 0
+                for e in range(n_ev):
+                    ga = evs[e, EVS_G]
+                    sign = crossing(ga, gb[e])
+                    if sign == 0 or not wanted(evd, e, sign):
+                        continue
+                    zeroin_start(zs, 0.0, te - ts, ga, gb[e])
+                    tr = te - ts
+                    for _ in range(_MAX_ITER):
+                        done, tau = zeroin_next(zs, XTOL)
+                        if done:
+                            tr = tau
+                            break
+                        for i in range(8):
+                            trial[i] = sbak[i]
+                        composition_step(
+                            torque, params, kinds, coefs, toffs, trial, ts, tau, counters
+                        )
+                        state_to_canonical(trial, trial)
+                        zeroin_update(zs, event_at(event, e, ts + tau, trial, params, evd))
+                    nc = _insert(ct, cj, cs, nc, ts + tr, e, sign, direction)
+                for c in range(nc):
+                    troot = ct[c]
+                    for i in range(8):
+                        trial[i] = sbak[i]
+                    if troot == te:
+                        for i in range(8):
+                            trial[i] = state[i]
+                    else:
+                        composition_step(
+                            torque, params, kinds, coefs, toffs, trial, ts, troot - ts, counters
+                        )
+                    state_to_canonical(trial, yc)
+                    jc = int(cj[c])
+                    record(evs, ev_count, rec_t, rec_k, rec_y, jc, int(cs[c]), troot, yc)
+                    if is_terminal(evd, jc):
+                        for c2 in range(c + 1, nc):
+                            if ct[c2] == troot:
+                                record(
+                                    evs, ev_count, rec_t, rec_k, rec_y, int(cj[c2]),
+                                    int(cs[c2]), troot, yc,
+                                )  # fmt: skip
+                        for i in range(8):
+                            state[i] = trial[i]
+                        return EVENT, k
+                for e in range(n_ev):
+                    evs[e, EVS_G] = gb[e]
+        state_to_canonical(state, y_out[k])
+        ok = True
+        for i in range(8):
+            if not math.isfinite(y_out[k, i]):
+                ok = False
+        if not ok:
+            return NONFINITE, k
+        t_a = t_b
+    return SUCCESS, m
