@@ -80,8 +80,14 @@ def _event_block(events: tuple) -> list[str]:
         "        k = int(evd[b + 3])",
     ]
     for k in range(len(events)):
-        lines += [f"        if k == {k}:", f"            return user_event(USER_EVENT_{k}, t, q, w)"]
-    lines += ["        return builtin_event(j, t, q, w, evd)", "    return builtin_event(j, t, q, w, evd)"]
+        lines += [
+            f"        if k == {k}:",
+            f"            return user_event(USER_EVENT_{k}, t, q, w)",
+        ]
+    lines += [
+        "        return builtin_event(j, t, q, w, evd)",
+        "    return builtin_event(j, t, q, w, evd)",
+    ]
     return lines
 
 

@@ -543,4 +543,3 @@ def build(events: Any, t: np.ndarray, epoch: Any = None) -> EventSet:
             name, k = f"{e.name}_{k}", k + 1
         labels.append(name)
     return EventSet(tuple(evs), labels, data, tuple(ctx.user), run_epoch)
-

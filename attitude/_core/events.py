@@ -59,14 +59,6 @@ from orbit.sun import conical_shadow
 
 from .frames import frame_eval
 from .quat import conj_mul, rotate
-from .splitting import (
-    KICK,
-    ROTOR,
-    free_flow_state,
-    n_steps_for,
-    rotor_flow,
-    state_to_canonical,
-)
 from .rk import (
     EVENT,
     EVENT_BUFFER_FULL,
@@ -79,6 +71,14 @@ from .rk import (
     _initial_step,
     _interpolate,
     dop853_step,
+)
+from .splitting import (
+    KICK,
+    ROTOR,
+    free_flow_state,
+    n_steps_for,
+    rotor_flow,
+    state_to_canonical,
 )
 
 # Layout.

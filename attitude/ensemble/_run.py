@@ -333,9 +333,7 @@ def propagate_ensemble(
                         f"chunk of members {start}..{stop - 1} failed: {type(got).__name__}: {got}"
                     ) from got
                 out, inertia, corr = got
-                bad = np.flatnonzero(
-                    (out["status"] != _rk.SUCCESS) & (out["status"] != _rk.EVENT)
-                )
+                bad = np.flatnonzero((out["status"] != _rk.SUCCESS) & (out["status"] != _rk.EVENT))
                 if bad.size:
                     msg, t_fail = _failure_message(out, bad, start, tt)
                     raise PropagationError(msg, time=t_fail)
@@ -493,6 +491,8 @@ def run_scenario(
         chunk_size=chunk_size or disp.chunk,
         scheduler_timeout=scheduler_timeout,
         attrs=attrs,
+        events=sc.events,
+        epoch=sc.epoch,
         _source=(source, sc.body.units, pot, None),
         **kw,
     )
