@@ -116,6 +116,8 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "formulation": None,
     },
     "output": {"path": None},
+    # [events.<name>] subtables (attitude.events, docs/events.md; keys in _EVENT_KEYS)
+    "events": {},
     # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)
     "ensemble": {
         "size": None,
@@ -1074,6 +1076,8 @@ def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
         "nadir": F.nadir,
         "sun_pointing": F.sun_pointing,
     }
+    if name not in makers:
+        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
         return makers[name](orbit)
     except ValueError as exc:

@@ -727,7 +727,7 @@ def test_shipped_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
     assert main(["run", str(path), "-o", str(out), "--stop", "291.425"]) == 0
     assert "1000 members (seed 2006)" in capsys.readouterr().out
     back = io.read(out)
-    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3}
+    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3, "detector": 2}
     assert back.attrs["run_status"] == "complete"
     np.testing.assert_array_equal(back.attrs["inertia"], [400.0, 500.0, 600.0])
     # the dispersed inertia: 2 % per axis, truncated at 3 sigma
