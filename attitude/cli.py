@@ -260,7 +260,7 @@ def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
     inv = _invariant_lines(a)
     lines.append("invariants  " + ("\n            ".join(inv) if inv else "-"))
     if a.get("events"):
-        lines.append(f"events      {a['events']}")
+        lines.append("events      " + "\n            ".join(str(a["events"]).split(" | ")))
         if a.get("terminal_event"):
             lines.append(f"            run ended by {a['terminal_event']}")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
@@ -342,8 +342,8 @@ def cmd_info(args: argparse.Namespace) -> int:
 def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     """The event detectors of a run and what they found (single runs and ensembles)."""
     a = ds.attrs
-    out = [str(x).strip() for x in str(a.get("events", "")).split("; ") if str(x).strip()]
-    if "detector_label" not in ds.coords:
+    out = [str(x).strip() for x in str(a.get("events", "")).split(" | ") if str(x).strip()]
+    if "detector_label" not in ds.variables:
         return out
     labels = [str(x) for x in ds["detector_label"].values]
     unit = ds["time"].attrs.get("units", "")

@@ -456,8 +456,8 @@ class EventSet:
         return any(e.terminal for e in self.events)
 
     def describe(self) -> str:
-        """One line per event (for attrs and ``attitude info``)."""
-        return "; ".join(f"{i}: {e.describe()}" for i, e in enumerate(self.events))
+        """One line: ``0: <event> | 1: <event> | ...`` (for attrs and ``attitude info``)."""
+        return " | ".join(f"{i}: {e.describe()}" for i, e in enumerate(self.events))
 
 
 def _as_events(events: Any) -> list[Event]:
