@@ -431,7 +431,7 @@ class _Context:
     def sun_table(self, epoch: Any) -> np.ndarray:
         from orbit.sun import SunTable
 
-        key = None if epoch is None else float(epoch.tai.jd1), float(epoch.tai.jd2)
+        key = (float(epoch.tai.jd1), float(epoch.tai.jd2))
         if key not in self._suns:
             self._suns[key] = SunTable(epoch, self.t_min, self.t_max).kernel_data()
         return self._suns[key]
