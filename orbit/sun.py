@@ -96,8 +96,15 @@ def sun_position(epoch: Any, t: Any) -> np.ndarray:
     return np.ascontiguousarray(xyz).reshape((*tt.shape, 3))
 
 
+_TABLES: dict[tuple, np.ndarray] = {}
+_TABLES_MAX = 16
+
+
 class SunTable:
     """The Sun's GCRS position on a uniform grid over [start, stop], for compiled code.
+
+    Tables are memoised per (epoch, start, stop, step) (the last 16): repeated runs over the
+    same span do not call astropy again.
 
     Parameters
     ----------
@@ -112,13 +119,20 @@ class SunTable:
     def __init__(self, epoch: Any, start: float, stop: float, step: float = SUN_STEP):
         self.epoch = as_epoch(epoch, "epoch", allow_none=False)
         ep = self.epoch
+        tai = ep.tai
+        key = (float(tai.jd1), float(tai.jd2), float(start), float(stop), float(step))
+        if key not in _TABLES:
 
-        def positions(t: np.ndarray) -> np.ndarray:
-            return sun_position(ep, t)
+            def positions(t: np.ndarray) -> np.ndarray:
+                return sun_position(ep, t)
 
-        # a wide velocity stencil: astropy's positions scatter by ~1e-5 km (1e-13 relative)
-        self._data = _tables.tabulate(positions, start, stop, step, delta=step / 6.0)
-        self._data.setflags(write=False)
+            # a wide velocity stencil: astropy's positions scatter by ~1e-5 km (1e-13 relative)
+            data = _tables.tabulate(positions, start, stop, step, delta=step / 6.0)
+            data.setflags(write=False)
+            if len(_TABLES) >= _TABLES_MAX:
+                _TABLES.pop(next(iter(_TABLES)))
+            _TABLES[key] = data
+        self._data = _TABLES[key]
 
     @property
     def time_span(self) -> tuple[float, float]:

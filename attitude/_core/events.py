@@ -57,7 +57,7 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 from orbit.sun import conical_shadow
 
-from .frames import frame_eval
+from .frames import frame_attitude
 from .quat import conj_mul, rotate
 from .rk import (
     EVENT,
@@ -138,8 +138,7 @@ def builtin_event(j, t, q, w, evd):
     if kind == KIND_RATE:
         return math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) - evd[p]
     if kind == KIND_POINTING:
-        r = frame_eval(evd[int(evd[p + 5]) :], t)
-        qr = (r[0], r[1], r[2], r[3])
+        qr = frame_attitude(evd[int(evd[p + 5]) :], t)
         if evd[p + 1] == 1.0:
             e = conj_mul(qr, q)
             ang = 2.0 * math.atan2(math.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3]), abs(e[0]))

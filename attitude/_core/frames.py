@@ -56,7 +56,14 @@ from __future__ import annotations
 import math
 
 from orbit._shared_jit import jit
-from orbit._state_kernels import orbit_acceleration, orbit_state, quaternion_from_axes
+from orbit._state_kernels import (
+    MU,
+    TYPE,
+    TYPE_KEPLER,
+    orbit_acceleration,
+    orbit_state,
+    quaternion_from_axes,
+)
 
 from .quat import mul, rotate_inverse
 
@@ -147,7 +154,18 @@ def _needs_acceleration(code):
 
 
 @jit
-def _aligned(d, t):
+def _acceleration(od, t, st):
+    """The orbit's acceleration at t (state st): −μ r/r³ without a second Kepler solve."""
+    if int(od[TYPE]) == TYPE_KEPLER:
+        x, y, z = st[0], st[1], st[2]
+        r2 = x * x + y * y + z * z
+        g = -od[MU] / (r2 * math.sqrt(r2))
+        return g * x, g * y, g * z
+    return orbit_acceleration(od, t)
+
+
+@jit
+def _aligned(d, t, with_rate):
     zero6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     pc = int(d[F_PDIR])
     sc = int(d[F_SDIR])
@@ -157,8 +175,8 @@ def _aligned(d, t):
     if o > 0:
         od = d[o:]
         st = orbit_state(od, t)
-        if _needs_acceleration(pc) or _needs_acceleration(sc):
-            acc = orbit_acceleration(od, t)
+        if with_rate and (_needs_acceleration(pc) or _needs_acceleration(sc)):
+            acc = _acceleration(od, t, st)
     sun = zero6
     if int(d[F_SUN]) > 0:
         sun = orbit_state(d[int(d[F_SUN]) :], t)
@@ -178,6 +196,14 @@ def _aligned(d, t):
         ux, uy, uz, a1[0] + a2[0], a1[1] + a2[1], a1[2] + a2[2]
     )
     T3x, T3y, T3z = _cross(T1x, T1y, T1z, T2x, T2y, T2z)
+    # R = Σ T_i t_iᵀ; its column k is R e_k = Σ_i T_i t_i[k]
+    b = F_BODY
+    c0x, c0y, c0z = _column(d, b, 0, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
+    c1x, c1y, c1z = _column(d, b, 1, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
+    c2x, c2y, c2z = _column(d, b, 2, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
+    q = quaternion_from_axes(c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z)
+    if not with_rate:
+        return q[0], q[1], q[2], q[3], 0.0, 0.0, 0.0
     b1 = _cross(dT1x, dT1y, dT1z, T2x, T2y, T2z)
     b2 = _cross(T1x, T1y, T1z, dT2x, dT2y, dT2z)
     dT3x, dT3y, dT3z = b1[0] + b2[0], b1[1] + b2[1], b1[2] + b2[2]
@@ -188,12 +214,6 @@ def _aligned(d, t):
     wx = 0.5 * (c1[0] + c2[0] + c3[0])
     wy = 0.5 * (c1[1] + c2[1] + c3[1])
     wz = 0.5 * (c1[2] + c2[2] + c3[2])
-    # R = Σ T_i t_iᵀ; its column k is R e_k = Σ_i T_i t_i[k]
-    b = F_BODY
-    c0x, c0y, c0z = _column(d, b, 0, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
-    c1x, c1y, c1z = _column(d, b, 1, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
-    c2x, c2y, c2z = _column(d, b, 2, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
-    q = quaternion_from_axes(c0x, c0y, c0z, c1x, c1y, c1z, c2x, c2y, c2z)
     return (
         q[0],
         q[1],
@@ -220,11 +240,23 @@ def _column(d, b, k, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z):
 @jit
 def frame_eval(d, t):
     """(q0, q1, q2, q3, ω1, ω2, ω3): q_R(t) (reference → space) and ω_R(t) in reference axes."""
+    return _frame(d, t, True)
+
+
+@jit
+def frame_attitude(d, t):
+    """(q0, q1, q2, q3): q_R(t) only (no derivatives: cheaper, what pointing events need)."""
+    r = _frame(d, t, False)
+    return r[0], r[1], r[2], r[3]
+
+
+@jit
+def _frame(d, t, with_rate):
     if int(d[F_TYPE]) == FRAME_INERTIAL:
         q = (d[F_Q], d[F_Q + 1], d[F_Q + 2], d[F_Q + 3])
         w = (0.0, 0.0, 0.0)
     else:
-        r = _aligned(d, t)
+        r = _aligned(d, t, with_rate)
         q = (r[0], r[1], r[2], r[3])
         w = (r[4], r[5], r[6])
     o = (d[F_OFFSET], d[F_OFFSET + 1], d[F_OFFSET + 2], d[F_OFFSET + 3])
