@@ -131,6 +131,8 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         + ("\n            ".join(inv) if inv else "-")
         + ("\n            (maxima over members)" if inv else "")
     )
+    if info.get("events"):
+        lines.append(f"events      {info['events']} (attitude info for the percentiles)")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     return lines
 
@@ -257,6 +259,10 @@ def _summary(sc: Any, a: dict[str, Any], wall: float) -> None:
         )
     inv = _invariant_lines(a)
     lines.append("invariants  " + ("\n            ".join(inv) if inv else "-"))
+    if a.get("events"):
+        lines.append("events      " + "\n            ".join(str(a["events"]).split(" | ")))
+        if a.get("terminal_event"):
+            lines.append(f"            run ended by {a['terminal_event']}")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     print("\n".join(lines))
 
@@ -327,9 +333,52 @@ def cmd_info(args: argparse.Namespace) -> int:
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
         budget = _torque_budget(ds)
         print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if a.get("events") or "detector" in ds.dims:
+            ev = _event_lines(ds)
+            print("events      " + ("\n            ".join(ev) if ev else "-"))
     finally:
         ds.close()
     return EXIT_OK
+
+
+def _event_lines(ds: Any, limit: int = 20) -> list[str]:
+    """The event detectors of a run and what they found (single runs and ensembles)."""
+    a = ds.attrs
+    out = [str(x).strip() for x in str(a.get("events", "")).split(" | ") if str(x).strip()]
+    if "detector_label" not in ds.variables:
+        return out
+    labels = [str(x) for x in ds["detector_label"].values]
+    unit = ds["time"].attrs.get("units", "")
+    if "event_first_time" in ds and "member" in ds["event_first_time"].dims:  # ensemble
+        first = np.asarray(ds["event_first_time"].values, dtype=np.float64)
+        n = first.shape[0]
+        for j, name in enumerate(labels):
+            col = first[:, j]
+            have = np.isfinite(col)
+            if have.any():
+                p5, p50, p95 = np.percentile(col[have], [5, 50, 95])
+                out.append(
+                    f"{name}: in {int(have.sum())} of {n} members; first at "
+                    f"{p5:.6g} / {p50:.6g} / {p95:.6g} {unit} (5/50/95 %)"
+                )
+            else:
+                out.append(f"{name}: in none of {n} members")
+        return out
+    if "detector_count" in ds:
+        counts = np.asarray(ds["detector_count"].values)
+        out.append(", ".join(f"{name}: {int(c)}" for name, c in zip(labels, counts, strict=True)))
+    if "event_time" in ds:
+        t = np.asarray(ds["event_time"].values, dtype=np.float64)
+        which = np.asarray(ds["event_detector"].values)
+        sign = np.asarray(ds["event_direction"].values)
+        for i in range(min(t.size, limit)):
+            d = "rising" if sign[i] > 0 else "falling"
+            out.append(f"t = {t[i]:.12g} {unit}  {labels[int(which[i])]} ({d})")
+        if t.size > limit:
+            out.append(f"... {t.size - limit} more (variables event_time, event_detector)")
+    if a.get("terminal_event"):
+        out.append(f"run ended by the terminal event {a['terminal_event']}")
+    return out
 
 
 def _torque_budget(ds: Any) -> list[str]:

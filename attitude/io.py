@@ -175,11 +175,42 @@ class StreamWriter:
             var = da.variable
             if var.dtype.kind not in "iuf":
                 raise AttitudeTypeError(f"ds[{name!r}]: only numeric data variables are written")
-            if "time" not in var.dims:
-                raise AttitudeValueError(f"ds[{name!r}]: data variables must depend on time")
+            if "time" not in var.dims:  # e.g. the events of a run (docs/events.md): once
+                self._static(name, var)
+                continue
             v = nc.createVariable(name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp)
             _set_attrs(v, _variable_attrs(ds, name))
             self._vars.append(name)
+
+    def _static(self, name: str, var: xr.Variable) -> None:
+        """Write a variable without a time dimension at once (creating its dimensions)."""
+        nc = self._nc
+        for dim, size in zip(var.dims, var.shape, strict=True):
+            if dim not in nc.dimensions:
+                nc.createDimension(dim, size)
+        if var.dtype.kind in "UO":
+            v = nc.createVariable(name, str, var.dims)
+            if var.size:
+                v[:] = np.asarray(var.values, dtype=object)
+        else:
+            v = nc.createVariable(name, var.dtype, var.dims)
+            if var.size:
+                v[:] = var.values
+        _set_attrs(v, var.attrs)
+
+    def add_static(self, ds: xr.Dataset) -> None:
+        """Add the variables of ``ds`` without a ``time`` dimension that the file lacks yet.
+
+        For what is known only at the end of a streamed run (its events, docs/events.md);
+        call before :meth:`commit`.
+        """
+        if self._nc is None or self._done:
+            raise AttitudeValueError("add_static: the file is not open (append samples first)")
+        for name in [*ds.coords, *ds.data_vars]:
+            var = ds[name].variable
+            if "time" in var.dims or name in self._nc.variables:
+                continue
+            self._static(str(name), var)
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:

@@ -40,7 +40,7 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import get_formulation
 from .potentials import Potential, as_potential
-from .results import build_dataset
+from .results import add_event_variables, build_dataset
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
 
@@ -127,6 +127,7 @@ def propagate(
     formulation: str = "canonical",
     on_chunk: Callable[[xr.Dataset], None] | None = None,
     epoch: Any = None,
+    events: Any = None,
 ) -> xr.Dataset:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -186,14 +187,22 @@ def propagate(
         the potential's orbit, if it has one. Recorded in the attrs (``epoch``, UTC ISO 8601),
         so ``ds.attitude.times()`` and the AEM export need nothing else. An epoch different
         from the orbit's is an error (one run has one time origin).
+    events : list, optional
+        Events to locate (:mod:`attitude.events`: ``PointingExceeds``, ``RateExceeds``,
+        ``EclipseEntry``, ``EclipseExit``, ``AngleToSun``, ``Custom`` or plain functions
+        g(t, q, omega)), with the methods ``"dop853"``, ``"nosquish"`` and ``"splitting"``
+        (canonical formulation). Every occurrence is recorded in variables on an ``event``
+        dimension (time, which event, direction, state); a terminal event ends the run at its
+        root (attrs ``status = "event"``; the state there is the last sample). See
+        docs/events.md.
 
     Returns
     -------
     xarray.Dataset
         Dimension ``time``; variables ``q``, ``Q``, ``omega``, ``g``, ``G``, ``energy``,
-        ``potential_energy``, ``norm_error``, ``qQ`` (and ``r``, ``f``, ``p`` with an orbit);
-        attrs record the method, tolerances, statistics, body and potential. See
-        docs/results.md.
+        ``potential_energy``, ``norm_error``, ``qQ`` (and ``r``, ``f``, ``p`` with an orbit;
+        ``event_*`` and ``detector_*`` with events); attrs record the method, tolerances,
+        statistics, body and potential. See docs/results.md.
 
     Raises
     ------
@@ -241,6 +250,9 @@ def propagate(
         pot.check_times(tt, "t")  # e.g. an ephemeris orbit's table span
     except ValueError as exc:
         raise AttitudeValueError(str(exc)) from None
+    evset = None
+    if events is not None:
+        evset = _events(events, tt, method, formulation, run_attrs)
 
     if progress is not None and chunk is None:  # report during the run, not once at the end
         chunk = max(1, -(-tt.shape[0] // PROGRESS_CHUNKS))
@@ -256,7 +268,8 @@ def propagate(
         params=pot._params(body.inertia),
         y0=np.concatenate([q0p, Q0p]),
         t=tt,
-        entry=pot._entry_points(),
+        entry=_entry_points(pot, evset),
+        events=evset,
     )
     options = dict(
         rtol=rtol,
@@ -279,8 +292,8 @@ def propagate(
         if streaming:
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
-            def emit(first: int, y: np.ndarray) -> None:
-                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
+            def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
+                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first, t_last=t_last))
 
             result = runner(problem, **options, on_chunk=emit)
         elif form is None:
@@ -302,11 +315,13 @@ def propagate(
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
-    ds = finish_dataset(problem, result.y, attrs, first=result.first)
+    ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
-    if result.status != _rk.SUCCESS:
+    if evset is not None:
+        ds = add_event_variables(ds, evset, result.events, problem.body, result.status)
+    if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop
         if t_fail is None:
@@ -319,6 +334,39 @@ def propagate(
             partial=ds,
         )
     return ds
+
+
+def _entry_points(pot: Potential, evset: Any) -> Any:
+    """The compiled entry points of the model and of the user's event functions."""
+    if evset is None or not evset.user_functions:
+        return pot._entry_points()
+    from . import _user_kernels
+
+    return _user_kernels.entry_points(pot._user_terms(), evset.user_functions)
+
+
+#: Methods that locate events (inside their compiled loops).
+EVENT_METHODS = ("dop853", "nosquish", "splitting")
+
+
+def _events(events: Any, t: np.ndarray, method: str, formulation: str, run_attrs: dict) -> Any:
+    """The validated events of the run (attitude.events.build); the run's epoch if they bring
+    one."""
+    from orbit.timescales import as_epoch, format_epoch
+
+    from .events import build
+
+    if method not in EVENT_METHODS or formulation != "canonical":
+        raise AttitudeValueError(
+            f"events: located by the methods {', '.join(EVENT_METHODS)} on the canonical "
+            f"equations; got method={method!r}, formulation={formulation!r}"
+        )
+    e = run_attrs.get("epoch")
+    evset = build(events, t, as_epoch(e.rstrip("Z")) if e else None)
+    if evset.epoch is not None and not e:
+        run_attrs["epoch"] = format_epoch(evset.epoch)
+    run_attrs["events"] = evset.describe()
+    return evset
 
 
 def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
@@ -349,11 +397,19 @@ def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
 
 
 def finish_dataset(
-    problem: Problem, y: np.ndarray, attrs: dict[str, Any], first: int = 0
+    problem: Problem,
+    y: np.ndarray,
+    attrs: dict[str, Any],
+    first: int = 0,
+    t_last: float | None = None,
 ) -> xr.Dataset:
-    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``."""
+    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``
+    (the last one at ``t_last`` instead when given: the state at a terminal event)."""
     n = y.shape[0]
     t = problem.t[first : first + n]
+    if t_last is not None and n:
+        t = t.copy()
+        t[-1] = t_last
     diag = np.empty((n, 13))
     n_terms = len(problem.potential.terms)
     torques = np.empty((n, n_terms + 1, 3))

@@ -23,6 +23,7 @@ __all__ = [
     "COMPONENT_LABELS",
     "SI",
     "UnitSystem",
+    "add_event_variables",
     "build_dataset",
     "set_time_attrs",
     "time_attrs",
@@ -414,3 +415,89 @@ def _dataset(
 
 # Default indexes of the constant index coordinates ("component", "axis", "model"), reused.
 _COORD_CACHE: dict[tuple, Any] = {}
+
+
+def add_event_variables(
+    ds: xr.Dataset, evset: Any, records: Any, body: RigidBody, status: int
+) -> xr.Dataset:
+    """The run's events as variables on an ``event`` dimension (docs/events.md).
+
+    ``event`` (coordinate: occurrence number), ``event_time``, ``event_detector`` (which event:
+    an index of the ``detector`` dimension, labelled by ``detector_label``),
+    ``event_direction`` (+1 rising, −1 falling), ``event_q``, ``event_Q``, ``event_omega`` (the
+    state there); per detector ``detector_count`` and ``detector_first_time`` (NaN: none).
+    Attrs ``status`` ("success" or "event": a terminal event ended the run) and
+    ``terminal_event`` (its label and time).
+    """
+    from ._core import rk as _rk
+
+    u = UnitSystem(body)
+    k = records.t.shape[0]
+    y = records.y.reshape(k, 8)
+    g = 0.5 * _conj_mul_vec(y[:, :4], y[:, 4:])
+    omega = g / np.asarray(body.inertia, dtype=np.float64)
+    n = len(evset.labels)
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    new = {
+        "event_time": var(("event",), records.t, u.time, "time of the event"),
+        "event_detector": var(
+            ("event",),
+            records.which.astype(np.int64),
+            None,
+            "which event occurred (index of the detector dimension)",
+        ),
+        "event_direction": var(
+            ("event",),
+            records.direction.astype(np.int64),
+            "1",
+            "direction of the sign change of g: 1 rising, -1 falling",
+        ),
+        "event_q": var(("event", "component"), y[:, :4], "1", "attitude quaternion at the event"),
+        "event_Q": var(("event", "component"), y[:, 4:], u.momentum, "momenta at the event"),
+        "event_omega": var(
+            ("event", "axis"), omega, u.rate, "angular velocity in body axes at the event"
+        ),
+        "detector_count": var(
+            ("detector",), records.count.astype(np.int64), "1", "occurrences of each event"
+        ),
+        "detector_first_time": var(
+            ("detector",), records.first, u.time, "time of the first occurrence (NaN: none)"
+        ),
+    }
+    coords = {
+        "event": ("event", np.arange(k, dtype=np.int64), {"long_name": "event occurrence"}),
+        "detector": (
+            "detector",
+            np.arange(n, dtype=np.int64),
+            {"long_name": "index of the event detector (labels in detector_label)"},
+        ),
+        "detector_label": ("detector", np.array(evset.labels), {"long_name": "event name"}),
+    }
+    out = ds.assign_coords(coords).assign(new)
+    out.attrs = dict(ds.attrs)
+    terminal = status == _rk.EVENT
+    out.attrs["status"] = "event" if terminal else "success"
+    if terminal and k:
+        j = int(records.which[-1])
+        out.attrs["terminal_event"] = f"{evset.labels[j]} at t = {float(records.t[-1])!r}"
+    return out
+
+
+def _conj_mul_vec(q: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """vec(q̃∘Q) for rows of quaternions."""
+    w0, w1, w2, w3 = (q[:, i] for i in range(4))
+    Q0, Q1, Q2, Q3 = (Q[:, i] for i in range(4))
+    return np.stack(
+        [
+            w0 * Q1 - w1 * Q0 - w2 * Q3 + w3 * Q2,
+            w0 * Q2 + w1 * Q3 - w2 * Q0 - w3 * Q1,
+            w0 * Q3 - w1 * Q2 + w2 * Q1 - w3 * Q0,
+        ],
+        axis=-1,
+    )

@@ -120,6 +120,8 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "formulation": None,
     },
     "output": {"path": None},
+    # [events.<name>] subtables (attitude.events, docs/events.md; keys in _EVENT_KEYS)
+    "events": {},
     # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)
     "ensemble": {
         "size": None,
@@ -133,6 +135,22 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "inertia_distribution": None,
     },
 }
+# Keys of each named subtable of [events] ([events.<name>], attitude.events, docs/events.md).
+_EVENT_KEYS: dict[str, str | None] = {
+    "type": None,
+    "frame": None,
+    "frame_q": None,
+    "axis": None,
+    "angle": "angle",
+    "rate": "rate",
+    "direction": None,
+    "terminal": None,
+    "samples": None,
+    "shadow": None,
+}
+_EVENT_TYPES = ("pointing_exceeds", "rate_exceeds", "eclipse_entry", "eclipse_exit", "angle_to_sun")
+#: Reference frames a scenario names (attitude.frames); "orbital" is the paper's p(t), rsw.
+_FRAMES = ("inertial", "orbital", "lvlh", "rsw", "vnc", "nadir", "sun_pointing")
 _REQUIRED_TABLES = ("body", "initial_state", "time")
 
 _FORMS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
@@ -304,6 +322,7 @@ class Scenario:
     initial_form: str = "canonical"
     extra_attrs: dict[str, Any] = field(default_factory=dict)
     ensemble: Dispersions | None = None  # from an [ensemble] table
+    events: list | None = None  # from an [events] table (attitude.events)
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -374,6 +393,7 @@ class Scenario:
                     self.potential,
                     progress=progress,
                     epoch=self.epoch,
+                    events=self.events,
                     **kw,
                 )
         except PropagationError as exc:
@@ -381,7 +401,8 @@ class Scenario:
                 exc.partial.attrs.update(self.attrs(kw), run_status=f"failed: {exc}")
                 set_time_attrs(exc.partial)
             raise
-        ds.attrs.update(self.attrs(kw), run_status="complete")
+        status = "event" if ds.attrs.get("status") == "event" else "complete"
+        ds.attrs.update(self.attrs(kw), run_status=status)
         set_time_attrs(ds)  # CF time units from the epoch
         ds.attrs["history"] = self._history(ds.attrs)
         return ds
@@ -433,9 +454,12 @@ class Scenario:
                         chunk=chunk or max(64, min(TIME_CHUNK, len(self.t) // 200)),
                         on_chunk=sink,
                         epoch=self.epoch,
+                        events=self.events,
                         **kw,
                     )
-                status = "complete"
+                status = "event" if last.attrs.get("status") == "event" else "complete"
+                if self.events is not None:
+                    writer.add_static(last)
             except PropagationError as exc:
                 failure = exc
                 last = exc.partial
@@ -550,7 +574,8 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
             hint = f"; did you mean [{close[0]}]?" if close else ""
             raise _fail(k, f"unknown table or key{hint} (tables: {', '.join(_TABLES)})")
     for name in _TABLES:
-        r.check_keys(name, r.table(name))
+        if name != "events":
+            r.check_keys(name, r.table(name))
 
     # [scenario]
     sc = r.table("scenario")
@@ -587,7 +612,10 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
                 "an orbit needs a body with units: give body.inertia_unit (e.g. 'kg m2')",
             )
         orbit, epoch = _orbit(r, ot, t, epoch, path)
-    potential = _potential(r, pt, kind, orbit)
+    uses_orbit = bool(r.table("events")) or r.table("initial_state").get(
+        "frame", "inertial"
+    ) not in ("inertial",)
+    potential = _potential(r, pt, kind, orbit, uses_orbit)
 
     # [initial_state]
     it = r.table("initial_state", required=True)
@@ -596,8 +624,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         raise _fail("initial_state.form", f"expected one of {', '.join(_FORMS)}, got {form!r}")
     _only(it, "initial_state", form, _FORMS[form][0], ("form", "frame"), "initial_state.form")
     frame = r.string(it, "frame", "initial_state", "inertial")
-    if frame not in ("inertial", "orbital"):
-        raise _fail("initial_state.frame", f"expected 'inertial' or 'orbital', got {frame!r}")
+    if frame not in _FRAMES[:5]:
+        raise _fail(
+            "initial_state.frame",
+            f"expected one of {', '.join(_FRAMES[:5])} ('orbital' is rsw), got {frame!r}",
+        )
     q0, Q0 = _initial(r, it, form, frame, body, orbit, float(t[0]))
 
     # [integrator]
@@ -648,6 +679,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     if "ensemble" in data:
         ensemble = _dispersions(r, r.table("ensemble"), body)
 
+    # [events]
+    events = None
+    if "events" in data:
+        events = _events(r, r.table("events"), orbit)
+
     return Scenario(
         name=name,
         title=r.string(sc, "title", "scenario", ""),
@@ -676,6 +712,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         path=path,
         initial_form=f"{form} ({frame} frame)",
         ensemble=ensemble,
+        events=events,
     )
 
 
@@ -960,16 +997,18 @@ def _orbit(
         raise _fail("orbit", str(exc)) from None
 
 
-def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:
+def _potential(r: _Reader, pt, kind: str, orbit: Any, uses_orbit: bool = False) -> Any:
     from . import potentials as P
 
     if kind == "gravity_gradient":
         if orbit is None:
             raise _fail("orbit", "missing table: potential.kind = 'gravity_gradient' needs [orbit]")
         return P.GravityGradient(orbit)
-    if orbit is not None:
+    if orbit is not None and not uses_orbit:
         raise _fail(
-            "orbit", f"an orbit is only used by potential.kind = 'gravity_gradient', not {kind!r}"
+            "orbit",
+            f"an orbit is only used by potential.kind = 'gravity_gradient', [events] and "
+            f"initial_state.frame, not by {kind!r} alone",
         )
     if kind == "torque_free":
         return P.TorqueFree()
@@ -978,36 +1017,18 @@ def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:
     return P.HeavyTop(weight, com)
 
 
-def _orbital_rate_body(orbit: Any, q_rel: np.ndarray, t0: float) -> np.ndarray:
-    """Angular velocity of the orbital frame, in body axes: ḟ z_O read in the body frame.
-
-    ḟ = |r × v|/r² (exact for a Keplerian orbit; for the others the slow rotation of the
-    orbital plane itself, < 1e-6 rad/s, is left out).
-    """
-    from .quaternion import rotate_inverse
-
-    rr = float(np.asarray(orbit.radius(t0)))
-    if hasattr(orbit, "semi_latus_rectum"):  # Keplerian: h = sqrt(μ p)
-        p = orbit.a * (1.0 - orbit.e**2)
-        fdot = math.sqrt(orbit.mu * p) / rr**2
-    else:
-        rv, vv = np.asarray(orbit.position(t0)), np.asarray(orbit.velocity(t0))
-        fdot = float(np.linalg.norm(np.cross(rv, vv))) / rr**2
-    return rotate_inverse(q_rel, np.array([0.0, 0.0, fdot]))
-
-
 def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, np.ndarray]:
     from . import canonical as C
-    from .quaternion import from_euler, multiply
+    from .quaternion import from_euler
 
     where = "initial_state"
-    if frame == "orbital":
+    if frame != "inertial":
         if orbit is None:
-            raise _fail(f"{where}.frame", "'orbital' needs an [orbit] (gravity_gradient)")
+            raise _fail(f"{where}.frame", f"{frame!r} needs an [orbit] table")
         if form in ("canonical", "euler_canonical"):
             raise _fail(
                 f"{where}.frame",
-                f"'orbital' is for forms with body rates (body_rates, euler_body_rates); "
+                f"{frame!r} is for forms with body rates (body_rates, euler_body_rates); "
                 f"form {form!r} gives inertial momenta",
             )
     if form == "euler_canonical":
@@ -1036,8 +1057,96 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
         Q = r.value(it, "Q", where, "momentum", n=4)
         return q, Q
     omega = r.value(it, "omega", where, "rate", n=3)
-    if frame == "orbital":
-        p0 = np.asarray(orbit.frame_quaternion(t0), dtype=np.float64).reshape(4)
-        omega = omega + _orbital_rate_body(orbit, q, t0)
-        q = multiply(p0, q)
+    if frame != "inertial":
+        # the attitude and rates are relative to the frame (attitude.frames.initial_state)
+        from .frames import initial_state
+
+        ref = _frame(frame, orbit, f"{where}.frame")
+        return initial_state(body, ref, t0, offset=q, rates=omega)
     return q, C.momenta_from_angular_velocity(q, omega, body)
+
+
+def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
+    """A reference frame of attitude.frames named in a scenario."""
+    from . import frames as F
+
+    if name == "inertial":
+        return F.inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
+    if orbit is None:
+        raise _fail(key, f"frame {name!r} needs an [orbit] table")
+    makers = {
+        "orbital": F.rsw,
+        "rsw": F.rsw,
+        "lvlh": F.lvlh,
+        "vnc": F.vnc,
+        "nadir": F.nadir,
+        "sun_pointing": F.sun_pointing,
+    }
+    if name not in makers:
+        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
+    try:
+        return makers[name](orbit)
+    except ValueError as exc:
+        raise _fail(key, str(exc)) from None
+
+
+def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:
+    """The ``[events.<name>]`` subtables as attitude.events objects (errors name the key)."""
+    from . import events as E
+
+    out = []
+    if not table:
+        raise _fail("events", "empty table: add [events.<name>] subtables with a type")
+    for name, et in table.items():
+        where = f"events.{name}"
+        if not isinstance(et, dict):
+            raise _fail(where, f"expected a table [{where}] with a type, got {et!r}")
+        if not name.isidentifier():
+            raise _fail(where, "event names must be identifiers (letters, digits, _)")
+        names = set(_EVENT_KEYS) | {f"{k}_unit" for k, kind in _EVENT_KEYS.items() if kind}
+        for k in et:
+            if k not in names:
+                close = difflib.get_close_matches(k, sorted(names), n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise _fail(
+                    f"{where}.{k}", f"unknown key{hint} (allowed: {', '.join(sorted(names))})"
+                )
+        typ = r.string(et, "type", where)
+        if typ not in _EVENT_TYPES:
+            raise _fail(f"{where}.type", f"expected one of {', '.join(_EVENT_TYPES)}, got {typ!r}")
+        kw: dict[str, Any] = {"name": name}
+        if "terminal" in et:
+            if not isinstance(et["terminal"], bool):
+                raise _fail(f"{where}.terminal", f"expected true or false, got {et['terminal']!r}")
+            kw["terminal"] = et["terminal"]
+        if "samples" in et:
+            kw["samples"] = et["samples"]
+        if "direction" in et and typ not in ("eclipse_entry", "eclipse_exit"):
+            kw["direction"] = r.string(et, "direction", where)
+        try:
+            if typ == "pointing_exceeds":
+                fq = r.array(et, "frame_q", where, 4) if "frame_q" in et else None
+                fr = _frame(r.string(et, "frame", where), orbit, f"{where}.frame", fq)
+                axis = et.get("axis")
+                out.append(E.PointingExceeds(fr, axis, r.value(et, "angle", where, "angle"), **kw))
+            elif typ == "rate_exceeds":
+                out.append(E.RateExceeds(r.value(et, "rate", where, "rate"), **kw))
+            elif typ in ("eclipse_entry", "eclipse_exit"):
+                if orbit is None:
+                    raise _fail(where, f"{typ} needs an [orbit] table (with an epoch)")
+                cls = E.EclipseEntry if typ == "eclipse_entry" else E.EclipseExit
+                out.append(cls(orbit, shadow=r.string(et, "shadow", where, "penumbra"), **kw))
+            else:
+                out.append(
+                    E.AngleToSun(
+                        et.get("axis", "+z"),
+                        r.value(et, "angle", where, "angle"),
+                        orbit=orbit,
+                        **kw,
+                    )
+                )
+        except ScenarioError:
+            raise
+        except (ValueError, TypeError) as exc:
+            raise _fail(where, str(exc)) from None
+    return out

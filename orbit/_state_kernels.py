@@ -9,7 +9,9 @@ local-orbital frames) reads any orbit through the same three functions:
 * :func:`orbit_state` ``(data, t) -> (x, y, z, vx, vy, vz)``  [km, km/s], space frame;
 * :func:`orbit_radial` ``(data, t) -> (r, ux, uy, uz)``       radius [km] and r/|r|;
 * :func:`orbit_frame` ``(data, t) -> (r, p0, p1, p2, p3)``     radius and the orbital-frame
-  quaternion p (Arribas et al. 2006 Sect. 6.2: p∘s1∘p̃ = r̂, p∘s3∘p̃ = (r × v)/|r × v|).
+  quaternion p (Arribas et al. 2006 Sect. 6.2: p∘s1∘p̃ = r̂, p∘s3∘p̃ = (r × v)/|r × v|);
+* :func:`orbit_acceleration` ``(data, t) -> (ax, ay, az)``     [km/s²], the time derivative of
+  the model's velocity (what the angular velocity of a local orbital frame needs).
 
 ``t`` is seconds since the orbit's epoch. No kernel allocates or raises. A time outside an
 ephemeris table gives NaNs (the public methods and ``attitude.propagate`` reject such times
@@ -103,6 +105,8 @@ __all__ = [
     "T_MAX",
     "T_MIN",
     "hermite4",
+    "hermite4_second",
+    "orbit_acceleration",
     "orbit_frame",
     "orbit_radial",
     "orbit_state",
@@ -532,6 +536,119 @@ def orbit_frame(d, t):
 
 
 # ---------------------------------------------------------------------------------------------
+# Acceleration: d²r/dt² of each model (the rotation rate of local orbital frames needs it).
+@jit
+def _j2_acceleration(d, t):
+    # r = R(t) r_p with the perifocal frame turning at W = Ω̇ ẑ + ω̇ ĥ (ĥ turns at Ω̇ ẑ) and the
+    # in-plane Kepler motion run at n̄ = k n:  r̈ = −k² μ r/r³ + 2 W × ṙ − W × (W × r) + Ẇ × r,
+    # Ẇ = ω̇ Ω̇ ẑ × ĥ  (the exact derivative of the velocity of _j2_state).
+    x, y, z, vx, vy, vz = _j2_state(d, t)
+    cO, sO, _, _ = _j2_angles(d, t)
+    ci = d[J_COSI]
+    si = d[J_SINI]
+    k = d[J_RATIO]
+    od = d[J_RAAN_DOT]
+    wd = d[J_ARGP_DOT]
+    hx, hy, hz = sO * si, -cO * si, ci
+    Wx, Wy, Wz = wd * hx, wd * hy, od + wd * hz
+    r2 = x * x + y * y + z * z
+    g = -k * k * d[J_EL + _k.MU] / (r2 * math.sqrt(r2))
+    # W × r and W × (W × r)
+    cx, cy, cz = Wy * z - Wz * y, Wz * x - Wx * z, Wx * y - Wy * x
+    ccx, ccy, ccz = Wy * cz - Wz * cy, Wz * cx - Wx * cz, Wx * cy - Wy * cx
+    # Ẇ = ω̇ Ω̇ ẑ × ĥ = ω̇ Ω̇ (−hy, hx, 0)
+    dx, dy = -wd * od * hy, wd * od * hx
+    return (
+        g * x + 2.0 * (Wy * vz - Wz * vy) - ccx + (dy * z),
+        g * y + 2.0 * (Wz * vx - Wx * vz) - ccy + (-dx * z),
+        g * z + 2.0 * (Wx * vy - Wy * vx) - ccz + (dx * y - dy * x),
+    )
+
+
+@jit
+def hermite4_second(d, toff, roff, ncomp, n, h, t, c):
+    """Second time derivative of component ``c`` of a Hermite table (layout of :func:`hermite4`).
+
+    With x_j = t − t_j, g_j = 1 − 2 c_j x_j and the cubic Lagrange basis L_j (L_j'' = 2 w_j
+    Σ_{k≠j} x_k): a_j'' = −8 c_j L_j L_j' + 2 g_j (L_j'² + L_j L_j''),
+    b_j'' = 4 L_j L_j' + 2 x_j (L_j'² + L_j L_j''). Needs n >= 4.
+    """
+    i = table_interval(d, toff, n, h, t)
+    stride = 2 * ncomp
+    j0 = min(max(i - 1, 0), n - 4)
+    acc = 0.0
+    for j in range(4):
+        tj = d[toff + j0 + j]
+        w = 1.0
+        cj = 0.0
+        for k in range(4):
+            if k != j:
+                tk = d[toff + j0 + k]
+                w /= tj - tk
+                cj += 1.0 / (tj - tk)
+        L = w
+        Lp = 0.0
+        s = 0.0
+        for k in range(4):
+            if k != j:
+                xk = t - d[toff + j0 + k]
+                L *= xk
+                s += xk
+                prod = w
+                for m in range(4):
+                    if m != j and m != k:
+                        prod *= t - d[toff + j0 + m]
+                Lp += prod
+        Lpp = 2.0 * w * s
+        x = t - tj
+        g = 1.0 - 2.0 * cj * x
+        q = Lp * Lp + L * Lpp
+        row = roff + stride * (j0 + j)
+        acc += (-8.0 * cj * L * Lp + 2.0 * g * q) * d[row + c]
+        acc += (4.0 * L * Lp + 2.0 * x * q) * d[row + ncomp + c]
+    return acc
+
+
+@jit
+def _eph_acceleration(d, t):
+    if not _eph_in_range(d, t):
+        return _NAN, _NAN, _NAN
+    n = int(d[E_N])
+    roff = E_TIMES + n
+    if n < 4:  # the cubic/quintic polynomial of a tiny table: central difference of velocity
+        dt = 1e-3 * (d[T_MAX] - d[T_MIN])
+        _, _, _, ax, ay, az = _eph_state(d, min(t + dt, d[T_MAX]), True)
+        _, _, _, bx, by, bz = _eph_state(d, max(t - dt, d[T_MIN]), True)
+        span = min(t + dt, d[T_MAX]) - max(t - dt, d[T_MIN])
+        return (ax - bx) / span, (ay - by) / span, (az - bz) / span
+    h = d[E_H]
+    return (
+        hermite4_second(d, E_TIMES, roff, 3, n, h, t, 0),
+        hermite4_second(d, E_TIMES, roff, 3, n, h, t, 1),
+        hermite4_second(d, E_TIMES, roff, 3, n, h, t, 2),
+    )
+
+
+@jit
+def orbit_acceleration(d, t):
+    """(ax, ay, az) [km/s²]: the time derivative of the model's velocity at t.
+
+    Kepler: −μ r/r³. Secular J2: the exact derivative of its velocity (in-plane Kepler motion at
+    n̄ in a perifocal frame turning at Ω̇, ω̇). Hermite table: the second derivative of the
+    degree-7 interpolant (consistent with the tabulated velocity, not a force model).
+    """
+    kind = int(d[TYPE])
+    if kind == TYPE_KEPLER:
+        x, y, z, _, _, _ = _kepler_state(d, t)
+        r2 = x * x + y * y + z * z
+        g = -d[MU] / (r2 * math.sqrt(r2))
+        return g * x, g * y, g * z
+    if kind == TYPE_SECULAR_J2:
+        return _j2_acceleration(d, t)
+    return _eph_acceleration(d, t)
+
+
+# ---------------------------------------------------------------------------------------------
 # Loops for the vectorised public API.
 @jit
 def state_loop(d, t, out):
@@ -554,4 +671,12 @@ def frame_loop(d, t, out):
     for i in range(t.size):
         s = orbit_frame(d, t[i])
         for j in range(5):
+            out[i, j] = s[j]
+
+
+@jit
+def acceleration_loop(d, t, out):
+    for i in range(t.size):
+        s = orbit_acceleration(d, t[i])
+        for j in range(3):
             out[i, j] = s[j]

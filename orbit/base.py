@@ -12,6 +12,7 @@ scenarios, results and exports take any of them:
 ``time_span``               (t_min, t_max) [s] where the orbit is defined (±inf if everywhere)
 ``position(t)``             (..., 3) [km], space frame
 ``velocity(t)``             (..., 3) [km/s]
+``acceleration(t)``         (..., 3) [km/s²], d(velocity)/dt of the model
 ``radius(t)``               (...) [km]
 ``radial_direction(t)``     (..., 3) unit vectors r/|r|
 ``frame_quaternion(t)``     (..., 4) the paper's p(t): p∘s1∘p̃ = r̂, p∘s3∘p̃ = orbit normal
@@ -230,6 +231,14 @@ class OrbitBase:
         """Velocity in the space frame [km/s], shape t.shape + (3,)."""
         out, shape = self._state_rows(t)
         return out[:, 3:].reshape((*shape, 3))
+
+    def acceleration(self, t: Any) -> np.ndarray:
+        """Time derivative of the model's velocity [km/s²], shape t.shape + (3,)
+        (:func:`orbit._state_kernels.orbit_acceleration`)."""
+        flat, shape = self._seconds(t, "t")
+        out = np.empty((flat.size, 3))
+        _sk.acceleration_loop(self._data, flat, out)
+        return out.reshape((*shape, 3))
 
     def to_state(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
         """Position [km] and velocity [km/s] at t, shape t.shape + (3,) each."""

@@ -24,6 +24,8 @@ __all__ = [
     "eme2000_to_gcrs",
     "gcrs_to_itrs",
     "geodetic_from_itrs",
+    "itrs_from_geodetic",
+    "itrs_to_gcrs",
     "teme_to_gcrs",
     "teme_to_gcrs_positions",
 ]
@@ -111,3 +113,36 @@ def geodetic_from_itrs(r_itrs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
         np.asarray(g.lon.wrap_at(180 * u.deg).to_value(u.rad), dtype=np.float64),
         np.asarray(g.height.to_value(u.km), dtype=np.float64),
     )
+
+
+def itrs_to_gcrs(times: Any, r: np.ndarray, name: str = "t") -> np.ndarray:
+    """ITRS (Earth-fixed) positions [km], shape (n, 3) or (3,), at ``times`` → GCRS [km].
+
+    astropy ITRS → GCRS (IAU 2006/2000A, CIO based) with the IERS policy of
+    :mod:`orbit.timescales`; the inverse of :func:`gcrs_to_itrs`.
+    """
+    from astropy import units as u
+    from astropy.coordinates import GCRS, ITRS, CartesianRepresentation
+
+    check_iers_range(times, name)
+    rr = np.asarray(r, dtype=np.float64)
+    if rr.ndim == 1:
+        rr = np.broadcast_to(rr, (np.size(times.jd1), 3))
+    rep = CartesianRepresentation(np.asarray(rr).T * u.km)
+    with offline_iers():
+        g = ITRS(rep, obstime=times).transform_to(GCRS(obstime=times))
+        return np.ascontiguousarray(g.cartesian.xyz.to_value(u.km).T)
+
+
+def itrs_from_geodetic(latitude: Any, longitude: Any, height: Any = 0.0) -> np.ndarray:
+    """ITRS position [km] of WGS 84 geodetic latitude, longitude [rad] and height [km]."""
+    from astropy import units as u
+    from astropy.coordinates import EarthLocation
+
+    loc = EarthLocation.from_geodetic(
+        np.asarray(longitude) * u.rad,
+        np.asarray(latitude) * u.rad,
+        np.asarray(height) * u.km,
+        ellipsoid="WGS84",
+    )
+    return np.stack([c.to_value(u.km) for c in loc.to_geocentric()], axis=-1)

@@ -19,7 +19,8 @@ Modules, one concern each:
 ``_dask``                 Dask scheduling: connecting, task submission, lazy graphs
 ``_run``                  :func:`propagate_ensemble`, :func:`run_scenario`
 ``dispersions``           :class:`Dispersions` (Monte Carlo draws of the ``[ensemble]`` table)
-``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`
+``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
+                          :func:`event_time_percentiles`
 ========================  ===================================================================
 
 The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario`; the
@@ -30,10 +31,11 @@ from __future__ import annotations
 
 from ._run import propagate_ensemble, run_scenario
 from .dispersions import Dispersions
-from .statistics import pointing_error_percentiles, rate_percentiles
+from .statistics import event_time_percentiles, pointing_error_percentiles, rate_percentiles
 
 __all__ = [
     "Dispersions",
+    "event_time_percentiles",
     "pointing_error_percentiles",
     "propagate_ensemble",
     "rate_percentiles",

@@ -28,6 +28,7 @@ class _Setup:
     max_step: float
     max_steps: int
     user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
+    events: Any = None  # attitude.events.EventSet, or None
 
 
 def _compute_chunk(
@@ -46,11 +47,9 @@ def _compute_chunk(
     }
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
-    entry = (
-        _builtin_entry_points
-        if setup.user_potential is None
-        else setup.user_potential._entry_points()
-    )
+    entry = _entry(setup)
+    if setup.events is not None:
+        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel)
     fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
     fn(
         params,
@@ -69,6 +68,36 @@ def _compute_chunk(
         setup.max_steps,
     )
     out["t_stop"] = tstate[:, 0].copy()  # time each member's integration reached
+    return out
+
+
+def _entry(setup: _Setup) -> Any:
+    """The compiled entry points of the chunk's model (and user event functions)."""
+    ev = setup.events
+    user_events = () if ev is None else ev.user_functions
+    if setup.user_potential is None and not user_events:
+        return _builtin_entry_points
+    from .._user_kernels import entry_points
+
+    terms = () if setup.user_potential is None else setup.user_potential._user_terms()
+    return entry_points(terms, user_events)
+
+
+def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel):
+    """:func:`_compute_chunk` with events: per member and event, the count and first time."""
+    from .._core import events as _ke
+
+    ev = setup.events
+    evs = np.zeros((y0.shape[0], ev.n, _ke.EVS_COLS))
+    fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
+    fn(
+        params, ev.data, evs, y0, setup.t, out["y"], out["diag"], work, tstate,
+        out["counters"], out["status"], out["n_done"], setup.rtol, setup.atol,
+        setup.max_step, setup.max_steps,
+    )  # fmt: skip
+    out["t_stop"] = tstate[:, 0].copy()
+    out["event_count"] = evs[:, :, _ke.EVS_COUNT].astype(np.int64)
+    out["event_first"] = evs[:, :, _ke.EVS_FIRST].copy()
     return out
 
 

@@ -24,8 +24,9 @@ _STAT_VARS = ("member_n_steps", "member_n_rhs", "member_n_rejected", "member_sta
 class _Assembler:
     """Turns the arrays of a chunk into a Dataset with a ``member`` dimension; keeps totals."""
 
-    def __init__(self, t, unit, pot, pots, attrs):
+    def __init__(self, t, unit, pot, pots, attrs, events=None):
         self.t = t
+        self.events = events
         self.pot = pot
         self.pots = pots
         body = RigidBody(np.ones(3), units=unit) if unit else RigidBody(np.ones(3))
@@ -103,6 +104,29 @@ class _Assembler:
             ),
             **{k: v.variable for k, v in tm.coords.items()},
         }
+        if self.events is not None:
+            tu = tm["time"].attrs.get("units", "1")
+            data_vars["event_count"] = xr.Variable(
+                ("member", "detector"),
+                arr(out["event_count"], np.int64),
+                {"units": "1", "long_name": "occurrences of each event"},
+            )
+            data_vars["event_first_time"] = xr.Variable(
+                ("member", "detector"),
+                arr(out["event_first"]),
+                {"units": tu, "long_name": "time of the first occurrence (NaN: none)"},
+            )
+            n = len(self.events.labels)
+            coords["detector"] = (
+                "detector",
+                np.arange(n, dtype=np.int64),
+                {"long_name": "index of the event detector (labels in detector_label)"},
+            )
+            coords["detector_label"] = (
+                "detector",
+                np.array(self.events.labels),
+                {"long_name": "event name"},
+            )
         return xr.Dataset(data_vars, coords=coords, attrs=dict(self.attrs))
 
     def _orbit_var(self, orbit, name):
@@ -122,14 +146,15 @@ class _Assembler:
         self.totals["n_rejected"] += int(cnt[:, 2].sum())
         self.n_members += cnt.shape[0]
         d = out["diag"]
+        mx = np.nanmax  # members ended by a terminal event have NaN samples after it
         upd = {
-            "max_abs_norm_error": float(np.max(np.abs(d[:, :, 10]))),
-            "max_abs_qQ": float(np.max(np.abs(d[:, :, 11]))),
+            "max_abs_norm_error": float(mx(np.abs(d[:, :, 10]))),
+            "max_abs_qQ": float(mx(np.abs(d[:, :, 11]))),
         }
         # Conserved quantities per member (as scenario.InvariantTracker, maximised over members).
         E = d[:, :, 9]
         sE = np.maximum(np.abs(E[:, :1]), np.finfo(float).tiny)
-        dE = float(np.max(np.abs(E - E[:, :1]) / sE))
+        dE = float(mx(np.abs(E - E[:, :1]) / sE))
         G = d[:, :, 6:9]
         sG = np.maximum(np.linalg.norm(G[:, :1], axis=-1), 1e-300)
         name = self.pot.name
@@ -138,9 +163,9 @@ class _Assembler:
         else:
             upd["max_rel_energy_variation"] = dE
         if name == "torque_free":
-            upd["max_rel_G_error"] = float(np.max(np.linalg.norm(G - G[:, :1], axis=-1) / sG))
+            upd["max_rel_G_error"] = float(mx(np.linalg.norm(G - G[:, :1], axis=-1) / sG))
         if name == "heavy_top":
-            upd["max_rel_Gz_error"] = float(np.max(np.abs(G[:, :, 2] - G[:, :1, 2]) / sG))
+            upd["max_rel_Gz_error"] = float(mx(np.abs(G[:, :, 2] - G[:, :1, 2]) / sG))
         for k, v in upd.items():
             self.inv[k] = max(self.inv.get(k, 0.0), v)
 

@@ -80,6 +80,8 @@ def propagate_ensemble(
     scheduler_timeout: float | None = None,
     attrs: dict[str, Any] | None = None,
     lazy: bool = False,
+    events: Any = None,
+    epoch: Any = None,
     _source: Any = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
@@ -146,6 +148,14 @@ def propagate_ensemble(
         nothing is kept; totals (``n_steps``...) are not in the attrs (sum
         ``member_n_steps``). Default False: chunks are computed eagerly, in member order,
         and streamed by this process, keeping completed chunks on failure.
+    events : list, optional
+        Events (:mod:`attitude.events`) located in every member's compiled loop; the result
+        gets ``event_count`` and ``event_first_time`` (member, detector): how often each
+        occurred and when first (NaN: never), for
+        :func:`attitude.ensemble.statistics.event_time_percentiles`. A terminal event ends a
+        member (status 4, ``EVENT``; its samples after the event are NaN), not the ensemble.
+    epoch : astropy Time or str, optional
+        Date of t = 0, as in :func:`attitude.propagate` (events that read the Sun need one).
 
     Returns
     -------
@@ -218,6 +228,9 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
+    evset = None
+    if events is not None:
+        evset = _ensemble_events(events, tt, pot, epoch)
 
     out_path = None if path is None else Path(path)
     if out_path is not None and out_path.is_dir():
@@ -263,7 +276,7 @@ def propagate_ensemble(
     m = tt.shape[0]
     csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
     csize = min(csize, n)
-    setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user)
+    setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user, evset)
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
@@ -278,9 +291,15 @@ def propagate_ensemble(
         run_attrs["potential"] = f"{n} per-member potentials, member 0: {pot.describe()}"
     if not math.isinf(max_step):
         run_attrs["max_step"] = float(max_step)
+    if evset is not None:
+        run_attrs["events"] = evset.describe()
+        if evset.epoch is not None:
+            from orbit.timescales import format_epoch
+
+            run_attrs["epoch"] = format_epoch(evset.epoch)
     if attrs:
         run_attrs.update(attrs)
-    asm = _Assembler(tt, unit, pot, pots, run_attrs)
+    asm = _Assembler(tt, unit, pot, pots, run_attrs, evset)
     if members.shared_inertia is not None:
         asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
 
@@ -314,7 +333,7 @@ def propagate_ensemble(
                         f"chunk of members {start}..{stop - 1} failed: {type(got).__name__}: {got}"
                     ) from got
                 out, inertia, corr = got
-                bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+                bad = np.flatnonzero((out["status"] != _rk.SUCCESS) & (out["status"] != _rk.EVENT))
                 if bad.size:
                     msg, t_fail = _failure_message(out, bad, start, tt)
                     raise PropagationError(msg, time=t_fail)
@@ -363,6 +382,22 @@ def propagate_ensemble(
             f"{failure}{where}", time=failure.time, partial=result
         ) from failure.__cause__
     return result
+
+
+def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:
+    """The validated events of an ensemble (attitude.events.build) with the run's epoch."""
+    from orbit.errors import OrbitError
+    from orbit.timescales import as_epoch
+
+    from ..events import build
+
+    try:
+        e = as_epoch(epoch, "epoch")
+    except OrbitError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    if e is None:
+        e = getattr(getattr(pot, "orbit", None), "epoch", None)
+    return build(events, t, e)
 
 
 def _local_results(setup, members, bounds, threads):
@@ -456,6 +491,8 @@ def run_scenario(
         chunk_size=chunk_size or disp.chunk,
         scheduler_timeout=scheduler_timeout,
         attrs=attrs,
+        events=sc.events,
+        epoch=sc.epoch,
         _source=(source, sc.body.units, pot, None),
         **kw,
     )

@@ -1,4 +1,4 @@
-"""Statistics over ensemble members: percentiles of pointing error and body rates."""
+"""Statistics over ensemble members: percentiles of pointing error, body rates, event times."""
 
 from __future__ import annotations
 
@@ -203,3 +203,68 @@ def rate_percentiles(
         "long_name": f"percentiles over members of {what}",
     }
     return out.rename(f"{variable}_percentiles")
+
+
+def event_time_percentiles(
+    ds: xr.Dataset,
+    percentiles: Any = (5.0, 50.0, 95.0),
+) -> xr.Dataset:
+    """Percentiles over members of the time of each event's first occurrence.
+
+    "Time until the pointing error exceeds 5°": members where the event never occurred
+    (``event_first_time`` NaN) are left out of the percentiles and counted in
+    ``fraction_with_event``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ensemble result with events (``propagate_ensemble(..., events=[...])`` or a
+        scenario with an ``[events]`` table).
+    percentiles : sequence of float
+        Percentiles in [0, 100] (linear interpolation, as ``np.nanpercentile``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``first_time`` (percentile, detector): the percentiles (NaN for an event no member
+        had); ``fraction_with_event`` (detector); ``mean_count`` (detector): occurrences per
+        member; coordinates ``detector`` and ``detector_label``.
+    """
+    first = _check_ensemble(ds, "event_first_time")
+    count = _check_ensemble(ds, "event_count")
+    p = _percentiles(percentiles)
+    tf = np.asarray(first.transpose("member", "detector").values, dtype=np.float64)
+    cnt = np.asarray(count.transpose("member", "detector").values, dtype=np.float64)
+    have = np.isfinite(tf)
+    q = np.full((p.size, tf.shape[1]), np.nan)
+    for j in range(tf.shape[1]):
+        if have[:, j].any():
+            q[:, j] = np.percentile(tf[have[:, j], j], p)
+    coords = {
+        "percentile": ("percentile", p),
+        "detector": ds["detector"].variable,
+    }
+    if "detector_label" in ds.coords:
+        coords["detector_label"] = ds["detector_label"].variable
+    units = first.attrs.get("units", "")
+    return xr.Dataset(
+        {
+            "first_time": (
+                ("percentile", "detector"),
+                q,
+                {"units": units, "long_name": "percentiles over members of the first event time"},
+            ),
+            "fraction_with_event": (
+                ("detector",),
+                have.mean(axis=0),
+                {"units": "1", "long_name": "fraction of members where the event occurred"},
+            ),
+            "mean_count": (
+                ("detector",),
+                cnt.mean(axis=0),
+                {"units": "1", "long_name": "mean number of occurrences per member"},
+            ),
+        },
+        coords=coords,
+        attrs={"ensemble_size": np.int64(tf.shape[0])},
+    )
