@@ -210,7 +210,7 @@ class AttitudeAccessor:
                 raise AttitudeValueError(f"ds: no variable {v!r}; expected a propagation result")
         if "member" in ds["q"].dims:
             raise AttitudeValueError("ds: an ensemble; select a member first (ds.isel(member=i))")
-        tu = str(ds["time"].attrs.get("units", "s"))
+        tu = time_unit(ds["time"])  # "s" or "1" (the CF units are "seconds since ...")
         if frame.orbit is not None:
             if tu in ("1", ""):
                 raise AttitudeValueError(
