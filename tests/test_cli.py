@@ -36,6 +36,7 @@ SHORT = {
     "gg_stabilised_leo": 10.0,
     "tumbling_upper_stage": 300.0,
     "sso_tle_gravity_gradient": 0.05,
+    "lvlh_pointing_events": 1800.0,
 }
 
 
