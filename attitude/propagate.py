@@ -238,6 +238,7 @@ def propagate(
         pot.check_times(tt, "t")  # e.g. an ephemeris orbit's table span
     except ValueError as exc:
         raise AttitudeValueError(str(exc)) from None
+    pot = pot.prepare(tt)  # environment tables along the orbit for this run's span
 
     if progress is not None and chunk is None:  # report during the run, not once at the end
         chunk = max(1, -(-tt.shape[0] // PROGRESS_CHUNKS))
