@@ -452,6 +452,7 @@ def magnetic_field_gcrs(g: Grid, model: str) -> np.ndarray:
     """The geomagnetic field [T] at the grid's nodes, GCRS components, (n, 3)."""
     key = f"field:{model}"
     if key not in g._memo:
+        check_igrf_dates(g.datetime64)  # before any frame work
         if model == "igrf":
             b = igrf_field_itrs(g.datetime64, g.itrs_position)
         else:

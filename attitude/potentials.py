@@ -164,7 +164,7 @@ class Potential:
                 f"{self.name}: the potential is unknown (the torque was given directly); give "
                 f"potential= to CustomTorque to have energies"
             )
-        return self._eval(q, t)[1]
+        return self._eval(q, t, None if not self.rate_dependent else np.zeros(3))[1]
 
     def torque(self, q: Any, t: Any = 0.0, omega: Any = None) -> np.ndarray:
         """Body-frame torque τ_B(q, ω, t).
@@ -759,7 +759,9 @@ def _field_setting(field: Any, orbit: Any, what: str) -> tuple[str, np.ndarray |
                 f"dipole) or a constant field vector (T, space axes), got {field!r}"
             )
         why = "evaluates the geomagnetic field at the orbit's Earth-fixed positions and date"
-        return field, None, _check_orbit(orbit, what, True, why)
+        orbit = _check_orbit(orbit, what, True, why)
+        _env.check_igrf_dates(np.array([orbit.epoch.utc.to_value("datetime64")], "datetime64[ns]"))
+        return field, None, orbit
     b = as_float_array(field, "field", unit="T")
     if b.shape != (3,):
         raise AttitudeValueError(

@@ -135,7 +135,7 @@ def table_segment(d, o, t):
     s = o + int(d[o + 1])
     for j in range(1, int(d[o])):
         sj = o + int(d[o + 1 + j])
-        if t >= d[sj + T_LO]:
+        if t >= d[sj + T_LO] - 1e-9 * d[sj + T_H]:  # a boundary belongs to the later segment
             s = sj
     return s
 
