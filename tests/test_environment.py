@@ -628,7 +628,7 @@ def test_environment_models_reject_bad_input(sso):
         lambda: AerodynamicDrag(undated, f),
         lambda: SolarRadiation(undated, f),
     ):
-        with pytest.raises(AttitudeValueError, match="^orbit: .*epoch"):
+        with pytest.raises(AttitudeValueError, match=r"^orbit: .*epoch"):
             make()
     with pytest.raises(AttitudeValueError, match="f107"):
         AerodynamicDrag(sso, f, f107=20.0)
