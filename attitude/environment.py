@@ -10,8 +10,8 @@ that the compiled right-hand side interpolates (:mod:`attitude._core.environment
 * the atmospheric density from NRLMSIS 2.1 through ``pymsis`` with the space-weather indices
   *given* (never fetched), or Vallado's exponential model; the velocity relative to an
   atmosphere co-rotating with the Earth, v − ω⊕ × r;
-* the Sun: its position from astropy (:mod:`orbit.sun`) relative to the satellite, and the
-  satellite's own position for the Earth's shadow, evaluated in the compiled kernel.
+* the Sun: its apparent position from astropy (:mod:`orbit.sun`) relative to the satellite,
+  and the satellite's own position for the Earth's shadow, evaluated in the compiled kernel.
 
 Nothing here runs inside the integrator. ``ppigrf`` and ``pymsis`` are imported only by the
 functions that use them.
@@ -31,6 +31,7 @@ from .errors import AttitudeValueError
 
 __all__ = [
     "AP_RANGE",
+    "AU_KM",
     "DEFAULT_STEP",
     "F107_RANGE",
     "OMEGA_EARTH",
@@ -62,6 +63,8 @@ OMEGA_EARTH = 7.292115e-5
 SOLAR_IRRADIANCE = 1361.0
 #: Solar radiation pressure at 1 AU [N/m²]: irradiance / c.
 P_SUN_1AU = SOLAR_IRRADIANCE / 299_792_458.0
+#: Astronomical unit [km] (IAU 2012 Resolution B2, exact).
+AU_KM = 149_597_870.7
 #: Accepted F10.7 and F10.7a [sfu] (solar flux units, 1e-22 W m⁻² Hz⁻¹): the range of
 #: observed daily values (solar minimum ≈ 65, the largest daily values ≈ 400), where NRLMSIS
 #: is fitted; outside it the model would extrapolate.
@@ -171,10 +174,10 @@ class Grid:
 
     @cached_property
     def sun(self) -> np.ndarray:
-        """Geocentric Sun position [km], GCRS axes, (n, 3) (:func:`orbit.sun.sun_position_gcrs`)."""
-        from orbit.sun import sun_position_gcrs
+        """Geocentric apparent Sun [km], GCRS, (n, 3) (:func:`orbit.sun.sun_position`)."""
+        from orbit.sun import sun_position
 
-        return sun_position_gcrs(self.orbit, self.t)
+        return sun_position(self.orbit.epoch, self.t)
 
 
 #: Grids of recent runs (the terms of one model share one): {(orbit id, lo, hi, step): Grid}.

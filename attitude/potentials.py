@@ -855,7 +855,7 @@ class EddyCurrentDamping(_EnvironmentModel):
         As :class:`MagneticDipole`.
     """
 
-    name = "eddy_currents"
+    name = "eddy_current_damping"
     _kind = _kp.KIND_EDDY_CURRENTS
     rate_dependent = True
     has_potential = False
@@ -1076,7 +1076,7 @@ class SolarRadiation(_EnvironmentModel):
         self._setup(self.orbit, step, span)
 
     def _head(self) -> list[float]:
-        from orbit.sun import AU_KM, R_EARTH_KM, R_SUN_KM
+        from orbit.sun import R_EARTH, R_SUN
 
         facets = [x for f in self.facets for x in f.optical_row()]
         return [
@@ -1084,9 +1084,9 @@ class SolarRadiation(_EnvironmentModel):
             len(self.facets),
             self._ECLIPSE[self.eclipse],
             _env.P_SUN_1AU,
-            AU_KM,
-            R_SUN_KM,
-            R_EARTH_KM,
+            _env.AU_KM,
+            R_SUN,
+            R_EARTH,
             *facets,
         ]
 

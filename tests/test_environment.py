@@ -341,14 +341,14 @@ def test_radiation_on_one_flat_plate_is_the_textbook_force(sso, specular, diffus
 
 
 def test_sun_direction_and_distance_match_astropy(sso):
-    from astropy.coordinates import get_body_barycentric
+    from astropy.coordinates import get_body
 
     model = SolarRadiation(sso, [Facet(0.01, [1, 0, 0], [0.1, 0, 0])])
     t = _off_grid_times(10)
     sun = model.sunlight(t)
     times = sso.absolute_times(t)
-    s = (get_body_barycentric("sun", times) - get_body_barycentric("earth", times)).xyz
-    d = s.to_value(u.km).T - sso.position(t)
+    s = get_body("sun", times).cartesian.xyz.to_value(u.km).T  # apparent, GCRS
+    d = s - sso.position(t)
     dn = np.linalg.norm(d, axis=1)
     np.testing.assert_allclose(sun["distance"], dn, rtol=1e-12)
     np.testing.assert_allclose(sun["direction"], d / dn[:, None], rtol=0, atol=1e-12)
@@ -357,8 +357,8 @@ def test_sun_direction_and_distance_match_astropy(sso):
 def _cone_functions(r, s):
     """Signed distances (km) of r outside the penumbra and umbra cones of a spherical Earth
     lit by the Sun at s (geocentric): negative inside. Geometry of the tangent cones."""
-    from orbit.sun import R_EARTH_KM as RE
-    from orbit.sun import R_SUN_KM as RS
+    from orbit.sun import R_EARTH as RE
+    from orbit.sun import R_SUN as RS
 
     d = np.linalg.norm(s)
     shat = s / d
@@ -378,12 +378,12 @@ def _cone_functions(r, s):
 def test_eclipse_entry_and_exit_times_match_the_shadow_cones(sso):
     from scipy.optimize import brentq
 
-    from orbit.sun import sun_position_gcrs
+    from orbit.sun import sun_position
 
     model = SolarRadiation(sso, [Facet(0.01, [1, 0, 0], [0.1, 0, 0])])
 
     def cones(t):
-        return _cone_functions(sso.position(t), sun_position_gcrs(sso, t))
+        return _cone_functions(sso.position(t), sun_position(sso.epoch, t))
 
     tg = np.arange(0.0, SPAN, 10.0)
     pen = np.array([cones(x)[0] for x in tg])
@@ -411,37 +411,54 @@ def test_eclipse_entry_and_exit_times_match_the_shadow_cones(sso):
         assert abs(0.5 * (a + b) - te) < 1e-3, (k, te, 0.5 * (a + b) - te)
 
 
-def test_shadow_fraction_function():
-    from orbit.sun import AU_KM, shadow_fraction
+def test_shadow_function_and_kernels():
+    from attitude._core.environment import (
+        ECLIPSE_CONICAL,
+        ECLIPSE_CYLINDRICAL,
+        ECLIPSE_NONE,
+        shadow,
+    )
+    from attitude.environment import AU_KM
+    from orbit.sun import R_EARTH, R_SUN, shadow_function
 
     s = np.array([AU_KM, 0.0, 0.0])
-    assert shadow_fraction([7000.0, 0.0, 0.0], s) == 1.0
-    assert shadow_fraction([-7000.0, 0.0, 0.0], s) == 0.0
-    assert shadow_fraction([0.0, 7000.0, 0.0], s) == 1.0
-    assert shadow_fraction([-7000.0, 0.0, 0.0], s, "cylindrical") == 0.0
+    assert shadow_function([7000.0, 0.0, 0.0], s) == 1.0
+    assert shadow_function([-7000.0, 0.0, 0.0], s) == 0.0
+    assert shadow_function([0.0, 7000.0, 0.0], s) == 1.0
     # across the penumbra ν falls monotonically from 1 to 0
     y = np.linspace(6420.0, 6330.0, 400)
     r = np.stack([np.full_like(y, -7000.0), y, np.zeros_like(y)], axis=1)
-    nu = shadow_fraction(r, s)
+    nu, gp, gu = shadow_function(r, s, margins=True)
     assert nu[0] == 1.0 and nu[-1] == 0.0 and np.all(np.diff(nu) <= 0)
     assert np.any((nu > 0.01) & (nu < 0.99))
-    with pytest.raises(orbit.OrbitValueError, match="model"):
-        shadow_fraction(r, s, "round")
+    assert np.all((gp >= 0) == (nu == 1.0)) and np.all((gu <= 0) == (nu == 0.0))
+    # the torque kernel's shortcut (full light and umbra from cosines) agrees everywhere
+    for i in range(r.shape[0]):
+        d = s - r[i]
+        k = shadow(ECLIPSE_CONICAL, *r[i], *d, R_EARTH, R_SUN)
+        assert k == nu[i]
+        assert shadow(ECLIPSE_CYLINDRICAL, *r[i], *d, R_EARTH, R_SUN) == (
+            0.0 if y[i] < R_EARTH else 1.0
+        )
+        assert shadow(ECLIPSE_NONE, *r[i], *d, R_EARTH, R_SUN) == 1.0
+    with pytest.raises(orbit.OrbitValueError, match="r_sat"):
+        shadow_function([1.0, 2.0], s)
 
 
-def test_sun_position_is_astropys_sun_to_aberration():
-    from astropy.coordinates import get_sun
+def test_sun_position_is_the_apparent_sun_of_astropy():
+    from astropy.coordinates import get_body_barycentric
 
-    from orbit.sun import sun_position_gcrs
+    from orbit.sun import sun_position
 
     t = np.linspace(0.0, 86400.0 * 200, 7)
-    s = sun_position_gcrs("2024-03-20T12:00:00", t)
+    s = sun_position("2024-03-20T12:00:00", t)
     times = Time("2024-03-20T12:00:00", scale="utc") + TimeDelta(t, format="sec")
-    app = get_sun(times).cartesian.xyz.to_value(u.km).T  # apparent (aberration, deflection)
-    ang = np.arccos(np.clip(np.einsum("ij,ij->i", s, app) / (
-        np.linalg.norm(s, axis=1) * np.linalg.norm(app, axis=1)), -1, 1))  # fmt: skip
-    assert np.all(np.degrees(ang) * 3600 < 25.0)  # annual aberration 20.5"
-    np.testing.assert_allclose(np.linalg.norm(s, axis=1), np.linalg.norm(app, axis=1), rtol=1e-4)
+    geo = (get_body_barycentric("sun", times) - get_body_barycentric("earth", times)).xyz
+    geo = geo.to_value(u.km).T  # geometric: differs by the annual aberration (20.5")
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", s, geo) / (
+        np.linalg.norm(s, axis=1) * np.linalg.norm(geo, axis=1)), -1, 1))  # fmt: skip
+    assert np.all(np.degrees(ang) * 3600 < 25.0) and np.all(np.degrees(ang) * 3600 > 15.0)
+    np.testing.assert_allclose(np.linalg.norm(s, axis=1), np.linalg.norm(geo, axis=1), rtol=1e-4)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -557,12 +574,12 @@ def test_cubesat_run_with_all_models_reports_each_torque(sso):
     labels = list(ds.model_label.values)
     assert labels == [
         "gravity_gradient", "magnetic_dipole", "aerodynamic_drag", "solar_radiation",
-        "eddy_currents", "total",
+        "eddy_current_damping", "total",
     ]  # fmt: skip
     tau = ds.torque.values
     np.testing.assert_allclose(tau[:, :-1].sum(axis=1), tau[:, -1], rtol=0, atol=1e-20)
     assert ds.torque.attrs["units"] == "N m"
-    for name in ("aerodynamic_drag", "solar_radiation", "eddy_currents"):
+    for name in ("aerodynamic_drag", "solar_radiation", "eddy_current_damping"):
         assert name in ds.attrs["terms_without_potential"]
     assert "magnetic_dipole" not in ds.attrs["terms_without_potential"]
     # the magnetic torque dominates a 0.05 A m² residual dipole in LEO

@@ -41,7 +41,7 @@ import math
 
 from orbit._shared_jit import jit
 from orbit._state_kernels import table_interval
-from orbit.sun import cylindrical_shadow_kernel, shadow_fraction_kernel
+from orbit.sun import conical_shadow
 
 from .quat import cross, rotate_inverse
 
@@ -304,6 +304,55 @@ def drag_torque(q, t, params, base):
 
 
 @jit
+def cylindrical_shadow(rx, ry, rz, sx, sy, sz, re):
+    """Cylindrical shadow (Montenbruck & Gill 2000, Sect. 3.4.2): 0 behind the Earth inside a
+    cylinder of radius ``re`` along the Sun direction, else 1 (no penumbra)."""
+    sn = math.sqrt(sx * sx + sy * sy + sz * sz)
+    ux = sx / sn
+    uy = sy / sn
+    uz = sz / sn
+    p = rx * ux + ry * uy + rz * uz
+    if p >= 0.0:
+        return 1.0
+    qx = rx - p * ux
+    qy = ry - p * uy
+    qz = rz - p * uz
+    if qx * qx + qy * qy + qz * qz < re * re:
+        return 0.0
+    return 1.0
+
+
+@jit
+def shadow(code, rx, ry, rz, dx, dy, dz, re, rs):
+    """Shadow fraction ν at satellite r with the Sun at r + d (km) for an eclipse code.
+
+    Conical: full light (c > a + b ⇔ cos c < cos a cos b − sin a sin b) and the umbra
+    (c < b − a) are recognised from cosines and square roots alone; near the boundaries and in
+    the penumbra :func:`orbit.sun.conical_shadow` (Montenbruck & Gill 2000, Sect. 3.4.2).
+    """
+    if code == ECLIPSE_NONE:
+        return 1.0
+    sx = rx + dx
+    sy = ry + dy
+    sz = rz + dz
+    if code == ECLIPSE_CYLINDRICAL:
+        return cylindrical_shadow(rx, ry, rz, sx, sy, sz, re)
+    rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+    dn = math.sqrt(dx * dx + dy * dy + dz * dz)
+    sa = rs / dn
+    sb = re / rn
+    if sb < 1.0:
+        cc = -(rx * dx + ry * dy + rz * dz) / (rn * dn)
+        ca = math.sqrt(1.0 - sa * sa)
+        cb = math.sqrt(1.0 - sb * sb)
+        if cc < ca * cb - sa * sb - 1e-12:  # c > a + b: full light
+            return 1.0
+        if sb > sa and cc > ca * cb + sa * sb + 1e-12:  # c < b − a: umbra
+            return 0.0
+    return conical_shadow(rx, ry, rz, sx, sy, sz, re, rs)[0]
+
+
+@jit
 def solar_torque(q, t, params, base):
     # Flat plates with absorbed, specular and diffuse fractions (1 − C_s − C_d, C_s, C_d): a
     # facet facing the Sun (cos θ = n̂·ŝ > 0, ŝ towards the Sun) feels
@@ -313,19 +362,14 @@ def solar_torque(q, t, params, base):
     s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
     ds = table_vec3(params, s, row, w, 0)  # satellite → Sun [km]
     dn = math.sqrt(ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2])
-    ecl = int(params[base + S_ECLIPSE])
     nu = 1.0
+    ecl = int(params[base + S_ECLIPSE])
     if ecl != ECLIPSE_NONE:
         r = table_vec3(params, s, row, w, 3)
-        sx = r[0] + ds[0]
-        sy = r[1] + ds[1]
-        sz = r[2] + ds[2]
-        if ecl == ECLIPSE_CONICAL:
-            nu = shadow_fraction_kernel(
-                r[0], r[1], r[2], sx, sy, sz, params[base + S_RSUN], params[base + S_REARTH]
-            )
-        else:
-            nu = cylindrical_shadow_kernel(r[0], r[1], r[2], sx, sy, sz, params[base + S_REARTH])
+        nu = shadow(
+            ecl, r[0], r[1], r[2], ds[0], ds[1], ds[2],
+            params[base + S_REARTH], params[base + S_RSUN],
+        )  # fmt: skip
         if nu == 0.0:
             return 0.0, 0.0, 0.0
     au = params[base + S_AU] / dn
@@ -366,17 +410,10 @@ def solar_state(t, params, base):
     ds = table_vec3(params, s, row, w, 0)
     dn = math.sqrt(ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2])
     r = table_vec3(params, s, row, w, 3)
-    ecl = int(params[base + S_ECLIPSE])
-    nu = 1.0
-    if ecl == ECLIPSE_CONICAL:
-        nu = shadow_fraction_kernel(
-            r[0], r[1], r[2], r[0] + ds[0], r[1] + ds[1], r[2] + ds[2],
-            params[base + S_RSUN], params[base + S_REARTH],
-        )  # fmt: skip
-    elif ecl == ECLIPSE_CYLINDRICAL:
-        nu = cylindrical_shadow_kernel(
-            r[0], r[1], r[2], r[0] + ds[0], r[1] + ds[1], r[2] + ds[2], params[base + S_REARTH]
-        )
+    nu = shadow(
+        int(params[base + S_ECLIPSE]), r[0], r[1], r[2], ds[0], ds[1], ds[2],
+        params[base + S_REARTH], params[base + S_RSUN],
+    )  # fmt: skip
     return nu, dn, ds[0] / dn, ds[1] / dn, ds[2] / dn
 
 
