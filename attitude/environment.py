@@ -57,6 +57,11 @@ __all__ = [
 #: Default node spacing of the environment tables [s] (docs/potentials.md: the measured
 #: interpolation errors are below 1e-6 relative at this spacing in LEO).
 DEFAULT_STEP = 30.0
+#: Spacing [s] of the Sun's positions from astropy, interpolated to the nodes of a grid.
+SUN_STEP = 3600.0
+#: Spacing [s] of astropy's GCRS → ITRS matrices (the Earth rotation angle is exact at every
+#: node; :func:`orbit.frames.gcrs_to_itrs_matrix`).
+ROTATION_STEP = 600.0
 #: Earth's rotation rate [rad/s] (WGS 84; the IERS nominal value).
 OMEGA_EARTH = 7.292115e-5
 #: Total solar irradiance at 1 AU [W/m²] (IAU 2015 Resolution B3 nominal value).
@@ -150,10 +155,11 @@ class Grid:
 
     @cached_property
     def rotation(self) -> np.ndarray:
-        """R(t) (n, 3, 3): x_ITRS = R x_GCRS (astropy)."""
+        """R(t) (n, 3, 3): x_ITRS = R x_GCRS (astropy every 600 s, the Earth rotation angle
+        at every node: :func:`orbit.frames.gcrs_to_itrs_matrix`, 2e-12 rad)."""
         from orbit.frames import gcrs_to_itrs_matrix
 
-        return gcrs_to_itrs_matrix(self.times, "t")
+        return gcrs_to_itrs_matrix(self.times, "t", step=ROTATION_STEP)
 
     @cached_property
     def itrs_position(self) -> np.ndarray:
@@ -174,10 +180,21 @@ class Grid:
 
     @cached_property
     def sun(self) -> np.ndarray:
-        """Geocentric apparent Sun [km], GCRS, (n, 3) (:func:`orbit.sun.sun_position`)."""
+        """Geocentric apparent Sun [km], GCRS, (n, 3): :func:`orbit.sun.sun_position` every
+        :data:`SUN_STEP` seconds, interpolated to the nodes (degree 7; ~1e-6 km)."""
         from orbit.sun import sun_position
 
-        return sun_position(self.orbit.epoch, self.t)
+        t0, t1 = float(self.t[0]), float(self.t[-1])
+        nc = max(_ke.WINDOW, math.ceil((t1 - t0) / SUN_STEP) + 9)
+        tc = t0 - 4.0 * SUN_STEP + SUN_STEP * np.arange(nc, dtype=np.float64)
+        if tc.size >= self.t.size:
+            return sun_position(self.orbit.epoch, self.t)
+        tab = table(
+            Grid(self.orbit, tc, SUN_STEP, tc[0], tc[-1]), sun_position(self.orbit.epoch, tc)
+        )
+        out = np.empty((self.t.size, 3))
+        _ke.table_loop(np.ascontiguousarray(self.t), tab, 0, out)
+        return out
 
 
 #: Grids of recent runs (the terms of one model share one): {(orbit id, lo, hi, step): Grid}.

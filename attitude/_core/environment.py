@@ -85,6 +85,15 @@ ECLIPSE_CYLINDRICAL = 1
 ECLIPSE_CONICAL = 2
 
 _NAN = math.nan
+# the Lagrange denominators' reciprocals, 1 / ((−1)^(7−j) j! (7−j)!)
+_C0 = -1.0 / 5040.0
+_C1 = 1.0 / 720.0
+_C2 = -1.0 / 240.0
+_C3 = 1.0 / 144.0
+_C4 = -1.0 / 144.0
+_C5 = 1.0 / 240.0
+_C6 = -1.0 / 720.0
+_C7 = 1.0 / 5040.0
 
 
 @jit
@@ -116,16 +125,16 @@ def lagrange8(x):
     s2 = s3 * d3
     s1 = s2 * d2
     s0 = s1 * d1
-    # Π_{k≠j} (j − k) = (−1)^(7−j) j! (7−j)!
+    # 1 / Π_{k≠j} (j − k) = (−1)^(7−j) / (j! (7−j)!), as products (no divisions)
     return (
-        s0 / -5040.0,
-        p1 * s1 / 720.0,
-        p2 * s2 / -240.0,
-        p3 * s3 / 144.0,
-        p4 * s4 / -144.0,
-        p5 * s5 / 240.0,
-        p6 * s6 / -720.0,
-        p7 / 5040.0,
+        s0 * _C0,
+        p1 * s1 * _C1,
+        p2 * s2 * _C2,
+        p3 * s3 * _C3,
+        p4 * s4 * _C4,
+        p5 * s5 * _C5,
+        p6 * s6 * _C6,
+        p7 * _C7,
     )
 
 
