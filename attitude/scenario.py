@@ -1020,7 +1020,14 @@ def _model_names(r: _Reader, pt: Mapping[str, Any]) -> list[str]:
     if len(set(names)) != len(names):
         raise _fail("potential.models", f"a model is listed twice: {names}")
     required = [k for n in names for k in _KINDS[n][0]]
-    optional = [k for n in names for k in _KINDS[n][1]]
+    optional = list(dict.fromkeys(k for n in names for k in _KINDS[n][1]))
+    takes = [*required, *optional]
+    for k in sorted({k for k in pt if not k.endswith("_unit")} - {"kind", "models", *takes}):
+        raise _fail(
+            f"potential.{k}",
+            f"not used with {selector} = {what!r} (which take"
+            f"{'s' if selector.endswith('kind') else ''}: {', '.join(takes) or 'no other keys'})",
+        )
     _only(pt, "potential", what, required, ("kind", "models", *optional), selector)
     return names
 

@@ -10,6 +10,7 @@ laws. The tables are interpolated at times off their nodes.
 from __future__ import annotations
 
 import datetime as _dt
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -710,3 +711,135 @@ def test_dates_of_the_igrf_interpolation_are_exact(sso):
             + bp * np.array([-np.sin(p_), np.cos(p_), 0.0])
         )
         np.testing.assert_allclose(got[i], want, rtol=1e-12, atol=1e-18)
+
+
+def test_gcrs_to_itrs_matrices_with_the_earth_rotation_factored_out():
+    from orbit.frames import gcrs_to_itrs, gcrs_to_itrs_matrix
+
+    times = EPOCH + TimeDelta(np.linspace(-100.0, 86500.0, 577), format="sec")
+    exact = gcrs_to_itrs_matrix(times)
+    fast = gcrs_to_itrs_matrix(times, step=600.0)
+    assert np.abs(fast - exact).max() < 1e-11
+    r = RNG.normal(size=(times.size, 3)) * 7000.0
+    np.testing.assert_allclose(
+        np.einsum("nij,nj->ni", exact, r), gcrs_to_itrs(times, r), rtol=0, atol=1e-10
+    )
+    np.testing.assert_allclose(np.einsum("nij,nkj->nik", fast, fast), np.broadcast_to(
+        np.eye(3), fast.shape), rtol=0, atol=1e-13)  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------------
+# Scenarios and the command line
+
+SCENARIO = Path(__file__).parent.parent / "scenarios" / "cubesat_environment.toml"
+
+
+def test_cubesat_scenario_builds_the_five_models():
+    from attitude import scenario
+
+    sc = scenario.load(SCENARIO)
+    names = [t.name for t in sc.potential.terms]
+    assert names == [
+        "gravity_gradient", "magnetic_dipole", "aerodynamic_drag", "solar_radiation",
+        "eddy_current_damping",
+    ]  # fmt: skip
+    mag, drag, srp, eddy = sc.potential.terms[1:]
+    np.testing.assert_array_equal(mag.dipole, [0.0, 0.0, 0.05])
+    assert len(drag.facets) == 10 and drag.f107 == 150.0 and drag.ap == 4.0
+    assert srp.eclipse == "conical" and srp.facets[6].specular == 0.05
+    np.testing.assert_array_equal(np.diag(eddy.tensor), [4.5, 4.5, 1.5])
+    assert sum(f.area for f in drag.facets) == pytest.approx(4 * 0.034 + 2 * 0.01 + 4 * 0.03)
+    omega = attitude.canonical.angular_velocity(sc.q0, sc.Q0, sc.body)
+    assert np.degrees(np.linalg.norm(omega)) == pytest.approx(5.0, rel=1e-12)
+
+
+def test_cubesat_scenario_runs_and_plots_its_torque_budget(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from attitude.cli import main
+
+    out = tmp_path / "cube.nc"
+    assert main(["run", str(SCENARIO), "--stop", "0.25", "-o", str(out), "-q"]) == 0
+    assert main(["info", str(out)]) == 0
+    text = capsys.readouterr().out
+    for name in ("magnetic_dipole", "aerodynamic_drag", "solar_radiation", "eddy_current_damping"):
+        assert name in text
+    fig = tmp_path / "budget.png"
+    assert main(["plot", str(out), "--torques", "-o", str(fig)]) == 0
+    assert fig.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("edit", "key", "message"),
+    [
+        (("models = [", 'kind = "gravity_gradient"\nmodels = ['), "potential.models", "either"),
+        (
+            ('"eddy_current_damping",\n]', '"eddy_current_damping",\n"eddy_current_damping"]'),
+            "potential.models",
+            "twice",
+        ),
+        (("f107 = 150.0", "f107 = 500.0"), "f107", "[50, 400]"),
+        (('density = "msis"', 'density = "jb2008"'), "density", "msis"),
+        (('eclipse = "conical"', 'eclipse = "partial"'), "eclipse", "conical"),
+        (('dipole_unit = "A m2"', 'dipole_unit = "T"'), "spacecraft.dipole_unit", "dipole"),
+        (
+            ("normal = [0.0, 1.0, 0.0]", "normal = [0.0, 2.0, 0.0]"),
+            "spacecraft.facets[2].normal",
+            "unit vector",
+        ),
+        (
+            ("diffuse = 0.3", "diffuse = 0.3\nspecular = 0.8"),
+            "spacecraft.facets[7].specular",
+            "sum",
+        ),
+        (("area = 0.01\n", "area = -0.01\n"), "spacecraft.facets[4].area", "> 0"),
+        (('"aerodynamic_drag",\n    "solar_radiation",\n', ""), "potential.ap", "not used"),
+        (
+            [
+                ('"aerodynamic_drag",\n    "solar_radiation",\n', ""),
+                ('density = "msis"', ""),
+                ("f107 = 150.0", ""),
+                ("f107a = 150.0", ""),
+                ("ap = 4.0", ""),
+                ('eclipse = "conical"', ""),
+            ],
+            "spacecraft.facets",
+            "not used",
+        ),
+        (
+            ('[spacecraft]\ndipole = [0.0, 0.0, 0.05]\ndipole_unit = "A m2"\n', "[spacecraft]\n"),
+            "spacecraft.dipole",
+            "missing",
+        ),
+        (
+            ("eddy_tensor = [4.5, 4.5, 1.5]", "eddy_tensor = [4.5, 4.5]"),
+            "spacecraft.eddy_tensor",
+            "3",
+        ),
+    ],
+)
+def test_environment_scenario_errors_name_the_key(edit, key, message):
+    from attitude import scenario
+
+    text = SCENARIO.read_text(encoding="utf-8")
+    for old, new in edit if isinstance(edit, list) else [edit]:
+        assert old in text
+        text = text.replace(old, new, 1)
+    with pytest.raises(scenario.ScenarioError) as exc:
+        scenario.loads(text)
+    assert str(exc.value).startswith(key) and message in str(exc.value), str(exc.value)
+
+
+def test_environment_models_need_a_dated_orbit_in_scenarios():
+    from attitude import scenario
+
+    text = SCENARIO.read_text(encoding="utf-8")
+    start = text.index("[orbit]")
+    stop = text.index("[time]")
+    kepler = (
+        '[orbit]\na = 6975.0\na_unit = "km"\ne = 0.001\ninc = 97.9\ninc_unit = "deg"\n'
+        'raan = 0.0\nraan_unit = "deg"\nargp = 0.0\nargp_unit = "deg"\n\n'
+    )
+    undated = text[:start] + kepler + text[stop:]
+    undated = undated.replace('epoch = "2020-02-22T02:00:00"', "")
+    with pytest.raises(scenario.ScenarioError, match=r"^orbit: .*epoch"):
+        scenario.loads(undated)
