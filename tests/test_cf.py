@@ -36,6 +36,8 @@ SHORT = {
     "paper_keplerian": 60.0,
     "gg_stabilised_leo": 2.0,
     "tumbling_upper_stage": 60.0,
+    "sso_tle_gravity_gradient": 0.02,  # hours
+    "cubesat_environment": 0.01,  # hours
 }
 
 
