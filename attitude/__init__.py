@@ -35,13 +35,18 @@ from .errors import (
     SingularityError,
 )
 from .exact import torque_free
+from .facets import Facet, box_wing
 from .frames import initial_state
 from .potentials import (
+    AerodynamicDrag,
     CustomPotential,
     CustomTorque,
+    EddyCurrentDamping,
     GravityGradient,
     HeavyTop,
+    MagneticDipole,
     Potential,
+    SolarRadiation,
     TorqueFree,
 )
 from .propagate import propagate
@@ -49,19 +54,25 @@ from .propagate import propagate
 del _accessor
 
 __all__ = [
+    "AerodynamicDrag",
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
     "CustomPotential",
     "CustomTorque",
+    "EddyCurrentDamping",
+    "Facet",
     "GravityGradient",
     "HeavyTop",
+    "MagneticDipole",
     "Potential",
     "PropagationError",
     "RigidBody",
     "SingularityError",
+    "SolarRadiation",
     "TorqueFree",
     "__version__",
+    "box_wing",
     "canonical",
     "errors",
     "event_time_percentiles",

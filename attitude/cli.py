@@ -414,12 +414,17 @@ def cmd_plot(args: argparse.Namespace) -> int:
             "plot: matplotlib is not installed; install the plot extra: "
             "pip install 'attitude[plot]'"
         ) from None
-    from .plotting import plot_result
+    from .plotting import plot_result, plot_torque_budget
 
     ds = _open(args.file)
     try:
         out = Path(args.output) if args.output else Path(args.file).with_suffix(".png")
-        plot_result(ds, out, dpi=args.dpi)
+        if getattr(args, "torques", False):
+            if "torque" not in ds.data_vars:
+                raise BadInput(f"plot: {args.file} has no per-model torque variable")
+            plot_torque_budget(ds, out, dpi=args.dpi)
+        else:
+            plot_result(ds, out, dpi=args.dpi)
     finally:
         ds.close()
     print(f"figure      {out}")
@@ -533,6 +538,11 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("file", metavar="OUT.nc")
     pl.add_argument("-o", "--output", metavar="FIG.png", help="figure file (default OUT.png)")
     pl.add_argument("--dpi", type=int, default=110)
+    pl.add_argument(
+        "--torques",
+        action="store_true",
+        help="the torque budget instead: |torque| per model against time, max and RMS",
+    )
     pl.set_defaults(func=cmd_plot)
 
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")

@@ -8,7 +8,7 @@ from typing import Any
 
 import xarray as xr
 
-__all__ = ["plot_result"]
+__all__ = ["plot_result", "plot_torque_budget"]
 
 #: Largest number of points drawn per curve (longer runs are decimated by a stride).
 MAX_POINTS = 20_000
@@ -96,6 +96,119 @@ def plot_result(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi: i
         ax.set_xlabel(f"t{tu}")
     title = str(ds.attrs.get("title", "attitude propagation"))
     fig.suptitle(title, fontsize=11)
+    if path is not None:
+        p = Path(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(p, dpi=dpi)
+        plt.close(fig)
+    return fig
+
+
+#: Colours of the torque models in :func:`plot_torque_budget` (by term name; others cycle).
+_MODEL_COLORS = {
+    "gravity_gradient": "tab:blue",
+    "magnetic_dipole": "tab:red",
+    "aerodynamic_drag": "tab:green",
+    "solar_radiation": "tab:orange",
+    "eddy_current_damping": "tab:purple",
+    "heavy_top": "tab:brown",
+    "total": "black",
+}
+
+
+def plot_torque_budget(
+    ds: xr.Dataset, path: str | os.PathLike | None = None, *, windows: int = 288, dpi: int = 110
+) -> Any:
+    """Figure of the torque budget: |τ| of every model term against time, and their max / RMS.
+
+    Left: for each term the range of |τ| (band between the smallest and largest value in each
+    of ``windows`` consecutive windows of the run) and its RMS per window (line), log scale.
+    Right: max and RMS of |τ| over the run per term (what ``attitude info`` prints).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A result with the per-model ``torque (time, model, axis)`` (docs/results.md).
+    path : str or Path, optional
+        Save the figure there.
+    windows : int
+        Number of time windows of the left panel (default 288: 5 min in a day).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    import matplotlib
+
+    if path is not None:
+        matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from .errors import AttitudeValueError
+    from .results import time_unit
+
+    if "torque" not in ds.data_vars or "model" not in ds["torque"].dims:
+        raise AttitudeValueError(
+            "ds: no per-model torque variable (torque (time, model, axis)) in this result"
+        )
+    labels = [str(x) for x in ds["model_label"].values] if "model_label" in ds else []
+    labels += [str(j) for j in range(len(labels), ds.sizes["model"])]
+    t = np.asarray(ds["time"].values, dtype=np.float64)
+    tu = time_unit(ds["time"])
+    scale, tlabel = 1.0, f"t [{tu}]"
+    if tu == "s" and t.size and t[-1] - t[0] > 3 * 3600:
+        scale, tlabel = 3600.0, "t [h]"
+    mag = np.sqrt(np.sum(np.asarray(ds["torque"].values, dtype=np.float64) ** 2, axis=-1))
+    n = mag.shape[0]
+    w = max(1, n // max(1, windows))
+    m = (n // w) * w
+    blocks = mag[:m].reshape(-1, w, mag.shape[1])
+    tb = t[:m].reshape(-1, w).mean(axis=1) / scale
+    lo, hi = blocks.min(axis=1), blocks.max(axis=1)
+    rms_w = np.sqrt((blocks**2).mean(axis=1))
+    peak = mag.max(axis=0)
+    rms = np.sqrt((mag**2).mean(axis=0))
+    positive = rms[rms > 0]
+    floor = 1e-3 * positive.min() if positive.size else 1e-30
+    unit = str(ds["torque"].attrs.get("units", ""))
+
+    fig, (ax, bx) = plt.subplots(
+        1, 2, figsize=(13, 5.2), gridspec_kw={"width_ratios": [2.3, 1]}, constrained_layout=True
+    )
+    cycle = iter(plt.rcParams["axes.prop_cycle"].by_key()["color"])
+    colors = [_MODEL_COLORS.get(name) or next(cycle) for name in labels]
+    for j, name in enumerate(labels):
+        c = colors[j]
+        if name != "total":
+            ax.fill_between(tb, np.maximum(lo[:, j], floor), np.maximum(hi[:, j], floor),
+                            color=c, alpha=0.18, lw=0)  # fmt: skip
+        ax.plot(tb, np.maximum(rms_w[:, j], floor), color=c, lw=1.3 if name == "total" else 1.1,
+                ls="--" if name == "total" else "-", label=name)  # fmt: skip
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=floor * 10)
+    ax.set_xlabel(tlabel)
+    ax.set_ylabel(f"|τ| (body frame) [{unit}]")
+    span = (t[w] - t[0]) if n > w else 0.0
+    win = f"{span / 60:.3g} min" if tu == "s" and span >= 60 else f"{w} samples"
+    ax.set_title(f"torque per model: RMS over {win} windows (line) and range (band)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="lower right", fontsize=8, ncol=2, framealpha=0.85)
+
+    y = np.arange(len(labels))[::-1]
+    bx.barh(y + 0.18, peak, height=0.36, color=colors, alpha=0.45, label="max |τ|")
+    bx.barh(y - 0.18, rms, height=0.36, color=colors, label="RMS |τ|")
+    for yy, p, r in zip(y, peak, rms, strict=True):
+        bx.text(p, yy + 0.18, f" {p:.2g}", va="center", fontsize=7)
+        bx.text(r, yy - 0.18, f" {r:.2g}", va="center", fontsize=7)
+    bx.set_yticks(y, labels, fontsize=8)
+    bx.set_xscale("log")
+    bx.set_xlim(left=floor * 10, right=peak.max() * 3e3 if peak.size else 1.0)
+    bx.set_xlabel(f"|τ| [{unit}]")
+    bx.set_title("budget over the run")
+    bx.grid(alpha=0.3, axis="x", which="both")
+    bx.legend(loc="upper right", fontsize=8)
+    fig.suptitle(str(ds.attrs.get("title", "torque budget")), fontsize=11)
     if path is not None:
         p = Path(path)
         p.parent.mkdir(parents=True, exist_ok=True)

@@ -250,6 +250,7 @@ def propagate(
         pot.check_times(tt, "t")  # e.g. an ephemeris orbit's table span
     except ValueError as exc:
         raise AttitudeValueError(str(exc)) from None
+    pot = pot.prepare(tt)  # environment tables along the orbit for this run's span
     evset = None
     if events is not None:
         evset = _events(events, tt, method, formulation, run_attrs)

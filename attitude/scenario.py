@@ -56,6 +56,9 @@ _INTERNAL = {
     "angle": "rad",
     "force": "N",
     "mu": "km3 s-2",
+    "area": "m2",
+    "dipole": "A m2",
+    "conductance": "S m4",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -67,6 +70,9 @@ _EXAMPLE = {
     "angle": "'deg' or 'rad'",
     "force": "'N' (a weight M g)",
     "mu": "'km3 s-2'",
+    "area": "'m2' or 'cm2'",
+    "dipole": "'A m2'",
+    "conductance": "'S m4' (A m2 per T per T/s)",
 }
 
 # Allowed keys per table (value: quantity kind for "<key>_unit", or None).
@@ -91,7 +97,21 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "angles": "angle",
         "momenta": "momentum",
     },
-    "potential": {"kind": None, "weight": "force", "center_of_mass": "position"},
+    "potential": {
+        "kind": None,
+        "models": None,
+        "weight": "force",
+        "center_of_mass": "position",
+        "field": None,
+        "density": None,
+        "f107": None,
+        "f107a": None,
+        "ap": None,
+        "eclipse": None,
+        "step": "time",
+    },
+    # what the environment models need to know about the spacecraft (docs/scenarios.md)
+    "spacecraft": {"dipole": "dipole", "eddy_tensor": "conductance", "facets": None},
     "orbit": {
         "type": None,
         "epoch": None,
@@ -161,10 +181,30 @@ _FORMS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "euler_body_rates": (("seq", "angles", "omega"), ()),
 }
 _KINDS = {
+    # model: (required keys, optional keys) of [potential]
     "torque_free": ((), ()),
     "heavy_top": (("weight", "center_of_mass"), ()),
     "gravity_gradient": ((), ()),
+    "magnetic_dipole": ((), ("field", "step")),
+    "eddy_current_damping": ((), ("field", "step")),
+    "aerodynamic_drag": ((), ("density", "f107", "f107a", "ap", "step")),
+    "solar_radiation": ((), ("eclipse", "step")),
 }
+#: Models that need an [orbit]; the environment models also an epoch and [spacecraft] keys.
+_ORBIT_MODELS = (
+    "gravity_gradient",
+    "magnetic_dipole",
+    "eddy_current_damping",
+    "aerodynamic_drag",
+    "solar_radiation",
+)
+_SPACECRAFT_KEYS = {
+    "magnetic_dipole": "dipole",
+    "eddy_current_damping": "eddy_tensor",
+    "aerodynamic_drag": "facets",
+    "solar_radiation": "facets",
+}
+_FACET_KEYS = ("area", "normal", "center", "cd", "specular", "diffuse")
 # Quantities that carry units also in a dimensionless scenario.
 _ALWAYS_UNIT = {"angle"}
 
@@ -599,10 +639,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
 
     # [orbit] and [potential]
     pt = r.table("potential")
-    kind = r.string(pt, "kind", "potential", "torque_free")
-    if kind not in _KINDS:
-        raise _fail("potential.kind", f"expected one of {', '.join(_KINDS)}, got {kind!r}")
-    _only(pt, "potential", kind, _KINDS[kind][0], ("kind",), "potential.kind")
+    kind = _model_names(r, pt)
     orbit = None
     ot = r.table("orbit")
     if ot:
@@ -615,7 +652,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     uses_orbit = bool(r.table("events")) or r.table("initial_state").get(
         "frame", "inertial"
     ) not in ("inertial",)
-    potential = _potential(r, pt, kind, orbit, uses_orbit)
+    potential = _potential(r, pt, kind, orbit, r.table("spacecraft"), uses_orbit)
 
     # [initial_state]
     it = r.table("initial_state", required=True)
@@ -997,24 +1034,148 @@ def _orbit(
         raise _fail("orbit", str(exc)) from None
 
 
-def _potential(r: _Reader, pt, kind: str, orbit: Any, uses_orbit: bool = False) -> Any:
+def _model_names(r: _Reader, pt: Mapping[str, Any]) -> list[str]:
+    """The models of [potential]: ``kind = "..."`` (one) or ``models = [...]`` (a sum), with
+    their keys checked."""
+    if "models" in pt:
+        if "kind" in pt:
+            raise _fail("potential.models", "give either potential.kind or potential.models")
+        names = pt["models"]
+        if not isinstance(names, list) or not names or not all(isinstance(x, str) for x in names):
+            raise _fail(
+                "potential.models",
+                f'expected a list of model names such as ["gravity_gradient", '
+                f'"magnetic_dipole"], got {names!r}',
+            )
+        selector, what = "potential.models", names
+    else:
+        names = [r.string(pt, "kind", "potential", "torque_free")]
+        selector, what = "potential.kind", names[0]
+    for name in names:
+        if name not in _KINDS:
+            raise _fail(selector, f"expected one of {', '.join(_KINDS)}, got {name!r}")
+    if len(set(names)) != len(names):
+        raise _fail("potential.models", f"a model is listed twice: {names}")
+    required = [k for n in names for k in _KINDS[n][0]]
+    optional = list(dict.fromkeys(k for n in names for k in _KINDS[n][1]))
+    takes = [*required, *optional]
+    for k in sorted({k for k in pt if not k.endswith("_unit")} - {"kind", "models", *takes}):
+        raise _fail(
+            f"potential.{k}",
+            f"not used with {selector} = {what!r} (which take"
+            f"{'s' if selector.endswith('kind') else ''}: {', '.join(takes) or 'no other keys'})",
+        )
+    _only(pt, "potential", what, required, ("kind", "models", *optional), selector)
+    return names
+
+
+def _facets(r: _Reader, spec: Any) -> list[Any]:
+    """The ``[[spacecraft.facets]]`` array as :class:`attitude.Facet` objects."""
+    from .facets import Facet
+
+    if not isinstance(spec, list) or not spec or not all(isinstance(f, dict) for f in spec):
+        raise _fail(
+            "spacecraft.facets",
+            "expected an array of tables [[spacecraft.facets]] with area, normal, center "
+            "(and cd, specular, diffuse)",
+        )
+    out = []
+    for i, f in enumerate(spec):
+        where = f"spacecraft.facets[{i}]"
+        allowed = (*_FACET_KEYS, "area_unit", "center_unit")
+        for k in f:
+            if k not in allowed:
+                close = difflib.get_close_matches(k, allowed, n=1)
+                hint = f"; did you mean {close[0]!r}?" if close else ""
+                raise _fail(f"{where}.{k}", f"unknown key{hint} (allowed: {', '.join(allowed)})")
+        area = r.value(f, "area", where, "area")
+        normal = r.array(f, "normal", where, 3)
+        center = r.value(f, "center", where, "position", n=3)
+        coef = {k: r.number(f, k, where, d) for k, d in (("cd", 2.2), ("specular", 0.0),
+                                                          ("diffuse", 0.0))}  # fmt: skip
+        try:
+            out.append(Facet(area, normal, center, **coef))
+        except AttitudeError as exc:
+            raise ScenarioError(f"{where}.{exc}") from None
+    return out
+
+
+def _potential(
+    r: _Reader, pt, kind: list[str], orbit: Any, sc: Mapping[str, Any], uses_orbit: bool = False
+) -> Any:
     from . import potentials as P
 
-    if kind == "gravity_gradient":
-        if orbit is None:
-            raise _fail("orbit", "missing table: potential.kind = 'gravity_gradient' needs [orbit]")
-        return P.GravityGradient(orbit)
-    if orbit is not None and not uses_orbit:
+    names = kind
+    label = repr(names[0]) if len(names) == 1 else repr(names)
+    selector = "potential.kind" if len(names) == 1 and "models" not in pt else "potential.models"
+    orbit_models = [n for n in names if n in _ORBIT_MODELS]
+    if orbit_models and orbit is None:
+        raise _fail("orbit", f"missing table: {selector} = {label} needs [orbit]")
+    if orbit is not None and not orbit_models and not uses_orbit:
         raise _fail(
             "orbit",
-            f"an orbit is only used by potential.kind = 'gravity_gradient', [events] and "
-            f"initial_state.frame, not by {kind!r} alone",
+            f"an orbit is only used by the models {', '.join(_ORBIT_MODELS)}, [events] and "
+            f"initial_state.frame, not by {label} alone",
         )
-    if kind == "torque_free":
-        return P.TorqueFree()
-    weight = r.value(pt, "weight", "potential", "force")
-    com = r.value(pt, "center_of_mass", "potential", "position", n=3)
-    return P.HeavyTop(weight, com)
+    needed = {_SPACECRAFT_KEYS[n] for n in names if n in _SPACECRAFT_KEYS}
+    for k in sc:
+        base = k[:-5] if k.endswith("_unit") else k
+        if base not in needed:
+            users = [m for m, key in _SPACECRAFT_KEYS.items() if key == base]
+            raise _fail(
+                f"spacecraft.{k}",
+                f"not used by {selector} = {label} (used by {' and '.join(users)})",
+            )
+    for n in names:
+        key = _SPACECRAFT_KEYS.get(n)
+        if key is not None and key not in sc:
+            raise _fail(f"spacecraft.{key}", f"missing (needed by the model {n!r})")
+    step = r.value(pt, "step", "potential", "time", default=None)
+    terms = []
+    for n in names:
+        if n == "torque_free":
+            terms.append(P.TorqueFree())
+        elif n == "heavy_top":
+            weight = r.value(pt, "weight", "potential", "force")
+            com = r.value(pt, "center_of_mass", "potential", "position", n=3)
+            terms.append(P.HeavyTop(weight, com))
+        elif n == "gravity_gradient":
+            terms.append(P.GravityGradient(orbit))
+        elif n in ("magnetic_dipole", "eddy_current_damping"):
+            field = r.string(pt, "field", "potential", "igrf")
+            if field not in ("igrf", "dipole"):
+                raise _fail("potential.field", f"expected 'igrf' or 'dipole', got {field!r}")
+            if n == "magnetic_dipole":
+                dip = r.value(sc, "dipole", "spacecraft", "dipole", n=3)
+                terms.append(P.MagneticDipole(orbit, dip, field, step=step))
+            else:
+                terms.append(P.EddyCurrentDamping(orbit, _tensor(r, sc), field, step=step))
+        elif n == "aerodynamic_drag":
+            kw = {k: r.number(pt, k, "potential", 150.0 if k != "ap" else 4.0)
+                  for k in ("f107", "f107a", "ap")}  # fmt: skip
+            density = r.string(pt, "density", "potential", "msis")
+            terms.append(
+                P.AerodynamicDrag(orbit, _facets(r, sc["facets"]), density, **kw, step=step)
+            )
+        else:  # solar_radiation
+            eclipse = r.string(pt, "eclipse", "potential", "conical")
+            terms.append(P.SolarRadiation(orbit, _facets(r, sc["facets"]), eclipse, step=step))
+    return P.Sum(*terms) if len(terms) > 1 else terms[0]
+
+
+def _tensor(r: _Reader, sc: Mapping[str, Any]) -> np.ndarray:
+    """``spacecraft.eddy_tensor``: one number, the 3 diagonal entries or 3 rows of 3."""
+    v = sc["eddy_tensor"]
+    where = "spacecraft"
+    unit = r.unit(sc, "eddy_tensor", where, "conductance")
+    scale = 1.0 if unit is None else float((1.0 * unit).to_value(_INTERNAL["conductance"]))
+    if _is_number(v):
+        m = r.number(sc, "eddy_tensor", where) * np.eye(3)
+    elif isinstance(v, list) and len(v) == 3 and all(isinstance(x, list) for x in v):
+        m = np.array([r.array({"eddy_tensor": x}, "eddy_tensor", where, 3) for x in v])
+    else:
+        m = np.diag(r.array(sc, "eddy_tensor", where, 3))
+    return m * scale
 
 
 def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, np.ndarray]:

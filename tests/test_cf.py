@@ -37,6 +37,7 @@ SHORT = {
     "gg_stabilised_leo": 2.0,
     "tumbling_upper_stage": 60.0,
     "sso_tle_gravity_gradient": 0.02,  # hours
+    "cubesat_environment": 0.01,  # hours
 }
 
 

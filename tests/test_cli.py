@@ -37,6 +37,7 @@ SHORT = {
     "tumbling_upper_stage": 300.0,
     "sso_tle_gravity_gradient": 0.05,
     "lvlh_pointing_events": 1800.0,
+    "cubesat_environment": 0.01,
 }
 
 
@@ -96,7 +97,11 @@ def test_run_shipped_scenario(name, tmp_path):
             assert tv.units.startswith("seconds since ") and tv.elapsed_time_units == "s"
             assert u.Unit(nc.variables["Q"].units) == u.Unit("kg m2 / s")
         t = nc.variables["time"][:]
-        scale = {"gg_stabilised_leo": 60.0, "sso_tle_gravity_gradient": 3600.0}.get(name, 1.0)
+        scale = {
+            "gg_stabilised_leo": 60.0,
+            "sso_tle_gravity_gradient": 3600.0,
+            "cubesat_environment": 3600.0,
+        }.get(name, 1.0)
         assert t[0] == 0.0 and t[-1] <= SHORT[name] * scale
         q = nc.variables["q"][:]
         assert np.max(np.abs(np.linalg.norm(q, axis=1) - 1)) < 1e-9

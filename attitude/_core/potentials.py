@@ -35,11 +35,17 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
 
+from .environment import drag_torque, eddy_torque, magnetic_potential, magnetic_torque, solar_torque
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
 KIND_HEAVY_TOP = 1
 KIND_GRAVITY_GRADIENT = 2
+# Environment models (block layouts in attitude._core.environment)
+KIND_MAGNETIC_DIPOLE = 3
+KIND_EDDY_CURRENTS = 4
+KIND_AERODYNAMIC_DRAG = 5
+KIND_SOLAR_RADIATION = 6
 KIND_SUM = 100
 KIND_USER = -1  # no built-in part: the model is the user's terms only (attitude._user_kernels)
 
@@ -52,6 +58,8 @@ P_OFFSETS = 5  # KIND_SUM: first term offset
 # Gravity gradient: block [kind, the orbit's kernel_data()] (orbit._state_kernels layout: a type
 # code, μ, the valid span, then Kepler / secular-J2 elements or a Hermite table), read only
 # through the dispatcher orbit_radial, so every orbit source runs in the same cached kernels.
+# Magnetic dipole, eddy currents, drag, solar radiation: blocks with tables of the environment
+# along the orbit, laid out and interpolated in attitude._core.environment.
 
 ZERO3 = (0.0, 0.0, 0.0)
 
@@ -108,6 +116,14 @@ def term_torque(q, w, t, params, base):
         return heavy_top_torque(q, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
         return gravity_gradient_torque(q, t, params, base)
+    if kind == KIND_MAGNETIC_DIPOLE:
+        return magnetic_torque(q, t, params, base)
+    if kind == KIND_EDDY_CURRENTS:
+        return eddy_torque(q, w, t, params, base)
+    if kind == KIND_AERODYNAMIC_DRAG:
+        return drag_torque(q, t, params, base)
+    if kind == KIND_SOLAR_RADIATION:
+        return solar_torque(q, t, params, base)
     return ZERO3
 
 
@@ -119,6 +135,8 @@ def term_potential(q, t, params, base):
         return heavy_top_potential(q, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
         return gravity_gradient_potential(q, t, params, base)
+    if kind == KIND_MAGNETIC_DIPOLE:
+        return magnetic_potential(q, t, params, base)
     return 0.0
 
 

@@ -219,6 +219,10 @@ def propagate_ensemble(
     if _source is None:
         q, Q, n = _member_states(q0, Q0)
         inertia, unit = _member_inertia(body, n)
+        if isinstance(potential, Potential):  # environment tables for this run's span
+            potential = potential.prepare(tt)
+        elif isinstance(potential, (list, tuple)):
+            potential = [p.prepare(tt) if isinstance(p, Potential) else p for p in potential]
         pot, params, pots = _member_potentials(potential, n, inertia)
         members = _Members(q, Q, inertia, params, n)
         for start in range(0, n, 65536):  # validate every state before any work
@@ -471,7 +475,7 @@ def run_scenario(
             )
     out = Path(path) if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
-    pot = sc.potential.bind(sc.body)
+    pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)
     params = pot._params(inertia)
     source = _Sampled(disp, q0, Q0, inertia, params)
