@@ -38,6 +38,7 @@ SHORT = {
     "tumbling_upper_stage": 60.0,
     "sso_tle_gravity_gradient": 0.02,  # hours
     "cubesat_environment": 0.01,  # hours
+    "lvlh_pointing_events": 60.0,
 }
 
 
