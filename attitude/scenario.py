@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 
 from .body import RigidBody
-from .ensemble.dispersions import DISTRIBUTIONS, Dispersions
+from .ensemble.dispersions import DISTRIBUTIONS, OUTPUTS, Dispersions
 from .errors import AttitudeError, AttitudeValueError, PropagationError
 from .results import set_time_attrs
 
@@ -56,6 +56,7 @@ _INTERNAL = {
     "angle": "rad",
     "force": "N",
     "mu": "km3 s-2",
+    "size": "byte",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -67,6 +68,7 @@ _EXAMPLE = {
     "angle": "'deg' or 'rad'",
     "force": "'N' (a weight M g)",
     "mu": "'km3 s-2'",
+    "size": "'GB' or 'MB'",
 }
 
 # Allowed keys per table (value: quantity kind for "<key>_unit", or None).
@@ -131,6 +133,10 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "rate_distribution": None,
         "inertia_error": None,
         "inertia_distribution": None,
+        "output": None,
+        "every": None,
+        "percentiles": None,
+        "max_output_size": "size",
     },
 }
 _REQUIRED_TABLES = ("body", "initial_state", "time")
@@ -148,7 +154,7 @@ _KINDS = {
     "gravity_gradient": ((), ()),
 }
 # Quantities that carry units also in a dimensionless scenario.
-_ALWAYS_UNIT = {"angle"}
+_ALWAYS_UNIT = {"angle", "size"}
 
 
 def _fail(key: str, msg: str) -> ScenarioError:
@@ -255,6 +261,12 @@ class _Reader:
         if not unit.is_equivalent(u.Unit(_INTERNAL[kind])):
             raise _fail(full, f"{s!r} is not a {kind} unit (expected e.g. {_EXAMPLE[kind]})")
         return unit
+
+    @staticmethod
+    def given(t: Mapping[str, Any], key: str) -> str:
+        """``key``'s value as the user wrote it, with its unit (for messages)."""
+        unit = t.get(f"{key}_unit")
+        return f"{t.get(key)!r}" + (f" {unit}" if isinstance(unit, str) else "")
 
     def value(self, t, key, where, kind: str, n: int | None = None, default: Any = ...) -> Any:
         """Number or array converted to internal units (float or ndarray)."""
@@ -612,7 +624,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     if "max_step" in nt:
         max_step = r.value(nt, "max_step", "integrator", "time")
         if not max_step > 0:
-            raise _fail("integrator.max_step", f"must be positive, got {max_step!r}")
+            raise _fail("integrator.max_step", f"must be positive, got {r.given(nt, 'max_step')}")
     max_steps = nt.get("max_steps", 100_000_000)
     if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
         raise _fail("integrator.max_steps", f"expected a positive integer, got {max_steps!r}")
@@ -626,7 +638,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     if "dt" in nt:
         dt = r.value(nt, "dt", "integrator", "time")
         if not dt > 0:
-            raise _fail("integrator.dt", f"must be a positive step, got {dt!r}")
+            raise _fail("integrator.dt", f"must be a positive step, got {r.given(nt, 'dt')}")
     order = nt.get("order", 4)
     if not isinstance(order, int) or isinstance(order, bool) or order not in (2, 4, 6):
         raise _fail("integrator.order", f"expected 2, 4 or 6, got {order!r}")
@@ -705,7 +717,9 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
     for key, kind in (("attitude_error", "angle"), ("rate_error", "rate")):
         v = r.value(table, key, "ensemble", kind, default=0.0)
         if not v >= 0:
-            raise fail(key, f"must be >= 0 (a standard deviation or half-width), got {v!r}")
+            raise fail(
+                key, f"must be >= 0 (a standard deviation or half-width), got {r.given(table, key)}"
+            )
         values[key] = float(v)
     ie = r.number(table, "inertia_error", "ensemble", 0.0)
     if not ie >= 0:
@@ -717,6 +731,7 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
         if d not in DISTRIBUTIONS:
             raise fail(key, f"expected one of {', '.join(map(repr, DISTRIBUTIONS))}, got {d!r}")
         dists[key] = d
+    opts = _ensemble_output(r, table, fail)
     disp = Dispersions(
         size=size,
         seed=seed,
@@ -725,12 +740,51 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
         rate_error=values["rate_error"],
         inertia_error=ie,
         **dists,
+        **opts,
     )
     try:
         disp.check_body(body.inertia)
     except AttitudeValueError as exc:
         raise ScenarioError(str(exc)) from None
     return disp
+
+
+def _ensemble_output(r: Any, table: dict[str, Any], fail: Callable) -> dict[str, Any]:
+    """The output keys of the ``[ensemble]`` table (docs/ensemble.md, "Output choices")."""
+    opts: dict[str, Any] = {}
+    output = r.string(table, "output", "ensemble", "samples")
+    if output not in OUTPUTS:
+        raise fail("output", f"expected one of {', '.join(map(repr, OUTPUTS))}, got {output!r}")
+    opts["output"] = output
+    every = table.get("every", 1)
+    if not isinstance(every, int) or isinstance(every, bool) or every < 1:
+        raise fail("every", f"expected an integer >= 1 (store every k-th time), got {every!r}")
+    if output == "final" and every != 1:
+        raise fail("every", "stores every k-th time with output = 'samples' or 'statistics'")
+    opts["every"] = every
+    if "percentiles" in table:
+        p = table["percentiles"]
+        if output != "statistics":
+            raise fail("percentiles", "only with output = 'statistics'")
+        if (
+            not isinstance(p, list)
+            or not p
+            or not all(_is_number(x) and 0 <= x <= 100 for x in p)
+        ):
+            raise fail("percentiles", f"expected a list of numbers in [0, 100], got {p!r}")
+        opts["percentiles"] = tuple(float(x) for x in p)
+    if "max_output_size" in table:
+        v = table["max_output_size"]
+        if isinstance(v, str) and v.strip().lower() == "none":
+            if "max_output_size_unit" in table:
+                raise fail("max_output_size_unit", "given with max_output_size = 'none'")
+            opts["max_output_size"] = math.inf
+        else:
+            size = r.value(table, "max_output_size", "ensemble", "size")
+            if not size > 0:
+                raise fail("max_output_size", f"must be a positive size, got {v!r}")
+            opts["max_output_size"] = float(size)
+    return opts
 
 
 def _only(t, where, what, required, always, selector):
@@ -872,6 +926,7 @@ def _orbit(
             e = r.number(ot, "e", "orbit")
             ang = {k: r.value(ot, k, "orbit", "angle") * u.rad for k in ("inc", "raan", "argp")}
             f0 = r.value(ot, "f0", "orbit", "angle", default=0.0) * u.rad
+            _check_orbit_angles(r, ot, ang["inc"].value, e, f0.value)
             if kind == "kepler":
                 orb = O.KeplerOrbit(
                     a * u.km,
@@ -958,6 +1013,30 @@ def _orbit(
         raise
     except ValueError as exc:
         raise _fail("orbit", str(exc)) from None
+
+
+def _check_orbit_angles(r: _Reader, ot: Mapping[str, Any], inc: float, e: float, f0: float):
+    """The orbit's angle ranges, reported in the unit the scenario gives them in."""
+    from astropy import units as u
+
+    def shown(key: str, rad: float) -> str:
+        unit = str(ot.get(f"{key}_unit", "rad"))
+        return f"{(rad * u.rad).to_value(u.Unit(unit)):.6g} {unit}"
+
+    if not 0.0 <= inc <= math.pi:
+        raise _fail(
+            "orbit.inc",
+            f"inclination must be in [0, {shown('inc', math.pi)}], got {r.given(ot, 'inc')} (a "
+            f"retrograde orbit has inc > {shown('inc', math.pi / 2)}; instead of a negative "
+            f"inclination shift raan by {shown('inc', math.pi)})",
+        )
+    if e > 1.0 and "f0" in ot and not abs(f0) < math.acos(-1.0 / e):
+        lim = math.acos(-1.0 / e)
+        raise _fail(
+            "orbit.f0",
+            f"a hyperbola with e = {e!r} only reaches |f| < acos(-1/e) = {shown('f0', lim)}, "
+            f"got {r.given(ot, 'f0')}",
+        )
 
 
 def _potential(r: _Reader, pt, kind: str, orbit: Any) -> Any:

@@ -9,13 +9,14 @@ import numpy as np
 
 from ..errors import AttitudeValueError
 from ._members import _project, initial_state_vars
-from ._plan import MAX_OUTPUT_SIZE
+from ._plan import MAX_OUTPUT_SIZE, OUTPUTS
 
 # ------------------------------------------------------------------------------------------------
 # dispersions: the [ensemble] table of a scenario
 # ------------------------------------------------------------------------------------------------
 
 DISTRIBUTIONS = ("normal", "uniform")
+__all__ = ["DISTRIBUTIONS", "OUTPUTS", "Dispersions"]
 #: Normal inertia errors are truncated at this many standard deviations (so every member is
 #: a rigid body; checked for the worst case before any work).
 INERTIA_TRUNCATION = 3.0
