@@ -766,11 +766,7 @@ def _ensemble_output(r: Any, table: dict[str, Any], fail: Callable) -> dict[str,
         p = table["percentiles"]
         if output != "statistics":
             raise fail("percentiles", "only with output = 'statistics'")
-        if (
-            not isinstance(p, list)
-            or not p
-            or not all(_is_number(x) and 0 <= x <= 100 for x in p)
-        ):
+        if not isinstance(p, list) or not p or not all(_is_number(x) and 0 <= x <= 100 for x in p):
             raise fail("percentiles", f"expected a list of numbers in [0, 100], got {p!r}")
         opts["percentiles"] = tuple(float(x) for x in p)
     if "max_output_size" in table:

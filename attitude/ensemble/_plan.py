@@ -67,6 +67,8 @@ class _Plan:
         }
         if self.output != "final":
             a["output_every"] = np.int64(self.every)
+        if self.percentiles is not None:
+            a["statistics_percentiles"] = np.asarray(self.percentiles, dtype=np.float64)
         return a
 
 

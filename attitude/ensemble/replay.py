@@ -55,8 +55,7 @@ def _member(ds: xr.Dataset, k: Any) -> int:
     pos = np.flatnonzero(members == int(k))
     if not pos.size:
         raise AttitudeValueError(
-            f"k: no member {int(k)} in this result (members {int(members[0])}.."
-            f"{int(members[-1])})"
+            f"k: no member {int(k)} in this result (members {int(members[0])}..{int(members[-1])})"
         )
     if "initial_q" not in ds or "initial_Q" not in ds:
         raise AttitudeValueError(
@@ -143,7 +142,10 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
         span = [a["integration_start"], a["integration_stop"]] if "integration_stop" in a else []
         grid = np.unique(np.concatenate([t, np.asarray(span, dtype=np.float64)]))
         rows = np.searchsorted(grid, t)
-        kw: dict[str, Any] = {"rtol": float(a.get("rtol", 1e-10)), "atol": float(a.get("atol", 1e-12))}
+        kw: dict[str, Any] = {
+            "rtol": float(a.get("rtol", 1e-10)),
+            "atol": float(a.get("atol", 1e-12)),
+        }
         if "max_step" in a:
             kw["max_step"] = float(a["max_step"])
         epoch = {"epoch": a["epoch"]} if a.get("epoch") else {}
