@@ -314,6 +314,20 @@ def cmd_run(args: argparse.Namespace) -> int:
             _lookup_method(args.method)
         except ValueError as exc:
             raise BadInput(f"--method: {str(exc).split(': ', 1)[-1]}") from None
+    if args.formulation is not None and sc.ensemble is None:
+        from .formulations import get_formulation
+
+        if args.formulation != "canonical":
+            try:
+                get_formulation(args.formulation, args.method or sc.method)
+            except ValueError as exc:
+                raise BadInput(f"--formulation: {str(exc).split(': ', 1)[-1]}") from None
+    method = args.method or sc.method
+    if sc.ensemble is None and method in _FIXED_STEP and args.dt is None and sc.dt is None:
+        raise BadInput(
+            f"--method {method}: a fixed-step method needs its step: give --dt H (in the "
+            "scenario's time unit) or dt in the scenario's [integrator] table"
+        )
     out = Path(args.output) if args.output else sc.output
     if out.exists() and out.is_dir():
         raise BadInput(f"-o {out}: is a directory")
@@ -324,6 +338,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
     progress = Progress(args.progress)
     t_start = time.monotonic()
+    wall_start = time.time()
+    from .errors import PropagationError
+
     try:
         info = sc.run_to_file(
             out,
@@ -335,6 +352,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             order=args.order,
             formulation=args.formulation,
         )
+    except PropagationError as exc:  # the file holds what was computed: say where
+        written = out.exists() and out.stat().st_mtime >= wall_start - 1.0
+        where = f"; the samples computed are in {out} (run_status failed)" if written else ""
+        raise PropagationError(f"{exc}{where}", time=exc.time) from None
     finally:
         progress.close()
     wall = time.monotonic() - t_start

@@ -259,14 +259,17 @@ class _Reader:
                 full, f"{s!r} is not a unit astropy understands (e.g. {_EXAMPLE[kind]})"
             ) from None
         if not unit.is_equivalent(u.Unit(_INTERNAL[kind])):
-            raise _fail(full, f"{s!r} is not a {kind} unit (expected e.g. {_EXAMPLE[kind]})")
+            article = "an" if kind[0] in "aeiou" else "a"
+            raise _fail(
+                full, f"{s!r} is not {article} {kind} unit (expected e.g. {_EXAMPLE[kind]})"
+            )
         return unit
 
     @staticmethod
-    def given(t: Mapping[str, Any], key: str) -> str:
+    def given(t: Mapping[str, Any], key: str, default: Any = 0.0) -> str:
         """``key``'s value as the user wrote it, with its unit (for messages)."""
         unit = t.get(f"{key}_unit")
-        return f"{t.get(key)!r}" + (f" {unit}" if isinstance(unit, str) else "")
+        return f"{t.get(key, default)!r}" + (f" {unit}" if isinstance(unit, str) else "")
 
     def value(self, t, key, where, kind: str, n: int | None = None, default: Any = ...) -> Any:
         """Number or array converted to internal units (float or ndarray)."""
@@ -840,7 +843,8 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
     stop = r.number(tt, "stop", "time") * scale
     if not stop > start:
         raise _fail(
-            "time.stop", f"must be after time.start ({stop / scale!r} <= {start / scale!r})"
+            "time.stop",
+            f"must be after time.start ({r.given(tt, 'stop')} <= {r.given(tt, 'start')})",
         )
     if ("step" in tt) == ("count" in tt):
         raise _fail("time", "give exactly one of time.step (sample spacing) or time.count")
@@ -851,7 +855,7 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
     else:
         step = r.number(tt, "step", "time") * scale
         if not step > 0:
-            raise _fail("time.step", f"must be positive, got {step / scale!r}")
+            raise _fail("time.step", f"must be positive, got {r.given(tt, 'step')}")
         ratio = (stop - start) / step
         n = round(ratio) + 1
         if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
