@@ -565,3 +565,31 @@ def test_streaming_failure_message_names_no_internals(tmp_path, capsys):
         propagate([1.25, 1.0, 0.75], [1.0, 0, 0, 0], [0, 0.2, 0.1, 0.3], np.linspace(0, 99, 100),
                   max_steps=3, on_chunk=lambda ds: None)  # fmt: skip
     assert "on_chunk" not in str(e.value)
+
+
+def test_lazy_graph_stores_the_same_kth_and_final_samples(gg):
+    pytest.importorskip("dask")
+    sc, q, Q, t, _, full = gg
+    for kw, sel in (({"every": 4}, slice(None, None, 4)), ({"output": "final"}, [-1])):
+        lazy = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=6, lazy=True, **kw)
+        assert lazy.q.chunks is not None  # a dask graph
+        _same(lazy.compute(), full.isel(time=sel), TRAJ)
+
+
+def test_docs_first_example_runs(tmp_path, monkeypatch):
+    """The first example of docs/ensemble.md (fewer members), statistics-only part included."""
+    import re
+
+    text = (ROOT / "docs/ensemble.md").read_text()
+    code = re.findall(r"```python\n(.*?)```", text, flags=re.S)[0]
+    assert 'output="statistics"' in code
+    monkeypatch.chdir(tmp_path)
+    space: dict = {}
+    exec(compile(code.replace("n = 10_000", "n = 300"), "ensemble.md", "exec"), space)
+    st = io.read(tmp_path / "mc_stats.nc")
+    full = io.read(tmp_path / "mc.nc")
+    assert st.sizes["member"] == full.sizes["member"] == 300
+    assert space["p"].dims == ("percentile", "time") and space["p"].attrs["units"] == "deg"
+    np.testing.assert_array_equal(
+        space["w"].values, rate_percentiles(full, (5, 50, 95), degrees=True).values
+    )
