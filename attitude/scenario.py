@@ -1090,9 +1090,21 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
                 f"form {form!r} gives inertial momenta",
             )
     if form == "euler_canonical":
+        from .errors import SingularityError
+
         angles = r.value(it, "angles", where, "angle", n=3)
         momenta = r.value(it, "momenta", where, "momentum", n=3)
-        return C.from_euler_canonical(angles, momenta)
+        try:
+            return C.from_euler_canonical(angles, momenta)
+        except SingularityError:  # say it in the unit the file gives the angles in
+            unit = str(it.get("angles_unit", "rad"))
+            half = "180 deg" if unit == "deg" else "π rad" if unit == "rad" else f"π ({unit})"
+            raise _fail(
+                f"{where}.angles",
+                f"the second angle ϑ = {it['angles'][1]!r} {unit} is 0 or {half} (modulo a full "
+                "turn), where the 3-1-3 angles and their momenta are singular; give the state as "
+                "(q, Q) (form = 'canonical') or with body rates instead",
+            ) from None
     if form == "euler_body_rates":
         seq = r.string(it, "seq", where)
         from .quaternion import EULER_SEQUENCES

@@ -593,3 +593,30 @@ def test_docs_first_example_runs(tmp_path, monkeypatch):
     np.testing.assert_array_equal(
         space["w"].values, rate_percentiles(full, (5, 50, 95), degrees=True).values
     )
+
+
+def test_member_state_errors_show_plain_numbers():
+    q = np.array([[1.1, 0.0, 0.0, 0.0]])
+    with pytest.raises(AttitudeValueError) as e:
+        propagate_ensemble([1.25, 1.0, 0.75], q, [0.0, 0.1, 0.1, 0.1], [0.0, 1.0])
+    assert str(e.value).startswith("q0: member 0: |q0| = 1.1 is not 1")
+    assert "np." not in str(e.value)
+
+
+def test_singular_euler_angles_reported_in_the_files_unit():
+    text = """
+[body]
+inertia = [1.25, 1.0, 0.75]
+[initial_state]
+form = "euler_canonical"
+angles = [10.0, 180.0, 20.0]
+angles_unit = "deg"
+momenta = [0.1, 0.2, 0.3]
+[time]
+stop = 5.0
+count = 6
+"""
+    with pytest.raises(
+        ScenarioError, match=r"^initial_state\.angles: .* ϑ = 180\.0 deg is 0 or 180"
+    ):
+        loads(text)

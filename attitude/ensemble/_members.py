@@ -105,7 +105,7 @@ def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.
     if np.any(dn > PROJECTION_TOL):
         i = int(np.argmax(dn > PROJECTION_TOL))
         raise AttitudeValueError(
-            f"q0: member {offset + i}: |q0| = {nq[i]!r} is not 1 (off by {dn[i]:.3g} > "
+            f"q0: member {offset + i}: |q0| = {float(nq[i])!r} is not 1 (off by {dn[i]:.3g} > "
             f"{PROJECTION_TOL:g}); pass unit quaternions (attitude.quaternion.normalize)"
         )
     if np.any(np.all(q == 0.0, axis=1)):  # pragma: no cover - caught by the norm check
