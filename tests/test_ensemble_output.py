@@ -620,3 +620,32 @@ count = 6
         ScenarioError, match=r"^initial_state\.angles: .* ϑ = 180\.0 deg is 0 or 180"
     ):
         loads(text)
+
+
+def test_output_choices_on_a_dask_cluster_equal_the_local_run(gg, tmp_path):
+    """Chunks run as Dask tasks (serial driver on the workers): the same stored bits and the
+    same statistics as the local parallel loop."""
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    sc, q, Q, t, nom, full = gg
+    local = propagate_ensemble(
+        sc.body, q, Q, t, sc.potential, output="statistics", nominal=nom, every=2
+    )
+    with (
+        LocalCluster(n_workers=1, threads_per_worker=2, processes=False) as cluster,
+        Client(cluster) as client,
+    ):
+        path = tmp_path / "d.nc"
+        remote = propagate_ensemble(
+            sc.body, q, Q, t, sc.potential, output="statistics", nominal=nom, every=2,
+            client=client, chunk_size=4, path=path,
+        )  # fmt: skip
+        try:
+            _same(remote, local, ("pointing_error_percentiles", "omega_norm_percentiles"))
+        finally:
+            remote.close()
+        fin = propagate_ensemble(
+            sc.body, q, Q, t, sc.potential, output="final", client=client, chunk_size=5
+        )
+        _same(fin, full.isel(time=[-1]), TRAJ)
