@@ -5,9 +5,12 @@ pointing error (the rotation angle from the reference attitude, Arribas et al.'s
 ``reference_q``: 2 atan2(|vec(q̃_ref∘q)|, |scalar(q̃_ref∘q)|), or the boresight angle) and |ω|.
 The store is laid out time-major, shape (2, m, N) float64, 16 bytes per member and time (the
 members' trajectories take 168): in memory up to :data:`STORE_MEMORY`, beyond that a temporary
-file (a numpy memmap) in a private directory beside the output, removed at the end, also on
-errors and interrupts. When the last chunk is done the store is read back in blocks of output
-times (about :data:`BLOCK_BYTES` each) and ``np.percentile`` (NumPy's default "linear" method:
+file in a private directory beside the output, removed at the end, also on errors and
+interrupts. The file is written from a buffer of :data:`BLOCK_BYTES` (members gathered chunk by
+chunk, then one write per time and quantity) and read back with plain file reads, not a memory
+map, so that the process's memory stays bounded by the buffers whatever N × m. When the last
+chunk is done the store is read back in blocks of output times (about :data:`BLOCK_BYTES` each)
+and ``np.percentile`` (NumPy's default "linear" method:
 linear interpolation between the order statistics, Hyndman & Fan type 7) is taken over the
 members at each time. Nothing is approximated: the result is ``np.percentile`` over the members
 of a run that stores every sample, bit for bit (tests/test_ensemble.py).
@@ -31,8 +34,8 @@ from .statistics import _error_angles
 
 #: Largest store kept in memory (bytes); larger ones go to a temporary file.
 STORE_MEMORY = 256 * 2**20
-#: Bytes of store read at a time when taking the percentiles.
-BLOCK_BYTES = 64 * 2**20
+#: Bytes of store buffered before a write, and read at a time when taking the percentiles.
+BLOCK_BYTES = 32 * 2**20
 
 
 class _PercentileStore:
@@ -63,15 +66,18 @@ class _PercentileStore:
         self.n_used = 0
         self.omega_units = "1"
         self._dir: Any = None
-        shape = (2, self.m, self.n)
+        self._file: Any = None
         if 16 * self.m * self.n <= STORE_MEMORY:
-            self._a = np.empty(shape)
-        else:
+            self._a = np.empty((2, self.m, self.n))
+        else:  # a file (2, m, N) and a buffer of whole members (2, m, B)
             if scratch is not None:
                 Path(scratch).mkdir(parents=True, exist_ok=True)
             self._dir = tempfile.TemporaryDirectory(prefix=".attitude-stats-", dir=scratch)
-            path = Path(self._dir.name) / "members.npy"
-            self._a = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=shape)
+            self._file = open(Path(self._dir.name) / "members.f8", "w+b")
+            self._file.truncate(16 * self.m * self.n)  # sparse: members never written read 0
+            width = max(1, min(self.n, BLOCK_BYTES // (16 * self.m)))
+            self._a = np.empty((2, self.m, width))
+            self._b0 = 0  # first member in the buffer
 
     @property
     def on_disk(self) -> bool:
@@ -91,12 +97,44 @@ class _PercentileStore:
         ok = np.asarray(ds["member_status"].values) == 0
         err[~ok] = np.nan
         wn[~ok] = np.nan
-        self._a[0, :, start : start + c] = err.T
-        self._a[1, :, start : start + c] = wn.T
+        if self._file is None:
+            self._a[0, :, start : start + c] = err.T
+            self._a[1, :, start : start + c] = wn.T
+        else:
+            done = 0
+            while done < c:  # fill the buffer, write it out when full
+                at = start + done - self._b0
+                k = min(c - done, self._a.shape[2] - at)
+                self._a[0, :, at : at + k] = err[done : done + k].T
+                self._a[1, :, at : at + k] = wn[done : done + k].T
+                done += k
+                if at + k == self._a.shape[2]:
+                    self._flush(at + k)
         self.n_done += c
         self.n_used += int(ok.sum())
         drop = [k for k, v in ds.data_vars.items() if "member" in v.dims and "time" in v.dims]
         return ds.drop_vars(drop)
+
+    def _flush(self, k: int) -> None:
+        """Write the buffer's first ``k`` members to the file (one write per time and value)."""
+        f, n, m = self._file, self.n, self.m
+        for v in (0, 1):
+            for r in range(m):
+                f.seek(((v * m + r) * n + self._b0) * 8)
+                f.write(self._a[v, r, :k].tobytes())
+        self._b0 += k
+
+    def _block(self, j: int, b: int) -> np.ndarray:
+        """Store values (2, b, n_done) of the output times j..j+b−1."""
+        if self._file is None:
+            return np.asarray(self._a[:, j : j + b, : self.n_done])
+        out = np.empty((2, b, self.n))
+        for v in (0, 1):
+            self._file.seek(((v * self.m + j) * self.n) * 8)
+            got = self._file.readinto(memoryview(out[v]).cast("B"))
+            if got != b * self.n * 8:  # pragma: no cover - a regular file reads in full
+                raise OSError("short read from the statistics store")
+        return out[:, :, : self.n_done]
 
     def _percentiles_of(self, x: np.ndarray) -> np.ndarray:
         """(P, b) percentiles over the members (axis 1) of the block ``x`` (b, n)."""
@@ -110,10 +148,13 @@ class _PercentileStore:
         """The percentile variables (percentile, time), from the members recorded so far."""
         n = self.n_done
         out = np.full((2, self.p.shape[0], self.m), np.nan)
+        if self._file is not None and n > self._b0:
+            self._flush(n - self._b0)
+            self._file.flush()
         if n:
-            b = max(1, BLOCK_BYTES // (8 * n))
+            b = max(1, BLOCK_BYTES // (16 * self.n))
             for j in range(0, self.m, b):
-                blk = np.asarray(self._a[:, j : j + b, :n])
+                blk = self._block(j, min(b, self.m - j))
                 for v in (0, 1):
                     out[v, :, j : j + blk.shape[1]] = self._percentiles_of(blk[v])
         kind = "boresight pointing error" if self.boresight is not None else "attitude error angle"
@@ -157,6 +198,10 @@ class _PercentileStore:
     def close(self) -> None:
         """Release the store (removes the temporary file)."""
         self._a = None
+        if self._file is not None:
+            with contextlib.suppress(OSError):
+                self._file.close()
+            self._file = None
         if self._dir is not None:
             with contextlib.suppress(OSError):
                 self._dir.cleanup()
