@@ -51,12 +51,15 @@ class _Assembler:
         self.keep: np.ndarray | None = None
         self.members: Any = None
         self.reference: np.ndarray | None = None
+        # Views instead of contiguous copies of the (member, time) variables: for chunks whose
+        # trajectories are reduced and dropped at once (output="statistics").
+        self.views = False
 
     def dataset(self, start, out, inertia, lazy: bool = False) -> xr.Dataset:
         """The chunk's Dataset; ``lazy``: ``out`` holds dask arrays, kept as they are."""
 
         def arr(x, dtype=None):
-            if lazy:
+            if lazy or (self.views and dtype is None):
                 return x if dtype is None else x.astype(dtype)
             return np.ascontiguousarray(x, dtype=dtype)
 

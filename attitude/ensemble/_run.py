@@ -352,6 +352,7 @@ def propagate_ensemble(
     if members.shared_inertia is not None:
         asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
     asm.keep, asm.members = plan.keep, members
+    asm.views = plan.output == "statistics"
     has_ref = nominal is not None or reference is not None
     ms = plan.stored_t.shape[0]
     if has_ref:
