@@ -116,7 +116,7 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
 
 def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str:
     u = "" if unit in ("1", "") else f" {unit}"
-    s = f"{t0:g} .. {t1:g}{u} ({n} samples)"
+    s = f"{t0:g} .. {t1:g}{u} ({n} sample{'' if n == 1 else 's'})"
     if attrs.get("epoch"):
         s += f" from epoch {attrs['epoch']}"
     return s
