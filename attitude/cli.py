@@ -11,6 +11,7 @@ import math
 import signal
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,18 @@ EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 class BadInput(Exception):
     """An error in what the user gave us (exit code 2)."""
+
+
+def _warn(message: str) -> None:
+    """A one-line warning on stderr (as the library's warnings are shown by :func:`main`)."""
+    sys.stderr.write(f"attitude: warning: {message}\n")
+    sys.stderr.flush()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` of the command: one line, no source location."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    _warn(text)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -103,7 +116,7 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
 
 def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str:
     u = "" if unit in ("1", "") else f" {unit}"
-    s = f"{t0:g} .. {t1:g}{u} ({n} samples)"
+    s = f"{t0:g} .. {t1:g}{u} ({n} sample{'' if n == 1 else 's'})"
     if attrs.get("epoch"):
         s += f" from epoch {attrs['epoch']}"
     return s
@@ -121,6 +134,7 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         f"ensemble    {n} members (seed {info.get('ensemble_seed')}), chunks of "
         f"{info.get('chunk_size')}, {info.get('execution')}",
         f"time span   {float(sc.t[0]):g} .. {float(sc.t[-1]):g}{unit} ({len(sc.t)} samples)",
+        f"stored      {_stored_text(info, len(sc.t))}",
         f"method      {info.get('method')}, rtol {info.get('rtol')}, atol {info.get('atol')}: "
         f"{steps} steps ({steps / max(n, 1):.1f} per member), {info.get('n_rejected')} rejected",
         f"speed       {steps / max(wall, 1e-9):.3g} member-steps/s",
@@ -135,6 +149,35 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         lines.append(f"events      {info['events']} (attitude info for the percentiles)")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     return lines
+
+
+def _stored_text(info: dict[str, Any], m: int) -> str:
+    """What an ensemble file holds, in words (its output choice)."""
+    output = str(info.get("ensemble_output", "samples"))
+    k = int(info.get("output_every", 1))
+    times = "every output time" if k == 1 else f"one output time in {k} ({-(-m // k)} times)"
+    if output == "final":
+        return "every member's final state"
+    if output == "statistics":
+        pct = ", ".join(f"{x:g}" for x in np.atleast_1d(info.get("statistics_percentiles", [])))
+        return (
+            f"percentiles {pct} over members of the pointing error (from the nominal "
+            f"attitude) and of |omega|, at {times}; no member trajectories"
+        )
+    return f"every member at {times}"
+
+
+def _size_option_hint(exc: Any) -> str:
+    from .ensemble._plan import format_size
+
+    want = format_size(exc.expected * 1.1).replace(" ", "")
+    return (
+        f"the ensemble's output file would take about {format_size(exc.expected)}, above the "
+        f"limit of {format_size(exc.limit)} (--max-output-size, or max_output_size in the "
+        "scenario's [ensemble] table); store less with --ensemble-output final, "
+        f"--ensemble-output statistics or --every K, or allow it: --max-output-size {want} "
+        "(none: no limit)"
+    )
 
 
 def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
@@ -159,29 +202,108 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
         sys.stderr.flush()
 
     from .ensemble import run_scenario
+    from .ensemble._plan import format_size, parse_size
+    from .errors import AttitudeError, OutputSizeError
 
-    info = run_scenario(
-        sc,
-        out,
-        client=getattr(args, "scheduler", None),
-        progress=report,
-        method=args.method,
-        rtol=args.rtol,
-        atol=args.atol,
-    )
+    opts: dict[str, Any] = {}
+    if getattr(args, "ensemble_output", None):
+        opts["output"] = args.ensemble_output
+    if getattr(args, "every", None) is not None:
+        opts["every"] = args.every
+    if getattr(args, "percentiles", None) is not None:
+        opts["percentiles"] = args.percentiles
+    if getattr(args, "max_output_size", None) is not None:
+        try:
+            opts["max_output_size"] = parse_size(args.max_output_size, "--max-output-size")
+        except AttitudeError as exc:
+            raise BadInput(str(exc)) from None
+
+    def estimate(nbytes: int) -> None:
+        if not getattr(args, "quiet", False):
+            print(f"output      {out}: expected about {format_size(nbytes)}", flush=True)
+
+    try:
+        info = run_scenario(
+            sc,
+            out,
+            client=getattr(args, "scheduler", None),
+            progress=report,
+            method=args.method,
+            rtol=args.rtol,
+            atol=args.atol,
+            on_estimate=estimate,
+            **opts,
+        )
+    except OutputSizeError as exc:
+        raise BadInput(_size_option_hint(exc)) from None
+    except AttitudeError as exc:  # an output option given on the command line
+        msg = str(exc)
+        for key, opt in (
+            ("output:", "--ensemble-output:"),
+            ("every:", "--every:"),
+            ("percentiles:", "--percentiles:"),
+        ):
+            if msg.startswith(key) and key[:-1] in opts:
+                raise BadInput(opt + msg[len(key) :]) from None
+        raise
     if not getattr(args, "quiet", False):
         print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0)))
+
+
+#: Methods that take a fixed step (--dt, --order) and ignore the tolerances.
+_FIXED_STEP = ("nosquish", "splitting")
+#: Methods without a step-size control (the tolerances do not apply).
+_NO_TOLERANCES = (*_FIXED_STEP, "exact")
+_ENSEMBLE_ONLY = ("ensemble_output", "every", "percentiles", "max_output_size")
+
+
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _warn_unused_options(sc: Any, args: argparse.Namespace) -> None:
+    """Warn about command-line options that do not apply to this run (they are ignored)."""
+    method = args.method or sc.method
+    if sc.ensemble is not None:
+        for name in ("dt", "order", "formulation"):
+            if getattr(args, name) is not None:
+                _warn(
+                    f"{_option(name)} does not apply to an ensemble (the members run the "
+                    "canonical equations with dop853); ignored"
+                )
+    else:
+        for name in _ENSEMBLE_ONLY:
+            if getattr(args, name, None) is not None:
+                _warn(f"{_option(name)} applies to scenarios with an [ensemble] table; ignored")
+        for name in ("dt", "order"):
+            if getattr(args, name) is not None and method not in _FIXED_STEP:
+                _warn(
+                    f"{_option(name)} applies to the fixed-step methods (nosquish, splitting), "
+                    f"not to {method}; ignored"
+                )
+        for name in ("rtol", "atol"):
+            if getattr(args, name) is not None and method in _NO_TOLERANCES:
+                _warn(f"{_option(name)} does not apply to the method {method} (no step-size "
+                      "control); ignored")  # fmt: skip
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     from . import scenario as S
 
     sc = S.load(args.scenario)
+    _warn_unused_options(sc, args)
     if args.stop is not None:
         stop = args.stop * sc.time_scale
+        end = float(sc.t[-1])
+        if stop > end * (1 + 1e-12) + 1e-300:
+            unit = "" if sc.time_unit == "1" else f" {_time_unit_name(sc)}"
+            _warn(
+                f"--stop {args.stop:g}: beyond the scenario's time span (time.stop = "
+                f"{end / sc.time_scale:g}{unit}); the run ends at time.stop"
+            )
         keep = sc.t <= stop * (1 + 1e-12) + 1e-300
         if keep.sum() < 2:
-            raise BadInput(f"--stop {args.stop}: leaves fewer than 2 output samples")
+            raise BadInput(f"--stop {args.stop:g}: leaves fewer than 2 output samples")
         sc.t = sc.t[keep]
     for name in ("rtol", "atol", "dt"):
         v = getattr(args, name)
@@ -194,6 +316,20 @@ def cmd_run(args: argparse.Namespace) -> int:
             _lookup_method(args.method)
         except ValueError as exc:
             raise BadInput(f"--method: {str(exc).split(': ', 1)[-1]}") from None
+    if args.formulation is not None and sc.ensemble is None:
+        from .formulations import get_formulation
+
+        if args.formulation != "canonical":
+            try:
+                get_formulation(args.formulation, args.method or sc.method)
+            except ValueError as exc:
+                raise BadInput(f"--formulation: {str(exc).split(': ', 1)[-1]}") from None
+    method = args.method or sc.method
+    if sc.ensemble is None and method in _FIXED_STEP and args.dt is None and sc.dt is None:
+        raise BadInput(
+            f"--method {method}: a fixed-step method needs its step: give --dt H (in the "
+            "scenario's time unit) or dt in the scenario's [integrator] table"
+        )
     out = Path(args.output) if args.output else sc.output
     if out.exists() and out.is_dir():
         raise BadInput(f"-o {out}: is a directory")
@@ -204,6 +340,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
     progress = Progress(args.progress)
     t_start = time.monotonic()
+    wall_start = time.time()
+    from .errors import PropagationError
+
     try:
         info = sc.run_to_file(
             out,
@@ -215,12 +354,26 @@ def cmd_run(args: argparse.Namespace) -> int:
             order=args.order,
             formulation=args.formulation,
         )
+    except PropagationError as exc:  # the file holds what was computed: say where
+        written = out.exists() and out.stat().st_mtime >= wall_start - 1.0
+        where = f"; the samples computed are in {out} (run_status failed)" if written else ""
+        raise PropagationError(f"{exc}{where}", time=exc.time) from None
     finally:
         progress.close()
     wall = time.monotonic() - t_start
     if not args.quiet:
         _summary(sc, info, wall)
     return EXIT_OK
+
+
+def _time_unit_name(sc: Any) -> str:
+    """The unit of the scenario's [time] table as written there (e.g. 'min')."""
+    from .scenario import tomllib
+
+    try:
+        return str(tomllib.loads(sc.source)["time"]["unit"])
+    except (KeyError, TypeError, ValueError):
+        return "s"
 
 
 def _numerics(a: dict[str, Any]) -> str:
@@ -414,7 +567,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
             "plot: matplotlib is not installed; install the plot extra: "
             "pip install 'attitude[plot]'"
         ) from None
-    from .plotting import plot_result, plot_torque_budget
+    from .plotting import plot_ensemble, plot_result, plot_torque_budget
 
     ds = _open(args.file)
     try:
@@ -423,12 +576,44 @@ def cmd_plot(args: argparse.Namespace) -> int:
             if "torque" not in ds.data_vars:
                 raise BadInput(f"plot: {args.file} has no per-model torque variable")
             plot_torque_budget(ds, out, dpi=args.dpi)
+        elif "member" in ds.dims:  # percentile bands over the members
+            plot_ensemble(ds, out, dpi=args.dpi)
         else:
             plot_result(ds, out, dpi=args.dpi)
     finally:
         ds.close()
     print(f"figure      {out}")
     return EXIT_OK
+
+
+def _one_member(ds: Any, args: argparse.Namespace) -> Any:
+    """The member ``--member K`` of an ensemble file (export writes one attitude history)."""
+    if "member" not in ds.dims:
+        raise BadInput(f"--member: {args.file} is a single run, not an ensemble; drop --member")
+    n = ds.sizes["member"]
+    if "q" not in ds:
+        raise BadInput(
+            f"export: {args.file} holds the statistics of an ensemble of {n} members, not their "
+            "attitudes; run the ensemble storing the members (--ensemble-output samples) to "
+            "export one of them"
+        )
+    if args.member is None:
+        raise BadInput(
+            f"export: {args.file} is an ensemble of {n} members; a CCSDS AEM holds one attitude "
+            f"history: choose a member with --member K (0..{n - 1})"
+        )
+    members = np.asarray(ds["member"].values)
+    if not np.any(members == args.member):
+        raise BadInput(
+            f"--member {args.member}: no such member in {args.file} (members "
+            f"{int(members[0])}..{int(members[-1])})"
+        )
+    if ds.sizes["time"] < 2:
+        raise BadInput(
+            f"export: {args.file} holds each member's final state only; an AEM needs an "
+            "attitude history (run with --ensemble-output samples)"
+        )
+    return ds.sel(member=args.member)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
@@ -438,6 +623,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem")
     ds = _open(args.file)
     try:
+        if "member" in ds.dims or args.member is not None:
+            ds = _one_member(ds, args)
         try:
             path = write_aem(
                 ds,
@@ -471,6 +658,30 @@ class _Parser(argparse.ArgumentParser):
         self.print_usage(sys.stderr)
         sys.stderr.write(f"attitude: error: {message}\n")
         raise SystemExit(EXIT_BAD_INPUT)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return v
+
+
+def _percentile_list(text: str) -> list[float]:
+    try:
+        vals = [float(x) for x in text.replace(" ", "").split(",") if x]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected numbers in [0, 100] separated by commas, e.g. 5,50,95,100, got {text!r}"
+        ) from None
+    if not vals or not all(0 <= v <= 100 for v in vals):
+        raise argparse.ArgumentTypeError(
+            f"expected numbers in [0, 100] separated by commas, e.g. 5,50,95,100, got {text!r}"
+        )
+    return vals
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -524,6 +735,32 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help="run an [ensemble] scenario on a Dask cluster (e.g. tcp://host:8786; needs "
         "pip install 'attitude[dask]'); default: local threads",
+    )
+    r.add_argument(
+        "--ensemble-output",
+        choices=("samples", "final", "statistics"),
+        help="[ensemble] scenarios: store every member's samples, every member's final state, "
+        "or only percentiles over members of the pointing error and |omega| (default: the "
+        "scenario's ensemble.output, else samples)",
+    )
+    r.add_argument(
+        "--every",
+        type=_positive_int,
+        metavar="K",
+        help="[ensemble] scenarios: store every K-th output time",
+    )
+    r.add_argument(
+        "--percentiles",
+        type=_percentile_list,
+        metavar="P,P,...",
+        help="[ensemble] scenarios with --ensemble-output statistics: the percentiles "
+        "(default 5,50,95,100; 100 is the maximum)",
+    )
+    r.add_argument(
+        "--max-output-size",
+        metavar="SIZE",
+        help="[ensemble] scenarios: refuse to write a file expected to be larger (e.g. 500MB, "
+        "2GB; none: no limit; default: the scenario's ensemble.max_output_size, else 1 GB)",
     )
     r.set_defaults(func=cmd_run)
 
@@ -580,6 +817,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="seconds per time unit, to export a dimensionless run",
     )
+    e.add_argument(
+        "--member",
+        type=int,
+        metavar="K",
+        help="ensemble files: export member K (its stored samples)",
+    )
     e.add_argument("--object-name")
     e.add_argument("--object-id")
     e.add_argument("--center-name")
@@ -612,7 +855,9 @@ def main(argv: list[str] | None = None) -> int:
     from .errors import AttitudeError, PropagationError
 
     try:
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return int(args.func(args))
     except KeyboardInterrupt:
         sys.stderr.write("attitude: interrupted (no output file written)\n")
         return 130

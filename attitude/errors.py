@@ -13,6 +13,7 @@ __all__ = [
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
+    "OutputSizeError",
     "PropagationError",
     "SingularityError",
 ]
@@ -28,6 +29,21 @@ class AttitudeValueError(AttitudeError, ValueError):
 
 class AttitudeTypeError(AttitudeError, TypeError):
     """An argument has the wrong type or units that cannot be converted."""
+
+
+class OutputSizeError(AttitudeValueError):
+    """An ensemble's output would exceed its size limit (``max_output_size``); nothing was run.
+
+    Attributes
+    ----------
+    expected, limit : float
+        The expected output size and the limit, in bytes.
+    """
+
+    def __init__(self, message: str, *, expected: float, limit: float):
+        super().__init__(message)
+        self.expected = expected
+        self.limit = limit
 
 
 class SingularityError(AttitudeValueError):

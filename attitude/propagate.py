@@ -329,8 +329,8 @@ def propagate(
             t_fail = float(tt[n - 1]) if n else float(tt[0])
         raise PropagationError(
             f"propagation stopped at t = {t_fail!r}: {result.message} "
-            f"({n} of {tt.shape[0]} output samples computed; "
-            + ("they went to on_chunk)" if streaming else "they are in .partial)"),
+            f"({n} of {tt.shape[0]} output samples computed"
+            + (", passed on chunk by chunk)" if streaming else "; the error's partial holds them)"),
             time=t_fail,
             partial=ds,
         )

@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 
 from .body import RigidBody
-from .ensemble.dispersions import DISTRIBUTIONS, Dispersions
+from .ensemble.dispersions import DISTRIBUTIONS, OUTPUTS, Dispersions
 from .errors import AttitudeError, AttitudeValueError, PropagationError
 from .results import set_time_attrs
 
@@ -59,6 +59,7 @@ _INTERNAL = {
     "area": "m2",
     "dipole": "A m2",
     "conductance": "S m4",
+    "size": "byte",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -73,6 +74,7 @@ _EXAMPLE = {
     "area": "'m2' or 'cm2'",
     "dipole": "'A m2'",
     "conductance": "'S m4' (A m2 per T per T/s)",
+    "size": "'GB' or 'MB'",
 }
 
 # Allowed keys per table (value: quantity kind for "<key>_unit", or None).
@@ -153,6 +155,10 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "rate_distribution": None,
         "inertia_error": None,
         "inertia_distribution": None,
+        "output": None,
+        "every": None,
+        "percentiles": None,
+        "max_output_size": "size",
     },
 }
 # Keys of each named subtable of [events] ([events.<name>], attitude.events, docs/events.md).
@@ -206,7 +212,7 @@ _SPACECRAFT_KEYS = {
 }
 _FACET_KEYS = ("area", "normal", "center", "cd", "specular", "diffuse")
 # Quantities that carry units also in a dimensionless scenario.
-_ALWAYS_UNIT = {"angle"}
+_ALWAYS_UNIT = {"angle", "size"}
 
 
 def _fail(key: str, msg: str) -> ScenarioError:
@@ -311,8 +317,17 @@ class _Reader:
                 full, f"{s!r} is not a unit astropy understands (e.g. {_EXAMPLE[kind]})"
             ) from None
         if not unit.is_equivalent(u.Unit(_INTERNAL[kind])):
-            raise _fail(full, f"{s!r} is not a {kind} unit (expected e.g. {_EXAMPLE[kind]})")
+            article = "an" if kind[0] in "aeiou" else "a"
+            raise _fail(
+                full, f"{s!r} is not {article} {kind} unit (expected e.g. {_EXAMPLE[kind]})"
+            )
         return unit
+
+    @staticmethod
+    def given(t: Mapping[str, Any], key: str, default: Any = 0.0) -> str:
+        """``key``'s value as the user wrote it, with its unit (for messages)."""
+        unit = t.get(f"{key}_unit")
+        return f"{t.get(key, default)!r}" + (f" {unit}" if isinstance(unit, str) else "")
 
     def value(self, t, key, where, kind: str, n: int | None = None, default: Any = ...) -> Any:
         """Number or array converted to internal units (float or ndarray)."""
@@ -680,7 +695,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     if "max_step" in nt:
         max_step = r.value(nt, "max_step", "integrator", "time")
         if not max_step > 0:
-            raise _fail("integrator.max_step", f"must be positive, got {max_step!r}")
+            raise _fail("integrator.max_step", f"must be positive, got {r.given(nt, 'max_step')}")
     max_steps = nt.get("max_steps", 100_000_000)
     if not isinstance(max_steps, int) or isinstance(max_steps, bool) or max_steps < 1:
         raise _fail("integrator.max_steps", f"expected a positive integer, got {max_steps!r}")
@@ -694,7 +709,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     if "dt" in nt:
         dt = r.value(nt, "dt", "integrator", "time")
         if not dt > 0:
-            raise _fail("integrator.dt", f"must be a positive step, got {dt!r}")
+            raise _fail("integrator.dt", f"must be a positive step, got {r.given(nt, 'dt')}")
     order = nt.get("order", 4)
     if not isinstance(order, int) or isinstance(order, bool) or order not in (2, 4, 6):
         raise _fail("integrator.order", f"expected 2, 4 or 6, got {order!r}")
@@ -779,7 +794,9 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
     for key, kind in (("attitude_error", "angle"), ("rate_error", "rate")):
         v = r.value(table, key, "ensemble", kind, default=0.0)
         if not v >= 0:
-            raise fail(key, f"must be >= 0 (a standard deviation or half-width), got {v!r}")
+            raise fail(
+                key, f"must be >= 0 (a standard deviation or half-width), got {r.given(table, key)}"
+            )
         values[key] = float(v)
     ie = r.number(table, "inertia_error", "ensemble", 0.0)
     if not ie >= 0:
@@ -791,6 +808,7 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
         if d not in DISTRIBUTIONS:
             raise fail(key, f"expected one of {', '.join(map(repr, DISTRIBUTIONS))}, got {d!r}")
         dists[key] = d
+    opts = _ensemble_output(r, table, fail)
     disp = Dispersions(
         size=size,
         seed=seed,
@@ -799,12 +817,47 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
         rate_error=values["rate_error"],
         inertia_error=ie,
         **dists,
+        **opts,
     )
     try:
         disp.check_body(body.inertia)
     except AttitudeValueError as exc:
         raise ScenarioError(str(exc)) from None
     return disp
+
+
+def _ensemble_output(r: Any, table: dict[str, Any], fail: Callable) -> dict[str, Any]:
+    """The output keys of the ``[ensemble]`` table (docs/ensemble.md, "Output choices")."""
+    opts: dict[str, Any] = {}
+    output = r.string(table, "output", "ensemble", "samples")
+    if output not in OUTPUTS:
+        raise fail("output", f"expected one of {', '.join(map(repr, OUTPUTS))}, got {output!r}")
+    opts["output"] = output
+    every = table.get("every", 1)
+    if not isinstance(every, int) or isinstance(every, bool) or every < 1:
+        raise fail("every", f"expected an integer >= 1 (store every k-th time), got {every!r}")
+    if output == "final" and every != 1:
+        raise fail("every", "stores every k-th time with output = 'samples' or 'statistics'")
+    opts["every"] = every
+    if "percentiles" in table:
+        p = table["percentiles"]
+        if output != "statistics":
+            raise fail("percentiles", "only with output = 'statistics'")
+        if not isinstance(p, list) or not p or not all(_is_number(x) and 0 <= x <= 100 for x in p):
+            raise fail("percentiles", f"expected a list of numbers in [0, 100], got {p!r}")
+        opts["percentiles"] = tuple(float(x) for x in p)
+    if "max_output_size" in table:
+        v = table["max_output_size"]
+        if isinstance(v, str) and v.strip().lower() == "none":
+            if "max_output_size_unit" in table:
+                raise fail("max_output_size_unit", "given with max_output_size = 'none'")
+            opts["max_output_size"] = math.inf
+        else:
+            size = r.value(table, "max_output_size", "ensemble", "size")
+            if not size > 0:
+                raise fail("max_output_size", f"must be a positive size, got {v!r}")
+            opts["max_output_size"] = float(size)
+    return opts
 
 
 def _only(t, where, what, required, always, selector):
@@ -864,7 +917,8 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
     stop = r.number(tt, "stop", "time") * scale
     if not stop > start:
         raise _fail(
-            "time.stop", f"must be after time.start ({stop / scale!r} <= {start / scale!r})"
+            "time.stop",
+            f"must be after time.start ({r.given(tt, 'stop')} <= {r.given(tt, 'start')})",
         )
     if ("step" in tt) == ("count" in tt):
         raise _fail("time", "give exactly one of time.step (sample spacing) or time.count")
@@ -875,7 +929,7 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[np.ndarray, str, float]:
     else:
         step = r.number(tt, "step", "time") * scale
         if not step > 0:
-            raise _fail("time.step", f"must be positive, got {step / scale!r}")
+            raise _fail("time.step", f"must be positive, got {r.given(tt, 'step')}")
         ratio = (stop - start) / step
         n = round(ratio) + 1
         if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
@@ -946,6 +1000,7 @@ def _orbit(
             e = r.number(ot, "e", "orbit")
             ang = {k: r.value(ot, k, "orbit", "angle") * u.rad for k in ("inc", "raan", "argp")}
             f0 = r.value(ot, "f0", "orbit", "angle", default=0.0) * u.rad
+            _check_orbit_angles(r, ot, ang["inc"].value, e, f0.value)
             if kind == "kepler":
                 orb = O.KeplerOrbit(
                     a * u.km,
@@ -1100,6 +1155,30 @@ def _facets(r: _Reader, spec: Any) -> list[Any]:
     return out
 
 
+def _check_orbit_angles(r: _Reader, ot: Mapping[str, Any], inc: float, e: float, f0: float):
+    """The orbit's angle ranges, reported in the unit the scenario gives them in."""
+    from astropy import units as u
+
+    def shown(key: str, rad: float) -> str:
+        unit = str(ot.get(f"{key}_unit", "rad"))
+        return f"{(rad * u.rad).to_value(u.Unit(unit)):.6g} {unit}"
+
+    if not 0.0 <= inc <= math.pi:
+        raise _fail(
+            "orbit.inc",
+            f"inclination must be in [0, {shown('inc', math.pi)}], got {r.given(ot, 'inc')} (a "
+            f"retrograde orbit has inc > {shown('inc', math.pi / 2)}; instead of a negative "
+            f"inclination shift raan by {shown('inc', math.pi)})",
+        )
+    if e > 1.0 and "f0" in ot and not abs(f0) < math.acos(-1.0 / e):
+        lim = math.acos(-1.0 / e)
+        raise _fail(
+            "orbit.f0",
+            f"a hyperbola with e = {e!r} only reaches |f| < acos(-1/e) = {shown('f0', lim)}, "
+            f"got {r.given(ot, 'f0')}",
+        )
+
+
 def _potential(
     r: _Reader, pt, kind: list[str], orbit: Any, sc: Mapping[str, Any], uses_orbit: bool = False
 ) -> Any:
@@ -1193,9 +1272,21 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
                 f"form {form!r} gives inertial momenta",
             )
     if form == "euler_canonical":
+        from .errors import SingularityError
+
         angles = r.value(it, "angles", where, "angle", n=3)
         momenta = r.value(it, "momenta", where, "momentum", n=3)
-        return C.from_euler_canonical(angles, momenta)
+        try:
+            return C.from_euler_canonical(angles, momenta)
+        except SingularityError:  # say it in the unit the file gives the angles in
+            unit = str(it.get("angles_unit", "rad"))
+            half = "180 deg" if unit == "deg" else "π rad" if unit == "rad" else f"π ({unit})"
+            raise _fail(
+                f"{where}.angles",
+                f"the second angle ϑ = {it['angles'][1]!r} {unit} is 0 or {half} (modulo a full "
+                "turn), where the 3-1-3 angles and their momenta are singular; give the state as "
+                "(q, Q) (form = 'canonical') or with body rates instead",
+            ) from None
     if form == "euler_body_rates":
         seq = r.string(it, "seq", where)
         from .quaternion import EULER_SEQUENCES

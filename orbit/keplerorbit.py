@@ -12,6 +12,7 @@ inside their right-hand sides.
 from __future__ import annotations
 
 import math
+import warnings
 from functools import lru_cache
 from typing import Any
 
@@ -20,7 +21,7 @@ import numpy as np
 from . import _kernels as _k
 from . import _state_kernels as _sk
 from .base import OrbitBase
-from .errors import OrbitValueError
+from .errors import OrbitValueError, PerigeeInsideEarthWarning
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
 
 __all__ = ["KeplerOrbit", "earth_mu"]
@@ -32,6 +33,27 @@ def earth_mu() -> float:
     from astropy import constants
 
     return float(constants.GM_earth.to_value("km3 / s2"))
+
+
+#: Earth's GM (km³/s²; WGS 84) and equatorial radius (km; WGS 84) for the perigee check. Any
+#: mu within EARTH_MU_RTOL of it is the Earth's (IAU 2015 398600.4, WGS 72 398600.8 too).
+EARTH_MU = 398600.4418
+EARTH_MU_RTOL = 1e-5
+EARTH_RADIUS = 6378.137
+
+
+def _check_perigee(a: float, e: float, mu: float) -> None:
+    """Warn (:class:`PerigeeInsideEarthWarning`) if an Earth orbit's perigee is inside the Earth."""
+    rp = a * (1.0 - e)  # also |a| (e − 1) for a hyperbola (a < 0)
+    if abs(mu - EARTH_MU) <= EARTH_MU_RTOL * EARTH_MU and rp < EARTH_RADIUS:
+        warnings.warn(
+            PerigeeInsideEarthWarning(
+                f"perigee altitude {rp - EARTH_RADIUS:.1f} km: this Earth orbit's perigee radius "
+                f"a (1 - e) = {rp:.1f} km is inside the Earth (equatorial radius "
+                f"{EARTH_RADIUS} km); check a and e (or give mu of another central body)"
+            ),
+            stacklevel=3,
+        )
 
 
 def _scalar(x: Any, name: str, unit: Any) -> float:
@@ -227,6 +249,7 @@ class KeplerOrbit(OrbitBase):
                 f"a, mu: the mean motion sqrt(mu/|a|³) is not a positive finite number "
                 f"(a = {a_!r} km, mu = {mu_!r} km³/s²)"
             )
+        _check_perigee(a_, e_, mu_)
         el = np.empty(_k.NEL, dtype=np.float64)
         el[_k.A] = a_
         el[_k.ECC] = e_

@@ -98,6 +98,25 @@ def test_compliance_checker_no_errors_on_ensemble_file(tmp_path):
     back.close()
 
 
+@pytest.mark.parametrize("output", ["statistics", "final"])
+def test_compliance_checker_no_errors_on_ensemble_output_choices(output, tmp_path):
+    """Statistics-only files (a percentile coordinate) and final-state files are CF too."""
+    from attitude.ensemble import run_scenario
+
+    sc = scenario.load(SCEN / "ensemble_paper_keplerian.toml")
+    sc.t = sc.t[:4]
+    sc.ensemble.size = 8
+    path = tmp_path / f"{output}.nc"
+    run_scenario(sc, path, output=output)
+    assert cf_errors(path, tmp_path) == []
+    back = xr.open_dataset(path)
+    assert np.issubdtype(back.time.dtype, np.datetime64)
+    if output == "statistics":
+        assert back.percentile.attrs["units"] == "percent"
+        assert back.pointing_error_percentiles.dims == ("percentile", "time")
+    back.close()
+
+
 def test_compliance_checker_no_errors_on_lazy_ensemble_file(tmp_path):
     """The Dask-graph writer (``lazy=True``, xarray's to_netcdf) writes CF files as well."""
     pytest.importorskip("dask")

@@ -55,6 +55,48 @@ class _Members:
         y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
         return params, y0, inertia, corr
 
+    def nominal_params(self) -> np.ndarray:
+        """The parameter row (P,) of the one body and potential all members share."""
+        if self.params.ndim != 1 or self.inertia.ndim != 1:
+            raise AttitudeValueError(
+                "nominal: the members have their own bodies or potentials, so no one nominal "
+                "run exists; give reference= instead (a propagate result of the nominal case on "
+                "the same times, or quaternions)"
+            )
+        params = np.array(self.params, dtype=np.float64)
+        params[0:3] = self.inertia
+        return params
+
+    def member_vars(self, start: int, stop: int) -> dict[str, tuple]:
+        """Per-member inputs stored in the output: ``name: (dims, values, attrs)``.
+
+        The initial states as given, before the projection onto |q| = 1, q·Q = 0 (as
+        :func:`initial_state_vars`); ``units`` "momentum" is replaced by the output's unit.
+        """
+        return initial_state_vars(self._rows(self.q, start, stop), self._rows(self.Q, start, stop))
+
+
+def initial_state_vars(q: np.ndarray, Q: np.ndarray) -> dict[str, tuple]:
+    """``initial_q``, ``initial_Q`` (member, component): a member's initial state as given or
+    drawn, before the projection that every run applies; re-running from it reproduces the
+    member bit for bit (attitude.ensemble.rerun_member)."""
+    note = (
+        "as given or drawn, before the projection onto |q| = 1, q.Q = 0 that every run applies "
+        "(largest: initial_projection)"
+    )
+    return {
+        "initial_q": (
+            ("member", "component"),
+            np.array(q, dtype=np.float64, order="C"),
+            {"units": "1", "long_name": f"initial attitude quaternion, {note}"},
+        ),
+        "initial_Q": (
+            ("member", "component"),
+            np.array(Q, dtype=np.float64, order="C"),
+            {"units": "momentum", "long_name": f"initial conjugate momenta, {note}"},
+        ),
+    }
+
 
 def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray, float]:
     """Members' states projected onto |q| = 1, q·Q = 0 (canonical.project_state, row-wise)."""
@@ -63,7 +105,7 @@ def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.
     if np.any(dn > PROJECTION_TOL):
         i = int(np.argmax(dn > PROJECTION_TOL))
         raise AttitudeValueError(
-            f"q0: member {offset + i}: |q0| = {nq[i]!r} is not 1 (off by {dn[i]:.3g} > "
+            f"q0: member {offset + i}: |q0| = {float(nq[i])!r} is not 1 (off by {dn[i]:.3g} > "
             f"{PROJECTION_TOL:g}); pass unit quaternions (attitude.quaternion.normalize)"
         )
     if np.any(np.all(q == 0.0, axis=1)):  # pragma: no cover - caught by the norm check

@@ -46,17 +46,28 @@ class _Assembler:
         self.max_projection = 0.0
         self.inv: dict[str, float] = {}
         self.n_members = 0
+        # Output choice (_plan): rows of the compiled loop's time grid that are stored (None:
+        # all); the member source, for its per-member inputs (initial states, dispersions); the
+        # reference attitude (stored times, 4) of the pointing error, if any.
+        self.keep: np.ndarray | None = None
+        self.members: Any = None
+        self.reference: np.ndarray | None = None
+        # Views instead of contiguous copies of the (member, time) variables: for chunks whose
+        # trajectories are reduced and dropped at once (output="statistics").
+        self.views = False
 
     def dataset(self, start, out, inertia, lazy: bool = False) -> xr.Dataset:
         """The chunk's Dataset; ``lazy``: ``out`` holds dask arrays, kept as they are."""
 
         def arr(x, dtype=None):
-            if lazy:
+            if lazy or (self.views and dtype is None):
                 return x if dtype is None else x.astype(dtype)
             return np.ascontiguousarray(x, dtype=dtype)
 
         c = out["y"].shape[0]
         y, d = out["y"], out["diag"]
+        if self.keep is not None:  # every k-th or the final sample (_plan)
+            y, d = y[:, self.keep], d[:, self.keep]
         cols = {
             "q": y[:, :, :4],
             "Q": y[:, :, 4:],
@@ -84,6 +95,25 @@ class _Assembler:
             np.ascontiguousarray(inertia),
             {"units": inertia_units, "long_name": "principal moments of inertia (I1, I2, I3)"},
         )
+        if self.members is not None:  # the inputs that re-run a member alone (replay.py)
+            rate = str(tm["omega"].attrs.get("units", "1"))
+            momentum = str(tm["Q"].attrs.get("units", "1"))
+            for name, (dims, val, attrs) in self.members.member_vars(start, start + c).items():
+                attrs = dict(attrs)
+                attrs["units"] = {"rate": rate, "momentum": momentum}.get(
+                    attrs["units"], attrs["units"]
+                )
+                data_vars[name] = xr.Variable(dims, val, attrs)
+        if self.reference is not None:
+            data_vars["reference_q"] = xr.Variable(
+                ("time", "component"),
+                self.reference,
+                {
+                    "units": "1",
+                    "long_name": "reference attitude of the pointing error (body to space, "
+                    "scalar first)",
+                },
+            )
         cnt = out["counters"]
         for name, col, long in (
             ("member_n_steps", cnt[:, 0], "accepted integration steps"),
@@ -227,6 +257,25 @@ class _MemberWriter(StreamWriter):
             per = 8 * int(np.prod(rest))
         members = int(max(1, min(var.shape[0], 2**20 // per)))
         return [members, *rest]
+
+    def add_variables(self, ds: xr.Dataset) -> None:
+        """Write the variables of ``ds`` that the file does not hold yet (e.g. the percentiles
+        of a statistics run, computed when every member is done); before :meth:`commit`."""
+        from ..io import _set_attrs, _variable_attrs
+
+        nc = self._nc
+        for dim, size in ds.sizes.items():
+            if dim not in nc.dimensions:
+                nc.createDimension(dim, size)
+        comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
+        for name in [*ds.coords, *ds.data_vars]:
+            if name in nc.variables:
+                continue
+            var = ds[name].variable
+            extra = comp if name in ds.data_vars else {}
+            v = nc.createVariable(name, var.dtype, var.dims, **extra)
+            v[:] = var.values
+            _set_attrs(v, _variable_attrs(ds, name))
 
     def append(self, ds: xr.Dataset) -> None:
         if self._done:

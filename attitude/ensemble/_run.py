@@ -21,7 +21,7 @@ from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL
 from ..potentials import Potential
 from ..propagate import PROJECTION_WARN
-from . import _dask
+from . import _dask, _plan
 from ._chunks import _N_DIAG, _compute_chunk, _failure_message, _numba_threads, _Setup
 from ._dask import (
     _connect,
@@ -32,6 +32,7 @@ from ._dask import (
 )
 from ._members import _member_inertia, _member_potentials, _member_states, _Members, _project
 from ._output import _Assembler, _concat, _MemberWriter, _open_result
+from ._percentile_store import _PercentileStore
 from .dispersions import _Sampled
 
 #: Output bytes per chunk the default chunk size aims at (states + diagnostics, float64).
@@ -82,6 +83,14 @@ def propagate_ensemble(
     lazy: bool = False,
     events: Any = None,
     epoch: Any = None,
+    output: str = "samples",
+    every: int = 1,
+    percentiles: Sequence[float] | None = None,
+    nominal: tuple[Any, Any] | None = None,
+    reference: Any = None,
+    boresight: Any = None,
+    max_output_size: float | str | None = _plan.MAX_OUTPUT_SIZE,
+    on_estimate: Callable[[int], None] | None = None,
     _source: Any = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
@@ -156,6 +165,37 @@ def propagate_ensemble(
         member (status 4, ``EVENT``; its samples after the event are NaN), not the ensemble.
     epoch : astropy Time or str, optional
         Date of t = 0, as in :func:`attitude.propagate` (events that read the Sun need one).
+    output : {"samples", "final", "statistics"}
+        What is stored (docs/ensemble.md, "Output choices"): every member at the output times
+        (default; ``every=k``: at ``t[::k]``), every member at ``t[-1]`` only, or no members'
+        trajectories but percentiles over members of the pointing error (from the reference
+        attitude) and of |ω| at the output times, computed as the members finish
+        (``pointing_error_percentiles``, ``omega_norm_percentiles``: dims (percentile, time)).
+        Every member is integrated to ``t[-1]`` whatever is stored, and a stored sample is bit
+        for bit that of a run storing everything. Per-member inputs and statistics
+        (``inertia``, ``initial_q``, ``member_status``...) are stored in every case.
+    every : int
+        Store every k-th output time, ``t[::every]`` (``"samples"``, ``"statistics"``).
+    percentiles : sequence of float, optional
+        ``output="statistics"``: percentiles in [0, 100], default (5, 50, 95, 100) (100 is the
+        maximum over members). Exact: ``np.percentile`` over all members at each time.
+    nominal : (q0, Q0), optional
+        The nominal initial state ((4,) each): propagated once by the same compiled loop with
+        the members' shared body and potential, its attitude is the reference of the pointing
+        error (stored as ``reference_q``). :func:`run_scenario` uses the scenario's state.
+    reference : Dataset or array_like shape (4,) or (time, 4), optional
+        Instead of ``nominal``: the reference attitude, a ``propagate`` result on ``t`` or
+        quaternions. ``output="statistics"`` needs one of the two.
+    boresight : array_like shape (3,), optional
+        ``output="statistics"``: the pointing error is the angle between the directions this
+        body axis points to (member and reference), instead of the total rotation angle.
+    max_output_size : float, str, Quantity or None
+        Refuse (:class:`~attitude.errors.OutputSizeError`, before any work) an output whose
+        expected size is larger: bytes, or a string such as ``"2 GB"``; None: no limit. The
+        default is 1 GB. With ``path`` it is the file, without it the memory of the result.
+    on_estimate : callable, optional
+        ``on_estimate(nbytes)``: called once with the expected output size before any work
+        (also in the attr ``expected_output_size``).
 
     Returns
     -------
@@ -185,7 +225,9 @@ def propagate_ensemble(
     Notes
     -----
     Memory without ``path`` is that of the whole result, ``N × m × 21 × 8`` bytes; with
-    ``path`` it is one chunk. See docs/ensemble.md for Dask clusters and dispersions.
+    ``path`` it is one chunk (and, for ``output="statistics"``, 16 bytes per member and
+    stored time, in a temporary file beside ``path`` beyond 256 MiB). See docs/ensemble.md
+    for Dask clusters and dispersions.
     """
     body = bodies_or_body
     t_start = time.perf_counter()
@@ -215,6 +257,31 @@ def propagate_ensemble(
     if scheduler_timeout is None:
         scheduler_timeout = _dask.SCHEDULER_TIMEOUT
     timeout = _positive(scheduler_timeout, "scheduler_timeout")
+    plan = _plan.make_plan(tt, output, every, percentiles, max_output_size)
+    if on_estimate is not None and not callable(on_estimate):
+        raise AttitudeTypeError("on_estimate: expected a callable on_estimate(nbytes)")
+    if nominal is not None and reference is not None:
+        raise AttitudeValueError("nominal, reference: give one of them (the pointing reference)")
+    if plan.output == "statistics":
+        if nominal is None and reference is None:
+            raise AttitudeValueError(
+                "nominal: output='statistics' measures the pointing error from one reference "
+                "for all members; give nominal=(q0, Q0) (the nominal initial state, propagated "
+                "once) or reference= (a propagate result on t, or quaternions)"
+            )
+        if lazy:
+            raise AttitudeValueError(
+                "lazy: output='statistics' is computed as the members finish; run it eagerly "
+                "(lazy=False)"
+            )
+    elif boresight is not None:
+        raise AttitudeValueError("boresight: only with output='statistics'")
+    bore = None
+    if boresight is not None:
+        bore = as_float_array(boresight, "boresight", trailing=3, ndim=1)
+        if not float(np.linalg.norm(bore)) > 0:
+            raise AttitudeValueError("boresight: the zero vector is not a direction")
+        bore = bore / float(np.linalg.norm(bore))
 
     if _source is None:
         q, Q, n = _member_states(q0, Q0)
@@ -277,10 +344,10 @@ def propagate_ensemble(
             import numba
 
             n_threads = numba.get_num_threads()
-    m = tt.shape[0]
+    m = plan.kernel_t.shape[0]
     csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
     csize = min(csize, n)
-    setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user, evset)
+    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset)
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
@@ -301,11 +368,40 @@ def propagate_ensemble(
             from orbit.timescales import format_epoch
 
             run_attrs["epoch"] = format_epoch(evset.epoch)
+    run_attrs.update(plan.attrs())
     if attrs:
         run_attrs.update(attrs)
-    asm = _Assembler(tt, unit, pot, pots, run_attrs, evset)
+    asm = _Assembler(plan.stored_t, unit, pot, pots, run_attrs, evset)
     if members.shared_inertia is not None:
         asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
+    asm.keep, asm.members = plan.keep, members
+    asm.views = plan.output == "statistics"
+    has_ref = nominal is not None or reference is not None
+    ms = plan.stored_t.shape[0]
+    if has_ref:
+        asm.reference = np.zeros((ms, 4))  # the size estimate's placeholder
+    # The expected size, from one member's Dataset (whatever variables it has), before any work.
+    one = asm.dataset(0, _plan.dummy_chunk(m, n_members=1), members.block(0, 1)[2])
+    extra = None
+    if plan.output == "statistics":
+        probe = _PercentileStore(1, plan.stored_t, plan.percentiles, np.zeros((ms, 4)))
+        try:
+            one = probe.add(one)
+            extra = probe.finish(one["time"].variable)
+        finally:
+            probe.close()
+    expected = _plan.estimate_bytes(one, n, extra)
+    _plan.check_size(expected, plan, n, out_path is None)
+    asm.attrs["expected_output_size"] = np.int64(expected)
+    if on_estimate is not None:
+        on_estimate(expected)
+    if nominal is not None:
+        asm.reference = _plan.nominal_reference(setup, members.nominal_params(), nominal, plan)
+    elif reference is not None:
+        asm.reference = _plan.given_reference(reference, plan)
+        asm.attrs["pointing_reference"] = "given"
+    if nominal is not None:
+        asm.attrs["pointing_reference"] = "nominal initial state, propagated once"
 
     bounds = [(s, min(n, s + csize)) for s in range(0, n, csize)]
     if lazy:
@@ -325,6 +421,17 @@ def propagate_ensemble(
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
     failure: PropagationError | None = None
+    store = None
+    stats = None
+    if plan.output == "statistics":
+        store = _PercentileStore(
+            n,
+            plan.stored_t,
+            plan.percentiles,
+            asm.reference,
+            bore,
+            None if out_path is None else out_path.parent,
+        )
     try:
         try:
             if client is None:
@@ -339,11 +446,13 @@ def propagate_ensemble(
                 out, inertia, corr = got
                 bad = np.flatnonzero((out["status"] != _rk.SUCCESS) & (out["status"] != _rk.EVENT))
                 if bad.size:
-                    msg, t_fail = _failure_message(out, bad, start, tt)
+                    msg, t_fail = _failure_message(out, bad, start, setup.t)
                     raise PropagationError(msg, time=t_fail)
                 asm.max_projection = max(asm.max_projection, corr)
                 asm.account(out)
                 ds = asm.dataset(start, out, inertia)
+                if store is not None:  # statistics only: keep the scalars, drop the members
+                    ds = store.add(ds)
                 if writer is not None:
                     writer.append(ds)
                 else:
@@ -354,9 +463,14 @@ def propagate_ensemble(
             failure = exc
         status = "complete" if failure is None else f"failed: {failure}"
         final = asm.final_attrs(status)
+        if store is not None and asm.n_members:
+            stats = store.finish(asm.template["time"].variable)
+            final.update(store.attrs())
         final["wall_time"] = time.perf_counter() - t_start
         if writer is not None:
             if writer.n:
+                if stats is not None:
+                    writer.add_variables(stats)
                 writer.attrs = final
                 writer.commit()
             else:
@@ -366,6 +480,8 @@ def propagate_ensemble(
             writer.abort()
         raise
     finally:
+        if store is not None:
+            store.close()
         if owned:
             with contextlib.suppress(Exception):
                 client.close()
@@ -380,6 +496,10 @@ def propagate_ensemble(
         result = _open_result(out_path, csize, client is not None) if writer.n else None
     else:
         result = _concat(kept, final) if kept else None
+        if result is not None and stats is not None:
+            result = result.assign_coords(percentile=stats["percentile"]).assign(
+                {k: v.variable for k, v in stats.data_vars.items()}
+            )
     if failure is not None:
         where = f"; members 0..{asm.n_members - 1} are in {out_path}" if writer and writer.n else ""
         raise PropagationError(
@@ -432,6 +552,11 @@ def run_scenario(
     progress: Callable[[int, int, int], None] | None = None,
     chunk_size: int | None = None,
     scheduler_timeout: float | None = None,
+    output: str | None = None,
+    every: int | None = None,
+    percentiles: Sequence[float] | None = None,
+    max_output_size: Any = ...,
+    on_estimate: Callable[[int], None] | None = None,
     **overrides: Any,
 ) -> dict[str, Any]:
     """Run the dispersed ensemble of a scenario with an ``[ensemble]`` table, streamed to netCDF.
@@ -448,6 +573,12 @@ def run_scenario(
         ``progress(n_done, n_total, n_steps)`` after each chunk.
     chunk_size : int, optional
         Members per chunk (default: ``ensemble.chunk``, else automatic).
+    output, every, percentiles, max_output_size : optional
+        Replace the ``[ensemble]`` table's (see :func:`propagate_ensemble`; ``max_output_size``
+        None: no limit). The pointing error is measured from the scenario's nominal state,
+        propagated once (``reference_q``).
+    on_estimate : callable, optional
+        ``on_estimate(nbytes)`` with the expected file size, before any work.
     **overrides
         ``method``, ``rtol``, ``atol``, ``max_step`` replacing the scenario's.
 
@@ -497,6 +628,12 @@ def run_scenario(
         attrs=attrs,
         events=sc.events,
         epoch=sc.epoch,
+        output=disp.output if output is None else output,
+        every=disp.every if every is None else every,
+        percentiles=percentiles if percentiles is not None else disp.percentiles,
+        nominal=(q0, Q0),
+        max_output_size=disp.max_output_size if max_output_size is ... else max_output_size,
+        on_estimate=on_estimate,
         _source=(source, sc.body.units, pot, None),
         **kw,
     )
