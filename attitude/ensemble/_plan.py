@@ -283,12 +283,12 @@ def nominal_reference(setup: Any, params: np.ndarray, nominal: Any, plan: _Plan)
     return np.ascontiguousarray(y[:, :4])
 
 
-def dummy_chunk(m: int, n_members: int = 1) -> dict[str, np.ndarray]:
+def dummy_chunk(m: int, n_members: int = 1, n_events: int = 0) -> dict[str, np.ndarray]:
     """Arrays shaped like a chunk's results (zeros): for the size estimate."""
     from ._chunks import _N_DIAG
 
     c = n_members
-    return {
+    out = {
         "y": np.zeros((c, m, 8)),
         "diag": np.zeros((c, m, _N_DIAG)),
         "counters": np.zeros((c, 5), dtype=np.int64),
@@ -296,3 +296,7 @@ def dummy_chunk(m: int, n_members: int = 1) -> dict[str, np.ndarray]:
         "n_done": np.full(c, m, dtype=np.int64),
         "t_stop": np.zeros(c),
     }
+    if n_events:  # the per-member event statistics of _chunks._compute_chunk_events
+        out["event_count"] = np.zeros((c, n_events), dtype=np.int64)
+        out["event_first"] = np.full((c, n_events), np.nan)
+    return out

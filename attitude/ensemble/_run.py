@@ -381,7 +381,8 @@ def propagate_ensemble(
     if has_ref:
         asm.reference = np.zeros((ms, 4))  # the size estimate's placeholder
     # The expected size, from one member's Dataset (whatever variables it has), before any work.
-    one = asm.dataset(0, _plan.dummy_chunk(m, n_members=1), members.block(0, 1)[2])
+    n_ev = 0 if evset is None else len(evset.labels)
+    one = asm.dataset(0, _plan.dummy_chunk(m, 1, n_ev), members.block(0, 1)[2])
     extra = None
     if plan.output == "statistics":
         probe = _PercentileStore(1, plan.stored_t, plan.percentiles, np.zeros((ms, 4)))
