@@ -27,7 +27,7 @@ TIMEOUT="${MUTATION_TIMEOUT:-300}"
 OUT="${MUTATION_OUT:-$ROOT/.mutation}"  # survivors (diffs) per module, git-ignored
 
 declare -A MODULE_TESTS=(
-  [attitude/_core/quat.py]="tests/test_quaternion.py tests/test_canonical.py"
+  [attitude/_core/quat.py]="tests/test_propagate.py tests/test_potentials.py"  # kernels only: attitude.quaternion is numpy
   [attitude/_core/potentials.py]="tests/test_potentials.py tests/test_units.py tests/test_propagate.py"
   [attitude/_core/dynamics.py]="tests/test_canonical.py tests/test_propagate.py"
   [attitude/_core/rk.py]="tests/test_propagate.py"
