@@ -1,5 +1,8 @@
 """The ``attitude`` command (also ``python -m attitude``). See docs/cli.md.
 
+One concept, the command line (argument parsing, the run/info/plot/export commands and what they
+print); the work is done by the library modules it calls.
+
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 failure (the propagation
 stopped, or an unexpected error). Errors are one line on stderr; ``--debug`` shows tracebacks.
 """

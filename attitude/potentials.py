@@ -1,5 +1,10 @@
 """Potentials and torques acting on the body.
 
+One concept, the torque models of the public namespace ``attitude.potentials`` (a contract):
+the base class and sums, the built-in, environment and user models side by side, each a small
+class over data for the compiled kernels; their kernels live in ``_core/potentials.py`` and
+``_core/environment.py``, the environment along the orbit in ``attitude/environment.py``.
+
 A potential gives, for an attitude ``q`` at time ``t``: its value U(q, t), the body-frame torque
 τ_B(q, t) and the generalised force that enters Hamilton's equations (Arribas et al. eq. 7),
 

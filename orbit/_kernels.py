@@ -1,5 +1,8 @@
 """Compiled scalar kernels of the two-body problem (plain floats in, tuples of floats out).
 
+One concept, Kepler's problem in compiled code (the equation's solvers with their
+cancellation-free series, anomaly conversions, the state and the orbital frame).
+
 Everything here is decorated with :func:`orbit._shared_jit.jit`: compiled lazily by numba, or plain
 Python when JIT is disabled. No kernel allocates, so the attitude integrators call
 :func:`radius_and_frame` / :func:`radius_and_radial_unit` inside every right-hand-side
