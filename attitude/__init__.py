@@ -18,10 +18,15 @@ Hamilton product; ``q`` maps body components to space components, x_S = qâˆ˜x_Bâ
 from __future__ import annotations
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
-from . import canonical, errors, exact, formulations, potentials, quaternion
+from . import canonical, errors, events, exact, formulations, frames, potentials, quaternion
 from ._version import __version__
 from .body import RigidBody
-from .ensemble import pointing_error_percentiles, propagate_ensemble, rate_percentiles
+from .ensemble import (
+    event_time_percentiles,
+    pointing_error_percentiles,
+    propagate_ensemble,
+    rate_percentiles,
+)
 from .errors import (
     AttitudeError,
     AttitudeTypeError,
@@ -30,12 +35,18 @@ from .errors import (
     SingularityError,
 )
 from .exact import torque_free
+from .facets import Facet, box_wing
+from .frames import initial_state
 from .potentials import (
+    AerodynamicDrag,
     CustomPotential,
     CustomTorque,
+    EddyCurrentDamping,
     GravityGradient,
     HeavyTop,
+    MagneticDipole,
     Potential,
+    SolarRadiation,
     TorqueFree,
 )
 from .propagate import propagate
@@ -43,23 +54,33 @@ from .propagate import propagate
 del _accessor
 
 __all__ = [
+    "AerodynamicDrag",
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
     "CustomPotential",
     "CustomTorque",
+    "EddyCurrentDamping",
+    "Facet",
     "GravityGradient",
     "HeavyTop",
+    "MagneticDipole",
     "Potential",
     "PropagationError",
     "RigidBody",
     "SingularityError",
+    "SolarRadiation",
     "TorqueFree",
     "__version__",
+    "box_wing",
     "canonical",
     "errors",
+    "event_time_percentiles",
+    "events",
     "exact",
     "formulations",
+    "frames",
+    "initial_state",
     "pointing_error_percentiles",
     "potentials",
     "propagate",

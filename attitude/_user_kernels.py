@@ -17,8 +17,9 @@ points next to it, so
 * a function with no source file (typed at a prompt) gets a module compiled for this process
   only, with one warning saying so.
 
-The user's functions are injected as module globals (``USER_TORQUE``, ``USER_POTENTIAL``)
-before anything compiles; a cached entry point loaded from disk does not need them again.
+The user's functions are injected as module globals (``USER_TORQUE``, ``USER_POTENTIAL``,
+``USER_EVENT``: event functions g(t, q, omega) of ``attitude.events.Custom``) before anything
+compiles; a cached entry point loaded from disk does not need them again.
 """
 
 from __future__ import annotations
@@ -45,32 +46,100 @@ __all__ = ["entry_points", "model_key"]
 _BEGIN = "# --- model: begin (replaced in user modules) ---"
 _END = "# --- model: end ---"
 
-#: The model block of a user module; ``{torque}`` and ``{potential}`` are kernel expressions.
-_MODEL = """\
-from attitude._core.potentials import complex_step_torque, user_torque  # noqa: F401
-
-USER_TORQUE = None  # the user's functions, injected before anything compiles
-USER_POTENTIAL = None
-
-
-@jit
-def torque(q, t, params):
-    return {torque}
-
-
-@jit
-def potential(q, t, params):
-    return {potential}
-"""
-
-#: How each kind of user model builds its kernels.
-KINDS = {
-    # CustomTorque: tau(q, t) given, with or without U(q, t)
-    "torque": ("user_torque(USER_TORQUE, q, t)", "0.0"),
-    "torque+potential": ("user_torque(USER_TORQUE, q, t)", "USER_POTENTIAL(q, t)"),
-    # CustomPotential: U(q, t), the torque by complex-step differentiation
-    "potential": ("complex_step_torque(USER_POTENTIAL, q, t)", "USER_POTENTIAL(q, t)"),
+#: How each kind of user term builds its torque from the injected functions (``{k}``: the
+#: term's number): CustomTorque gives tau(q, t) or tau(q, omega, t), with or without U(q, t);
+#: CustomPotential gives U(q, t) and its torque by complex-step differentiation.
+TORQUE_EXPR = {
+    "torque": "user_torque(USER_TORQUE_{k}, q, w, t)",
+    "torque_rates": "user_torque_rates(USER_TORQUE_{k}, q, w, t)",
+    "potential": "complex_step_torque(USER_POTENTIAL_{k}, q, w, t)",
 }
+
+#: A user term: (kind, torque function or None, potential function or None).
+UserTerm = tuple[str, Any, Any]
+
+
+def _event_block(events: tuple) -> list[str]:
+    """The ``event`` global: the user's g(t, q, omega) functions, then the built-in events."""
+    if not events:
+        return ["", "event = builtin_event"]
+    lines = [
+        "",
+        "",
+        "from attitude._core.events import KIND_USER, event_base, user_event  # noqa: E402",
+        "",
+    ]
+    lines += [f"USER_EVENT_{k} = None" for k in range(len(events))]
+    lines += [
+        "",
+        "",
+        "@jit",
+        "def event(j, t, q, w, evd):",
+        "    b = event_base(j, evd)",
+        "    if int(evd[b]) == KIND_USER:",
+        "        k = int(evd[b + 3])",
+    ]
+    for k in range(len(events)):
+        lines += [
+            f"        if k == {k}:",
+            f"            return user_event(USER_EVENT_{k}, t, q, w)",
+        ]
+    lines += [
+        "        return builtin_event(j, t, q, w, evd)",
+        "    return builtin_event(j, t, q, w, evd)",
+    ]
+    return lines
+
+
+def _model_block(terms: tuple[UserTerm, ...], events: tuple = ()) -> str:
+    """The ``model`` block of a user module: the built-in part (``params``) plus the terms, and
+    the user's event functions."""
+    n = len(terms)
+    lines = [
+        "from attitude._core.potentials import ZERO3, complex_step_torque  # noqa: F401",
+        "from attitude._core.potentials import user_torque, user_torque_rates  # noqa: F401",
+        "",
+        "# the user's functions, injected before anything compiles",
+    ]
+    for k in range(n):
+        lines += [f"USER_TORQUE_{k} = None", f"USER_POTENTIAL_{k} = None"]
+    parts = [f"    b{k} = {TORQUE_EXPR[kind].format(k=k)}" for k, (kind, _, _) in enumerate(terms)]
+    sums = [" + ".join([f"a[{i}]"] + [f"b{k}[{i}]" for k in range(n)]) for i in range(3)]
+    lines += [
+        "",
+        "",
+        "@jit",
+        "def torque(q, w, t, params):",
+        "    a = builtin_torque(q, w, t, params)",
+        *parts,
+        f"    return ({sums[0]}, {sums[1]}, {sums[2]})",
+        "",
+        "",
+        "@jit",
+        "def potential(q, t, params):",
+        "    return builtin_potential(q, t, params)"
+        + "".join(f" + USER_POTENTIAL_{k}(q, t)" for k, (_, _, U) in enumerate(terms) if U),
+        "",
+        "",
+        "@jit",
+        "def term_torque(j, q, w, t, params):",
+        "    nb = builtin_n_terms(params)",
+        "    if j < nb:",
+        "        return builtin_term_torque(j, q, w, t, params)",
+    ]
+    for k, (kind, _, _) in enumerate(terms):
+        lines += [f"    if j == nb + {k}:", f"        return {TORQUE_EXPR[kind].format(k=k)}"]
+    lines += [
+        "    return ZERO3",
+        "",
+        "",
+        "@jit",
+        "def n_terms(params):",
+        f"    return builtin_n_terms(params) + {n}",
+    ]
+    lines += _event_block(events)
+    return "\n".join(lines) + "\n"
+
 
 _LOADED: dict[tuple, tuple[types.ModuleType, tuple]] = {}
 _WARNED: set[str] = set()
@@ -84,18 +153,18 @@ def _template() -> str:
     return Path(_builtin_entry_points.__file__).read_text(encoding="utf-8")
 
 
-def _module_source(kind: str, cached: bool) -> str:
+def _module_source(terms: tuple[UserTerm, ...], cached: bool, events: tuple = ()) -> str:
     text = _template()
     i = text.index(_BEGIN)
     j = text.index(_END) + len(_END)
-    torque, potential = KINDS[kind]
-    model = _MODEL.format(torque=torque, potential=potential)
+    model = _model_block(terms, events)
     if not cached:
         model = (
             "import functools\n\njit = functools.partial(jit, cache=False)\n"
             "parallel_jit = functools.partial(parallel_jit, cache=False)\n\n" + model
         )
-    head = f'"""Compiled entry points of a user model ({kind}), generated by attitude."""'
+    kinds = ", ".join([*(kind for kind, _, _ in terms), *(["events"] if events else [])])
+    head = f'"""Compiled entry points of a user model ({kinds}), generated by attitude."""'
     k = text.index("from __future__")
     return head + "\n\n" + text[k:i] + model + text[j:]
 
@@ -159,16 +228,18 @@ def _function_fingerprint(fn: Any, h: Any, seen: set[int]) -> bool:
     return True
 
 
-def model_key(kind: str, functions: tuple[Any, ...]) -> str | None:
+def model_key(terms: tuple[UserTerm, ...], events: tuple = ()) -> str | None:
     """Hash naming the compiled module of a model, or None when a function has no source file."""
     h = hashlib.sha256()
     h.update(sources_fingerprint())
-    h.update(kind.encode())
     h.update(f"{sys.version_info[:2]}".encode())
     seen: set[int] = set()
-    for fn in functions:
-        if fn is not None and not _function_fingerprint(fn, h, seen):
-            return None
+    for kind, *functions in (*terms, *(("event", g) for g in events)):
+        h.update(kind.encode())
+        for fn in functions:
+            h.update(b"-" if fn is None else b"+")
+            if fn is not None and not _function_fingerprint(fn, h, seen):
+                return None
     return h.hexdigest()[:24]
 
 
@@ -213,32 +284,39 @@ def _load(name: str, source: str, path: Path | None) -> types.ModuleType:
     return mod
 
 
-def entry_points(kind: str, torque: Any = None, potential: Any = None) -> types.ModuleType:
-    """The compiled entry points of a user model (a module like ``_core.entry_points``).
+def entry_points(terms: tuple[UserTerm, ...], events: tuple = ()) -> types.ModuleType:
+    """The compiled entry points of a model with user terms (a module like ``_core.entry_points``).
 
     Parameters
     ----------
-    kind : {"torque", "torque+potential", "potential"}
-        How the model's kernels are built from the functions (see :data:`KINDS`).
-    torque, potential : numba dispatcher, optional
-        The user's ``tau(q, t)`` and ``U(q, t)``.
+    terms : tuple of (kind, torque, potential)
+        The user terms, in order: ``kind`` one of :data:`TORQUE_EXPR`; ``torque`` and
+        ``potential`` the user's compiled functions (or None). The built-in terms of the model
+        are data in ``params`` as usual.
+    events : tuple of functions
+        The user's event functions g(t, q, omega) (``attitude.events.Custom``), numbered in
+        order (``KIND_USER`` blocks of the event data name them by number).
 
     Returns
     -------
     module
         With the functions of :mod:`attitude._core.entry_points`; memoised per process.
     """
-    memo = (kind, id(torque), id(potential))
+    memo = (
+        *((kind, id(tau), id(U)) for kind, tau, U in terms),
+        *(("event", id(g), 0) for g in events),
+    )
     if memo in _LOADED:
         return _LOADED[memo][0]
     if JIT_DISABLED:  # plain Python: the template's functions are ordinary functions
         key, cached = "nojit" + hashlib.sha256(repr(memo).encode()).hexdigest()[:16], False
     else:
-        key = model_key(kind, (torque, potential))
+        key = model_key(terms, events)
         cached = key is not None
         if key is None:
             key = "p" + hashlib.sha256(repr((memo, os.getpid())).encode()).hexdigest()[:23]
-            names = [_python_function(f).__name__ for f in (torque, potential) if f is not None]
+            fns = [f for _, *fs in terms for f in fs if f is not None] + list(events)
+            names = [_python_function(f).__name__ for f in fns]
             label = ", ".join(names)
             if label not in _WARNED:
                 _WARNED.add(label)
@@ -250,7 +328,7 @@ def entry_points(kind: str, torque: Any = None, potential: Any = None) -> types.
                     stacklevel=4,
                 )
     name = f"attitude_user_{key}"
-    source = _module_source(kind, cached)
+    source = _module_source(terms, cached, events)
     path = None
     if cached:
         path = user_cache_dir() / "kernels" / f"{name}.py"
@@ -264,9 +342,12 @@ def entry_points(kind: str, torque: Any = None, potential: Any = None) -> types.
                 UncachedKernelWarning,
                 stacklevel=3,
             )
-            name, source, path = name + "_p", _module_source(kind, False), None
+            name, source, path = name + "_p", _module_source(terms, False, events), None
     mod = sys.modules.get(name) or _load(name, source, path)
-    mod.USER_TORQUE = torque
-    mod.USER_POTENTIAL = potential
-    _LOADED[memo] = (mod, (torque, potential))  # keep the functions alive: ids not reused
+    for k, (_, tau, U) in enumerate(terms):
+        setattr(mod, f"USER_TORQUE_{k}", tau)
+        setattr(mod, f"USER_POTENTIAL_{k}", U)
+    for k, g in enumerate(events):
+        setattr(mod, f"USER_EVENT_{k}", g)
+    _LOADED[memo] = (mod, (terms, events))  # keep the functions alive: ids are not reused
     return mod

@@ -18,6 +18,7 @@ __all__ = [
     "as_int",
     "as_positive",
     "as_quaternion",
+    "as_rate",
     "as_scalar",
     "as_times",
     "as_vector",
@@ -160,6 +161,33 @@ def as_quaternion(x: Any, name: str = "q", *, nonzero: bool = True) -> np.ndarra
 def as_vector(x: Any, name: str = "v", *, unit: Any = None) -> np.ndarray:
     """Convert to a finite ``(..., 3)`` float array."""
     return as_float_array(x, name, trailing=3, unit=unit)
+
+
+def as_rate(x: Any, name: str, *, dimensional: bool, trailing: int | None = 3) -> np.ndarray:
+    """Angular rates as a float array in rad/s (``dimensional``) or rad per time unit.
+
+    A Quantity in any angular-rate unit (``deg/s``, ``rpm``, ``rad/min``...) is converted to
+    rad/s for a body with units; for a dimensionless body (no time unit) only a Quantity in an
+    angle unit is accepted (taken per time unit). Plain numbers are rad per time unit.
+    """
+    from astropy import units as u
+
+    if isinstance(x, u.Quantity):
+        target = u.rad / u.s if dimensional else u.rad
+        try:
+            x = x.to_value(target, equivalencies=u.dimensionless_angles())
+        except u.UnitConversionError:
+            hint = (
+                "an angular rate such as deg/s or rad/s"
+                if dimensional
+                else "plain numbers (rad per time unit): the body is dimensionless, so there is "
+                "no time unit to convert a rate to; give the body units (e.g. 'kg m2') to use "
+                "deg/s"
+            )
+            raise AttitudeTypeError(
+                f"{name}: units {x.unit} cannot be used here; give {hint}"
+            ) from None
+    return as_float_array(x, name, trailing=trailing)
 
 
 def as_times(t: Any, name: str = "t", *, unit: Any = "s", lazy: bool = False) -> Any:

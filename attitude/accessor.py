@@ -2,9 +2,10 @@
 
 >>> import attitude.accessor                                     # doctest: +SKIP
 >>> ds.attitude.quantity("G")        # astropy Quantity, units from the variable's attrs
->>> ds.attitude.euler_angles("321")  # DataArray (time, angle) in rad
+>>> ds.attitude.euler_angles("321")  # DataArray (time, angle): angle_1, angle_2, angle_3, rad
 >>> ds.attitude.matrix()             # DataArray (time, row, col): x_S = R x_B
 >>> ds.attitude.angle_between(other) # DataArray (time,) in rad
+>>> ds.attitude.relative_to(frames.lvlh(orbit), degrees=True)  # pointing errors (Dataset)
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import xarray as xr
 
 from . import quaternion as _qt
 from .errors import AttitudeValueError
+from .results import time_unit, time_values
 
 __all__ = ["AttitudeAccessor"]
 
@@ -40,7 +42,8 @@ class AttitudeAccessor:
         Parameters
         ----------
         name : str
-            e.g. ``"time"``, ``"q"``, ``"G"``, ``"energy"``, ``"r"``.
+            e.g. ``"time"``, ``"q"``, ``"G"``, ``"energy"``, ``"r"``. ``"time"`` gives the
+            time since the epoch (s), also from a file whose times xarray decoded to datetimes.
 
         Returns
         -------
@@ -53,6 +56,8 @@ class AttitudeAccessor:
                 f"name: no variable {name!r} in this Dataset; it has "
                 + ", ".join(sorted(map(str, ds.variables)))
             )
+        if name == "time":
+            return time_values(ds) * _unit(time_unit(ds["time"]))
         units = ds[name].attrs.get("units")
         if units is None:
             raise AttitudeValueError(f"name: variable {name!r} has no units attr")
@@ -74,8 +79,9 @@ class AttitudeAccessor:
 
         if self.epoch is None:
             raise AttitudeValueError(
-                "epoch: this run has no epoch attr (give the scenario an epoch) so its times "
-                "are only relative: use ds.attitude.quantity('time')"
+                "epoch: this run has no epoch attr (give the scenario, the orbit or "
+                "propagate(..., epoch=...) an epoch) so its times are only relative: use "
+                "ds.attitude.quantity('time')"
             )
         dt = self.quantity("time")
         return self.epoch + TimeDelta(dt.to_value("s"), format="sec")
@@ -96,14 +102,22 @@ class AttitudeAccessor:
         Returns
         -------
         DataArray, shape (time, 3)
-            Angles in rad, dims ``(time, angle)``.
+            Angles in rad, dims ``(time, angle)``; ``angle`` is labelled by position
+            (``angle_1``, ``angle_2``, ``angle_3``: the rotations about the axes ``seq[0]``,
+            ``seq[1]``, ``seq[2]``), the sequence is the attr ``sequence``.
         """
         a = _qt.to_euler(self._q(), seq)
         return xr.DataArray(
             a,
             dims=("time", "angle"),
-            coords={"time": self._ds["time"], "angle": [f"a{seq[0]}", f"a{seq[1]}", f"a{seq[2]}"]},
-            attrs={"units": "rad", "long_name": f"intrinsic {seq} Euler angles, body to space"},
+            coords={"time": self._ds["time"], "angle": ["angle_1", "angle_2", "angle_3"]},
+            attrs={
+                "units": "rad",
+                "long_name": f"intrinsic {seq} Euler angles, body to space",
+                "sequence": seq,
+                "convention": "intrinsic (rotations about the body axes), "
+                f"q = q{seq[0]}(angle_1) o q{seq[1]}(angle_2) o q{seq[2]}(angle_3)",
+            },
             name="euler_angles",
         )
 
@@ -155,6 +169,124 @@ class AttitudeAccessor:
             name="angle",
         )
 
+    # -- reference frames -----------------------------------------------------------------------
+    def relative_to(self, frame: Any, seq: str = "321", *, degrees: bool = False) -> xr.Dataset:
+        """The attitude relative to a reference frame: error quaternion, angles, rates.
+
+        With q_R(t), ω_R(t) the frame's attitude and angular velocity (:mod:`attitude.frames`):
+        the error quaternion q_BR = q̃_R∘q (body → reference, scalar first), the error angle
+        2 atan2(|vec q_BR|, |q_BR,0|) in [0, π], the intrinsic Euler angles of q_BR in the
+        sequence ``seq`` (for an asymmetric sequence also named ``roll``, ``pitch``, ``yaw``:
+        the angles about x, y, z; the default 3-2-1 is yaw, pitch, roll), and the body rates
+        relative to the frame ω_BR = ω − q̃_BR∘ω_R∘q_BR (body axes).
+
+        Parameters
+        ----------
+        frame : attitude.frames.Frame
+            E.g. ``frames.lvlh(orbit)``; a frame with an orbit needs the run's times in seconds
+            since the orbit's epoch (the run's epoch, if it has one, must be the orbit's).
+        seq : str
+            Euler sequence (digits 1, 2, 3 = body x, y, z), default ``"321"``.
+        degrees : bool
+            Angles in degrees and rates in deg/s (deg per time unit) instead of rad.
+
+        Returns
+        -------
+        xarray.Dataset
+            ``q_BR`` (time, component), ``error_angle`` (time), ``euler_angles`` (time, angle)
+            with ``angle_label``, ``roll``/``pitch``/``yaw`` (time) for asymmetric sequences,
+            ``omega_BR`` (time, axis).
+        """
+        from .frames import Frame
+
+        if not isinstance(frame, Frame):
+            raise AttitudeValueError(
+                f"frame: expected a reference frame from attitude.frames (lvlh(orbit), ...), "
+                f"got {type(frame).__name__}"
+            )
+        ds = self._ds
+        for v in ("q", "omega"):
+            if v not in ds:
+                raise AttitudeValueError(f"ds: no variable {v!r}; expected a propagation result")
+        if "member" in ds["q"].dims:
+            raise AttitudeValueError("ds: an ensemble; select a member first (ds.isel(member=i))")
+        tu = time_unit(ds["time"])  # "s" or "1" (the CF units are "seconds since ...")
+        if frame.orbit is not None:
+            if tu in ("1", ""):
+                raise AttitudeValueError(
+                    "frame: this run's times are dimensionless; a frame on an orbit needs a "
+                    "body with units (times in seconds since the orbit's epoch)"
+                )
+            run_epoch = self.epoch
+            fe = frame.epoch
+            if run_epoch is not None and fe is not None and abs((run_epoch - fe).sec) > 1e-6:
+                raise AttitudeValueError(
+                    f"frame: its orbit's epoch differs from the run's ({ds.attrs.get('epoch')}); "
+                    "one time origin: build the frame on the run's orbit"
+                )
+        t = self.quantity("time")
+        t = t.to_value("s") if tu not in ("1", "") else np.asarray(t.value)
+        q = self._q()
+        wu = str(ds["omega"].attrs.get("units", "1"))
+        w = np.asarray(ds["omega"].values, dtype=np.float64)
+        if wu not in ("1", ""):
+            w = self.quantity("omega").to_value("rad / s")
+        qR, wR = frame.evaluate(t)
+        qbr = _qt.multiply(_qt.conjugate(qR), q)
+        vec = np.linalg.norm(qbr[..., 1:], axis=-1)
+        err = 2.0 * np.arctan2(vec, np.abs(qbr[..., 0]))
+        ang = _qt.to_euler(qbr, seq)
+        wbr = w - _qt.rotate_inverse(qbr, wR)
+        aunit = "deg" if degrees else "rad"
+        if degrees:
+            err, ang, wbr = np.degrees(err), np.degrees(ang), np.degrees(wbr)
+        runit = (aunit + " s-1") if wu not in ("1", "") else ("deg" if degrees else "1")
+        time = ds["time"].variable
+        labels = [f"a{seq[0]}", f"a{seq[1]}", f"a{seq[2]}"]
+        data = {
+            "q_BR": (
+                ("time", "component"),
+                qbr,
+                {"units": "1", "long_name": "attitude relative to the frame, q_R~ o q"},
+            ),
+            "error_angle": (
+                ("time",),
+                err,
+                {"units": aunit, "long_name": "rotation angle of q_BR (attitude error)"},
+            ),
+            "euler_angles": (
+                ("time", "angle"),
+                ang,
+                {"units": aunit, "long_name": f"intrinsic {seq} Euler angles of q_BR"},
+            ),
+            "omega_BR": (
+                ("time", "axis"),
+                wbr,
+                {"units": runit, "long_name": "body rates relative to the frame, body axes"},
+            ),
+        }
+        if len(set(seq)) == 3:
+            for i, name in zip("123", ("roll", "pitch", "yaw"), strict=True):
+                k = seq.index(i)
+                data[name] = (
+                    ("time",),
+                    ang[:, k],
+                    {"units": aunit, "long_name": f"{name}: angle about body axis {i} ({seq})"},
+                )
+        coords = {
+            "time": time,
+            "angle": ("angle", np.arange(3, dtype=np.int64), {"long_name": "Euler angle index"}),
+            "angle_label": ("angle", np.array(labels), {"long_name": "Euler angle"}),
+        }
+        for c in ("component", "axis"):
+            if c in ds.coords:
+                coords[c] = ds[c].variable
+        return xr.Dataset(
+            data,
+            coords=coords,
+            attrs={"frame": frame.describe(), "euler_sequence": seq},
+        )
+
     # -- orbit --------------------------------------------------------------------------------
     @property
     def has_orbit(self) -> bool:
@@ -198,7 +330,7 @@ class AttitudeAccessor:
         return xr.DataArray(
             rel,
             dims=("time", "component"),
-            coords={"time": self._ds["time"], "component": self._ds["component"]},
+            coords={"time": self._ds["time"], **self._ds["q"].coords},
             attrs={"units": "1", "long_name": "attitude relative to the orbital frame, p~ o q"},
             name="q_rel",
         )

@@ -1,9 +1,16 @@
-"""CCSDS Attitude Ephemeris Message (AEM, KVN) export of a result.
+"""CCSDS Attitude Ephemeris Messages (AEM, KVN): export of a result and reading back.
 
 Keyword set and order follow CCSDS 504.0-B-2 (ADM issue 2, January 2024) tables 4-2 (header)
-and 4-3 (metadata), and table 4-4 for the data line ``EPOCH Q1 Q2 Q3 QC`` (scalar last, always,
-in version 2.0). Version 1.0 (504.0-B-1, 2008) adds ``ATTITUDE_DIR`` and ``QUATERNION_TYPE``,
-for older readers.
+and 4-3 (metadata), and table 4-4 for the data lines: ``EPOCH Q1 Q2 Q3 QC`` (scalar last,
+always, in version 2.0) for ``ATTITUDE_TYPE = QUATERNION`` and
+``EPOCH Q1 Q2 Q3 QC ANGVEL_X ANGVEL_Y ANGVEL_Z`` (deg/s, in ``ANGVEL_FRAME``, here the body
+frame REF_FRAME_B) for ``QUATERNION/ANGVEL``. Version 1.0 (504.0-B-1, 2008) adds
+``ATTITUDE_DIR`` and ``QUATERNION_TYPE``, for older readers.
+
+:func:`read` reads AEM versions 1 and 2 (QUATERNION, QUATERNION/ANGVEL, v1 QUATERNION/RATE and
+QUATERNION/DERIVATIVE; scalar FIRST or LAST; A2B or B2A; any number of segments) back into a
+Dataset with the variables of a result (``q``, and ``omega`` when the file has rates), so
+reference attitudes from other tools can be compared (``ds.attitude.angle_between``).
 
 Frames: the quaternion "from frame A to frame B" (504.0-B-2 annex F2) rotates the basis vectors
 of A onto those of B, i.e. X_B = M_BA X_A with M_BA = R(q)ᵀ. With REF_FRAME_A the inertial
@@ -29,7 +36,10 @@ from ._validation import as_positive
 from ._version import __version__
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["write_aem"]
+__all__ = ["ATTITUDE_TYPES", "read", "write_aem"]
+
+#: Attitude types :func:`write_aem` writes (QUATERNION/ANGVEL: AEM version 2 only).
+ATTITUDE_TYPES = ("QUATERNION", "QUATERNION/ANGVEL")
 
 #: Data lines formatted per block (bounded memory for long histories).
 BLOCK = 50_000
@@ -43,7 +53,9 @@ def _abs_times(ds: xr.Dataset, epoch: Any, time_unit_seconds: float | None) -> t
     from astropy import units as u
     from astropy.time import Time
 
-    units = str(ds["time"].attrs.get("units", ""))
+    from .results import time_unit
+
+    units = time_unit(ds["time"])
     if units in ("1", ""):
         if time_unit_seconds is None:
             raise AttitudeValueError(
@@ -126,6 +138,7 @@ def write_aem(
     message_id: str | None = None,
     interpolation: tuple[str, int] | None = ("LAGRANGE", 7),
     time_unit_seconds: float | None = None,
+    attitude_type: str = "QUATERNION",
 ) -> Path:
     """Write the attitude history of ``ds`` as a CCSDS AEM (KVN) file, atomically.
 
@@ -153,6 +166,9 @@ def write_aem(
         INTERPOLATION_METHOD and INTERPOLATION_DEGREE (degree capped at samples − 1).
     time_unit_seconds : float, optional
         Seconds per time unit, required for dimensionless runs.
+    attitude_type : {"QUATERNION", "QUATERNION/ANGVEL"}
+        ``QUATERNION/ANGVEL`` (version 2 only) adds the body angular velocity ``omega`` on every
+        data line, in deg/s, with ``ANGVEL_FRAME = ref_frame_b`` (the body frame).
 
     Returns
     -------
@@ -166,6 +182,18 @@ def write_aem(
     )  # fmt: skip
     if time_unit_seconds is not None:
         time_unit_seconds = as_positive(time_unit_seconds, "time_unit_seconds")
+    if attitude_type not in ATTITUDE_TYPES:
+        raise AttitudeValueError(
+            f"attitude_type: one of {', '.join(ATTITUDE_TYPES)}, got {attitude_type!r}"
+        )
+    angvel = attitude_type == "QUATERNION/ANGVEL"
+    if angvel and version != 2:
+        raise AttitudeValueError(
+            "attitude_type: QUATERNION/ANGVEL is an AEM version 2 type (504.0-B-2); use "
+            "version=2, or attitude_type='QUATERNION' for version 1"
+        )
+    if angvel and "omega" not in ds:
+        raise AttitudeValueError("ds: QUATERNION/ANGVEL needs the angular velocity 'omega'")
     if "q" not in ds or "time" not in ds.coords:
         raise AttitudeValueError("ds: not a propagation result (needs variables time and q)")
     target = OutputFile(path, "path")  # checked before any work; atomic, devices written through
@@ -175,9 +203,23 @@ def write_aem(
     n = ds.sizes["time"]
     if n < 1:
         raise AttitudeValueError("ds: no samples")
-    tt = np.asarray(ds["time"].values, dtype=np.float64) * scale
+    from .results import time_values
+
+    tt = time_values(ds) * scale
     if n > 1 and not np.all(np.diff(tt) > 0):
         raise AttitudeValueError("ds: AEM data lines must have increasing times (backward run?)")
+
+    deg_per_s = None
+    if angvel:  # omega in rad per time unit -> deg/s
+        from .results import time_unit
+
+        rate = str(ds["omega"].attrs.get("units", "1"))
+        if time_unit(ds["time"]) == "1" or rate in ("1", ""):
+            deg_per_s = np.degrees(1.0) / scale
+        else:
+            from astropy import units as u
+
+            deg_per_s = float(u.Unit(rate).to("deg/s", equivalencies=u.dimensionless_angles()))
 
     def stamp(x: np.ndarray) -> np.ndarray:
         try:
@@ -212,7 +254,14 @@ def write_aem(
         f"COMMENT Quaternion from {frame_a} to {ref_frame_b} (body principal axes): it rotates "
         f"the {frame_a} axes onto the body axes, X_B = M_BA X_A"
     )
-    meta.append("COMMENT Data lines: EPOCH Q1 Q2 Q3 QC (vector part first, scalar QC last)")
+    if angvel:
+        meta.append(
+            "COMMENT Data lines: EPOCH Q1 Q2 Q3 QC (vector part first, scalar QC last) "
+            f"ANGVEL_X ANGVEL_Y ANGVEL_Z (deg/s, angular velocity of {ref_frame_b} relative to "
+            f"{frame_a}, in {ref_frame_b} axes)"
+        )
+    else:
+        meta.append("COMMENT Data lines: EPOCH Q1 Q2 Q3 QC (vector part first, scalar QC last)")
     meta.append(_kvn("OBJECT_NAME", name))
     meta.append(_kvn("OBJECT_ID", oid))
     if center:
@@ -224,7 +273,9 @@ def write_aem(
     meta.append(_kvn("TIME_SYSTEM", "UTC"))
     meta.append(_kvn("START_TIME", start))
     meta.append(_kvn("STOP_TIME", stop))
-    meta.append(_kvn("ATTITUDE_TYPE", "QUATERNION"))
+    meta.append(_kvn("ATTITUDE_TYPE", attitude_type))
+    if angvel:
+        meta.append(_kvn("ANGVEL_FRAME", ref_frame_b))
     if version == 1:
         meta.append(_kvn("QUATERNION_TYPE", "LAST"))
     if interpolation is not None and n > 1:
@@ -242,12 +293,24 @@ def write_aem(
                 q = np.asarray(ds["q"].isel(time=sl).values, dtype=np.float64)
                 epochs = stamp(tt[sl])
                 # 17 significant digits: every float64 quaternion component round-trips.
-                fh.write(
-                    "".join(
-                        f"{e} {x:.16e} {y:.16e} {z:.16e} {w:.16e}\n"
-                        for e, (w, x, y, z) in zip(epochs, q.tolist(), strict=False)
+                if deg_per_s is None:
+                    fh.write(
+                        "".join(
+                            f"{e} {x:.16e} {y:.16e} {z:.16e} {w:.16e}\n"
+                            for e, (w, x, y, z) in zip(epochs, q.tolist(), strict=False)
+                        )
                     )
-                )
+                else:
+                    wv = np.asarray(ds["omega"].isel(time=sl).values, dtype=np.float64)
+                    wv = wv * deg_per_s
+                    fh.write(
+                        "".join(
+                            f"{e} {x:.16e} {y:.16e} {z:.16e} {w:.16e} {a:.16e} {b:.16e} {c:.16e}\n"
+                            for e, (w, x, y, z), (a, b, c) in zip(
+                                epochs, q.tolist(), wv.tolist(), strict=False
+                            )
+                        )
+                    )
             fh.write("DATA_STOP\n")
             fh.flush()
         target.commit()
@@ -258,3 +321,282 @@ def write_aem(
         target.discard()
         raise
     return target.path
+
+
+# ------------------------------------------------------------------------------------------------
+# Reading
+# ------------------------------------------------------------------------------------------------
+
+#: AEM time systems read (astropy time scales); GPS is TAI − 19 s.
+_SCALES = {"UTC": "utc", "TAI": "tai", "TT": "tt", "TDB": "tdb", "TCG": "tcg", "TCB": "tcb"}
+#: Number of values on a data line after the epoch, per attitude type.
+_NVALUES = {
+    "QUATERNION": 4,
+    "QUATERNION/ANGVEL": 7,
+    "QUATERNION/RATE": 7,
+    "QUATERNION/DERIVATIVE": 8,
+}
+
+
+def _parse_epochs(stamps: list[str], scale: str) -> Any:
+    """CCSDS epochs (``YYYY-MM-DDThh:mm:ss[.d]`` or day of year ``YYYY-DDDThh:mm:ss[.d]``)."""
+    from astropy.time import Time
+
+    iso, yday = [], []
+    for s in stamps:
+        s = s.strip().rstrip("Z")
+        date, _, rest = s.partition("T")
+        parts = date.split("-")
+        if len(parts) == 2:  # day of year
+            yday.append(f"{parts[0]}:{parts[1]}:{rest or '00:00:00'}")
+        else:
+            iso.append(s)
+    if iso and yday:
+        raise ValueError("calendar and day-of-year epochs mixed in one segment")
+    if yday:
+        return Time(yday, format="yday", scale=scale)
+    return Time(iso, format="isot", scale=scale)
+
+
+def _segments(lines: list[str], where: str) -> tuple[dict[str, str], list[tuple[dict, list]]]:
+    header: dict[str, str] = {}
+    segs: list[tuple[dict[str, str], list[list[str]]]] = []
+    state = "header"
+    meta: dict[str, str] = {}
+    data: list[list[str]] = []
+    for n, raw in enumerate(lines, 1):
+        line = raw.strip()
+        if not line or line.startswith("COMMENT"):
+            continue
+        if line == "META_START":
+            state, meta = "meta", {}
+        elif line == "META_STOP":
+            state = "between"
+        elif line == "DATA_START":
+            if state != "between":
+                raise AttitudeValueError(f"{where}:{n}: DATA_START without a metadata block")
+            state, data = "data", []
+        elif line == "DATA_STOP":
+            segs.append((meta, data))
+            state = "after"
+        elif state in ("header", "meta"):
+            if "=" not in line:
+                raise AttitudeValueError(f"{where}:{n}: expected KEYWORD = value, got {line!r}")
+            k, v = (x.strip() for x in line.split("=", 1))
+            (header if state == "header" else meta)[k] = v
+        elif state == "data":
+            data.append(line.split())
+        else:
+            raise AttitudeValueError(f"{where}:{n}: unexpected line {line!r}")
+    if state == "data":
+        raise AttitudeValueError(f"{where}: DATA_STOP missing (truncated file?)")
+    return header, segs
+
+
+def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Dataset:
+    """Read a CCSDS AEM (KVN, version 1 or 2) into a Dataset of the result schema.
+
+    Parameters
+    ----------
+    path : str or Path
+        The AEM file.
+    body_frame : str, optional
+        Which of REF_FRAME_A / REF_FRAME_B is the spacecraft body. Default: the one whose name
+        starts with ``SC_BODY``, else REF_FRAME_B.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``time`` (SI seconds since the first epoch, which is the ``epoch`` attr, UTC; CF time
+        units), ``q`` (time, component): the attitude body → inertial, scalar first, in this
+        package's convention (docs/conventions.md), and ``omega`` (time, axis): the body
+        angular velocity in rad s^-1, for the types with rates. Attrs: the object, frames,
+        attitude type and version. Segments are concatenated (a sample repeated at a segment
+        boundary is kept once).
+
+    Raises
+    ------
+    AttitudeValueError
+        Not an AEM, an attitude type other than the quaternion ones, inconsistent segments,
+        or a time system astropy does not know.
+    """
+    from astropy.time import TimeDelta
+
+    from . import quaternion as qt
+    from .results import index_coords, time_attrs
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="latin-1")
+    except FileNotFoundError:
+        raise AttitudeValueError(f"{p}: no such file") from None
+    header, segs = _segments(text.splitlines(), str(p))
+    vers = header.get("CCSDS_AEM_VERS")
+    if vers is None:
+        raise AttitudeValueError(f"{p}: not a CCSDS AEM (no CCSDS_AEM_VERS header line)")
+    major = vers.split(".")[0]
+    if major not in ("1", "2"):
+        raise AttitudeValueError(f"{p}: AEM version {vers} (versions 1 and 2 are read)")
+    if not segs:
+        raise AttitudeValueError(f"{p}: no data segment (META_START ... DATA_STOP)")
+
+    times, qs, ws = [], [], []
+    first = segs[0][0]
+    kinds = set()
+    for i, (meta, data) in enumerate(segs):
+        where = f"{p}: segment {i + 1}"
+        for k in ("REF_FRAME_A", "REF_FRAME_B", "TIME_SYSTEM", "ATTITUDE_TYPE"):
+            if k not in meta:
+                raise AttitudeValueError(f"{where}: metadata keyword {k} missing")
+        for k in ("REF_FRAME_A", "REF_FRAME_B", "OBJECT_NAME"):
+            if meta.get(k) != first.get(k):
+                raise AttitudeValueError(
+                    f"{where}: {k} = {meta.get(k)} differs from the first segment's "
+                    f"({first.get(k)}); read one object and frame pair per file"
+                )
+        kind = meta["ATTITUDE_TYPE"].upper()
+        if kind not in _NVALUES:
+            raise AttitudeValueError(
+                f"{where}: ATTITUDE_TYPE {kind} is not read (quaternion types only: "
+                + ", ".join(_NVALUES)
+                + ")"
+            )
+        kinds.add("rates" if kind != "QUATERNION" else "q")
+        fa, fb = meta["REF_FRAME_A"], meta["REF_FRAME_B"]
+        # v2 data lines are always scalar last; v1 says so in QUATERNION_TYPE
+        qtype = meta.get("QUATERNION_TYPE", "LAST").upper()
+        direction = meta.get("ATTITUDE_DIR", "A2B").upper()
+        if qtype not in ("FIRST", "LAST") or direction not in ("A2B", "B2A"):
+            raise AttitudeValueError(
+                f"{where}: QUATERNION_TYPE must be FIRST or LAST and ATTITUDE_DIR A2B or B2A"
+            )
+        ts = meta["TIME_SYSTEM"].upper()
+        if ts not in _SCALES and ts != "GPS":
+            raise AttitudeValueError(
+                f"{where}: TIME_SYSTEM {ts} is not read (UTC, TAI, TT, TDB, TCG, TCB, GPS)"
+            )
+        n = _NVALUES[kind]
+        bad = [j for j, d in enumerate(data) if len(d) != n + 1]
+        if bad:
+            raise AttitudeValueError(
+                f"{where}: data line {bad[0] + 1} has {len(data[bad[0]])} fields; "
+                f"{kind} lines have an epoch and {n} numbers"
+            )
+        if not data:
+            continue
+        try:
+            vals = np.array([[float(x) for x in d[1:]] for d in data], dtype=np.float64)
+        except ValueError as exc:
+            raise AttitudeValueError(f"{where}: a data value is not a number ({exc})") from None
+        scale = _SCALES.get(ts, "tai")
+        try:
+            tt = _parse_epochs([d[0] for d in data], scale)
+        except ValueError as exc:
+            raise AttitudeValueError(f"{where}: bad epoch ({exc})") from None
+        if ts == "GPS":
+            tt = tt - TimeDelta(19.0, format="sec")
+        times.append(tt.utc)
+        # The quaternion "from A to B" (annex F) as scalar first.
+        if qtype == "FIRST":
+            q = vals[:, 0:4].copy()
+            rest = vals[:, 4:]
+        else:
+            q = vals[:, [3, 0, 1, 2]]
+            rest = vals[:, 4:]
+        if kind == "QUATERNION/DERIVATIVE":
+            qd = rest[:, 0:4].copy() if qtype == "FIRST" else rest[:, [3, 0, 1, 2]]
+        if direction == "B2A":  # the file's quaternion rotates B onto A
+            q = qt.conjugate(q)
+            if kind == "QUATERNION/DERIVATIVE":
+                qd = qt.conjugate(qd)
+        # Now q maps A → B (X_B = M_BA X_A, M_BA = R(q)ᵀ). With A inertial and B the body
+        # that is this package's q (aem.write_aem); with A the body, its conjugate.
+        body = body_frame or (
+            fa if fa.upper().startswith("SC_BODY") and not fb.upper().startswith("SC_BODY") else fb
+        )
+        if body not in (fa, fb):
+            raise AttitudeValueError(
+                f"body_frame: {body!r} is neither REF_FRAME_A ({fa}) nor REF_FRAME_B ({fb})"
+            )
+        body_is_a = body == fa and fa != fb
+        if body_is_a:
+            q = qt.conjugate(q)
+            if kind == "QUATERNION/DERIVATIVE":
+                qd = qt.conjugate(qd)
+        qs.append(q)
+        if kind == "QUATERNION":
+            continue
+        if kind == "QUATERNION/DERIVATIVE":  # ω_B = 2 q̃∘q̇ (docs/conventions.md sect. 5), 1/s
+            w = 2.0 * qt.multiply(qt.conjugate(q), qd)[:, 1:]
+        else:  # deg/s, angular velocity of B relative to A, in the ANGVEL_FRAME / RATE_FRAME
+            w = np.radians(rest[:, 0:3])
+            frame = meta.get("ANGVEL_FRAME", meta.get("RATE_FRAME", fb))
+            frame = {"REF_FRAME_A": fa, "REF_FRAME_B": fb}.get(frame.upper(), frame)
+            if frame not in (fa, fb):
+                raise AttitudeValueError(
+                    f"{where}: rates in frame {frame}, neither REF_FRAME_A nor REF_FRAME_B"
+                )
+            if body_is_a:  # the file gives the inertial frame's rate relative to the body
+                w = -w
+            if frame != body:  # in inertial axes: read in body axes
+                w = qt.rotate_inverse(q, w)
+        ws.append(w)
+    if len(kinds) > 1:
+        raise AttitudeValueError(f"{p}: segments mix types with and without rates")
+    if not qs:
+        raise AttitudeValueError(f"{p}: no data lines")
+    t_all = times[0] if len(times) == 1 else np.concatenate(times)  # astropy Time
+    q_all = np.concatenate(qs)
+    w_all = np.concatenate(ws) if ws else None
+    t0 = t_all[0]
+    # SI seconds since the first epoch (leap seconds included), to the nanosecond: the epochs
+    # are decimal, so the nearest float64 of a whole number of nanoseconds
+    rel = np.round((t_all - t0).to_value("s"), 9)
+    keep = np.ones(rel.shape, bool)
+    keep[1:] = rel[1:] != rel[:-1]  # a boundary sample repeated by the next segment
+    if np.any(rel[1:][keep[1:]] < rel[:-1][keep[1:]]):
+        raise AttitudeValueError(f"{p}: epochs must increase through the file")
+    rel, q_all = rel[keep], q_all[keep]
+    t0.precision = 6
+    epoch = t0.utc.isot + "Z"
+    coords = {"time": ("time", rel, time_attrs("s", epoch)), **index_coords()}
+    data_vars = {
+        "q": (
+            ("time", "component"),
+            q_all,
+            {
+                "units": "1",
+                "long_name": "attitude quaternion (Euler parameters), body to space, scalar first",
+            },
+        )
+    }
+    if w_all is not None:
+        data_vars["omega"] = (
+            ("time", "axis"),
+            w_all[keep],
+            {"units": "rad s^-1", "long_name": "angular velocity in body axes"},
+        )
+    fa, fb = first["REF_FRAME_A"], first["REF_FRAME_B"]
+    body = body_frame or (
+        fa if fa.upper().startswith("SC_BODY") and not fb.upper().startswith("SC_BODY") else fb
+    )
+    attrs = {
+        "Conventions": "CF-1.10",
+        "title": f"CCSDS AEM {p.name}",
+        "source": f"CCSDS AEM version {vers}, originator {header.get('ORIGINATOR', '-')}",
+        "history": f"read by attitude {__version__} (attitude.aem.read) from {p}",
+        "epoch": epoch,
+        "object_name": first.get("OBJECT_NAME", "UNKNOWN"),
+        "object_id": first.get("OBJECT_ID", "UNKNOWN"),
+        "inertial_frame": fa if body == fb else fb,
+        "body_frame": body,
+        "aem_version": vers,
+        "aem_attitude_type": ", ".join(sorted({m["ATTITUDE_TYPE"] for m, _ in segs})),
+        "aem_time_system": first.get("TIME_SYSTEM", ""),
+        "quaternion_convention": (
+            "scalar first (w, x, y, z), Hamilton product, q maps body to space"
+        ),
+    }
+    if first.get("CENTER_NAME"):
+        attrs["center_name"] = first["CENTER_NAME"]
+    return xr.Dataset(data_vars, coords=coords, attrs=attrs)

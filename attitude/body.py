@@ -1,4 +1,9 @@
-"""The rigid body: principal moments of inertia, validated once."""
+"""The rigid body: principal moments of inertia, validated once.
+
+A body with units is held in SI (kg m²): inertia given in any unit (a Quantity, or plain numbers
+with ``units=``) is converted once, here, so that every result of such a body is in SI (angular
+momentum kg m² s⁻¹, torque N m, energy J; docs/results.md).
+"""
 
 from __future__ import annotations
 
@@ -10,7 +15,11 @@ import numpy as np
 from ._validation import as_float_array
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["RigidBody"]
+__all__ = ["SI_INERTIA", "RigidBody"]
+
+#: The unit of the inertia of a body with units (and the ``units`` label it carries): SI, in a
+#: spelling that astropy, UDUNITS (cf_units) and pint's default registry all parse.
+SI_INERTIA = "kg m^2"
 
 # Relative slack allowed in the triangle inequalities I_i + I_j >= I_k (a flat plate meets
 # one of them with equality, and rounding of measured inertias must not reject it).
@@ -26,10 +35,11 @@ class RigidBody:
     inertia : array_like or Quantity, shape (3,)
         Principal moments ``(I1, I2, I3)`` about the body axes b1, b2, b3. Plain numbers are
         taken in the caller's consistent unit system (the paper's examples are dimensionless);
-        an astropy Quantity is converted to kg km² (the package's unit system: km, s, kg).
+        an astropy Quantity is converted to kg m² (SI).
     units : str, optional
-        Unit of plain-number ``inertia`` for labelling results, e.g. ``"kg km2"``. ``None``
-        (default) means dimensionless unless ``inertia`` is a Quantity.
+        Unit of plain-number ``inertia``, e.g. ``"kg m2"`` or ``"kg km2"``: the numbers are
+        converted to kg m². ``None`` (default) means dimensionless unless ``inertia`` is a
+        Quantity. After construction ``units`` is :data:`SI_INERTIA` or None.
 
     Raises
     ------
@@ -48,8 +58,8 @@ class RigidBody:
         except ImportError:  # pragma: no cover
             is_quantity = False
         if is_quantity:
-            arr = as_float_array(inertia, "inertia", unit="kg km2")
-            units = "kg km2"
+            arr = as_float_array(inertia, "inertia", unit=SI_INERTIA)
+            units = SI_INERTIA
         else:
             arr = as_float_array(inertia, "inertia")
             if units is not None:
@@ -60,12 +70,12 @@ class RigidBody:
                         f"units: expected a unit string such as 'kg m2', got {type(units).__name__}"
                     )
                 try:
-                    arr = (arr * u.Unit(units)).to_value("kg km2")
+                    arr = (arr * u.Unit(units)).to_value(SI_INERTIA)
                 except (ValueError, TypeError, u.UnitConversionError) as exc:
                     raise AttitudeValueError(
-                        f"units: {units!r} is not a moment-of-inertia unit (e.g. 'kg km2')"
+                        f"units: {units!r} is not a moment-of-inertia unit (e.g. 'kg m2')"
                     ) from exc
-                units = "kg km2"
+                units = SI_INERTIA
         if arr.shape != (3,):
             raise AttitudeValueError(
                 f"inertia: expected the three principal moments (I1, I2, I3), got shape "
@@ -106,7 +116,7 @@ class RigidBody:
         from astropy import units as u
 
         from_quantity = isinstance(J, u.Quantity)
-        J = as_float_array(J, "J", unit="kg km2" if from_quantity else None)
+        J = as_float_array(J, "J", unit=SI_INERTIA if from_quantity else None)
         if J.shape != (3, 3):
             raise AttitudeValueError(f"J: expected a 3x3 inertia tensor, got shape {J.shape}")
         scale = np.max(np.abs(J))
@@ -118,7 +128,7 @@ class RigidBody:
         from .quaternion import from_matrix
 
         if from_quantity:
-            body = cls(moments * u.Unit("kg km2"))
+            body = cls(moments * u.Unit(SI_INERTIA))
         else:
             body = cls(moments, units=units)
         return body, from_matrix(vecs)

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_float_array, as_quaternion, as_vector
+from ._validation import as_float_array, as_quaternion, as_rate, as_vector
 from .body import RigidBody
 from .errors import AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
@@ -42,10 +42,12 @@ __all__ = [
 EULER_SINGULAR_TOL = 1e-9
 
 
+def _body(inertia: Any) -> RigidBody:
+    return inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
+
+
 def _inertia(inertia: Any) -> np.ndarray:
-    if isinstance(inertia, RigidBody):
-        return inertia.inertia
-    return RigidBody(inertia).inertia
+    return _body(inertia).inertia
 
 
 def _pure(v: np.ndarray) -> np.ndarray:
@@ -59,15 +61,16 @@ def momenta_from_body_angular_momentum(q: Any, g: Any) -> np.ndarray:
     ----------
     q : array_like, shape (..., 4)
         Unit quaternion (body → space).
-    g : array_like, shape (..., 3)
-        Body-frame angular momentum.
+    g : array_like or Quantity, shape (..., 3)
+        Body-frame angular momentum (a Quantity is converted to kg m² s⁻¹, i.e. N m s: the
+        unit of a body with units).
 
     Returns
     -------
     Q : ndarray, shape (..., 4)
     """
     q = as_quaternion(q, "q")
-    g = as_vector(g, "g")
+    g = as_vector(g, "g", unit="kg m2 / s")
     return 2.0 * multiply(q, _pure(g))
 
 
@@ -78,17 +81,20 @@ def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarra
     ----------
     q : array_like, shape (..., 4)
         Unit quaternion (body → space).
-    omega : array_like, shape (..., 3)
-        Body-frame angular velocity (rad per time unit).
-    inertia : RigidBody or array_like, shape (3,)
+    omega : array_like or Quantity, shape (..., 3)
+        Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
+        (``deg/s``, ``rpm``...) for a body with units (converted to rad/s).
+    inertia : RigidBody, array_like or Quantity, shape (3,)
         Principal moments of inertia.
 
     Returns
     -------
     Q : ndarray, shape (..., 4)
+        In kg m² s⁻¹ for a body with units.
     """
-    inert = _inertia(inertia)
-    omega = as_vector(omega, "omega")
+    body = _body(inertia)
+    inert = body.inertia
+    omega = as_rate(omega, "omega", dimensional=not body.is_dimensionless)
     return momenta_from_body_angular_momentum(q, omega * inert)
 
 

@@ -1,5 +1,8 @@
 """The ``attitude`` command (also ``python -m attitude``). See docs/cli.md.
 
+One concept, the command line (argument parsing, the run/info/plot/export commands and what they
+print); the work is done by the library modules it calls.
+
 Exit codes: 0 success, 2 bad input (scenario, arguments, files), 1 failure (the propagation
 stopped, or an unexpected error). Errors are one line on stderr; ``--debug`` shows tracebacks.
 """
@@ -12,6 +15,7 @@ import math
 import os
 import sys
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +30,18 @@ EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 class BadInput(Exception):
     """An error in what the user gave us (exit code 2)."""
+
+
+def _warn(message: str) -> None:
+    """A one-line warning on stderr (as the library's warnings are shown by :func:`main`)."""
+    sys.stderr.write(f"attitude: warning: {message}\n")
+    sys.stderr.flush()
+
+
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """``warnings.showwarning`` of the command: one line, no source location."""
+    text = str(message).splitlines()[0] if str(message) else category.__name__
+    _warn(text)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -104,7 +120,7 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
 
 def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str:
     u = "" if unit in ("1", "") else f" {unit}"
-    s = f"{t0:g} .. {t1:g}{u} ({n} samples)"
+    s = f"{t0:g} .. {t1:g}{u} ({n} sample{'' if n == 1 else 's'})"
     if attrs.get("epoch"):
         s += f" from epoch {attrs['epoch']}"
     return s
@@ -122,6 +138,7 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         f"ensemble    {n} members (seed {info.get('ensemble_seed')}), chunks of "
         f"{info.get('chunk_size')}, {info.get('execution')}",
         f"time span   {float(sc.t[0]):g} .. {float(sc.t[-1]):g}{unit} ({len(sc.t)} samples)",
+        f"stored      {_stored_text(info, len(sc.t))}",
         f"method      {info.get('method')}, rtol {info.get('rtol')}, atol {info.get('atol')}: "
         f"{steps} steps ({steps / max(n, 1):.1f} per member), {info.get('n_rejected')} rejected",
         f"speed       {steps / max(wall, 1e-9):.3g} member-steps/s",
@@ -132,8 +149,39 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
         + ("\n            ".join(inv) if inv else "-")
         + ("\n            (maxima over members)" if inv else "")
     )
+    if info.get("events"):
+        lines.append(f"events      {info['events']} (attitude info for the percentiles)")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     return lines
+
+
+def _stored_text(info: dict[str, Any], m: int) -> str:
+    """What an ensemble file holds, in words (its output choice)."""
+    output = str(info.get("ensemble_output", "samples"))
+    k = int(info.get("output_every", 1))
+    times = "every output time" if k == 1 else f"one output time in {k} ({-(-m // k)} times)"
+    if output == "final":
+        return "every member's final state"
+    if output == "statistics":
+        pct = ", ".join(f"{x:g}" for x in np.atleast_1d(info.get("statistics_percentiles", [])))
+        return (
+            f"percentiles {pct} over members of the pointing error (from the nominal "
+            f"attitude) and of |omega|, at {times}; no member trajectories"
+        )
+    return f"every member at {times}"
+
+
+def _size_option_hint(exc: Any) -> str:
+    from .ensemble._plan import format_size
+
+    want = format_size(exc.expected * 1.1).replace(" ", "")
+    return (
+        f"the ensemble's output file would take about {format_size(exc.expected)}, above the "
+        f"limit of {format_size(exc.limit)} (--max-output-size, or max_output_size in the "
+        "scenario's [ensemble] table); store less with --ensemble-output final, "
+        f"--ensemble-output statistics or --every K, or allow it: --max-output-size {want} "
+        "(none: no limit)"
+    )
 
 
 def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
@@ -158,16 +206,50 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
         sys.stderr.flush()
 
     from .ensemble import run_scenario
+    from .ensemble._plan import format_size, parse_size
+    from .errors import AttitudeError, OutputSizeError
 
-    info = run_scenario(
-        sc,
-        out,
-        client=getattr(args, "scheduler", None),
-        progress=report,
-        method=args.method,
-        rtol=args.rtol,
-        atol=args.atol,
-    )
+    opts: dict[str, Any] = {}
+    if getattr(args, "ensemble_output", None):
+        opts["output"] = args.ensemble_output
+    if getattr(args, "every", None) is not None:
+        opts["every"] = args.every
+    if getattr(args, "percentiles", None) is not None:
+        opts["percentiles"] = args.percentiles
+    if getattr(args, "max_output_size", None) is not None:
+        try:
+            opts["max_output_size"] = parse_size(args.max_output_size, "--max-output-size")
+        except AttitudeError as exc:
+            raise BadInput(str(exc)) from None
+
+    def estimate(nbytes: int) -> None:
+        if not getattr(args, "quiet", False):
+            print(f"output      {out}: expected about {format_size(nbytes)}", flush=True)
+
+    try:
+        info = run_scenario(
+            sc,
+            out,
+            client=getattr(args, "scheduler", None),
+            progress=report,
+            method=args.method,
+            rtol=args.rtol,
+            atol=args.atol,
+            on_estimate=estimate,
+            **opts,
+        )
+    except OutputSizeError as exc:
+        raise BadInput(_size_option_hint(exc)) from None
+    except AttitudeError as exc:  # an output option given on the command line
+        msg = str(exc)
+        for key, opt in (
+            ("output:", "--ensemble-output:"),
+            ("every:", "--every:"),
+            ("percentiles:", "--percentiles:"),
+        ):
+            if msg.startswith(key) and key[:-1] in opts:
+                raise BadInput(opt + msg[len(key) :]) from None
+        raise
     if not getattr(args, "quiet", False):
         print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0)))
 
@@ -187,23 +269,68 @@ def _output_path(given: str | None, default: Path) -> Path:
     return out
 
 
+#: Methods that take a fixed step (--dt, --order) and ignore the tolerances.
+_FIXED_STEP = ("nosquish", "splitting")
+#: Methods without a step-size control (the tolerances do not apply).
+_NO_TOLERANCES = (*_FIXED_STEP, "exact")
+_ENSEMBLE_ONLY = ("ensemble_output", "every", "percentiles", "max_output_size")
+
+
+def _option(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def _warn_unused_options(sc: Any, args: argparse.Namespace) -> None:
+    """Warn about command-line options that do not apply to this run (they are ignored)."""
+    method = args.method or sc.method
+    if sc.ensemble is not None:
+        for name in ("dt", "order", "formulation"):
+            if getattr(args, name) is not None:
+                _warn(
+                    f"{_option(name)} does not apply to an ensemble (the members run the "
+                    "canonical equations with dop853); ignored"
+                )
+    else:
+        for name in _ENSEMBLE_ONLY:
+            if getattr(args, name, None) is not None:
+                _warn(f"{_option(name)} applies to scenarios with an [ensemble] table; ignored")
+        for name in ("dt", "order"):
+            if getattr(args, name) is not None and method not in _FIXED_STEP:
+                _warn(
+                    f"{_option(name)} applies to the fixed-step methods (nosquish, splitting), "
+                    f"not to {method}; ignored"
+                )
+        for name in ("rtol", "atol"):
+            if getattr(args, name) is not None and method in _NO_TOLERANCES:
+                _warn(f"{_option(name)} does not apply to the method {method} (no step-size "
+                      "control); ignored")  # fmt: skip
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     from . import scenario as S
     from ._files import OutputFile, is_stdout
     from ._times import TimeGrid
 
     sc = S.load(args.scenario)
+    _warn_unused_options(sc, args)
     if args.stop is not None:
         if not math.isfinite(args.stop):
             raise BadInput(f"--stop {args.stop}: must be a finite time")
         stop = args.stop * sc.time_scale
         limit = stop * (1 + 1e-12) + 1e-300
+        end = float(sc.t[-1])
+        if stop > end * (1 + 1e-12) + 1e-300:
+            unit = "" if sc.time_unit == "1" else f" {_time_unit_name(sc)}"
+            _warn(
+                f"--stop {args.stop:g}: beyond the scenario's time span (time.stop = "
+                f"{end / sc.time_scale:g}{unit}); the run ends at time.stop"
+            )
         if isinstance(sc.t, TimeGrid):
             n_keep = len(sc.t.head(limit)) if sc.t[0] <= limit else 0
         else:
             n_keep = int(np.count_nonzero(np.asarray(sc.t) <= limit))
         if n_keep < 2:
-            raise BadInput(f"--stop {args.stop}: leaves fewer than 2 output samples")
+            raise BadInput(f"--stop {args.stop:g}: leaves fewer than 2 output samples")
         sc.t = sc.t.head(limit) if isinstance(sc.t, TimeGrid) else sc.t[sc.t <= limit]
     for name in ("rtol", "atol", "dt"):
         v = getattr(args, name)
@@ -216,6 +343,20 @@ def cmd_run(args: argparse.Namespace) -> int:
             _lookup_method(args.method)
         except ValueError as exc:
             raise BadInput(f"--method: {str(exc).split(': ', 1)[-1]}") from None
+    if args.formulation is not None and sc.ensemble is None:
+        from .formulations import get_formulation
+
+        if args.formulation != "canonical":
+            try:
+                get_formulation(args.formulation, args.method or sc.method)
+            except ValueError as exc:
+                raise BadInput(f"--formulation: {str(exc).split(': ', 1)[-1]}") from None
+    method = args.method or sc.method
+    if sc.ensemble is None and method in _FIXED_STEP and args.dt is None and sc.dt is None:
+        raise BadInput(
+            f"--method {method}: a fixed-step method needs its step: give --dt H (in the "
+            "scenario's time unit) or dt in the scenario's [integrator] table"
+        )
     out = _output_path(args.output, sc.output)
     OutputFile(out, "-o" if args.output else "output.path")  # checked before any work
     args._to_stdout = is_stdout(out)
@@ -227,6 +368,9 @@ def cmd_run(args: argparse.Namespace) -> int:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
     progress = Progress(args.progress)
     t_start = time.monotonic()
+    wall_start = time.time()
+    from .errors import PropagationError
+
     try:
         info = sc.run_to_file(
             out,
@@ -238,6 +382,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             order=args.order,
             formulation=args.formulation,
         )
+    except PropagationError as exc:  # the file holds what was computed: say where
+        written = out.exists() and out.stat().st_mtime >= wall_start - 1.0
+        where = f"; the samples computed are in {out} (run_status failed)" if written else ""
+        raise PropagationError(f"{exc}{where}", time=exc.time) from None
     finally:
         progress.close()
     args._written = out
@@ -245,6 +393,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.quiet:
         _summary(sc, info, wall, file=sys.stderr if args._to_stdout else sys.stdout)
     return EXIT_OK
+
+
+def _time_unit_name(sc: Any) -> str:
+    """The unit of the scenario's [time] table as written there (e.g. 'min')."""
+    from .scenario import tomllib
+
+    try:
+        return str(tomllib.loads(sc.source)["time"]["unit"])
+    except (KeyError, TypeError, ValueError):
+        return "s"
 
 
 def _numerics(a: dict[str, Any]) -> str:
@@ -284,6 +442,10 @@ def _summary(sc: Any, a: dict[str, Any], wall: float, file: Any = None) -> None:
         )
     inv = _invariant_lines(a)
     lines.append("invariants  " + ("\n            ".join(inv) if inv else "-"))
+    if a.get("events"):
+        lines.append("events      " + "\n            ".join(str(a["events"]).split(" | ")))
+        if a.get("terminal_event"):
+            lines.append(f"            run ended by {a['terminal_event']}")
     lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
     print("\n".join(lines), file=file)
 
@@ -303,7 +465,9 @@ def _open(path: str) -> Any:
     problem = None
     if "time" not in ds.dims or ds.sizes["time"] == 0:
         problem = "no 'time' dimension with samples"
-    elif "q" not in ds.data_vars or ds["q"].dims[-2:] != ("time", "component"):
+    elif ("q" not in ds.data_vars or ds["q"].dims[-2:] != ("time", "component")) and not (
+        "member" in ds.dims and "pointing_error_percentiles" in ds.data_vars
+    ):  # an ensemble's statistics-only file has percentiles instead of q
         problem = "no attitude quaternion variable q(time, component)"
     if problem:
         ds.close()
@@ -324,6 +488,9 @@ def cmd_info(args: argparse.Namespace) -> int:
     try:
         try:
             rows, inv = _info_rows(args, ds)
+            budget = _torque_budget(ds)
+            events = ds.attrs.get("events") or "detector" in ds.dims
+            ev = _event_lines(ds) if events else []
         except BadInput:
             raise
         except _READ_ERRORS as exc:
@@ -331,6 +498,9 @@ def cmd_info(args: argparse.Namespace) -> int:
         for k, v in rows:
             print(f"{k:<11} {v}")
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
+        print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if events:
+            print("events      " + ("\n            ".join(ev) if ev else "-"))
     finally:
         ds.close()
     return EXIT_OK
@@ -340,7 +510,9 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
     a = dict(ds.attrs)
     n = ds.sizes["time"]
     t = ds["time"].values
-    unit = ds["time"].attrs.get("units", "")
+    from .results import time_unit
+
+    unit = time_unit(ds["time"])
     if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
         from .io import iter_chunks
         from .scenario import InvariantTracker
@@ -361,6 +533,8 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
             f"{a.get('inertia_units', '')}",
         ),
         ("potential", a.get("potential", "-")),
+        *([("orbit", a["orbit"]), ("frame", a.get("orbit_frame", "-"))] if a.get("orbit") else []),
+        ("epoch", a.get("epoch") or "- (times are relative)"),
         ("initial", a.get("initial_state_form", "-")),
         (
             "method",
@@ -380,11 +554,83 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
     return rows, _invariant_lines(a)
 
 
+def _event_lines(ds: Any, limit: int = 20) -> list[str]:
+    """The event detectors of a run and what they found (single runs and ensembles)."""
+    a = ds.attrs
+    out = [str(x).strip() for x in str(a.get("events", "")).split(" | ") if str(x).strip()]
+    if "detector_label" not in ds.variables:
+        return out
+    labels = [str(x) for x in ds["detector_label"].values]
+    unit = ds["time"].attrs.get("units", "")
+    if "event_first_time" in ds and "member" in ds["event_first_time"].dims:  # ensemble
+        first = np.asarray(ds["event_first_time"].values, dtype=np.float64)
+        n = first.shape[0]
+        for j, name in enumerate(labels):
+            col = first[:, j]
+            have = np.isfinite(col)
+            if have.any():
+                p5, p50, p95 = np.percentile(col[have], [5, 50, 95])
+                out.append(
+                    f"{name}: in {int(have.sum())} of {n} members; first at "
+                    f"{p5:.6g} / {p50:.6g} / {p95:.6g} {unit} (5/50/95 %)"
+                )
+            else:
+                out.append(f"{name}: in none of {n} members")
+        return out
+    if "detector_count" in ds:
+        counts = np.asarray(ds["detector_count"].values)
+        out.append(", ".join(f"{name}: {int(c)}" for name, c in zip(labels, counts, strict=True)))
+    if "event_time" in ds:
+        t = np.asarray(ds["event_time"].values, dtype=np.float64)
+        which = np.asarray(ds["event_detector"].values)
+        sign = np.asarray(ds["event_direction"].values)
+        for i in range(min(t.size, limit)):
+            d = "rising" if sign[i] > 0 else "falling"
+            out.append(f"t = {t[i]:.12g} {unit}  {labels[int(which[i])]} ({d})")
+        if t.size > limit:
+            out.append(f"... {t.size - limit} more (variables event_time, event_detector)")
+    if a.get("terminal_event"):
+        out.append(f"run ended by the terminal event {a['terminal_event']}")
+    return out
+
+
+def _torque_budget(ds: Any) -> list[str]:
+    """Max and RMS of the torque magnitude per model term (streamed over the file's chunks)."""
+    if "torque" not in ds.data_vars or "model" not in ds.dims:
+        return []
+    labels = [str(x) for x in ds["model_label"].values] if "model_label" in ds else []
+    n_model = ds.sizes["model"]
+    peak = np.zeros(n_model)
+    sq = np.zeros(n_model)
+    n = 0
+    step = 65536
+    for i in range(0, ds.sizes["time"], step):
+        tau = np.asarray(ds["torque"].isel(time=slice(i, i + step)).values, dtype=np.float64)
+        mag = np.sqrt(np.sum(tau * tau, axis=-1))  # (time, model)
+        peak = np.maximum(peak, np.max(mag, axis=0, initial=0.0))
+        sq += np.sum(mag * mag, axis=0)
+        n += mag.shape[0]
+    unit = ds["torque"].attrs.get("units", "")
+    width = max((len(x) for x in labels), default=5)
+    out = [f"{'model':<{width}}  {'max |tau|':>11}  {'rms |tau|':>11}  [{unit}]"]
+    for j in range(n_model):
+        name = labels[j] if j < len(labels) else str(j)
+        out.append(f"{name:<{width}}  {peak[j]:11.4g}  {np.sqrt(sq[j] / max(n, 1)):11.4g}")
+    return out
+
+
 def cmd_plot(args: argparse.Namespace) -> int:
+    try:
+        import matplotlib  # noqa: F401 - optional: the plot extra
+    except ImportError:
+        raise BadInput(
+            "plot: matplotlib is not installed; install the plot extra: "
+            "pip install 'attitude[plot]'"
+        ) from None
     from matplotlib.figure import Figure
 
     from ._files import OutputFile, file_error
-    from .plotting import plot_result
+    from .plotting import plot_ensemble, plot_result, plot_torque_budget
 
     default = Path(args.file).with_suffix(".png")
     out = _output_path(args.output, Path(default.name)) if args.output else default
@@ -403,7 +649,14 @@ def cmd_plot(args: argparse.Namespace) -> int:
     ds = _open(args.file)
     try:
         try:
-            fig = plot_result(ds)
+            if getattr(args, "torques", False):
+                if "torque" not in ds.data_vars:
+                    raise BadInput(f"plot: {args.file} has no per-model torque variable")
+                fig = plot_torque_budget(ds)
+            elif "member" in ds.dims:  # percentile bands over the members
+                fig = plot_ensemble(ds)
+            else:
+                fig = plot_result(ds)
         except _READ_ERRORS as exc:
             raise _unreadable(args.file, exc) from None
     finally:
@@ -427,6 +680,36 @@ def cmd_plot(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _one_member(ds: Any, args: argparse.Namespace) -> Any:
+    """The member ``--member K`` of an ensemble file (export writes one attitude history)."""
+    if "member" not in ds.dims:
+        raise BadInput(f"--member: {args.file} is a single run, not an ensemble; drop --member")
+    n = ds.sizes["member"]
+    if "q" not in ds:
+        raise BadInput(
+            f"export: {args.file} holds the statistics of an ensemble of {n} members, not their "
+            "attitudes; run the ensemble storing the members (--ensemble-output samples) to "
+            "export one of them"
+        )
+    if args.member is None:
+        raise BadInput(
+            f"export: {args.file} is an ensemble of {n} members; a CCSDS AEM holds one attitude "
+            f"history: choose a member with --member K (0..{n - 1})"
+        )
+    members = np.asarray(ds["member"].values)
+    if not np.any(members == args.member):
+        raise BadInput(
+            f"--member {args.member}: no such member in {args.file} (members "
+            f"{int(members[0])}..{int(members[-1])})"
+        )
+    if ds.sizes["time"] < 2:
+        raise BadInput(
+            f"export: {args.file} holds each member's final state only; an AEM needs an "
+            "attitude history (run with --ensemble-output samples)"
+        )
+    return ds.sel(member=args.member)
+
+
 def cmd_export(args: argparse.Namespace) -> int:
     from .aem import write_aem
 
@@ -434,6 +717,8 @@ def cmd_export(args: argparse.Namespace) -> int:
         raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem")
     ds = _open(args.file)
     try:
+        if "member" in ds.dims or args.member is not None:
+            ds = _one_member(ds, args)
         try:
             path = write_aem(
                 ds,
@@ -447,6 +732,7 @@ def cmd_export(args: argparse.Namespace) -> int:
                 ref_frame_b=args.ref_frame_b,
                 originator=args.originator,
                 time_unit_seconds=args.time_unit_seconds,
+                attitude_type=args.aem_type,
             )
         except ValueError as exc:
             raise BadInput(str(exc)) from None
@@ -468,6 +754,30 @@ class _Parser(argparse.ArgumentParser):
         self.print_usage(sys.stderr)
         sys.stderr.write(f"attitude: error: {message}\n")
         raise SystemExit(EXIT_BAD_INPUT)
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        v = 0
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return v
+
+
+def _percentile_list(text: str) -> list[float]:
+    try:
+        vals = [float(x) for x in text.replace(" ", "").split(",") if x]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected numbers in [0, 100] separated by commas, e.g. 5,50,95,100, got {text!r}"
+        ) from None
+    if not vals or not all(0 <= v <= 100 for v in vals):
+        raise argparse.ArgumentTypeError(
+            f"expected numbers in [0, 100] separated by commas, e.g. 5,50,95,100, got {text!r}"
+        )
+    return vals
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -522,6 +832,32 @@ def build_parser() -> argparse.ArgumentParser:
         help="run an [ensemble] scenario on a Dask cluster (e.g. tcp://host:8786; needs "
         "pip install 'attitude[dask]'); default: local threads",
     )
+    r.add_argument(
+        "--ensemble-output",
+        choices=("samples", "final", "statistics"),
+        help="[ensemble] scenarios: store every member's samples, every member's final state, "
+        "or only percentiles over members of the pointing error and |omega| (default: the "
+        "scenario's ensemble.output, else samples)",
+    )
+    r.add_argument(
+        "--every",
+        type=_positive_int,
+        metavar="K",
+        help="[ensemble] scenarios: store every K-th output time",
+    )
+    r.add_argument(
+        "--percentiles",
+        type=_percentile_list,
+        metavar="P,P,...",
+        help="[ensemble] scenarios with --ensemble-output statistics: the percentiles "
+        "(default 5,50,95,100; 100 is the maximum)",
+    )
+    r.add_argument(
+        "--max-output-size",
+        metavar="SIZE",
+        help="[ensemble] scenarios: refuse to write a file expected to be larger (e.g. 500MB, "
+        "2GB; none: no limit; default: the scenario's ensemble.max_output_size, else 1 GB)",
+    )
     r.set_defaults(func=cmd_run)
 
     pl = sub.add_parser(
@@ -535,6 +871,11 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("file", metavar="OUT.nc")
     pl.add_argument("-o", "--output", metavar="FIG.png", help="figure file (default OUT.png)")
     pl.add_argument("--dpi", type=int, default=110)
+    pl.add_argument(
+        "--torques",
+        action="store_true",
+        help="the torque budget instead: |torque| per model against time, max and RMS",
+    )
     pl.set_defaults(func=cmd_plot)
 
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")
@@ -558,12 +899,25 @@ def build_parser() -> argparse.ArgumentParser:
         default=2,
         help="2: CCSDS 504.0-B-2 (default); 1: 504.0-B-1 (older readers, e.g. GMAT)",
     )
+    e.add_argument(
+        "--aem-type",
+        choices=("QUATERNION", "QUATERNION/ANGVEL"),
+        default="QUATERNION",
+        help="ATTITUDE_TYPE: quaternions only (default) or with the body angular velocity "
+        "(QUATERNION/ANGVEL, deg/s; AEM version 2)",
+    )
     e.add_argument("--epoch", help="UTC epoch of time 0 (ISO 8601), if the run has none")
     e.add_argument(
         "--time-unit-seconds",
         type=float,
         metavar="S",
         help="seconds per time unit, to export a dimensionless run",
+    )
+    e.add_argument(
+        "--member",
+        type=int,
+        metavar="K",
+        help="ensemble files: export member K (its stored samples)",
     )
     e.add_argument("--object-name")
     e.add_argument("--object-id")
@@ -639,7 +993,9 @@ def _run_command(args: argparse.Namespace) -> int:
     from .errors import AttitudeError, PropagationError
 
     try:
-        return int(args.func(args))
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            return int(args.func(args))
     except PropagationError as exc:
         if args.debug:
             raise

@@ -14,6 +14,7 @@ __all__ = [
     "AttitudeFileError",
     "AttitudeTypeError",
     "AttitudeValueError",
+    "OutputSizeError",
     "PropagationError",
     "SingularityError",
 ]
@@ -37,6 +38,21 @@ class AttitudeFileError(AttitudeValueError, OSError):
 
     Also an ``OSError``, as the errors of ``open()`` are; ``errno`` is not set.
     """
+
+
+class OutputSizeError(AttitudeValueError):
+    """An ensemble's output would exceed its size limit (``max_output_size``); nothing was run.
+
+    Attributes
+    ----------
+    expected, limit : float
+        The expected output size and the limit, in bytes.
+    """
+
+    def __init__(self, message: str, *, expected: float, limit: float):
+        super().__init__(message)
+        self.expected = expected
+        self.limit = limit
 
 
 class SingularityError(AttitudeValueError):

@@ -51,14 +51,14 @@ def torque_free(
     ----------
     inertia : array_like, Quantity or RigidBody, shape (3,)
         Principal moments ``(I1, I2, I3)`` about the body axes, in any order; positive,
-        satisfying the triangle inequalities. A Quantity is converted to kg km².
+        satisfying the triangle inequalities. A Quantity is converted to kg m² (SI).
     q0 : array_like, shape (4,)
         Initial attitude, unit quaternion (body → space), scalar first. Must be unit within
         :data:`UNIT_NORM_TOL`; it is *not* renormalised (``|q(t)| = |q0|``).
     Q0 : array_like or Quantity, shape (4,)
         Initial conjugate momenta, ``Q0 = 2 q0∘(0, g0)`` with ``g0`` the body angular momentum
         (Arribas et al. eq. 17); ``q0·Q0 = 0`` within :data:`UNIT_NORM_TOL` relative. A
-        Quantity is converted to kg km² / s.
+        Quantity is converted to kg m² / s (SI).
     t : float or array_like, shape (n,)
         Times since the initial state (any order, any sign). A Quantity is converted to s.
 
@@ -95,7 +95,7 @@ def torque_free(
     """
     inertia_arr = _inertia(inertia)
     q0a = as_quaternion(q0, "q0")
-    Q0a = as_float_array(Q0, "Q0", trailing=4, unit="kg km2 / s")
+    Q0a = as_float_array(Q0, "Q0", trailing=4, unit="kg m2 / s")
     if q0a.shape != (4,):
         raise AttitudeValueError(f"q0: expected one quaternion of shape (4,), got {q0a.shape}")
     if Q0a.shape != (4,):

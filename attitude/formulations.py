@@ -63,7 +63,7 @@ EULER_STOP_SIN_THETA = 1e-6
 SINGULAR = 10
 
 #: Methods that exploit the structure of eq. 7 and exist for the canonical formulation only.
-CANONICAL_ONLY_METHODS = ("exact", "nosquish", "splitting")
+CANONICAL_ONLY_METHODS = ("exact", "nosquish", "splitting", "taylor")
 
 
 def _pure(v: np.ndarray) -> np.ndarray:

@@ -21,6 +21,14 @@ netCDF attributes are typed scalars, strings or 1-D arrays. ``str``, ``int`` (in
 ``float`` (float64), numpy scalars and 1-D numeric arrays round-trip exactly. A ``bool`` is
 stored as int8 0/1 and ``None`` is dropped (netCDF has neither); anything else is stored as its
 ``str``. Length-1 arrays come back as scalars (a netCDF convention).
+
+CF
+--
+Files follow CF-1.10 (``compliance-checker --test=cf:1.10`` reports no errors, tests/test_cf.py):
+the attrs of ``time`` follow the global attr ``epoch`` when the file is committed
+(:func:`attitude.results.time_attrs`: ``seconds since <epoch>`` with an epoch), and data
+variables name their auxiliary label coordinates (``component_label``, ``axis_label``) in a
+``coordinates`` attr, which :func:`read` turns back into coordinates.
 """
 
 from __future__ import annotations
@@ -72,6 +80,39 @@ def _attr_value(name: str, value: Any) -> Any:
         if arr.ndim == 1 and arr.size and arr.dtype.kind in "iuf":
             return arr.astype(np.int64 if arr.dtype.kind in "iu" else np.float64)
     return str(value)
+
+
+def _variable_attrs(ds: xr.Dataset, name: str) -> dict[str, Any]:
+    """The attrs to write for ``ds[name]``: its own, plus the CF ``coordinates`` attr naming the
+    auxiliary (non-dimension) coordinates along its dimensions (e.g. ``component_label``)."""
+    var = ds.variables[name]
+    attrs = dict(var.attrs)
+    if name in ds.data_vars:
+        aux = [
+            c
+            for c in ds.coords
+            if c not in ds.dims and ds[c].dims and set(ds[c].dims) <= set(var.dims)
+        ]
+        if aux:
+            attrs["coordinates"] = " ".join(map(str, aux))
+    return attrs
+
+
+def _sync_time_attrs(nc: Any, attrs: Mapping[str, Any]) -> None:
+    """Rewrite the attrs of the file's ``time`` variable to follow the global ``epoch``."""
+    from .results import time_attrs
+
+    if "time" not in nc.variables:
+        return
+    v = nc.variables["time"]
+    names = v.ncattrs()
+    plain = str(v.getncattr("elapsed_time_units")) if "elapsed_time_units" in names else None
+    if plain is None:
+        plain = "1" if "units" not in names or str(v.getncattr("units")) == "1" else "s"
+    for k in ("standard_name", "axis", "calendar", "comment", "units", "long_name"):
+        if k in names:
+            v.delncattr(k)
+    _set_attrs(v, time_attrs(plain, attrs.get("epoch")))
 
 
 _SCRATCH: list[Any] = []
@@ -201,17 +242,48 @@ class StreamWriter:
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
-            _set_attrs(v, var.attrs)
+            _set_attrs(v, _variable_attrs(ds, name))
         for name, da in ds.data_vars.items():
             var = da.variable
             if var.dtype.kind not in "iuf":
                 raise AttitudeTypeError(f"ds[{name!r}]: only numeric data variables are written")
-            if "time" not in var.dims:
-                raise AttitudeValueError(f"ds[{name!r}]: data variables must depend on time")
+            if "time" not in var.dims:  # e.g. the events of a run (docs/events.md): once
+                self._static(name, var)
+                continue
             v = nc.createVariable(name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp)
             self._small_cache(v, var)
-            _set_attrs(v, var.attrs)
+            _set_attrs(v, _variable_attrs(ds, name))
             self._vars.append(name)
+
+    def _static(self, name: str, var: xr.Variable) -> None:
+        """Write a variable without a time dimension at once (creating its dimensions)."""
+        nc = self._nc
+        for dim, size in zip(var.dims, var.shape, strict=True):
+            if dim not in nc.dimensions:
+                nc.createDimension(dim, size)
+        if var.dtype.kind in "UO":
+            v = nc.createVariable(name, str, var.dims)
+            if var.size:
+                v[:] = np.asarray(var.values, dtype=object)
+        else:
+            v = nc.createVariable(name, var.dtype, var.dims)
+            if var.size:
+                v[:] = var.values
+        _set_attrs(v, var.attrs)
+
+    def add_static(self, ds: xr.Dataset) -> None:
+        """Add the variables of ``ds`` without a ``time`` dimension that the file lacks yet.
+
+        For what is known only at the end of a streamed run (its events, docs/events.md);
+        call before :meth:`commit`.
+        """
+        if self._nc is None or self._done:
+            raise AttitudeValueError("add_static: the file is not open (append samples first)")
+        for name in [*ds.coords, *ds.data_vars]:
+            var = ds[name].variable
+            if "time" in var.dims or name in self._nc.variables:
+                continue
+            self._static(str(name), var)
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:
@@ -270,6 +342,7 @@ class StreamWriter:
             attrs = check_attrs(self.attrs, "attrs")
             for k, v in attrs.items():
                 self._nc.setncattr(k, v)
+            _sync_time_attrs(self._nc, attrs)
             self._nc.close()
             self._nc = None
             self._out.commit()
@@ -383,6 +456,15 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
     except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
         raise AttitudeFileError(f"{p}: not a netCDF4 file ({exc})") from None
     try:
+        # CF auxiliary coordinates (named in the data variables' "coordinates" attrs) back to
+        # coordinates, the attr dropped (as in the Dataset that was written).
+        aux: list[str] = []
+        for v in ds.variables.values():
+            names = v.attrs.pop("coordinates", None)
+            if names:
+                aux += [c for c in str(names).split() if c in ds.variables and c not in aux]
+        if aux:
+            ds = ds.set_coords(aux)
         # String coordinates come back as object arrays; make them the fixed-width unicode the
         # Dataset builder uses.
         for name in list(ds.coords):

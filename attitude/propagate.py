@@ -13,9 +13,10 @@ Methods
     The same right-hand side through ``scipy.integrate.solve_ivp(method=<name>)`` (e.g.
     ``"scipy:DOP853"``, ``"scipy:Radau"``): a reference path, not a fast one.
 
-``"exact"``, ``"nosquish"``, ``"splitting"``
-    The closed-form torque-free motion (:mod:`attitude.exact`) and the structure-preserving
-    splittings (:mod:`attitude.splitting`).
+``"exact"``, ``"nosquish"``, ``"splitting"``, ``"taylor"``
+    The closed-form torque-free motion (:mod:`attitude.exact`), the structure-preserving
+    splittings (:mod:`attitude.splitting`) and the adaptive Taylor series of eq. 7
+    (:mod:`attitude.taylor`).
 
 :data:`METHODS` maps each name to its runner (:mod:`attitude._methods` says what a runner is).
 """
@@ -39,13 +40,33 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import build_dataset
+from .results import add_event_variables, build_dataset
 from .splitting import run_nosquish, run_splitting
+from .taylor import run_taylor
 
 __all__ = ["METHODS", "Problem", "RunResult", "propagate"]
 
 #: Relative defect of the initial state above which a projection warns.
 PROJECTION_WARN = 1e-12
+#: Progress reports per run (the default chunk with ``progress``): the compiled loop returns
+#: this often; results do not depend on it (dense output at the requested times).
+PROGRESS_CHUNKS = 200
+
+
+class _ProgressBar:
+    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here)."""
+
+    def __init__(self, total: int):
+        from tqdm import auto
+
+        self.bar = auto.tqdm(total=total, desc="propagate", unit="sample", leave=True)
+
+    def __call__(self, done: int, total: int, t: float) -> None:
+        self.bar.update(done - self.bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
 
 #: Smallest accepted ``atol``. The error norm divides by atol + rtol |y| and squares: for a
 #: component that is 0, below ~1e-154 the square overflows and every step is rejected as
@@ -65,6 +86,7 @@ METHODS: dict[str, Callable[..., RunResult]] = {
     "exact": run_exact,
     "nosquish": run_nosquish,
     "splitting": run_splitting,
+    "taylor": run_taylor,
 }
 
 
@@ -130,10 +152,12 @@ def propagate(
     *,
     max_step: float = math.inf,
     max_steps: int = 100_000_000,
-    progress: Callable[[int, int, float], None] | None = None,
+    progress: bool | Callable[[int, int, float], None] | None = None,
     chunk: int | None = None,
     formulation: str = "canonical",
     on_chunk: Callable[[xr.Dataset], None] | None = None,
+    epoch: Any = None,
+    events: Any = None,
 ) -> xr.Dataset:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -147,7 +171,8 @@ def propagate(
     q0 : array_like, shape (4,)
         Initial attitude quaternion (body → space, scalar first).
     Q0 : array_like, shape (4,)
-        Initial conjugate momenta, Q0 = 2 q0∘(0, g0). A state within 1e-6 (relative) of
+        Initial conjugate momenta, Q0 = 2 q0∘(0, g0) (kg m² s⁻¹ for a body with units; a
+        Quantity is converted). A state within 1e-6 (relative) of
         |q| = 1, q·Q = 0 is projected onto it (the correction is recorded in the attrs; a
         warning above 1e-12); anything further off is rejected.
     t : array_like, shape (m,)
@@ -158,7 +183,7 @@ def propagate(
         ``CustomTorque``.
     method : str
         ``"dop853"`` (default), ``"scipy:<solver>"``, and where available ``"exact"``,
-        ``"nosquish"``, ``"splitting"``.
+        ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables);
         ``rtol >= 1e-15``, ``atol >= ATOL_MIN`` (1e-100).
@@ -172,12 +197,15 @@ def propagate(
         Give up after this many steps. An adaptive run estimates its work after its first
         64 steps: more than 100 × max_steps is refused there (AttitudeValueError), more than
         max_steps warns (RuntimeWarning); see docs/reliability.md.
-    progress : callable, optional
-        ``progress(n_done, n_total, t_reached)`` called after each chunk of output times.
+    progress : bool or callable, optional
+        ``True``: a tqdm progress bar (on stderr; a widget in Jupyter) that advances during
+        the run. A callable: ``progress(n_done, n_total, t_reached)`` called after each chunk
+        of output times.
     chunk : int, optional
-        Output samples per compiled call (with ``progress``), an integer >= 1; results do not
-        depend on it. Compiled calls also return every ``attitude._methods.STEP_BUDGET``
-        steps, so Ctrl-C acts within a fraction of a second.
+        Output samples per compiled call, an integer >= 1; results do not depend on it. With
+        ``progress`` the default is :data:`PROGRESS_CHUNKS` chunks per run (the compiled loop
+        returns that often to report). Compiled calls also return every
+        ``attitude._methods.STEP_BUDGET`` steps, so Ctrl-C acts within a fraction of a second.
     formulation : str
         Equations integrated: ``"canonical"`` (default, eq. 7 in (q, Q)) or another of
         :data:`attitude.formulations.FORMULATIONS` (``"euler_angles"``, ``"schwab"``,
@@ -188,14 +216,27 @@ def propagate(
         when the run fails midway). With the canonical ``"dop853"`` runner the samples are
         not kept, so memory stays bounded (see :func:`attitude.io.write_streaming`); the
         returned Dataset then holds only the last sample (with the complete attrs).
+    epoch : astropy Time or str, optional
+        Date of t = 0 (ISO 8601 strings are UTC unless a scale follows). Default: the epoch of
+        the potential's orbit, if it has one. Recorded in the attrs (``epoch``, UTC ISO 8601),
+        so ``ds.attitude.times()`` and the AEM export need nothing else. An epoch different
+        from the orbit's is an error (one run has one time origin).
+    events : list, optional
+        Events to locate (:mod:`attitude.events`: ``PointingExceeds``, ``RateExceeds``,
+        ``EclipseEntry``, ``EclipseExit``, ``AngleToSun``, ``Custom`` or plain functions
+        g(t, q, omega)), with the methods ``"dop853"``, ``"nosquish"`` and ``"splitting"``
+        (canonical formulation). Every occurrence is recorded in variables on an ``event``
+        dimension (time, which event, direction, state); a terminal event ends the run at its
+        root (attrs ``status = "event"``; the state there is the last sample). See
+        docs/events.md.
 
     Returns
     -------
     xarray.Dataset
         Dimension ``time``; variables ``q``, ``Q``, ``omega``, ``g``, ``G``, ``energy``,
-        ``potential_energy``, ``norm_error``, ``qQ`` (and ``r``, ``f``, ``p`` with an orbit);
-        attrs record the method, tolerances, statistics, body and potential. See
-        docs/results.md.
+        ``potential_energy``, ``norm_error``, ``qQ`` (and ``r``, ``f``, ``p`` with an orbit;
+        ``event_*`` and ``detector_*`` with events); attrs record the method, tolerances,
+        statistics, body and potential. See docs/results.md.
 
     Raises
     ------
@@ -219,7 +260,7 @@ def propagate(
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
     # Q has units of angular momentum: a Quantity is accepted when the body has units.
     Q0a = as_float_array(
-        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg km2 / s"
+        Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
     )
     tt = as_times(t, "t", lazy=True)
     rtol = as_positive(rtol, "rtol")
@@ -242,21 +283,43 @@ def propagate(
     max_steps = as_int(max_steps, "max_steps")
     if chunk is not None:
         chunk = as_int(chunk, "chunk")
-    if progress is not None and not callable(progress):
-        raise AttitudeTypeError("progress: expected a callable progress(n_done, n_total, t)")
+    if progress is False:
+        progress = None
+    if progress is not None and progress is not True and not callable(progress):
+        raise AttitudeTypeError(
+            "progress: expected True (a progress bar) or a callable progress(n_done, n_total, t)"
+        )
     if on_chunk is not None and not callable(on_chunk):
         raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
-    streaming = on_chunk is not None and form is None and getattr(runner, "streams", False)
+    run_attrs = _epoch_attrs(pot, epoch)
+    span = np.array([tt[0], tt[-1]], dtype=np.float64)  # only the ends matter to the models
+    try:
+        pot.check_times(span, "t")  # e.g. an ephemeris orbit's table span
+    except ValueError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    pot = pot.prepare(span)  # environment tables along the orbit for this run's span
+    evset = None
+    if events is not None:
+        tt = np.asarray(tt)  # events need the samples (no lazy grid)
+        evset = _events(events, tt, method, formulation, run_attrs)
+    streaming = (
+        on_chunk is not None
+        and form is None
+        and evset is None
+        and getattr(runner, "streams", False)
+    )
     if on_chunk is not None and not streaming and tt.shape[0] > MAX_UNSTREAMED_SAMPLES:
         raise AttitudeValueError(
             f"t: {tt.shape[0]} output samples with method {method!r} and formulation "
             f"{formulation!r}, which are computed in memory before they are handed out "
             f"(at most {MAX_UNSTREAMED_SAMPLES} samples); use formulation='canonical' "
-            "(streamed), or fewer samples"
+            "without events (streamed), or fewer samples"
         )
     if not (streaming or isinstance(tt, np.ndarray)):
         tt = np.asarray(tt)
 
+    if progress is not None and chunk is None:  # report during the run, not once at the end
+        chunk = max(1, -(-tt.shape[0] // PROGRESS_CHUNKS))
     q0p, Q0p, correction = project_state(q0a, Q0a)
     if correction > PROJECTION_WARN:
         warnings.warn(
@@ -269,7 +332,8 @@ def propagate(
         params=pot._params(body.inertia),
         y0=np.concatenate([q0p, Q0p]),
         t=tt,
-        entry=pot._entry_points(),
+        entry=_entry_points(pot, evset),
+        events=evset,
     )
     _check_work(problem, method, max_step, max_steps)
     options = dict(
@@ -285,55 +349,138 @@ def propagate(
     )
     if on_chunk is not None:
         options["chunk"] = chunk = 4096 if chunk is None else chunk
-    if streaming:
-        chunk_attrs = {"method": method, "formulation": formulation}
+    bar = _ProgressBar(tt.shape[0]) if progress is True else None
+    if bar is not None:
+        options["progress"] = bar
+    try:
+        if streaming:
+            chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
-        def emit(first: int, y: np.ndarray) -> None:
-            on_chunk(finish_dataset(problem, y, chunk_attrs, first=first))
+            def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
+                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first, t_last=t_last))
 
-        result = runner(problem, **options, on_chunk=emit)
-    elif form is None:
-        result = runner(problem, **options)
-    else:
-        # The formulation converts the canonical initial state to its own variables, integrates
-        # its equations with the same method, and converts the samples back to (q, Q).
-        result = form.run(problem, method=method, runner=runner, **options)
+            result = runner(problem, **options, on_chunk=emit)
+        elif form is None:
+            result = runner(problem, **options)
+        else:
+            # The formulation converts the canonical initial state to its own variables,
+            # integrates its equations with the same method, and converts the samples back.
+            result = form.run(problem, method=method, runner=runner, **options)
+        if bar is not None:  # methods that do not report (scipy) complete the bar here
+            bar(result.first + result.y.shape[0], tt.shape[0], math.nan)
+    finally:
+        if bar is not None:
+            bar.close()
 
     attrs: dict[str, Any] = {
+        **run_attrs,
         "method": method,
         "formulation": formulation,
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
-    ds = finish_dataset(problem, result.y, attrs, first=result.first)
+    ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
-    if result.status != _rk.SUCCESS:
+    if evset is not None:
+        ds = add_event_variables(ds, evset, result.events, problem.body, result.status)
+    if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop
         if t_fail is None:
             t_fail = float(tt[n - 1]) if n else float(tt[0])
         raise PropagationError(
             f"propagation stopped at t = {t_fail!r}: {result.message} "
-            f"({n} of {tt.shape[0]} output samples computed; "
-            + ("they went to on_chunk)" if streaming else "they are in .partial)"),
+            f"({n} of {tt.shape[0]} output samples computed"
+            + (", passed on chunk by chunk)" if streaming else "; the error's partial holds them)"),
             time=t_fail,
             partial=ds,
         )
     return ds
 
 
+def _entry_points(pot: Potential, evset: Any) -> Any:
+    """The compiled entry points of the model and of the user's event functions."""
+    if evset is None or not evset.user_functions:
+        return pot._entry_points()
+    from . import _user_kernels
+
+    return _user_kernels.entry_points(pot._user_terms(), evset.user_functions)
+
+
+#: Methods that locate events (inside their compiled loops).
+EVENT_METHODS = ("dop853", "nosquish", "splitting")
+
+
+def _events(events: Any, t: np.ndarray, method: str, formulation: str, run_attrs: dict) -> Any:
+    """The validated events of the run (attitude.events.build); the run's epoch if they bring
+    one."""
+    from orbit.timescales import as_epoch, format_epoch
+
+    from .events import build
+
+    if method not in EVENT_METHODS or formulation != "canonical":
+        raise AttitudeValueError(
+            f"events: located by the methods {', '.join(EVENT_METHODS)} on the canonical "
+            f"equations; got method={method!r}, formulation={formulation!r}"
+        )
+    e = run_attrs.get("epoch")
+    evset = build(events, t, as_epoch(e.rstrip("Z")) if e else None)
+    if evset.epoch is not None and not e:
+        run_attrs["epoch"] = format_epoch(evset.epoch)
+    run_attrs["events"] = evset.describe()
+    return evset
+
+
+def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
+    """Attrs ``epoch`` (UTC ISO 8601) and the orbit's description; checks the epochs agree."""
+    from orbit.errors import OrbitError
+    from orbit.timescales import as_epoch, format_epoch, same_epoch
+
+    try:
+        run_epoch = as_epoch(epoch, "epoch")
+    except OrbitError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    orbit = getattr(pot, "orbit", None)
+    orbit_epoch = getattr(orbit, "epoch", None)
+    if run_epoch is not None and orbit_epoch is not None and not same_epoch(run_epoch, orbit_epoch):
+        raise AttitudeValueError(
+            f"epoch: the run's epoch {format_epoch(run_epoch)} differs from the orbit's epoch "
+            f"{format_epoch(orbit_epoch)} (potential.orbit.epoch); one run has one time origin: "
+            "leave epoch=None to use the orbit's, or build the orbit with the same epoch"
+        )
+    out: dict[str, Any] = {}
+    e = run_epoch if run_epoch is not None else orbit_epoch
+    if e is not None:
+        out["epoch"] = format_epoch(e)
+    if orbit is not None and hasattr(orbit, "describe"):
+        out["orbit"] = orbit.describe()
+        out["orbit_frame"] = str(getattr(orbit, "frame", ""))
+    return out
+
+
 def finish_dataset(
-    problem: Problem, y: np.ndarray, attrs: dict[str, Any], first: int = 0
+    problem: Problem,
+    y: np.ndarray,
+    attrs: dict[str, Any],
+    first: int = 0,
+    t_last: float | None = None,
 ) -> xr.Dataset:
-    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``."""
+    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``
+    (the last one at ``t_last`` instead when given: the state at a terminal event)."""
     n = y.shape[0]
     t = problem.t[first : first + n]
+    if t_last is not None and n:
+        t = t.copy()
+        t[-1] = t_last
     diag = np.empty((n, 13))
+    n_terms = len(problem.potential.terms)
+    torques = np.empty((n, n_terms + 1, 3))
     for i in range(0, n, SAMPLE_BUDGET):  # bounded compiled calls: Ctrl-C acts in between
         j = min(n, i + SAMPLE_BUDGET)
         problem.entry.diagnostics(t[i:j], y[i:j], problem.params, diag[i:j])
+        problem.entry.term_torques(t[i:j], y[i:j], problem.params, torques[i:j])
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    return build_dataset(t, y, diag, problem.body, problem.potential, attrs)
+    return build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)

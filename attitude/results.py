@@ -1,7 +1,11 @@
 """The propagation result: one xarray Dataset schema for every method and formulation.
 
-See docs/results.md for the schema. Units are strings that ``astropy.units.Unit`` parses and
-CF tools understand; a body given without units gives dimensionless results (``"1"``).
+See docs/results.md for the schema. It follows CF-1.10: dimension coordinates are numeric
+(``component`` 0..3, ``axis`` 0..2, with the letters in the auxiliary label coordinates
+``component_label`` and ``axis_label``), ``time`` is a CF time coordinate (``seconds since
+<epoch>``) when the run has an epoch, and every unit string is parsed alike by astropy,
+UDUNITS (cf_units) and pint's default registry (``kg m^2 s^-1`` style). A body with units gives
+SI results (orbit quantities in km); a body without units gives dimensionless ones (``"1"``).
 """
 
 from __future__ import annotations
@@ -14,7 +18,45 @@ import xarray as xr
 from ._version import __version__
 from .body import RigidBody
 
-__all__ = ["UnitSystem", "build_dataset"]
+__all__ = [
+    "AXIS_LABELS",
+    "COMPONENT_LABELS",
+    "SI",
+    "UnitSystem",
+    "add_event_variables",
+    "build_dataset",
+    "set_time_attrs",
+    "time_attrs",
+    "time_unit",
+    "time_values",
+]
+
+#: Unit strings of a body with units (SI; orbit lengths in km). Each is parsed to the same unit
+#: by astropy, UDUNITS (cf_units) and pint's default registry (tests/test_cf.py).
+SI = {
+    "time": "s",
+    "inertia": "kg m^2",
+    "momentum": "kg m^2 s^-1",  # = N m s
+    "energy": "J",
+    "rate": "rad s^-1",
+    "torque": "N m",
+    "force": "N",
+    "length": "m",  # lengths on the body (heavy-top centre of mass)
+    "orbit_length": "km",  # the orbit module works in km and s
+    "angle": "rad",
+}
+#: Letters of the quaternion components (index 0..3 of ``component``), scalar first.
+COMPONENT_LABELS = ("w", "x", "y", "z")
+#: Letters of the body/space vector components (index 0..2 of ``axis``).
+AXIS_LABELS = ("x", "y", "z")
+
+_LEAP_SECOND_NOTE = (
+    "time counts SI seconds elapsed since the epoch (UTC), leap seconds included. CF "
+    "calendars (calendar = standard) have no leap seconds: datetimes decoded by CF tools "
+    "(xarray, netCDF4.num2date, cftime) are late by the leap seconds inserted between the "
+    "epoch and the sample (none since 2017-01-01). The exact epoch is the global attr "
+    "'epoch'; attitude reads times exactly (ds.attitude.times(), astropy)."
+)
 
 
 def _utc_now() -> str:
@@ -33,19 +75,184 @@ def _plain(x: Any, unit: str | None) -> np.ndarray:
 
 
 class UnitSystem:
-    """Unit strings of the result variables, from the body's unit system."""
+    """Unit strings of the result variables, from the body's unit system (SI or ``"1"``)."""
 
     def __init__(self, body: RigidBody):
         if body.units is None:
             self.time = self.inertia = self.momentum = self.energy = self.rate = "1"
-            self.length = "1"
+            self.torque = self.length = "1"
         else:
-            self.time = "s"
-            self.inertia = "kg km2"
-            self.momentum = "kg km2 s-1"
-            self.energy = "kg km2 s-2"
-            self.rate = "rad s-1"
-            self.length = "km"
+            self.time = SI["time"]
+            self.inertia = SI["inertia"]
+            self.momentum = SI["momentum"]
+            self.energy = SI["energy"]
+            self.rate = SI["rate"]
+            self.torque = SI["torque"]
+            self.length = SI["length"]
+
+
+def _cf_reference(epoch: str) -> str | None:
+    """The epoch as a CF/UDUNITS reference time ``YYYY-MM-DD hh:mm:ss.ffffff`` (UTC).
+
+    None for an epoch inside a leap second (23:59:60), which CF calendars cannot express.
+    """
+    from astropy.time import Time
+
+    t = Time(str(epoch).rstrip("Z"), scale="utc")
+    t.precision = 6
+    iso = str(t.iso)
+    if iso[17:19] == "60":
+        return None
+    return iso
+
+
+#: Reference time written when a run has no epoch: CF requires ``<unit> since <reference>`` of
+#: a time coordinate, so a conventional placeholder is used and the attrs say so.
+PLACEHOLDER_REFERENCE = "1970-01-01 00:00:00"
+
+
+def time_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
+    """Attrs of the ``time`` coordinate (CF 1.10 sect. 4.4).
+
+    Parameters
+    ----------
+    units : {"s", "1"}
+        Time unit of the run (``"1"`` for a dimensionless body).
+    epoch : str, optional
+        ISO 8601 UTC epoch of ``time = 0`` (the global attr ``epoch``).
+
+    Returns
+    -------
+    dict
+        ``standard_name = "time"``, ``axis = "T"``, ``calendar = "standard"`` and
+        ``units = "seconds since <epoch>"`` (UTC) with a comment on leap seconds. A run without
+        an epoch (or dimensionless) has the placeholder reference
+        :data:`PLACEHOLDER_REFERENCE`, which CF requires, and says so in ``long_name`` and
+        ``comment``. ``elapsed_time_units`` is the plain unit of the stored numbers (``"s"``,
+        or ``"1"`` for a dimensionless run, whose numbers are not seconds).
+    """
+    ref = _cf_reference(epoch) if (epoch and units != "1") else None
+    a = {"standard_name": "time", "axis": "T", "calendar": "standard"}
+    if ref is not None:
+        return {
+            "units": f"seconds since {ref}",
+            **a,
+            "long_name": "time",
+            "elapsed_time_units": "s",
+            "comment": _LEAP_SECOND_NOTE,
+        }
+    if units == "1":
+        note = (
+            "dimensionless run (a body without units): the numbers are times in the body's "
+            "own consistent unit, not seconds, and there is no epoch; the reference "
+            f"'seconds since {PLACEHOLDER_REFERENCE}' is a placeholder that CF requires of a "
+            "time coordinate (read the plain numbers: attitude.io.read, or "
+            "xarray.open_dataset(..., decode_times=False))"
+        )
+        long_name = "dimensionless time since the initial state (no epoch)"
+    else:
+        note = (
+            "no epoch: times are seconds since the initial state; the reference "
+            f"{PLACEHOLDER_REFERENCE} is a placeholder that CF requires of a time coordinate "
+            + (
+                "(the epoch is inside a leap second, which CF reference times cannot express; "
+                "it is the global attr 'epoch')"
+                if epoch
+                else "(give the scenario an epoch for absolute times)"
+            )
+        )
+        long_name = "time since the initial state (no epoch)"
+    return {
+        "units": f"seconds since {PLACEHOLDER_REFERENCE}",
+        **a,
+        "long_name": long_name,
+        "elapsed_time_units": units,
+        "comment": note,
+    }
+
+
+def time_unit(var: Any) -> str:
+    """The plain unit (``"s"`` or ``"1"``) of a ``time`` variable, CF-encoded or decoded."""
+    plain = var.attrs.get("elapsed_time_units")
+    if plain:
+        return str(plain)
+    if np.issubdtype(np.asarray(var.values[:0]).dtype, np.datetime64):
+        return "s"
+    units = str(var.attrs.get("units", "")).strip()
+    if " since " in units:
+        units = units.split(" since ", 1)[0].strip()
+        return {"seconds": "s", "second": "s", "sec": "s", "secs": "s"}.get(units, units)
+    return units or "1"
+
+
+def time_values(ds: xr.Dataset) -> np.ndarray:
+    """The ``time`` coordinate as float64 in its plain unit (seconds since the epoch, or "1").
+
+    Works on the Datasets of :func:`attitude.io.read` (the stored numbers, bit for bit) and on
+    files opened by ``xarray.open_dataset`` with CF decoding (datetime64 converted back to
+    seconds since the reference time of the encoding, to 1 ns).
+    """
+    t = ds["time"]
+    vals = np.asarray(t.values)
+    if not np.issubdtype(vals.dtype, np.datetime64):
+        return np.asarray(vals, dtype=np.float64)
+    units = str(t.encoding.get("units", ""))
+    if " since " in units:
+        ref = np.datetime64(units.split(" since ", 1)[1].strip().replace(" ", "T").rstrip("Z"))
+    else:
+        from .errors import AttitudeValueError
+
+        raise AttitudeValueError(
+            "time: decoded datetimes without their CF units (open the file with "
+            "attitude.io.read, or xarray.open_dataset(..., decode_times=False))"
+        )
+    ns = (vals.astype("datetime64[ns]") - ref.astype("datetime64[ns]")).astype(np.int64)
+    return ns.astype(np.float64) * 1e-9
+
+
+def set_time_attrs(ds: xr.Dataset) -> xr.Dataset:
+    """Make the attrs of ``ds.time`` follow the global attr ``epoch`` (in place; returns ds).
+
+    Call after setting ``ds.attrs["epoch"]``; :func:`attitude.io.write` and
+    :class:`attitude.io.StreamWriter` apply the same rule to the file.
+    """
+    if "time" in ds.variables:
+        var = ds.variables["time"]
+        units = time_unit(var)
+        new = time_attrs(units, ds.attrs.get("epoch"))
+        for k in ("standard_name", "axis", "calendar", "comment", "elapsed_time_units"):
+            var.attrs.pop(k, None)
+        var.attrs.update(new)
+    return ds
+
+
+def index_coords() -> dict[str, Any]:
+    """The ``component``/``axis`` coordinates of every result Dataset.
+
+    CF coordinate variables are numeric and monotonic: indices, with the letters in the
+    auxiliary label coordinates ``component_label``/``axis_label`` (CF 1.10 sect. 6.1).
+    """
+    return {
+        "component": (
+            "component",
+            np.arange(4, dtype=np.int32),
+            {
+                "long_name": "quaternion component index: 0 = w (scalar), 1 = x, 2 = y, 3 = z",
+                "units": "1",
+            },
+        ),
+        "component_label": (
+            "component",
+            np.array(COMPONENT_LABELS),
+            {"long_name": "quaternion component (scalar first)"},
+        ),
+        "axis": (
+            "axis",
+            np.arange(3, dtype=np.int32),
+            {"long_name": "vector component index: 0 = x, 1 = y, 2 = z", "units": "1"},
+        ),
+        "axis_label": ("axis", np.array(AXIS_LABELS), {"long_name": "vector component"}),
+    }
 
 
 def build_dataset(
@@ -55,6 +262,7 @@ def build_dataset(
     body: RigidBody,
     potential: Any,
     attrs: dict[str, Any],
+    torques: np.ndarray | None = None,
 ) -> xr.Dataset:
     """Assemble the result Dataset.
 
@@ -70,15 +278,15 @@ def build_dataset(
     potential : Potential
     attrs : dict
         Run description (method, tolerances, statistics...).
+    torques : ndarray, shape (m, n_terms + 1, 3), optional
+        Body torque of each term of the model and their sum (``_core.dynamics.term_torques_with``).
     """
     u = UnitSystem(body)
-    comp = ["w", "x", "y", "z"]
-    axis = ["x", "y", "z"]
 
     def var(dims, data, units, long_name, **extra):
-        return xr.Variable(
-            dims, np.ascontiguousarray(data), {"units": units, "long_name": long_name, **extra}
-        )
+        data = np.ascontiguousarray(data, dtype=np.float64)
+        attrs = {"units": units, "long_name": long_name, **extra}
+        return xr.Variable(dims, data, attrs, fastpath=True)
 
     data_vars = {
         "q": var(
@@ -104,7 +312,9 @@ def build_dataset(
     orbit = getattr(potential, "orbit", None)
     if orbit is not None:
         # The orbit module works in km and s whatever the body's unit system.
-        data_vars["r"] = var(("time",), _plain(orbit.radius(t), "km"), "km", "orbit radius")
+        data_vars["r"] = var(
+            ("time",), _plain(orbit.radius(t), "km"), SI["orbit_length"], "orbit radius"
+        )
         data_vars["f"] = var(("time",), _plain(orbit.true_anomaly(t), "rad"), "rad", "true anomaly")
         data_vars["p"] = var(
             ("time", "component"),
@@ -113,14 +323,30 @@ def build_dataset(
             "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
             "z_O orbit normal), scalar first",
         )
+    extra_coords = {}
+    if torques is not None:
+        names = [*potential.term_names(), "total"]
+        data_vars["torque"] = var(
+            ("time", "model", "axis"),
+            torques,
+            u.torque,
+            "body-frame torque of each model term and their sum (model = total)",
+        )
+        extra_coords = {
+            "model": (
+                "model",
+                np.arange(len(names), dtype=np.int32),
+                {"long_name": "torque model term index (labels in model_label)", "units": "1"},
+            ),
+            "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
+        }
+        missing = getattr(potential, "terms_without_potential", None)
+        if missing:
+            attrs = {**attrs, "terms_without_potential": ", ".join(missing)}
     coords = {
-        "time": (
-            "time",
-            np.asarray(t, dtype=np.float64),
-            {"units": u.time, "long_name": "time since the scenario epoch"},
-        ),
-        "component": ("component", comp, {"long_name": "quaternion component, scalar first"}),
-        "axis": ("axis", axis, {"long_name": "vector component"}),
+        "time": ("time", np.asarray(t, dtype=np.float64), time_attrs(u.time, attrs.get("epoch"))),
+        **index_coords(),
+        **extra_coords,
     }
     base = {
         "Conventions": "CF-1.10",
@@ -137,4 +363,141 @@ def build_dataset(
         ),
     }
     base.update(attrs)
-    return xr.Dataset(data_vars, coords=coords, attrs=base)
+    return _dataset(data_vars, coords, base)
+
+
+def _dataset(
+    data_vars: dict[str, xr.Variable], coords: dict[str, tuple], attrs: dict
+) -> xr.Dataset:
+    """``xr.Dataset(data_vars, coords=coords, attrs=attrs)``, assembled directly.
+
+    The public constructor merges and aligns its arguments (about 0.4 ms, most of a short
+    ``propagate`` call); here every variable already has its final dims, dtype and attrs and
+    every coordinate is 1-D (a dimension coordinate, indexed, or an auxiliary label
+    coordinate), so the Dataset is put together from its parts (variables, default pandas
+    indexes of the dimension coordinates, dims). tests/test_results_fast.py checks that the
+    result is identical to the public constructor's; on an xarray without the internals used
+    here the public constructor is used.
+    """
+    try:
+        import pandas as pd
+        from xarray.core.indexes import PandasIndex
+
+        coord_vars: dict[str, Any] = {}
+        indexes: dict[str, Any] = {}
+        for name, (dim, values, vattrs) in coords.items():
+            values = np.asarray(values)
+            if name != dim:  # an auxiliary (label) coordinate: no index
+                coord_vars[name] = xr.Variable((dim,), values, dict(vattrs))
+                continue
+            const = values.dtype.kind in "iU"  # the index coordinates (component, axis, model)
+            key = (name, tuple(values.tolist()), tuple(vattrs.items())) if const else None
+            if key is not None and key in _COORD_CACHE:
+                idx, cvar = _COORD_CACHE[key]
+                cvar = cvar.copy(deep=False)  # own attrs dict; the index is immutable
+            else:
+                idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
+                cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
+                if key is not None:
+                    _COORD_CACHE[key] = (idx, cvar.copy(deep=False))
+            coord_vars[name] = cvar
+            indexes[name] = idx
+        variables = {**data_vars, **coord_vars}  # the public constructor's order
+        dims: dict[str, int] = {}
+        for v in coord_vars.values():
+            dims.update(zip(v.dims, v.shape, strict=True))
+        return xr.Dataset._construct_direct(variables, set(coords), dims, attrs, indexes)
+    except (ImportError, AttributeError, TypeError):  # pragma: no cover - xarray internals moved
+        return xr.Dataset(
+            data_vars, coords={k: (d, v, a) for k, (d, v, a) in coords.items()}, attrs=attrs
+        )
+
+
+# Default indexes of the constant index coordinates ("component", "axis", "model"), reused.
+_COORD_CACHE: dict[tuple, Any] = {}
+
+
+def add_event_variables(
+    ds: xr.Dataset, evset: Any, records: Any, body: RigidBody, status: int
+) -> xr.Dataset:
+    """The run's events as variables on an ``event`` dimension (docs/events.md).
+
+    ``event`` (coordinate: occurrence number), ``event_time``, ``event_detector`` (which event:
+    an index of the ``detector`` dimension, labelled by ``detector_label``),
+    ``event_direction`` (+1 rising, −1 falling), ``event_q``, ``event_Q``, ``event_omega`` (the
+    state there); per detector ``detector_count`` and ``detector_first_time`` (NaN: none).
+    Attrs ``status`` ("success" or "event": a terminal event ended the run) and
+    ``terminal_event`` (its label and time).
+    """
+    from ._core import rk as _rk
+
+    u = UnitSystem(body)
+    k = records.t.shape[0]
+    y = records.y.reshape(k, 8)
+    g = 0.5 * _conj_mul_vec(y[:, :4], y[:, 4:])
+    omega = g / np.asarray(body.inertia, dtype=np.float64)
+    n = len(evset.labels)
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    new = {
+        "event_time": var(("event",), records.t, u.time, "time of the event"),
+        "event_detector": var(
+            ("event",),
+            records.which.astype(np.int64),
+            None,
+            "which event occurred (index of the detector dimension)",
+        ),
+        "event_direction": var(
+            ("event",),
+            records.direction.astype(np.int64),
+            "1",
+            "direction of the sign change of g: 1 rising, -1 falling",
+        ),
+        "event_q": var(("event", "component"), y[:, :4], "1", "attitude quaternion at the event"),
+        "event_Q": var(("event", "component"), y[:, 4:], u.momentum, "momenta at the event"),
+        "event_omega": var(
+            ("event", "axis"), omega, u.rate, "angular velocity in body axes at the event"
+        ),
+        "detector_count": var(
+            ("detector",), records.count.astype(np.int64), "1", "occurrences of each event"
+        ),
+        "detector_first_time": var(
+            ("detector",), records.first, u.time, "time of the first occurrence (NaN: none)"
+        ),
+    }
+    coords = {
+        "event": ("event", np.arange(k, dtype=np.int64), {"long_name": "event occurrence"}),
+        "detector": (
+            "detector",
+            np.arange(n, dtype=np.int64),
+            {"long_name": "index of the event detector (labels in detector_label)"},
+        ),
+        "detector_label": ("detector", np.array(evset.labels), {"long_name": "event name"}),
+    }
+    out = ds.assign_coords(coords).assign(new)
+    out.attrs = dict(ds.attrs)
+    terminal = status == _rk.EVENT
+    out.attrs["status"] = "event" if terminal else "success"
+    if terminal and k:
+        j = int(records.which[-1])
+        out.attrs["terminal_event"] = f"{evset.labels[j]} at t = {float(records.t[-1])!r}"
+    return out
+
+
+def _conj_mul_vec(q: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """vec(q̃∘Q) for rows of quaternions."""
+    w0, w1, w2, w3 = (q[:, i] for i in range(4))
+    Q0, Q1, Q2, Q3 = (Q[:, i] for i in range(4))
+    return np.stack(
+        [
+            w0 * Q1 - w1 * Q0 - w2 * Q3 + w3 * Q2,
+            w0 * Q2 + w1 * Q3 - w2 * Q0 - w3 * Q1,
+            w0 * Q3 - w1 * Q2 + w2 * Q1 - w3 * Q0,
+        ],
+        axis=-1,
+    )

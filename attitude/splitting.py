@@ -97,6 +97,12 @@ def _run(
     on_chunk: Callable[[int, np.ndarray], None] | None = None,
 ) -> RunResult:
     dt, order = _check(name, dt, order)
+    if problem.potential.rate_dependent:
+        raise AttitudeValueError(
+            f"method: {name!r} composes exact flows of the potential, so its torque must depend "
+            f"on the attitude and time only; the {problem.potential.name} model depends on the "
+            "body rates: use method='dop853'"
+        )
     t = problem.t
     m = t.shape[0]
     n_total = _count_steps(t, dt)
@@ -106,6 +112,8 @@ def _run(
             f"max_steps={max_steps}; use a larger dt or raise max_steps"
         )
     kinds, coefs, toffs = _ks.method_tables(name, order)
+    if problem.events is not None:
+        return _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chunk)
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     streaming = on_chunk is not None
     # Streaming: one chunk-sized buffer, handed to on_chunk and reused (bounded memory).
@@ -159,6 +167,82 @@ def _run(
         keep = buf[:filled][-1:].copy() if done else y_out[:0].copy()
         return RunResult(keep, int(status), msg, stats, first=last)
     return RunResult(y_out[:done], int(status), msg, stats)
+
+
+def _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chunk) -> RunResult:
+    """:func:`_run` with events (each step whole; :mod:`attitude._core.events`)."""
+    from ._methods import _EventBuffers
+
+    ev = problem.events
+    t = problem.t
+    m = t.shape[0]
+    chunk = m if chunk is None else max(1, int(chunk))
+    streaming = on_chunk is not None
+    y_out = np.empty((min(chunk, m) if streaming else m, 8))
+    state = np.empty(8)
+    _ks.canonical_to_state(problem.y0, state)
+    counters = np.zeros(3, dtype=np.int64)
+    buf = _EventBuffers(ev.n)
+    g0 = np.empty((1, ev.n))
+    problem.entry.event_values(t[:1], problem.y0[None, :], problem.params, ev.data, g0)
+    buf.evs[:, 0] = g0[0]
+    buf.evs[:, 2] = np.nan
+    done = 0
+    status = _rk.SUCCESS
+    last = y_out[:0]
+    while done < m:
+        stop = min(m, done + chunk)
+        while True:
+            buf_y = y_out[: stop - done] if streaming else y_out[done:stop]
+            first = 0
+            if done == 0:
+                buf_y[0] = problem.y0
+                first = 1
+            status, k = problem.entry.composition_events(
+                problem.params, kinds, coefs, toffs, state, t[done + first - 1],
+                t[done + first : stop], dt, buf_y[first:], counters, ev.data, buf.evs,
+                buf.count, buf.t, buf.k, buf.y,
+            )  # fmt: skip
+            filled = first + int(k)
+            if filled:
+                last = buf_y[:filled]
+                if streaming:
+                    on_chunk(done, buf_y[:filled])
+            done += filled
+            if status != _rk.EVENT_BUFFER_FULL:
+                break
+            buf.grow()
+        if progress is not None:
+            progress(done, m, float(t[done - 1]))
+        if status != _rk.SUCCESS:
+            break
+    stats = {
+        "n_steps": int(counters[0]),
+        "n_torque": int(counters[1]),
+        "n_free_flow": int(counters[2]),
+        "dt": dt,
+        "order": order,
+    }
+    y_all = y_out[:done] if not streaming else last[-1:].copy()
+    first_row = 0 if not streaming else max(done - 1, 0)
+    t_event = None
+    if status == _rk.EVENT:
+        y_ev = np.empty((1, 8))
+        _ks.state_to_canonical(state, y_ev[0])
+        t_event = float(buf.t[int(buf.count[0]) - 1])
+        if done and t[done - 1] == t_event:
+            t_event = None
+        elif streaming:
+            on_chunk(done, y_ev, t_event)
+            first_row, y_all = done, y_ev
+        else:
+            y_all = np.concatenate([y_all, y_ev])
+    elif status != _rk.SUCCESS:
+        status = _rk.NONFINITE
+    msg = _rk.STATUS_MESSAGES[int(status)]
+    return RunResult(
+        y_all, int(status), msg, stats, first=first_row, events=buf.records(), t_event=t_event
+    )
 
 
 def run_nosquish(problem: Problem, *, dt: Any = None, order: Any = 4, **options: Any) -> RunResult:

@@ -1,5 +1,8 @@
 """Compiled scalar kernels of the two-body problem (plain floats in, tuples of floats out).
 
+One concept, Kepler's problem in compiled code (the equation's solvers with their
+cancellation-free series, anomaly conversions, the state and the orbital frame).
+
 Everything here is decorated with :func:`orbit._shared_jit.jit`: compiled lazily by numba, or plain
 Python when JIT is disabled. No kernel allocates, so the attitude integrators call
 :func:`radius_and_frame` / :func:`radius_and_radial_unit` inside every right-hand-side
@@ -29,11 +32,14 @@ reduced value (a double-double) is exact to ~1e-32 k; the result for the origina
 ``E = M + (E_r − M_r)`` (because E − M = e sin E is 2π-periodic), continuous in M. On [0, π]
 (odd symmetry) the solver starts from Markley's (1995, Celest. Mech. Dyn. Astr. 63, 101)
 cubic starter (his α of eq. 20, d, q, r of eqs. 5, 9, 10; relative error below 2.9e-4
-everywhere) and applies one sixth-order correction (series reversion of the degree-5 Taylor
-polynomial, one division), with the residual E − e sin E − M evaluated without cancellation:
+everywhere; its cube root by a bit-trick inverse cube root and three division-free Newton steps,
+not libm's cbrt, which cost a third of the solve) and applies one sixth-order correction (series
+reversion of the degree-5 Taylor polynomial, one division), with the residual E − e sin E − M
+evaluated without cancellation:
 
 * |E| < 1: E − e sin E = (1 − e) E + e (E − sin E), with E − sin E and 1 − cos E from their
-  Taylor series (no cancellation as e → 1 and M → 0, the hard corner);
+  Taylor series (no cancellation as e → 1 and M → 0, the hard corner), truncated where the
+  dropped terms move E by a fraction of an ulp (``_x_minus_sin_kepler``, ``_one_minus_cos_kepler``);
 * |E| >= 1: (E − M) − e sin E with an error-free sum and product (double-double), so the only
   rounding left is the one of ``sin``.
 
@@ -51,6 +57,8 @@ without overflow.
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from ._shared_jit import jit
 
@@ -99,6 +107,7 @@ TWO_PI_3 = -5.989539619436679e-33
 PI = math.pi
 _SPLITTER = 134217729.0  # 2**27 + 1 (Dekker split)
 # Reciprocals of the Taylor-series denominators (multiplying is much cheaper than dividing).
+_R3 = 1.0 / 3.0
 _R6 = 1.0 / 6.0
 _R24 = 1.0 / 24.0
 _R120 = 1.0 / 120.0
@@ -128,6 +137,7 @@ _R650 = 1.0 / 650.0
 _R702 = 1.0 / 702.0
 _MK_A = 3.0 * PI * PI / (PI * PI - 6.0)  # Markley's α (his eq. 20) = _MK_A + _MK_B (π − M)/(1 + e)
 _MK_B = 1.6 * PI / (PI * PI - 6.0)
+_INV_CBRT_MAGIC = np.int64(0x553EF0FF289DD794)  # Moroz et al. (2021), inverse cube root
 _HYP_SERIES = 2.5  # |H| below which sinh H − H and cosh H − 1 come from their series
 _HYP_LOG_REGIME = 1.0e10  # M/e above which H = log(2(M + H)/e) to double precision
 
@@ -207,6 +217,42 @@ def _one_minus_cos(x):
 
 
 @jit
+def _x_minus_sin_kepler(x):
+    """x − sin x for |x| <= 1, truncated for the Kepler residual (relative error < 5e-17).
+
+    The dropped terms x^19/19! − ... change E − e sin E − M by at most e E³/6 · 6E^16/19!,
+    below 1.7e-17 E after division by f1 >= E²/2 (e -> 1): a fraction of an ulp.
+    """
+    y = x * x
+    s = 1.0 - y * _R272
+    s = 1.0 - y * _R210 * s
+    s = 1.0 - y * _R156 * s
+    s = 1.0 - y * _R110 * s
+    s = 1.0 - y * _R72 * s
+    s = 1.0 - y * _R42 * s
+    s = 1.0 - y * _R20 * s
+    return x * y * _R6 * s
+
+
+@jit
+def _one_minus_cos_kepler(x):
+    """1 − cos x for |x| <= 1, truncated for the Kepler derivative (relative error < 3e-16).
+
+    It enters only f1 = 1 − e cos E, the divisor of a correction of relative size < 2.9e-4,
+    so its error moves E by less than 1e-19 E.
+    """
+    y = x * x
+    c = 1.0 - y * _R240
+    c = 1.0 - y * _R182 * c
+    c = 1.0 - y * _R132 * c
+    c = 1.0 - y * _R90 * c
+    c = 1.0 - y * _R56 * c
+    c = 1.0 - y * _R30 * c
+    c = 1.0 - y * _R12 * c
+    return 0.5 * y * c
+
+
+@jit
 def _sinh_minus_x(x):
     """sinh x − x for |x| <= 2.5 by its Taylor series (all terms of one sign, 13 terms)."""
     y = x * x
@@ -245,11 +291,29 @@ def _cosh_minus_one(x):
 
 
 @jit
+def _pow_two_thirds(x):
+    """x^(2/3) for a normal x in [1e-300, 1e300], relative error below 1e-9, without libm.
+
+    x^(2/3) = x · x^(−1/3); y = x^(−1/3) from the exponent-halving bit trick with Moroz et
+    al.'s constant (relative error 3.4e-2) and three Newton steps y <- (4y − x y⁴)/3 (errors
+    2.4e-3, 1.1e-5, 2.6e-10), with no division. Markley's starter only needs 2.9e-4, and the
+    libm cube root cost more than the rest of the starter.
+    """
+    i = np.int64(_INV_CBRT_MAGIC - np.float64(x).view(np.int64) // 3)
+    y = i.view(np.float64)
+    x3 = x * _R3
+    for _ in range(3):
+        y2 = y * y
+        y = 4.0 * _R3 * y - (x3 * y2) * y2  # (x y²) y² ~ x^(−1/3): no overflow
+    return x * y
+
+
+@jit
 def _kepler_residual(E, M, M_lo, e, ome):
     """(E − e sin E − (M + M_lo), 1 − e cos E, sin E, cos E) for 0 <= E <= π, ome = 1 − e."""
     if E < 1.0:
-        S = _x_minus_sin(E)
-        C = _one_minus_cos(E)
+        S = _x_minus_sin_kepler(E)
+        C = _one_minus_cos_kepler(E)
         p1, q1 = _two_prod(ome, E)
         p2, q2 = _two_prod(e, S)
         s, q3 = _two_sum(p1, p2)
@@ -277,8 +341,9 @@ def _kepler_E_core(M, M_lo, e):
     d = 3.0 * ome + alpha * e
     q = 2.0 * alpha * d * ome - M * M
     r = 3.0 * alpha * d * (d - ome) * M + M * M * M
-    w = (abs(r) + math.sqrt(q * q * q + r * r)) ** (2.0 / 3.0)
-    E = (2.0 * r * w / (w * w + w * q + q * q) + M) / d
+    w = _pow_two_thirds(abs(r) + math.sqrt(q * q * q + r * r))
+    D = w * w + w * q + q * q
+    E = (2.0 * r * w + M * D) / (d * D)  # (2rw/D + M)/d with one division
     if E > PI:
         E = PI
     # One sixth-order correction: the root δ of the degree-5 Taylor polynomial of
@@ -573,15 +638,8 @@ def _perifocal(el, t):
 
 
 @jit
-def state(el, t):
-    """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
-    _, xp, yp, vxp, vyp = _perifocal(el, t)
-    cw = math.cos(el[ARGP])
-    sw = math.sin(el[ARGP])
-    cO = math.cos(el[RAAN])
-    sO = math.sin(el[RAAN])
-    ci = math.cos(el[INC])
-    si = math.sin(el[INC])
+def rotate_perifocal(xp, yp, vxp, vyp, cO, sO, ci, si, cw, sw):
+    """Perifocal (x, y, vx, vy) to space-frame position and velocity, from the trig of Ω, i, ω."""
     # N̂ = (cos Ω, sin Ω, 0) (node line), M̂ = ĥ × N̂ = (−sin Ω cos i, cos Ω cos i, sin i);
     # periapsis P̂ = cos ω N̂ + sin ω M̂, Q̂ = −sin ω N̂ + cos ω M̂.
     mx, my, mz = -sO * ci, cO * ci, si
@@ -594,6 +652,24 @@ def state(el, t):
         vxp * px + vyp * qx,
         vxp * py + vyp * qy,
         vxp * pz + vyp * qz,
+    )
+
+
+@jit
+def state(el, t):
+    """(x, y, z, vx, vy, vz): position [km] and velocity [km/s] in the space frame at time t."""
+    _, xp, yp, vxp, vyp = _perifocal(el, t)
+    return rotate_perifocal(
+        xp,
+        yp,
+        vxp,
+        vyp,
+        math.cos(el[RAAN]),
+        math.sin(el[RAAN]),
+        math.cos(el[INC]),
+        math.sin(el[INC]),
+        math.cos(el[ARGP]),
+        math.sin(el[ARGP]),
     )
 
 

@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
-__all__ = ["OrbitError", "OrbitTypeError", "OrbitValueError"]
+__all__ = [
+    "OrbitError",
+    "OrbitTypeError",
+    "OrbitValueError",
+    "OrbitWarning",
+    "PerigeeInsideEarthWarning",
+]
 
 
 class OrbitError(Exception):
@@ -15,3 +21,12 @@ class OrbitValueError(OrbitError, ValueError):
 
 class OrbitTypeError(OrbitError, TypeError):
     """An orbit argument has the wrong type or incompatible units."""
+
+
+class OrbitWarning(UserWarning):
+    """The orbit is valid but probably not what was meant."""
+
+
+class PerigeeInsideEarthWarning(OrbitWarning):
+    """An Earth orbit (mu = Earth's GM) whose perigee radius a (1 − e) is below the Earth's
+    equatorial radius: the satellite would pass through the Earth."""

@@ -12,13 +12,16 @@ inside their right-hand sides.
 from __future__ import annotations
 
 import math
+import warnings
 from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from . import _kernels as _k
-from .errors import OrbitValueError
+from . import _state_kernels as _sk
+from .base import OrbitBase
+from .errors import OrbitValueError, PerigeeInsideEarthWarning
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
 
 __all__ = ["KeplerOrbit", "earth_mu"]
@@ -30,6 +33,27 @@ def earth_mu() -> float:
     from astropy import constants
 
     return float(constants.GM_earth.to_value("km3 / s2"))
+
+
+#: Earth's GM (km³/s²; WGS 84) and equatorial radius (km; WGS 84) for the perigee check. Any
+#: mu within EARTH_MU_RTOL of it is the Earth's (IAU 2015 398600.4, WGS 72 398600.8 too).
+EARTH_MU = 398600.4418
+EARTH_MU_RTOL = 1e-5
+EARTH_RADIUS = 6378.137
+
+
+def _check_perigee(a: float, e: float, mu: float) -> None:
+    """Warn (:class:`PerigeeInsideEarthWarning`) if an Earth orbit's perigee is inside the Earth."""
+    rp = a * (1.0 - e)  # also |a| (e − 1) for a hyperbola (a < 0)
+    if abs(mu - EARTH_MU) <= EARTH_MU_RTOL * EARTH_MU and rp < EARTH_RADIUS:
+        warnings.warn(
+            PerigeeInsideEarthWarning(
+                f"perigee altitude {rp - EARTH_RADIUS:.1f} km: this Earth orbit's perigee radius "
+                f"a (1 - e) = {rp:.1f} km is inside the Earth (equatorial radius "
+                f"{EARTH_RADIUS} km); check a and e (or give mu of another central body)"
+            ),
+            stacklevel=3,
+        )
 
 
 def _scalar(x: Any, name: str, unit: Any) -> float:
@@ -58,7 +82,42 @@ def _wrap_2pi(x: float) -> float:
     return 0.0 if y >= 2.0 * math.pi else y
 
 
-class KeplerOrbit:
+def kepler_kernel_data(el: np.ndarray) -> np.ndarray:
+    """The dispatcher array (:mod:`orbit._state_kernels`, type Kepler) of a 9-element ``el``.
+
+    The cos/sin of the constant angles are computed here once, with the same expressions the
+    kernels of :mod:`orbit._kernels` evaluate per call, so results are bit-identical.
+    """
+    d = np.empty(_sk.K_LEN, dtype=np.float64)
+    d[_sk.TYPE] = _sk.TYPE_KEPLER
+    d[_sk.MU] = el[_k.MU]
+    d[_sk.T_MIN] = -math.inf
+    d[_sk.T_MAX] = math.inf
+    d[_sk.K_EL : _sk.K_EL + _k.NEL] = el
+    raan, inc, argp = float(el[_k.RAAN]), float(el[_k.INC]), float(el[_k.ARGP])
+    d[_sk.K_TRIG : _sk.K_TRIG + 6] = (
+        math.cos(raan),
+        math.sin(raan),
+        math.cos(inc),
+        math.sin(inc),
+        math.cos(argp),
+        math.sin(argp),
+    )
+    hp = 0.5 * (raan + argp)
+    hm = 0.5 * (raan - argp)
+    d[_sk.K_HALF : _sk.K_HALF + 6] = (
+        math.cos(0.5 * inc),
+        math.sin(0.5 * inc),
+        math.cos(hp),
+        math.sin(hp),
+        math.cos(hm),
+        math.sin(hm),
+    )
+    d.setflags(write=False)
+    return d
+
+
+class KeplerOrbit(OrbitBase):
     """A Keplerian orbit about a point mass: elliptic (0 <= e < 1) or hyperbolic (e > 1).
 
     Parameters
@@ -82,6 +141,10 @@ class KeplerOrbit:
         Epoch of ``f0``/``M0``: seconds since the origin of the times passed to the methods.
     M0 : float or Quantity [rad], keyword-only, optional
         Mean anomaly at ``t0``, instead of ``f0``.
+    epoch : astropy Time or str, keyword-only, optional
+        The date of t = 0 (ISO 8601 strings are UTC unless a scale follows, e.g.
+        ``"2024-03-20T12:00:00 TT"``). With an epoch the space frame is the GCRS and
+        :meth:`geodetic` / :meth:`itrs_position` are available; times t stay seconds since it.
 
     Raises
     ------
@@ -119,7 +182,11 @@ class KeplerOrbit:
         t0: Any = 0.0,
         *,
         M0: Any = None,
+        epoch: Any = None,
     ) -> None:
+        from .timescales import as_epoch
+
+        self._epoch = as_epoch(epoch, "epoch")
         a_ = _scalar(a, "a", "km")
         e_ = _scalar(e, "e", None)
         inc_ = _scalar(inc, "inc", "rad")
@@ -185,6 +252,7 @@ class KeplerOrbit:
                 f"a, mu: the mean motion sqrt(mu/|a|³) is not a positive finite number "
                 f"(a = {a_!r} km, mu = {mu_!r} km³/s²)"
             )
+        _check_perigee(a_, e_, mu_)
         el = np.empty(_k.NEL, dtype=np.float64)
         el[_k.A] = a_
         el[_k.ECC] = e_
@@ -198,10 +266,13 @@ class KeplerOrbit:
         el.setflags(write=False)
         self._el = el
         self._f0 = f0_
+        self._data = kepler_kernel_data(el)
 
     # -----------------------------------------------------------------------------------------
     @classmethod
-    def from_state(cls, r: Any, v: Any, mu: Any = None, t0: Any = 0.0) -> KeplerOrbit:
+    def from_state(
+        cls, r: Any, v: Any, mu: Any = None, t0: Any = 0.0, *, epoch: Any = None
+    ) -> KeplerOrbit:
         """The orbit through position ``r`` with velocity ``v`` at time ``t0``.
 
         Parameters
@@ -214,6 +285,8 @@ class KeplerOrbit:
             Gravitational parameter; default Earth's GM.
         t0 : float or Quantity [s], optional
             Time of the state (the epoch of the returned elements).
+        epoch : astropy Time or str, optional
+            Date of t = 0 (the state is then in the GCRS).
 
         Returns
         -------
@@ -272,7 +345,7 @@ class KeplerOrbit:
         x_m = -rv[0] * sO * ci + rv[1] * cO * ci + rv[2] * si
         u = math.atan2(x_m, x_n)
         argp = _wrap_2pi(u - f)
-        return cls(a, e, inc, _wrap_2pi(raan), argp, f0=f, mu=mu_, t0=t0)
+        return cls(a, e, inc, _wrap_2pi(raan), argp, f0=f, mu=mu_, t0=t0, epoch=epoch)
 
     # -----------------------------------------------------------------------------------------
     @property
@@ -323,6 +396,12 @@ class KeplerOrbit:
         return float(self._el[_k.MU])
 
     @property
+    def source(self) -> str:
+        """'Kepler elements' (for attrs and ``attitude info``)."""
+        kind = "hyperbolic" if self.is_hyperbolic else "elliptic"
+        return f"Kepler elements ({kind}, a = {self.a!r} km, e = {self.e!r})"
+
+    @property
     def mean_motion(self) -> float:
         """Mean motion n = sqrt(mu/|a|³) [rad/s]."""
         return float(self._el[_k.N])
@@ -359,7 +438,12 @@ class KeplerOrbit:
 
     # -----------------------------------------------------------------------------------------
     def _times(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
-        ta = _as_array(t, "t", "s")
+        from astropy.time import Time
+
+        if isinstance(t, Time):
+            ta = np.asarray(self.seconds_since_epoch(t, "t"), dtype=np.float64)
+        else:
+            ta = _as_array(t, "t", "s")
         flat = np.ascontiguousarray(ta).ravel()
         if not self.is_hyperbolic and flat.size:
             m = self.M0 + self.mean_motion * (flat - self.t0)
@@ -530,8 +614,9 @@ class KeplerOrbit:
 
     def __repr__(self) -> str:
         kind = "hyperbolic" if self.is_hyperbolic else "elliptic"
+        ep = "" if self._epoch is None else f", epoch={self._epoch.utc.isot!r}"
         return (
             f"KeplerOrbit(a={self.a!r}, e={self.e!r}, inc={self.inc!r}, raan={self.raan!r}, "
-            f"argp={self.argp!r}, M0={self.M0!r}, mu={self.mu!r}, t0={self.t0!r})  # {kind}, "
-            "km, rad, s"
+            f"argp={self.argp!r}, M0={self.M0!r}, mu={self.mu!r}, t0={self.t0!r}{ep})  # "
+            f"{kind}, km, rad, s"
         )

@@ -5,13 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from astropy import units as u
+from astropy.constants import GM_earth
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 from scipy.spatial.transform import Rotation
 
 import attitude.accessor  # noqa: F401 - registers ds.attitude
 from attitude import scenario
 from attitude.propagate import propagate
 
-I_SAT = u.Quantity([400.0, 500.0, 600.0], "kg km2")
+I_SAT = u.Quantity([400.0, 500.0, 600.0], "kg m2")
 
 
 @pytest.fixture(scope="module")
@@ -36,12 +39,12 @@ def _scipy(q):
 
 def test_quantity_units(run):
     G = run.attitude.quantity("G")
-    assert G.unit == u.Unit("kg km2 / s")
+    assert G.unit == u.Unit("kg m2 / s")  # SI (was kg km² s⁻¹ before issue 16)
     np.testing.assert_array_equal(G.value, run.G.values)
     assert run.attitude.quantity("q").unit == u.dimensionless_unscaled
     assert run.attitude.quantity("time").to_value("min")[-1] == pytest.approx(10.0)
-    E = run.attitude.quantity("energy").to(u.J)  # kg km² s⁻² = 1e6 J
-    np.testing.assert_allclose(E.value, run.energy.values * 1e6, rtol=1e-15)
+    E = run.attitude.quantity("energy").to(u.erg)  # J = 1e7 erg
+    np.testing.assert_allclose(E.value, run.energy.values * 1e7, rtol=1e-15)
     with pytest.raises(ValueError, match="no variable 'nope'"):
         run.attitude.quantity("nope")
 
@@ -124,12 +127,51 @@ def test_orbit_views_on_gravity_gradient_run():
     ds = sc.run()
     assert ds.attitude.has_orbit
     assert ds.attitude.radius().unit == u.km
-    # e = 0.001: r within a(1 ± e)
-    assert np.all(np.abs(ds.attitude.radius().value - 7078.137) <= 7078.137 * 0.001 + 1e-9)
+    t = ds.attitude.quantity("time").to_value(u.s)
+    # Kepler's closed form with the documented default μ (astropy's GM_earth), f0 = 0 at t = 0
+    a, e = 7078.137e3, 0.001
+    inc, raan, argp = np.radians([98.19, 30.0, 90.0])
+    mu = GM_earth.to_value("m3 / s2")
+    n = np.sqrt(mu / a**3)
+    E = np.array([brentq(lambda x, m=n * ti: x - e * np.sin(x) - m, -1.0, n * ti + 1.0,
+                         xtol=1e-15) for ti in t])  # fmt: skip
+    r = a * (1 - e * np.cos(E))
+    f = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(E / 2), np.sqrt(1 - e) * np.cos(E / 2))
+    np.testing.assert_allclose(ds.attitude.radius().to_value(u.m), r, rtol=1e-13)
+    np.testing.assert_allclose(ds.attitude.true_anomaly().to_value(u.rad), f, rtol=0, atol=1e-12)
+    # orbital frame: columns radial, along-track, orbit normal (R3(Ω) R1(i) R3(ω + f))
+    orb = Rotation.from_euler("ZXZ", np.column_stack([np.full_like(f, raan),
+                              np.full_like(f, inc), argp + f]))  # fmt: skip
+    d = (orb.inv() * _scipy(ds.attitude.orbit_frame().values)).magnitude()
+    assert np.max(d) < 1e-12
+    # The attitude by a second formulation: Euler's equations with the gravity-gradient torque
+    # 3μ/r³ x̂_B × I x̂_B and q̇ = ½ q∘(0, ω), in SI, integrated by scipy; initial rates: zero
+    # relative to the orbital frame, i.e. the frame's rate ḟ = √(μ a (1 − e²))/r² about z_O.
+    inertia = np.array([60.0, 950.0, 1000.0])
+    rel0 = Rotation.from_euler("ZYX", [5.0, 2.0, 3.0], degrees=True)
+    att0 = orb[0] * rel0
+    w0 = rel0.inv().apply([0.0, 0.0, np.sqrt(mu * a * (1 - e**2)) / r[0] ** 2])
+
+    def rhs(ti, y):
+        q, w = y[:4] / np.linalg.norm(y[:4]), y[4:]
+        Ei = brentq(lambda x: x - e * np.sin(x) - n * ti, -1.0, n * ti + 1.0, xtol=1e-15)
+        fi = 2 * np.arctan2(np.sqrt(1 + e) * np.sin(Ei / 2), np.sqrt(1 - e) * np.cos(Ei / 2))
+        ri = a * (1 - e * np.cos(Ei))
+        xs = Rotation.from_euler("ZXZ", [raan, inc, argp + fi]).apply([1.0, 0.0, 0.0])
+        xb = _scipy(q).inv().apply(xs)
+        tau = 3 * mu / ri**3 * np.cross(xb, inertia * xb)
+        dw = (tau - np.cross(w, inertia * w)) / inertia
+        dq = 0.5 * np.array([-q[1:] @ w, *(q[0] * w + np.cross(q[1:], w))])
+        return np.concatenate([dq, dw])
+
+    y0 = np.concatenate([np.roll(att0.as_quat(), 1), w0])
+    sol = solve_ivp(rhs, (t[0], t[-1]), y0, method="DOP853", t_eval=t, rtol=1e-12, atol=1e-15)
+    ref_rel = orb.inv() * _scipy(sol.y[:4].T)
     rel = ds.attitude.relative_to_orbit().values
+    err = (_scipy(rel).inv() * ref_rel).magnitude()
+    assert np.max(err) < 1e-9, np.max(err)  # measured 1.1e-10 (the run's rtol 1e-10)
     # at t0 the relative attitude is the scenario's 3-2-1 angles (scipy: intrinsic "ZYX")
-    ref = Rotation.from_euler("ZYX", [5.0, 2.0, 3.0], degrees=True)
-    assert (_scipy(rel[0]).inv() * ref).magnitude() < 1e-14
-    # librating about nadir pointing: stays within a few degrees over the 10 minutes
-    ang = np.degrees((_scipy(rel)).magnitude())
-    assert np.all(ang < 10.0)
+    assert (_scipy(rel[0]).inv() * rel0).magnitude() < 1e-14
+    np.testing.assert_allclose(ds.omega.values[0], w0, rtol=1e-12)
+    # and it librates: the attitude moves away from its initial value relative to the frame
+    assert np.max((_scipy(rel).inv() * rel0).magnitude()) > 0.01  # measured 0.05 rad

@@ -19,3 +19,14 @@ def test_import_contracts_are_kept():
     out = subprocess.run([exe, "--no-cache"], cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stdout[-3000:] + out.stderr[-2000:]
     assert "0 broken" in out.stdout
+
+
+def test_no_library_module_longer_than_800_lines_unless_it_says_why():
+    long = []
+    for path in sorted(
+        [*ROOT.joinpath("attitude").rglob("*.py"), *ROOT.joinpath("orbit").rglob("*.py")]
+    ):
+        lines = path.read_text(encoding="utf-8").splitlines()
+        if len(lines) > 800 and "One concept" not in "\n".join(lines[:30]):
+            long.append(f"{path.relative_to(ROOT)}: {len(lines)} lines")
+    assert not long, long

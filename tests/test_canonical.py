@@ -177,9 +177,15 @@ def test_rigid_body_validation_and_tensor():
 def test_rigid_body_units():
     from astropy import units as u
 
+    # bodies with units are held in SI, whatever unit they were given in
     b = RigidBody([400, 500, 600] * u.Unit("kg km2"))
-    assert b.units == "kg km2"
+    assert b.units == "kg m^2"
+    np.testing.assert_allclose(b.inertia, [4e8, 5e8, 6e8], rtol=1e-15)
     b2 = RigidBody([4e8, 5e8, 6e8] * u.Unit("kg m2"))
-    np.testing.assert_allclose(b2.inertia, [400, 500, 600])
+    np.testing.assert_array_equal(b2.inertia, [4e8, 5e8, 6e8])
+    b3 = RigidBody([400, 500, 600], units="kg km2")
+    assert b3 == b
+    b4 = RigidBody([4e4, 5e4, 6e4] * u.Unit("g cm2"))  # 1 g cm² = 1e-7 kg m²
+    np.testing.assert_allclose(b4.inertia, [4e-3, 5e-3, 6e-3], rtol=1e-15)
     with pytest.raises(TypeError, match="inertia"):
         RigidBody([1, 2, 2] * u.s)

@@ -11,7 +11,6 @@ and keeps the chunks already written.
 from __future__ import annotations
 
 import importlib.util
-import time
 import tracemalloc
 import warnings
 from pathlib import Path
@@ -260,7 +259,7 @@ def test_streamed_file_equals_in_memory(gg_case, tmp_path):
         lazy.close()
     back = io.read(path)
     assert same(mem, back)
-    assert back.q.attrs["units"] == "1" and back.omega.attrs["units"] == "rad s-1"
+    assert back.q.attrs["units"] == "1" and back.omega.attrs["units"] == "rad s^-1"
     assert not list(tmp_path.glob(".*.tmp"))
 
 
@@ -360,23 +359,38 @@ def test_bad_input_before_any_work(tmp_path):
     cases.append(((I_PAPER, bad_q, Q, t), {}, AttitudeValueError, "member 3"))
     for args, kw, exc, match in cases:
         if "client" in kw:
-            pytest.importorskip("distributed")
+            import distributed  # noqa: F401 - test extra
         with pytest.raises(exc, match=match):
             propagate_ensemble(*args, path=tmp_path / "x.nc", **kw)
         assert not (tmp_path / "x.nc").exists()
     assert not list(tmp_path.iterdir())
 
 
-def test_unanswered_scheduler_fails_fast_and_writes_nothing(tmp_path):
-    pytest.importorskip("distributed")
+def test_unanswered_scheduler_fails_fast_and_writes_nothing(tmp_path, monkeypatch):
+    """An address nobody answers: Dask's own connection timeout is the user's
+    ``scheduler_timeout`` (recorded on the way in, so "fast" is Dask's contract, not a clock
+    reading here), its failure becomes one clear error, and nothing is written."""
     import socket
 
+    import distributed
+
+    calls = []
+
+    class RecordingClient(distributed.Client):
+        def __init__(self, *args, **kwargs):
+            calls.append(kwargs.get("timeout"))
+            try:
+                super().__init__(*args, **kwargs)
+            except BaseException as exc:
+                calls.append(type(exc))
+                raise
+
+    monkeypatch.setattr(distributed, "Client", RecordingClient)
     with socket.socket() as s:  # a loopback port nobody listens on
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
     Q = np.zeros((3, 4))
-    t0 = time.monotonic()
     with pytest.raises(AttitudeValueError, match=r"no Dask scheduler answered.*within 1 s"):
         propagate_ensemble(
             I_PAPER,
@@ -387,7 +401,8 @@ def test_unanswered_scheduler_fails_fast_and_writes_nothing(tmp_path):
             scheduler_timeout=1.0,
             path=tmp_path / "x.nc",
         )
-    assert time.monotonic() - t0 < 30.0  # bounded by the timeout, not hanging
+    # one connection attempt, bounded by the given timeout, that Dask itself gave up
+    assert calls[0] == 1.0 and len(calls) == 2 and issubclass(calls[1], Exception), calls
     assert not list(tmp_path.iterdir())
 
 
@@ -397,7 +412,7 @@ def test_unanswered_scheduler_fails_fast_and_writes_nothing(tmp_path):
 
 
 def test_dask_local_cluster_equals_local_run_bit_for_bit(gg_case, tmp_path):
-    pytest.importorskip("distributed")
+    import distributed  # noqa: F401 - test extra
     from distributed import Client, LocalCluster
 
     sc, q, Q, t = gg_case
@@ -440,7 +455,8 @@ def test_dask_local_cluster_equals_local_run_bit_for_bit(gg_case, tmp_path):
 
 
 def test_lazy_result_is_a_dask_graph_with_the_same_bits(gg_case, tmp_path):
-    pytest.importorskip("dask")
+    import dask  # noqa: F401 - test extra
+
     sc, q, Q, t = gg_case
     ref = propagate_ensemble(sc.body, q, Q, t, sc.potential)
     lazy = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=5, lazy=True)
@@ -525,7 +541,8 @@ def test_rate_percentiles_against_known_rates():
 
 
 def test_statistics_on_a_lazy_dask_file(spun_about_b3, tmp_path):
-    pytest.importorskip("dask")
+    import dask  # noqa: F401 - test extra
+
     ds, _, err = spun_about_b3
     path = tmp_path / "s.nc"
     q0 = ds.q.values[:, 0]
@@ -729,11 +746,12 @@ def test_shipped_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
     assert main(["run", str(path), "-o", str(out), "--stop", "291.425"]) == 0
     assert "1000 members (seed 2006)" in capsys.readouterr().out
     back = io.read(out)
-    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3}
+    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3, "detector": 2}
     assert back.attrs["run_status"] == "complete"
-    np.testing.assert_array_equal(back.attrs["inertia"], [400.0, 500.0, 600.0])
+    # the scenario gives the paper's kg km²; results are in SI (kg m²) since issue 16
+    np.testing.assert_allclose(back.attrs["inertia"], [4e8, 5e8, 6e8], rtol=1e-15)
     # the dispersed inertia: 2 % per axis, truncated at 3 sigma
-    eps = back.inertia.values / [400.0, 500.0, 600.0] - 1
+    eps = back.inertia.values / [4e8, 5e8, 6e8] - 1
     assert 0.015 < np.std(eps) < 0.025 and np.max(np.abs(eps)) <= 0.06
     np.testing.assert_allclose(back.norm_error.values, 0.0, atol=1e-10)  # DOP853, rtol 1e-10
     assert np.all(back.r.values > 5599.0)  # the orbit's periapsis is a (1 - e) = 5600 km

@@ -764,7 +764,8 @@ def test_kernels_run_without_jit():
 
 
 def test_public_shapes_units_and_alias():
-    astropy_units = pytest.importorskip("astropy.units")
+    from astropy import units as astropy_units
+
     q0, Q0 = state(np.array([1.0, 0.0, 0.0, 0.0]), (0.3, 0.2, 0.9))
     q, Q = torque_free([1.0, 2.0, 3.0], q0, Q0, 2.0)
     assert q.shape == (4,) and Q.shape == (4,)
@@ -773,10 +774,16 @@ def test_public_shapes_units_and_alias():
     qe, Qe = torque_free([1.0, 2.0, 3.0], q0, Q0, np.array([]))
     assert qe.shape == (0, 4) and Qe.shape == (0, 4)
     u = astropy_units
+    # Quantities are converted to SI (kg m², kg m² s⁻¹, s; kg km² based before issue 16)
     qu, Qu = torque_free(
-        [1.0, 2.0, 3.0] * u.kg * u.km**2, q0, Q0 * u.kg * u.km**2 / u.s, 2000.0 * u.ms
+        [1.0, 2.0, 3.0] * u.kg * u.m**2, q0, Q0 * u.kg * u.m**2 / u.s, 2000.0 * u.ms
     )
     assert np.array_equal(qu, q) and np.array_equal(Qu, Q)
+    qk, Qk = torque_free(
+        [1.0, 2.0, 3.0] * u.kg * u.km**2, q0, Q0 * u.kg * u.km**2 / u.s, 2000.0 * u.ms
+    )
+    np.testing.assert_allclose(qk, q, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(Qk, Q * 1e6, rtol=0, atol=1e-14 * 1e6)
     assert torque_free_states is torque_free
     # t = 0 returns the initial state (to round-off)
     q00, Q00 = torque_free([1.0, 2.0, 3.0], q0, Q0, 0.0)

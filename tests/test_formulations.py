@@ -49,12 +49,10 @@ def paper_state():
 
 
 def _keplerian():
-    """The paper's Sect. 6.2 scenario, or a skip while orbit.KeplerOrbit does not exist."""
-    import orbit
+    """The paper's Sect. 6.2 scenario."""
+    from orbit import KeplerOrbit
 
-    if not hasattr(orbit, "KeplerOrbit"):
-        pytest.skip("orbit.KeplerOrbit is not available in this checkout yet")
-    orb = orbit.KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12, f0=0.0)
+    orb = KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12, f0=0.0)
     inertia = np.array([400.0, 500.0, 600.0])
     return inertia, GravityGradient(orb), np.linspace(0.0, orb.period, 201)
 

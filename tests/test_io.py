@@ -70,7 +70,14 @@ def test_file_read_with_netcdf4_directly(heavy, tmp_path):
             assert v.filters()["zlib"] and v.filters()["shuffle"]
         # the data are the values of the Dataset, bit for bit
         assert _bits(nc.variables["q"][:].data) == _bits(heavy.q.values)
-        assert list(nc.variables["component"][:]) == ["w", "x", "y", "z"]
+        # CF: numeric dimension coordinates, the letters in auxiliary label variables named
+        # by the data variables' "coordinates" attr
+        assert nc.variables["component"][:].tolist() == [0, 1, 2, 3]
+        assert list(nc.variables["component_label"][:]) == ["w", "x", "y", "z"]
+        assert nc.variables["axis"][:].tolist() == [0, 1, 2]
+        assert list(nc.variables["axis_label"][:]) == ["x", "y", "z"]
+        assert nc.variables["q"].coordinates == "component_label"
+        assert nc.variables["omega"].coordinates == "axis_label"
 
 
 def test_streaming_equals_in_memory(heavy, tmp_path):

@@ -155,7 +155,8 @@ def test_high_eccentricity_against_40_digit_f_and_g_solution(e):
     # (At e = 0.95 the long-double RK8 above is itself only good to ~5e-11; this is exact.)
     # Measured: max error 4.7e-13 (e = 0.95) and 7.6e-11 (e = 0.999, at periapsis), 0.45 and
     # 0.23 of the conditioning bound below.
-    mp = pytest.importorskip("mpmath")
+    import mpmath as mp
+
     # Start at apoapsis, where the float rounding of the state perturbs a (hence n) least.
     orb = KeplerOrbit(26600.0, e, 1.1, 0.4, 4.0, f0=math.pi, t0=50.0)
     r0, v0 = orb.to_state()
@@ -400,7 +401,8 @@ def test_circular_equatorial_orbit():
 # ---------------------------------------------------------------------------------------------
 # Units and bad input.
 def test_quantities_are_converted_once():
-    u = pytest.importorskip("astropy.units")
+    from astropy import units as u
+
     ref = KeplerOrbit(7000.0, 0.2, math.pi / 6, math.pi / 4, math.pi / 12, f0=0.3, t0=60.0)
     q = KeplerOrbit(
         7.0e6 * u.m,

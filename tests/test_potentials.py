@@ -41,7 +41,7 @@ def fd_torque(pot, q, t, h=1e-6):
 @pytest.mark.parametrize(
     "pot",
     [
-        HeavyTop(0.5, [1.0, 0.2, -0.3]),
+        HeavyTop(0.5, [0.7, 0.2, -0.3]),  # c_x != 1: not the kind code in params[3]
         GravityGradient(paper_orbit(), inertia=I_SAT),
     ],
     ids=["heavy_top", "gravity_gradient"],
@@ -59,7 +59,7 @@ def test_torque_is_minus_derivative_of_potential(pot):
 
 def test_generalized_force_is_minus_tangential_gradient():
     """2 q∘(0, τ) = −(∇U − (q·∇U) q) for the quadratic form of eq. 18 (Schwab eq. 25)."""
-    W, c = 0.5, np.array([1.0, 0.2, -0.3])
+    W, c = 0.5, np.array([0.7, 0.2, -0.3])
     pot = HeavyTop(W, c)
 
     def U4(q):  # V = W (q∘c∘q̃)·s3 written with Schwab's eq. 7 matrix: quadratic in q
@@ -79,6 +79,20 @@ def test_generalized_force_is_minus_tangential_gradient():
     assert abs(np.dot(pot.generalized_force(q), q)) < 1e-15
 
 
+def test_torque_free_has_no_potential_energy():
+    """No potential: U = 0 exactly and H = T = ½ ω·g (found by cosmic-ray: a torque-free
+    potential energy of 1 survived, shifting every energy by a constant)."""
+    rng = np.random.default_rng(24)
+    q = qt.normalize(rng.normal(size=(6, 4)))
+    assert np.all(TorqueFree().value(q) == 0.0)
+    assert np.all(TorqueFree().torque(q) == 0.0)
+    q0, Q0, _ = C.project_state([0.5, -(0.5**0.5), 0, 0.5], [0.3, -0.848528, 0.141421, -1.5])
+    ds = propagate([1.25, 1.0, 0.75], q0, Q0, np.linspace(0.0, 5.0, 6))
+    assert np.all(ds.potential_energy.values == 0.0)
+    T = 0.5 * np.sum(ds.omega.values * ds.g.values, axis=1)
+    np.testing.assert_allclose(ds.energy.values, T, rtol=1e-14)
+
+
 def test_heavy_top_sign_is_physical():
     """V = W z_c: the hanging top has the lower energy (eq. 18 as printed has the other sign)."""
     pot = HeavyTop(2.0, [0.0, 0.0, 1.5])  # centre of mass on b3
@@ -94,7 +108,7 @@ def test_heavy_top_sign_is_physical():
 
 def test_custom_potential_matches_builtin_heavy_top():
     """The heavy top as a user potential U(q, t) (complex-step torque) = the built-in kernel."""
-    W, cx, cy, cz = 0.5, 1.0, 0.2, -0.3
+    W, cx, cy, cz = 0.5, 0.7, 0.2, -0.3  # c_x != 1 (the heavy-top kind code is 1)
 
     def U(q, t):
         q0, q1, q2, q3 = q[0], q[1], q[2], q[3]

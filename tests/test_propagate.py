@@ -190,8 +190,11 @@ def test_dataset_schema(paper_state):
         assert name in ds
         u.Unit(ds[name].attrs["units"])
         assert ds[name].attrs["long_name"]
-    assert list(ds.component.values) == ["w", "x", "y", "z"]
-    assert list(ds.axis.values) == ["x", "y", "z"]
+    # CF: numeric dimension coordinates, letters in auxiliary label coordinates
+    assert ds.component.values.tolist() == [0, 1, 2, 3]
+    assert list(ds.component_label.values) == ["w", "x", "y", "z"]
+    assert ds.axis.values.tolist() == [0, 1, 2]
+    assert list(ds.axis_label.values) == ["x", "y", "z"]
     assert ds.attrs["method"] == "dop853" and ds.attrs["rtol"] == 1e-10
 
 
@@ -202,11 +205,15 @@ def test_units_follow_the_body(paper_state):
     body = RigidBody([400, 500, 600] * u.Unit("kg km2"))
     Q0 = C.momenta_from_angular_velocity(q0, [1e-3, 0, 2e-3], body)
     ds = propagate(body, q0, Q0, np.linspace(0, 10, 3))
-    assert ds.time.attrs["units"] == "s"
-    assert u.Unit(ds.g.attrs["units"]) == u.Unit("kg km2 / s")
-    assert u.Unit(ds.energy.attrs["units"]) == u.Unit("kg km2 / s2")
+    # no epoch: CF placeholder reference, the plain unit of the numbers in elapsed_time_units
+    assert ds.time.attrs["units"] == "seconds since 1970-01-01 00:00:00"
+    assert ds.time.attrs["elapsed_time_units"] == "s" and "no epoch" in ds.time.attrs["comment"]
+    # a body with units gives SI results (was kg km² based before issue 16)
+    assert u.Unit(ds.g.attrs["units"]) == u.Unit("kg m2 / s")
+    assert u.Unit(ds.energy.attrs["units"]) == u.J
     # Quantities at the boundary: Q0 in any angular-momentum unit, t in any time unit
-    ds2 = propagate(body, q0, (Q0 * 1e6) * u.Unit("kg m2 / s"), np.linspace(0, 10, 3) / 60 * u.min)
+    Q0_km = (Q0 * 1e-6) * u.Unit("kg km2 / s")
+    ds2 = propagate(body, q0, Q0_km, np.linspace(0, 10, 3) / 60 * u.min)
     np.testing.assert_allclose(ds2.q.values, ds.q.values, rtol=0, atol=1e-15)
     with pytest.raises(AttitudeTypeError, match="Q0"):
         propagate(body, q0, Q0 * u.kg, [0.0, 1.0])

@@ -156,10 +156,15 @@ def test_user_kernels_stay_out_of_the_package_cache_across_processes(tmp_path):
 
 
 def test_model_key_follows_the_source_and_the_values_it_reads(tmp_path):
-    k1 = _user_kernels.model_key("torque", (_tau_a,))
-    assert k1 == _user_kernels.model_key("torque", (_tau_a,))
-    assert k1 != _user_kernels.model_key("torque", (_tau_b,))  # another function
-    assert k1 != _user_kernels.model_key("potential", (_tau_a,))  # another kind
+    def key(kind, *fns):
+        return _user_kernels.model_key(tuple((kind, f, None) for f in fns))
+
+    k1 = key("torque", _tau_a)
+    assert k1 == key("torque", _tau_a)
+    assert k1 != key("torque", _tau_b)  # another function
+    assert k1 != key("torque_rates", _tau_a)  # another kind
+    assert k1 != key("torque", _tau_a, _tau_b)  # another term
+    assert k1 != _user_kernels.model_key((("torque", _tau_a, _tau_b),))  # with a potential
 
     def make(k):
         def tau(q, t):
@@ -168,13 +173,11 @@ def test_model_key_follows_the_source_and_the_values_it_reads(tmp_path):
         return tau
 
     # closures: numba freezes the cell values into the code, so they are part of the key
-    assert _user_kernels.model_key("torque", (make(1.0),)) != _user_kernels.model_key(
-        "torque", (make(2.0),)
-    )
+    assert key("torque", make(1.0)) != key("torque", make(2.0))
     # no source file: no key (compiled per process)
     ns: dict = {}
     exec("def tau(q, t):\n    return (0.0, 0.0, 1.0)\n", ns)
-    assert _user_kernels.model_key("torque", (ns["tau"],)) is None
+    assert key("torque", ns["tau"]) is None
 
 
 def test_interactive_function_compiles_per_process_and_says_so_once():

@@ -26,14 +26,14 @@ from .quat import conj_mul, mul_vec
 
 @jit_generic
 def canonical_rhs_with(torque, t, y, params, dydt):
-    """Eq. 7 with the body torque ``torque(q, t, params)``; writes into ``dydt``."""
+    """Eq. 7 with the body torque ``torque(q, ω, t, params)``; writes into ``dydt``."""
     q = y[0:4]
     Q = y[4:8]
     w = conj_mul(q, Q)
     om = (0.5 * w[1] / params[0], 0.5 * w[2] / params[1], 0.5 * w[3] / params[2])
     a = mul_vec(q, om)
     b = mul_vec(Q, om)
-    tau = torque(q, t, params)
+    tau = torque(q, om, t, params)
     c = mul_vec(q, tau)
     for i in range(4):
         dydt[i] = 0.5 * a[i]
@@ -74,3 +74,35 @@ def diagnostics_with(potential, t, y, params, out):
         out[k, 10] = (nq - 1.0) / (1.0 + nq**0.5)
         out[k, 11] = w[0]
         out[k, 12] = U
+
+
+@jit_generic
+def term_torques_with(term_torque, n_terms, t, y, params, out):
+    """Body torque of each term of the model at canonical states ``y`` (m, 8).
+
+    ``out`` (m, n_terms + 1, 3): term j in ``out[:, j]``, their sum in ``out[:, n_terms]`` (the
+    torque that drives the motion, summed in the order of the model's own kernel).
+    """
+    m = y.shape[0]
+    for k in range(m):
+        q = y[k, 0:4]
+        Q = y[k, 4:8]
+        w = conj_mul(q, Q)
+        om = (0.5 * w[1] / params[0], 0.5 * w[2] / params[1], 0.5 * w[3] / params[2])
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for j in range(n_terms):
+            tau = term_torque(j, q, om, t[k], params)
+            out[k, j, 0] = tau[0]
+            out[k, j, 1] = tau[1]
+            out[k, j, 2] = tau[2]
+            if j == 0:
+                s0, s1, s2 = tau[0], tau[1], tau[2]
+            else:
+                s0 += tau[0]
+                s1 += tau[1]
+                s2 += tau[2]
+        out[k, n_terms, 0] = s0
+        out[k, n_terms, 1] = s1
+        out[k, n_terms, 2] = s2

@@ -1,11 +1,17 @@
 """Compiled entry points: every integrator and evaluation loop, for one torque model.
 
-This module is written against two module globals, the model:
+This module is written against five module globals, the model:
 
-``torque(q, t, params) -> (τ1, τ2, τ3)``
-    body-frame torque at the unit attitude ``q`` and time ``t``;
+``torque(q, w, t, params) -> (τ1, τ2, τ3)``
+    body-frame torque at the unit attitude ``q``, body angular velocity ``w`` (a 3-tuple) and
+    time ``t``;
 ``potential(q, t, params) -> U``
-    its potential energy (0 where none is known).
+    its potential energy (the sum over the terms that have one);
+``term_torque(j, q, w, t, params)``, ``n_terms(params)``
+    the torque of each term of a sum of models, for the per-model torque output;
+``event(j, t, q, w, evd) -> g``
+    event function j of the event data ``evd`` (:mod:`attitude._core.events`): the built-in
+    ones here, plus the user's g(t, q, ω) in a user module.
 
 Here they are the built-in models (:mod:`attitude._core.potentials`: one kind switch over
 parameter vectors), so every function below is cached on disk with the package and a fresh
@@ -31,14 +37,26 @@ from __future__ import annotations
 
 import numba
 
-from attitude._core.dynamics import canonical_rhs_with, diagnostics_with
+from attitude._core.dynamics import canonical_rhs_with, diagnostics_with, term_torques_with
 from attitude._core.ensemble import member_run
+from attitude._core.events import (
+    builtin_event,
+    composition_events_run,
+    dop853_events_run,
+    event_values_with,
+    member_events_run,
+)
 from attitude._core.formulations import (
     euler_angles_rhs_with,
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
-from attitude._core.potentials import builtin_potential, builtin_torque
+from attitude._core.potentials import (
+    builtin_n_terms,
+    builtin_potential,
+    builtin_term_torque,
+    builtin_torque,
+)
 from attitude._core.rk import dop853_run
 from attitude._core.splitting import composition_run
 from orbit._shared_jit import jit, parallel_jit
@@ -46,6 +64,9 @@ from orbit._shared_jit import jit, parallel_jit
 # --- model: begin (replaced in user modules) ---
 torque = builtin_torque
 potential = builtin_potential
+term_torque = builtin_term_torque
+n_terms = builtin_n_terms
+event = builtin_event
 # --- model: end ---
 
 
@@ -53,10 +74,11 @@ potential = builtin_potential
 
 
 @jit
-def evaluate(q, t, params, tau_out, u_out):
-    """Torque ``tau_out`` (m, 3) and potential ``u_out`` (m,) at attitudes ``q`` (m, 4)."""
+def evaluate(q, w, t, params, tau_out, u_out):
+    """Torque ``tau_out`` (m, 3) and potential ``u_out`` (m,) at attitudes ``q`` (m, 4), body
+    angular velocities ``w`` (m, 3) and times ``t`` (m,)."""
     for k in range(q.shape[0]):
-        tau = torque(q[k], t[k], params)
+        tau = torque(q[k], (w[k, 0], w[k, 1], w[k, 2]), t[k], params)
         tau_out[k, 0] = tau[0]
         tau_out[k, 1] = tau[1]
         tau_out[k, 2] = tau[2]
@@ -67,6 +89,12 @@ def evaluate(q, t, params, tau_out, u_out):
 def diagnostics(t, y, params, out):
     """Diagnostics of canonical states ``y`` (m, 8) into ``out`` (m, 13): see ``dynamics``."""
     diagnostics_with(potential, t, y, params, out)
+
+
+@jit
+def term_torques(t, y, params, out):
+    """Torque of every term (m, n_terms + 1, 3; the last row their sum) at canonical states."""
+    term_torques_with(term_torque, n_terms(params), t, y, params, out)
 
 
 # Canonical equations (Arribas et al. eq. 7) ----------------------------------------------------
@@ -95,6 +123,36 @@ def composition(params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, c
     return composition_run(
         torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
     )
+
+
+@jit
+def dop853_canonical_events(
+    params, evd, evs, ev_count, rec_t, rec_k, rec_y, y0, t0, t_out, y_out, work, tstate,
+    counters, rtol, atol, t_end, max_step, max_steps,
+):  # fmt: skip
+    """DOP853 on eq. 7 with events located on the dense output (:mod:`attitude._core.events`)."""
+    return dop853_events_run(
+        canonical_rhs, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, y0, t0, t_out,
+        y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps,
+    )  # fmt: skip
+
+
+@jit
+def event_values(t, y, params, evd, out):
+    """``out[k, j]``: event function j at the canonical states ``y[k]`` (m, 8) and times t."""
+    event_values_with(event, t, y, params, evd, out)
+
+
+@jit
+def composition_events(
+    params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
+    evd, evs, ev_count, rec_t, rec_k, rec_y,
+):  # fmt: skip
+    """The splitting methods with events (:func:`attitude._core.events.composition_events_run`)."""
+    return composition_events_run(
+        torque, event, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
+        evd, evs, ev_count, rec_t, rec_k, rec_y,
+    )  # fmt: skip
 
 
 # Other formulations (attitude.formulations) ----------------------------------------------------
@@ -190,4 +248,42 @@ def ensemble_serial(
         ensemble_member(
             i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
             rtol, atol, max_step, max_steps, budget,
+        )  # fmt: skip
+
+
+@jit(nogil=True)
+def ensemble_events_member(
+    i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """Member ``i`` with events (first time and count of each in ``evs[i]``)."""
+    member_events_run(
+        dop853_canonical_events, diagnostics, i, params, evd, evs, y0, t, y_out, diag, work,
+        tstate, counters, status, n_done, rtol, atol, max_step, max_steps,
+    )  # fmt: skip
+
+
+@parallel_jit(nogil=True)
+def ensemble_events_parallel(
+    params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """All members with events, in parallel over members (``prange``)."""
+    for i in numba.prange(y0.shape[0]):
+        ensemble_events_member(
+            i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+            rtol, atol, max_step, max_steps,
+        )  # fmt: skip
+
+
+@jit(nogil=True)
+def ensemble_events_serial(
+    params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+    rtol, atol, max_step, max_steps,
+):  # fmt: skip
+    """All members with events, one after the other, GIL released."""
+    for i in range(y0.shape[0]):
+        ensemble_events_member(
+            i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+            rtol, atol, max_step, max_steps,
         )  # fmt: skip

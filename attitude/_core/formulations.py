@@ -1,7 +1,7 @@
 """Right-hand sides of the non-canonical formulations.
 
 Each right-hand side is written once with the body torque as a function argument
-``torque(q, t, params)`` (``jit_generic``: inlined, never cached on its own); the cached
+``torque(q, ω, t, params)`` (``jit_generic``: inlined, never cached on its own); the cached
 entry points that bind it to a model, with the DOP853 loop around it, are in
 :mod:`attitude._core.entry_points`.
 
@@ -60,7 +60,7 @@ def _unit_scratch(q, params, normalize):
 def euler_angles_hamilton(y, inertia1, inertia2, inertia3):
     """Kinetic part of Hamilton's equations of eq. 10 at the state ``y`` = (φ, ϑ, ψ, Φ, Θ, Ψ).
 
-    Returns ``(φ̇, ϑ̇, ψ̇, −∂T/∂ϑ, −∂T/∂ψ)`` (T does not depend on φ). With
+    Returns ``(φ̇, ϑ̇, ψ̇, −∂T/∂ϑ, −∂T/∂ψ, ω1, ω2, ω3)`` (T does not depend on φ). With
     A = (Φ − Ψ cos ϑ)/sin ϑ, eq. 8 gives g = (A sin ψ + Θ cos ψ, A cos ψ − Θ sin ψ, Ψ) and
     ∂T/∂g = ω = g/I, so (chain rule, u = ω1 sin ψ + ω2 cos ψ):
 
@@ -87,6 +87,9 @@ def euler_angles_hamilton(y, inertia1, inertia2, inertia3):
         w3 - u * c / s,
         -u * (Psi - Phi * c) / (s * s),
         w2 * g1 - w1 * g2,
+        w1,
+        w2,
+        w3,
     )
 
 
@@ -138,7 +141,7 @@ def euler_angles_rhs_with(torque, t, y, params, dydt):
         return
     k = euler_angles_hamilton(y, params[0], params[1], params[2])
     q = _unit_scratch(euler_angles_quaternion(y), params, False)
-    f = euler_angles_forces(y, torque(q, t, params))
+    f = euler_angles_forces(y, torque(q, (k[5], k[6], k[7]), t, params))
     dydt[0] = k[0]
     dydt[1] = k[1]
     dydt[2] = k[2]
@@ -206,7 +209,10 @@ def schwab_rhs_with(torque, t, y, params, dydt):
     q = y[0:4]
     qd = y[4:8]
     qu = _unit_scratch(q, params, True)
-    tau = torque(qu, t, params)
+    # body angular velocity ω = 2 vec(q̃∘q̇)/|q|² (Schwab eq. 16)
+    v = conj_mul(q, qd)
+    nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    tau = torque(qu, (2.0 * v[1] / nq, 2.0 * v[2] / nq, 2.0 * v[3] / nq), t, params)
     qdd = schwab_accelerations(q, qd, tau, params[0], params[1], params[2])[0]
     for i in range(4):
         dydt[i] = qd[i]
@@ -233,7 +239,7 @@ def euler_equations_rhs_with(torque, t, y, params, dydt):
     w2 = y[5]
     w3 = y[6]
     qu = _unit_scratch(q, params, True)
-    tau = torque(qu, t, params)
+    tau = torque(qu, (w1, w2, w3), t, params)
     dq = mul_vec(q, (w1, w2, w3))
     for i in range(4):
         dydt[i] = 0.5 * dq[i]

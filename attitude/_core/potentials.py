@@ -1,14 +1,28 @@
-"""Compiled torque and potential kernels of the built-in potentials.
+"""Compiled torque and potential kernels of the built-in models, and of sums of them.
 
-Every built-in potential is data: a parameter vector ``params`` whose first entries are the
-principal moments of inertia and a kind code, followed by the potential's own numbers:
+Every built-in model is data: a parameter vector ``params`` whose first entries are the
+principal moments of inertia and a kind code, followed by the model's own numbers:
 
     params[0:3]  I1, I2, I3          principal moments of inertia
     params[3]    kind                KIND_* below
-    params[4:]   potential parameters
+    params[4:]   the model's numbers
 
-so one cached, compiled function (:func:`builtin_torque`) serves them all, and the
-integrators that call it are cached on disk too. Torques are body-frame components; they enter
+A sum of models (``GravityGradient(o) + MagneticDipole(...) + ...``) is one more kind,
+``KIND_SUM``, whose numbers say where each term's block starts:
+
+    params[3]    KIND_SUM
+    params[4]    n, the number of terms
+    params[5:5+n]  offsets b_j of the term blocks: params[b_j] = kind of term j,
+                   params[b_j + 1:] its numbers (the layout of that kind alone)
+
+A single model is its own block at offset 3, so every term kernel reads its numbers relative
+to the offset ``base`` of its kind code, and one cached, compiled function
+(:func:`builtin_torque`) serves every model and every sum of built-in models: the integrators
+that call it are cached on disk too.
+
+A torque is a function of the attitude q, the body angular velocity ω (body axes; rate-dependent
+models such as eddy-current damping use it), and the time t (the orbit and the environment are
+functions of t, read from the model's numbers). Torques are body-frame components; they enter
 Hamilton's equations through the generalised force 2 q∘(0, τ_B) (Schwab eq. 25), which is minus
 the tangential part of ∂U/∂q, so |q| = 1 and q·Q = 0 stay invariants of the flow.
 """
@@ -17,87 +31,161 @@ from __future__ import annotations
 
 import numpy as np
 
-from orbit._kernels import radius_and_radial_unit
 from orbit._shared_jit import jit, jit_generic
+from orbit._state_kernels import MU as ORBIT_MU
+from orbit._state_kernels import orbit_radial
 
+from .environment import drag_torque, eddy_torque, magnetic_potential, magnetic_torque, solar_torque
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
 KIND_HEAVY_TOP = 1
 KIND_GRAVITY_GRADIENT = 2
+# Environment models (block layouts in attitude._core.environment)
+KIND_MAGNETIC_DIPOLE = 3
+KIND_EDDY_CURRENTS = 4
+KIND_AERODYNAMIC_DRAG = 5
+KIND_SOLAR_RADIATION = 6
+KIND_SUM = 100
+KIND_USER = -1  # no built-in part: the model is the user's terms only (attitude._user_kernels)
 
-P_KIND = 3  # index of the kind code
-P0 = 4  # first potential parameter
+P_KIND = 3  # index of the kind code (the block of a single model)
+P0 = 4  # first number of a single model
+P_NTERMS = 4  # KIND_SUM: number of terms
+P_OFFSETS = 5  # KIND_SUM: first term offset
 
-# Heavy top: params[4] = weight M g, params[5:8] = centre of mass in body axes.
-# Gravity gradient: params[4:13] = orbit element array (orbit._kernels layout).
+# Heavy top: block [kind, weight M g, centre of mass (3, body axes)].
+# Gravity gradient: block [kind, the orbit's kernel_data()] (orbit._state_kernels layout: a type
+# code, μ, the valid span, then Kepler / secular-J2 elements or a Hermite table), read only
+# through the dispatcher orbit_radial, so every orbit source runs in the same cached kernels.
+# Magnetic dipole, eddy currents, drag, solar radiation: blocks with tables of the environment
+# along the orbit, laid out and interpolated in attitude._core.environment.
+
+ZERO3 = (0.0, 0.0, 0.0)
 
 
 @jit
-def heavy_top_torque(q, params):
+def heavy_top_torque(q, params, base):
     # Gravity -weight s3 acts at the centre of mass c: τ_B = c × F_B, F_B = q̃∘(−W s3)∘q.
-    w = params[P0]
-    c = (params[P0 + 1], params[P0 + 2], params[P0 + 3])
+    w = params[base + 1]
+    c = (params[base + 2], params[base + 3], params[base + 4])
     fb = rotate_inverse(q, (0.0, 0.0, -w))
     return cross(c, fb)
 
 
 @jit
-def heavy_top_potential(q, params):
+def heavy_top_potential(q, params, base):
     # V = W (q∘c∘q̃)·s3: the potential energy of the weight (height of the centre of mass).
     # Arribas et al. eq. 18 prints U = x^c·F with F = −Mg s3, which is −V; see docs/potentials.md.
-    w = params[P0]
-    c = (params[P0 + 1], params[P0 + 2], params[P0 + 3])
+    w = params[base + 1]
+    c = (params[base + 2], params[base + 3], params[base + 4])
     return w * rotate(q, c)[2]
 
 
 @jit
-def gravity_gradient_terms(q, t, params):
+def gravity_gradient_terms(q, t, params, base):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
-    el = params[P0 : P0 + 9]
-    r, ux, uy, uz = radius_and_radial_unit(el, t)
-    mu = el[7]
-    k = 3.0 * mu / (r * r * r)
+    d = params[base + 1 :]
+    r, ux, uy, uz = orbit_radial(d, t)
+    k = 3.0 * d[ORBIT_MU] / (r * r * r)
     xb = rotate_inverse(q, (ux, uy, uz))  # x̂_B = q̃∘x̂_S∘q
     ixb = (params[0] * xb[0], params[1] * xb[1], params[2] * xb[2])
     return k, xb, ixb
 
 
 @jit
-def gravity_gradient_torque(q, t, params):
+def gravity_gradient_torque(q, t, params, base):
     # τ_B = 3μ/r³ x̂_B × (I x̂_B): minus the derivative of eq. 20 under body rotations.
-    k, xb, ixb = gravity_gradient_terms(q, t, params)
+    k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     c = cross(xb, ixb)
     return (k * c[0], k * c[1], k * c[2])
 
 
 @jit
-def gravity_gradient_potential(q, t, params):
+def gravity_gradient_potential(q, t, params, base):
     # Arribas et al. eq. 20: U = 3μ/(2r³) x̂_B·I x̂_B (q-independent terms of eq. 19 dropped).
-    k, xb, ixb = gravity_gradient_terms(q, t, params)
+    k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
 
 
 @jit
-def builtin_torque(q, t, params):
-    """Body-frame torque of the built-in potential described by ``params``."""
-    kind = int(params[P_KIND])
+def term_torque(q, w, t, params, base):
+    """Body-frame torque of the built-in model whose block starts at ``params[base]``."""
+    kind = int(params[base])
     if kind == KIND_HEAVY_TOP:
-        return heavy_top_torque(q, params)
+        return heavy_top_torque(q, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
-        return gravity_gradient_torque(q, t, params)
-    return (0.0, 0.0, 0.0)
+        return gravity_gradient_torque(q, t, params, base)
+    if kind == KIND_MAGNETIC_DIPOLE:
+        return magnetic_torque(q, t, params, base)
+    if kind == KIND_EDDY_CURRENTS:
+        return eddy_torque(q, w, t, params, base)
+    if kind == KIND_AERODYNAMIC_DRAG:
+        return drag_torque(q, t, params, base)
+    if kind == KIND_SOLAR_RADIATION:
+        return solar_torque(q, t, params, base)
+    return ZERO3
+
+
+@jit
+def term_potential(q, t, params, base):
+    """Potential energy of the built-in model whose block starts at ``params[base]`` (0: none)."""
+    kind = int(params[base])
+    if kind == KIND_HEAVY_TOP:
+        return heavy_top_potential(q, params, base)
+    if kind == KIND_GRAVITY_GRADIENT:
+        return gravity_gradient_potential(q, t, params, base)
+    if kind == KIND_MAGNETIC_DIPOLE:
+        return magnetic_potential(q, t, params, base)
+    return 0.0
+
+
+@jit
+def builtin_n_terms(params):
+    """Number of terms of the built-in part of a model (0 for a user-only model)."""
+    kind = int(params[P_KIND])
+    if kind == KIND_SUM:
+        return int(params[P_NTERMS])
+    if kind == KIND_USER:
+        return 0
+    return 1
+
+
+@jit
+def term_base(j, params):
+    """Offset of the block of term ``j``."""
+    if int(params[P_KIND]) == KIND_SUM:
+        return int(params[P_OFFSETS + j])
+    return P_KIND
+
+
+@jit
+def builtin_torque(q, w, t, params):
+    """Body-frame torque of the built-in model (or sum) described by ``params``."""
+    if int(params[P_KIND]) != KIND_SUM:
+        return term_torque(q, w, t, params, P_KIND)
+    tau = term_torque(q, w, t, params, int(params[P_OFFSETS]))
+    for j in range(1, int(params[P_NTERMS])):
+        d = term_torque(q, w, t, params, int(params[P_OFFSETS + j]))
+        tau = (tau[0] + d[0], tau[1] + d[1], tau[2] + d[2])
+    return tau
 
 
 @jit
 def builtin_potential(q, t, params):
-    """Potential energy of the built-in potential described by ``params``."""
-    kind = int(params[P_KIND])
-    if kind == KIND_HEAVY_TOP:
-        return heavy_top_potential(q, params)
-    if kind == KIND_GRAVITY_GRADIENT:
-        return gravity_gradient_potential(q, t, params)
-    return 0.0
+    """Potential energy of the built-in model (or sum) described by ``params``."""
+    if int(params[P_KIND]) != KIND_SUM:
+        return term_potential(q, t, params, P_KIND)
+    u = term_potential(q, t, params, int(params[P_OFFSETS]))
+    for j in range(1, int(params[P_NTERMS])):
+        u += term_potential(q, t, params, int(params[P_OFFSETS + j]))
+    return u
+
+
+@jit
+def builtin_term_torque(j, q, w, t, params):
+    """Torque of term ``j`` of the built-in part (the model itself when it is not a sum)."""
+    return term_torque(q, w, t, params, term_base(j, params))
 
 
 # User models ----------------------------------------------------------------------------------
@@ -109,14 +197,21 @@ COMPLEX_STEP = 1e-30
 
 
 @jit_generic
-def user_torque(tau_fn, q, t):
+def user_torque(tau_fn, q, w, t):
     """A user's ``tau(q, t)`` (tuple or array) as a 3-tuple of floats."""
     tau = tau_fn(q, t)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
 
 
 @jit_generic
-def complex_step_torque(potential_fn, q, t):
+def user_torque_rates(tau_fn, q, w, t):
+    """A user's rate-dependent ``tau(q, omega, t)``; ``omega`` a length-3 array (body axes)."""
+    tau = tau_fn(q, np.array((w[0], w[1], w[2])), t)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def complex_step_torque(potential_fn, q, w, t):
     """τ_B = −½ vec(q̃∘∇U) of a user's ``U(q, t)``, ∇U by complex steps (exact to round-off).
 
     The generalised force 2 q∘(0, τ_B) (Schwab eq. 25) is then minus the tangential part of
@@ -130,5 +225,5 @@ def complex_step_torque(potential_fn, q, t):
             qc[j] = q[j]
         qc[i] = q[i] + 1j * h
         grad[i] = potential_fn(qc, t).imag / h
-    w = conj_mul(q, grad)
-    return (-0.5 * w[1], -0.5 * w[2], -0.5 * w[3])
+    v = conj_mul(q, grad)
+    return (-0.5 * v[1], -0.5 * v[2], -0.5 * v[3])

@@ -42,17 +42,22 @@ YT = FD + 7
 YN = YT + 1
 WORK_ROWS = YN + 1
 
-# Status codes returned by :func:`dop853_run`.
+# Status codes returned by :func:`dop853_run` (EVENT and EVENT_BUFFER_FULL: by the events
+# driver of attitude._core.events: a terminal event ended the run; the record buffer needs room).
 SUCCESS = 0
 NONFINITE = 1
 STEP_TOO_SMALL = 2
 TOO_MANY_STEPS = 3
+EVENT = 4
+EVENT_BUFFER_FULL = 5
 
 STATUS_MESSAGES = {
     SUCCESS: "success",
     NONFINITE: "the state became non-finite (NaN or inf)",
     STEP_TOO_SMALL: "the step size fell below the round-off limit",
     TOO_MANY_STEPS: "the maximum number of steps was reached",
+    EVENT: "a terminal event ended the run",
+    EVENT_BUFFER_FULL: "the event record buffer is full",
 }
 
 _SAFETY = 0.9
@@ -152,6 +157,113 @@ def _interpolate(work, tstate, t, out):
 
 
 @jit_generic
+def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step):
+    """One accepted DOP853 step from ``(tstate[0], work[Y])``, first trying the size ``h_abs``.
+
+    On success the work rows and ``tstate`` hold the new state and the data of the step just
+    taken (``YOLD``, the stages, ``t_old``, ``h``; its dense output is computed on demand by
+    :func:`_dense_coefficients`). Never crosses ``t_end``.
+
+    Returns
+    -------
+    status : int
+        ``SUCCESS``, ``NONFINITE`` or ``STEP_TOO_SMALL`` (then nothing was accepted).
+    h_abs : float
+        The size to try next (also stored in ``tstate[1]``).
+    """
+    n = work.shape[1]
+    y = work[Y]
+    f = work[F0]
+    yold = work[YOLD]
+    yt = work[YT]
+    yn = work[YN]
+    t = tstate[0]
+    min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
+    if h_abs > max_step:
+        h_abs = max_step
+    elif h_abs < min_step:
+        h_abs = min_step
+    rejected = False
+    while True:
+        if h_abs < min_step:
+            tstate[1] = h_abs
+            return STEP_TOO_SMALL, h_abs
+        h = h_abs * direction
+        t_new = t + h
+        if direction * (t_new - t_end) > 0.0:
+            t_new = t_end
+        h = t_new - t
+        h_abs = abs(h)
+        # Stages 1..11 (stage 0 is f, first-same-as-last).
+        for i in range(n):
+            work[K0, i] = f[i]
+        for s in range(1, 12):
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += DOP853_A[s, j] * work[K0 + j, i]
+                yt[i] = y[i] + h * acc
+            rhs(t + DOP853_C[s] * h, yt, params, work[K0 + s])
+        for i in range(n):
+            acc = 0.0
+            for j in range(12):
+                acc += DOP853_B[j] * work[K0 + j, i]
+            yn[i] = y[i] + h * acc
+        rhs(t_new, yn, params, work[K0 + 12])
+        counters[1] += 12
+        # Error estimate: the 5th- and 3rd-order embedded pairs (HNW II.10, eq. 10.17).
+        e5 = 0.0
+        e3 = 0.0
+        for i in range(n):
+            sc = atol + rtol * max(abs(y[i]), abs(yn[i]))
+            a5 = 0.0
+            a3 = 0.0
+            for j in range(13):
+                a5 += DOP853_E5[j] * work[K0 + j, i]
+                a3 += DOP853_E3[j] * work[K0 + j, i]
+            e5 += (a5 / sc) ** 2
+            e3 += (a3 / sc) ** 2
+        if e5 == 0.0 and e3 == 0.0:
+            err = 0.0
+        else:
+            err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+        if not math.isfinite(err):
+            # A non-finite trial state: shrink hard; if that cannot help, report it.
+            h_abs *= _MIN_FACTOR
+            rejected = True
+            counters[2] += 1
+            if h_abs < min_step:
+                tstate[1] = h_abs
+                return NONFINITE, h_abs
+            continue
+        if err < 1.0:
+            if err == 0.0:
+                factor = _MAX_FACTOR
+            else:
+                factor = min(_MAX_FACTOR, _SAFETY * err**_ERR_EXP)
+            if rejected:
+                factor = min(1.0, factor)
+            break
+        h_abs *= max(_MIN_FACTOR, _SAFETY * err**_ERR_EXP)
+        rejected = True
+        counters[2] += 1
+    # Accept the step.
+    for i in range(n):
+        yold[i] = y[i]
+        y[i] = yn[i]
+        f[i] = work[K0 + 12, i]
+    tstate[2] = t
+    tstate[3] = h
+    t = t_new
+    tstate[0] = t
+    counters[0] += 1
+    counters[4] = 0
+    h_abs = h_abs * factor
+    tstate[1] = h_abs
+    return SUCCESS, h_abs
+
+
+@jit_generic
 def dop853_run(
     rhs,
     params,
@@ -185,9 +297,6 @@ def dop853_run(
     m = t_out.shape[0]
     y = work[Y]
     f = work[F0]
-    yold = work[YOLD]
-    yt = work[YT]
-    yn = work[YN]
     if counters[3] == 0:
         for i in range(n):
             y[i] = y0[i]
@@ -233,88 +342,12 @@ def dop853_run(
         if counters[0] >= max_steps:
             tstate[1] = h_abs
             return TOO_MANY_STEPS, k
-        min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
-        if h_abs > max_step:
-            h_abs = max_step
-        elif h_abs < min_step:
-            h_abs = min_step
-        rejected = False
-        while True:
-            if h_abs < min_step:
-                tstate[1] = h_abs
-                return STEP_TOO_SMALL, k
-            h = h_abs * direction
-            t_new = t + h
-            if direction * (t_new - t_end) > 0.0:
-                t_new = t_end
-            h = t_new - t
-            h_abs = abs(h)
-            # Stages 1..11 (stage 0 is f, first-same-as-last).
-            for i in range(n):
-                work[K0, i] = f[i]
-            for s in range(1, 12):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += DOP853_A[s, j] * work[K0 + j, i]
-                    yt[i] = y[i] + h * acc
-                rhs(t + DOP853_C[s] * h, yt, params, work[K0 + s])
-            for i in range(n):
-                acc = 0.0
-                for j in range(12):
-                    acc += DOP853_B[j] * work[K0 + j, i]
-                yn[i] = y[i] + h * acc
-            rhs(t_new, yn, params, work[K0 + 12])
-            counters[1] += 12
-            # Error estimate: the 5th- and 3rd-order embedded pairs (HNW II.10, eq. 10.17).
-            e5 = 0.0
-            e3 = 0.0
-            for i in range(n):
-                sc = atol + rtol * max(abs(y[i]), abs(yn[i]))
-                a5 = 0.0
-                a3 = 0.0
-                for j in range(13):
-                    a5 += DOP853_E5[j] * work[K0 + j, i]
-                    a3 += DOP853_E3[j] * work[K0 + j, i]
-                e5 += (a5 / sc) ** 2
-                e3 += (a3 / sc) ** 2
-            if e5 == 0.0 and e3 == 0.0:
-                err = 0.0
-            else:
-                err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-            if not math.isfinite(err):
-                # A non-finite trial state: shrink hard; if that cannot help, report it.
-                h_abs *= _MIN_FACTOR
-                rejected = True
-                counters[2] += 1
-                if h_abs < min_step:
-                    tstate[1] = h_abs
-                    return NONFINITE, k
-                continue
-            if err < 1.0:
-                if err == 0.0:
-                    factor = _MAX_FACTOR
-                else:
-                    factor = min(_MAX_FACTOR, _SAFETY * err**_ERR_EXP)
-                if rejected:
-                    factor = min(1.0, factor)
-                break
-            h_abs *= max(_MIN_FACTOR, _SAFETY * err**_ERR_EXP)
-            rejected = True
-            counters[2] += 1
-        # Accept the step.
-        for i in range(n):
-            yold[i] = y[i]
-            y[i] = yn[i]
-            f[i] = work[K0 + 12, i]
-        tstate[2] = t
-        tstate[3] = h
-        t = t_new
-        tstate[0] = t
-        counters[0] += 1
-        counters[4] = 0
-        h_abs = h_abs * factor
-        tstate[1] = h_abs
+        status, h_abs = dop853_step(
+            rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step
+        )
+        if status != SUCCESS:
+            return status, k
+        t = tstate[0]
         # Serve every output time inside the step just taken.
         while k < m and direction * (t - t_out[k]) >= 0.0:
             if t_out[k] == t:

@@ -350,7 +350,14 @@ def composition_run(
                     kind = kinds[o]
                     if kind == KICK:
                         # Exact flow of U: Q += 2τ q∘(0, τ_B), i.e. w += 2τ|q|²(0, τ_B).
-                        tq = torque(q, ts + toffs[o] * h, params)
+                        # ω = g/I with g = ½ vec(w); the splittings take only models whose
+                        # torque does not depend on ω (checked by attitude.splitting).
+                        om = (
+                            0.5 * w[1] / params[0],
+                            0.5 * w[2] / params[1],
+                            0.5 * w[3] / params[2],
+                        )
+                        tq = torque(q, om, ts + toffs[o] * h, params)
                         f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
                         w[1] += f * tq[0]
                         w[2] += f * tq[1]

@@ -18,8 +18,12 @@ Modules, one concern each:
 ``_output``               assembling chunks into Datasets, streaming them to netCDF
 ``_dask``                 Dask scheduling: connecting, task submission, lazy graphs
 ``_run``                  :func:`propagate_ensemble`, :func:`run_scenario`
+``_plan``                 what is stored (output choices), the time grid, the size estimate
+``_percentile_store``     statistics-only output: per-member scalars, exact percentiles
+``replay``                :func:`member_initial_state`, :func:`rerun_member`
 ``dispersions``           :class:`Dispersions` (Monte Carlo draws of the ``[ensemble]`` table)
-``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`
+``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
+                          :func:`event_time_percentiles`
 ========================  ===================================================================
 
 The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario`; the
@@ -30,12 +34,16 @@ from __future__ import annotations
 
 from ._run import propagate_ensemble, run_scenario
 from .dispersions import Dispersions
-from .statistics import pointing_error_percentiles, rate_percentiles
+from .replay import member_initial_state, rerun_member
+from .statistics import event_time_percentiles, pointing_error_percentiles, rate_percentiles
 
 __all__ = [
     "Dispersions",
+    "event_time_percentiles",
+    "member_initial_state",
     "pointing_error_percentiles",
     "propagate_ensemble",
     "rate_percentiles",
+    "rerun_member",
     "run_scenario",
 ]

@@ -30,6 +30,7 @@ class _Setup:
     max_step: float
     max_steps: int
     user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
+    events: Any = None  # attitude.events.EventSet, or None
 
 
 #: Integration steps per compiled call, summed over the members of a chunk and divided among
@@ -40,8 +41,9 @@ ENSEMBLE_STEP_BUDGET = 20_000
 MIN_MEMBER_BUDGET = 16
 
 #: ``member_status`` of the members of a chunk whose task failed as a whole (an exception in
-#: the worker, not a member's integration): their rows are NaN.
-CHUNK_FAILED = 4
+#: the worker, not a member's integration): their rows are NaN. (Above the integrator's codes
+#: of attitude._core.rk, EVENT = 4 and EVENT_BUFFER_FULL = 5 included.)
+CHUNK_FAILED = 9
 
 #: CF ``flag_values``/``flag_meanings`` of ``member_status``.
 STATUS_FLAGS = {
@@ -49,6 +51,8 @@ STATUS_FLAGS = {
     _rk.NONFINITE: "state_became_non_finite",
     _rk.STEP_TOO_SMALL: "step_size_below_round_off",
     _rk.TOO_MANY_STEPS: "max_steps_reached",
+    _rk.EVENT: "terminal_event",
+    _rk.EVENT_BUFFER_FULL: "event_buffer_full",
     CHUNK_FAILED: "chunk_task_failed",
 }
 
@@ -73,11 +77,9 @@ def _compute_chunk(
     }
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
-    entry = (
-        _builtin_entry_points
-        if setup.user_potential is None
-        else setup.user_potential._entry_points()
-    )
+    entry = _entry(setup)
+    if setup.events is not None:
+        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel)
     fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
     budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * max(1, threads) // max(1, c))
     while True:
@@ -108,7 +110,7 @@ def _compute_chunk(
 def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, np.ndarray]:
     """The arrays of a chunk whose task failed as a whole: NaN rows, status CHUNK_FAILED."""
     m = setup.t.shape[0]
-    return {
+    out = {
         "y": np.full((c, m, 8), np.nan),
         "diag": np.full((c, m, _N_DIAG), np.nan),
         "counters": np.zeros((c, 5), dtype=np.int64),
@@ -117,6 +119,40 @@ def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, np.nda
         "t_stop": np.full(c, float(setup.t[0])),
         "error": f"{type(exc).__name__}: {exc}",
     }
+    if setup.events is not None:
+        out["event_count"] = np.zeros((c, setup.events.n), dtype=np.int64)
+        out["event_first"] = np.full((c, setup.events.n), np.nan)
+    return out
+
+
+def _entry(setup: _Setup) -> Any:
+    """The compiled entry points of the chunk's model (and user event functions)."""
+    ev = setup.events
+    user_events = () if ev is None else ev.user_functions
+    if setup.user_potential is None and not user_events:
+        return _builtin_entry_points
+    from .._user_kernels import entry_points
+
+    terms = () if setup.user_potential is None else setup.user_potential._user_terms()
+    return entry_points(terms, user_events)
+
+
+def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel):
+    """:func:`_compute_chunk` with events: per member and event, the count and first time."""
+    from .._core import events as _ke
+
+    ev = setup.events
+    evs = np.zeros((y0.shape[0], ev.n, _ke.EVS_COLS))
+    fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
+    fn(
+        params, ev.data, evs, y0, setup.t, out["y"], out["diag"], work, tstate,
+        out["counters"], out["status"], out["n_done"], setup.rtol, setup.atol,
+        setup.max_step, setup.max_steps,
+    )  # fmt: skip
+    out["t_stop"] = tstate[:, 0].copy()
+    out["event_count"] = evs[:, :, _ke.EVS_COUNT].astype(np.int64)
+    out["event_first"] = evs[:, :, _ke.EVS_FIRST].copy()
+    return out
 
 
 def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, np.ndarray]:
@@ -174,7 +210,8 @@ class _Failures:
 
     def add(self, out: dict[str, Any], start: int) -> np.ndarray:
         """Record the failed members of a chunk; returns their positions in the chunk."""
-        bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+        st_all = out["status"]
+        bad = np.flatnonzero((st_all != _rk.SUCCESS) & (st_all != _rk.EVENT))
         for b in bad:
             st = int(out["status"][b])
             self.by_status.setdefault(st, []).append(int(start + b))

@@ -87,7 +87,7 @@ def _dask_results(client, setup, members, bounds, n_threads):
 def _lazy_task(setup: _Setup, params: np.ndarray, y0: np.ndarray, start: int):
     """A chunk as a task of the lazy graph: raises if a member failed (naming it)."""
     out = _compute_chunk(setup, params, y0, parallel=False)
-    bad = np.flatnonzero(out["status"] != _rk.SUCCESS)
+    bad = np.flatnonzero((out["status"] != _rk.SUCCESS) & (out["status"] != _rk.EVENT))
     if bad.size:
         msg, t_fail = _failure_message(out, bad, start, setup.t)
         raise PropagationError(msg, time=t_fail)
@@ -113,6 +113,10 @@ def _lazy_result(setup, members, bounds, asm) -> xr.Dataset:
             "counters": dsa.from_delayed(task["counters"], (c, 5), np.int64),
             "status": dsa.from_delayed(task["status"], (c,), np.int64),
         }
+        if setup.events is not None:
+            ne = setup.events.n
+            out["event_count"] = dsa.from_delayed(task["event_count"], (c, ne), np.int64)
+            out["event_first"] = dsa.from_delayed(task["event_first"], (c, ne), np.float64)
         parts.append(asm.dataset(start, out, inertia, lazy=True))
     if len(parts) == 1:
         return parts[0]
@@ -129,7 +133,9 @@ def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
     out = OutputFile(path, "path")
     out.prepare()
     try:
-        job = ds.to_netcdf(out.tmp, engine="netcdf4", format="NETCDF4", compute=False)
+        # CF: coordinate variables have no _FillValue (xarray adds NaN to floats by default)
+        enc = {c: {"_FillValue": None} for c in ds.coords if ds[c].dtype.kind == "f"}
+        job = ds.to_netcdf(out.tmp, engine="netcdf4", format="NETCDF4", compute=False, encoding=enc)
         if client is not None:
             client.compute(job).result()
         else:

@@ -55,6 +55,48 @@ class _Members:
         y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
         return params, y0, inertia, corr
 
+    def nominal_params(self) -> np.ndarray:
+        """The parameter row (P,) of the one body and potential all members share."""
+        if self.params.ndim != 1 or self.inertia.ndim != 1:
+            raise AttitudeValueError(
+                "nominal: the members have their own bodies or potentials, so no one nominal "
+                "run exists; give reference= instead (a propagate result of the nominal case on "
+                "the same times, or quaternions)"
+            )
+        params = np.array(self.params, dtype=np.float64)
+        params[0:3] = self.inertia
+        return params
+
+    def member_vars(self, start: int, stop: int) -> dict[str, tuple]:
+        """Per-member inputs stored in the output: ``name: (dims, values, attrs)``.
+
+        The initial states as given, before the projection onto |q| = 1, q·Q = 0 (as
+        :func:`initial_state_vars`); ``units`` "momentum" is replaced by the output's unit.
+        """
+        return initial_state_vars(self._rows(self.q, start, stop), self._rows(self.Q, start, stop))
+
+
+def initial_state_vars(q: np.ndarray, Q: np.ndarray) -> dict[str, tuple]:
+    """``initial_q``, ``initial_Q`` (member, component): a member's initial state as given or
+    drawn, before the projection that every run applies; re-running from it reproduces the
+    member bit for bit (attitude.ensemble.rerun_member)."""
+    note = (
+        "as given or drawn, before the projection onto |q| = 1, q.Q = 0 that every run applies "
+        "(largest: initial_projection)"
+    )
+    return {
+        "initial_q": (
+            ("member", "component"),
+            np.array(q, dtype=np.float64, order="C"),
+            {"units": "1", "long_name": f"initial attitude quaternion, {note}"},
+        ),
+        "initial_Q": (
+            ("member", "component"),
+            np.array(Q, dtype=np.float64, order="C"),
+            {"units": "momentum", "long_name": f"initial conjugate momenta, {note}"},
+        ),
+    }
+
 
 def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.ndarray, float]:
     """Members' states projected onto |q| = 1, q·Q = 0 (canonical.project_state, row-wise).
@@ -69,7 +111,7 @@ def _project(q: np.ndarray, Q: np.ndarray, offset: int) -> tuple[np.ndarray, np.
     if np.any(dn > PROJECTION_TOL):
         i = int(np.argmax(dn > PROJECTION_TOL))
         raise AttitudeValueError(
-            f"q0: member {offset + i}: |q0| = {nq[i]!r} is not 1 (off by {dn[i]:.3g} > "
+            f"q0: member {offset + i}: |q0| = {float(nq[i])!r} is not 1 (off by {dn[i]:.3g} > "
             f"{PROJECTION_TOL:g}); pass unit quaternions (attitude.quaternion.normalize)"
         )
     if np.any(np.all(q == 0.0, axis=1)):  # pragma: no cover - caught by the norm check
@@ -147,8 +189,8 @@ def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
             is_q = isinstance(body, u.Quantity)
         except ImportError:  # pragma: no cover
             is_q = False
-        arr = as_float_array(body, "body", unit="kg km2" if is_q else None)
-        unit = "kg km2" if is_q else None
+        arr = as_float_array(body, "body", unit="kg m2" if is_q else None)
+        unit = "kg m^2" if is_q else None  # SI, as RigidBody
         if arr.shape == (3,):
             return RigidBody(arr, units=unit).inertia, unit
     if arr.ndim != 2 or arr.shape[1] != 3:
@@ -194,16 +236,19 @@ def _member_potentials(potential: Any, n: int, inertia: np.ndarray):
                     f"potential[{i}]: expected an attitude.potentials.Potential, got "
                     f"{type(p).__name__}"
                 )
-            if p._kind is None:
+            if p._user_terms():
                 raise AttitudeTypeError(
                     f"potential[{i}]: per-member potentials must be built-in (TorqueFree, "
-                    f"HeavyTop, GravityGradient); a {type(p).__name__} is compiled code, so "
-                    "give one for all members (its numbers can live in the function)"
+                    f"HeavyTop, GravityGradient, or sums of them); a {type(p).__name__} holds "
+                    "compiled code, so give one for all members (its numbers can live in the "
+                    "function)"
                 )
-            if p._kind != pots[0]._kind:
+            kinds = [t._kind for t in p.terms]
+            if kinds != [t._kind for t in pots[0].terms]:
                 raise AttitudeValueError(
                     f"potential[{i}]: all members need the same kind of potential; member 0 "
-                    f"has {pots[0].name}, member {i} has {p.name}"
+                    f"has {' + '.join(pots[0].term_names())}, member {i} has "
+                    f"{' + '.join(p.term_names())}"
                 )
         ref = inertia if inertia.ndim == 1 else inertia[0]
         rows = [p._params(ref) for p in pots]

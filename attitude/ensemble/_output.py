@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .._core import rk as _rk
 from ..body import RigidBody
 from ..errors import AttitudeError, AttitudeValueError
 from ..io import StreamWriter
@@ -24,14 +25,17 @@ _STAT_VARS = ("member_n_steps", "member_n_rhs", "member_n_rejected", "member_sta
 class _Assembler:
     """Turns the arrays of a chunk into a Dataset with a ``member`` dimension; keeps totals."""
 
-    def __init__(self, t, unit, pot, pots, attrs):
+    def __init__(self, t, unit, pot, pots, attrs, events=None):
         self.t = t
+        self.events = events
         self.pot = pot
         self.pots = pots
         body = RigidBody(np.ones(3), units=unit) if unit else RigidBody(np.ones(3))
         m = t.shape[0]
         # The single-run schema, for the variables' names, dims, units and long names.
-        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, {})
+        # (with the run's epoch, if any: the CF time units follow it)
+        epoch = {k: v for k, v in (attrs or {}).items() if k == "epoch" and v}
+        tmpl = build_dataset(t, np.zeros((m, 8)), np.zeros((m, _N_DIAG)), body, pot, epoch)
         self.template = tmpl
         self.per_member_orbit = pots is not None and getattr(pot, "orbit", None) is not None
         self.attrs = {k: v for k, v in tmpl.attrs.items() if k != "inertia"}
@@ -43,17 +47,28 @@ class _Assembler:
         self.max_projection = 0.0
         self.inv: dict[str, float] = {}
         self.n_members = 0
+        # Output choice (_plan): rows of the compiled loop's time grid that are stored (None:
+        # all); the member source, for its per-member inputs (initial states, dispersions); the
+        # reference attitude (stored times, 4) of the pointing error, if any.
+        self.keep: np.ndarray | None = None
+        self.members: Any = None
+        self.reference: np.ndarray | None = None
+        # Views instead of contiguous copies of the (member, time) variables: for chunks whose
+        # trajectories are reduced and dropped at once (output="statistics").
+        self.views = False
 
     def dataset(self, start, out, inertia, lazy: bool = False) -> xr.Dataset:
         """The chunk's Dataset; ``lazy``: ``out`` holds dask arrays, kept as they are."""
 
         def arr(x, dtype=None):
-            if lazy:
+            if lazy or (self.views and dtype is None):
                 return x if dtype is None else x.astype(dtype)
             return np.ascontiguousarray(x, dtype=dtype)
 
         c = out["y"].shape[0]
         y, d = out["y"], out["diag"]
+        if self.keep is not None:  # every k-th or the final sample (_plan)
+            y, d = y[:, self.keep], d[:, self.keep]
         cols = {
             "q": y[:, :, :4],
             "Q": y[:, :, 4:],
@@ -81,6 +96,25 @@ class _Assembler:
             np.ascontiguousarray(inertia),
             {"units": inertia_units, "long_name": "principal moments of inertia (I1, I2, I3)"},
         )
+        if self.members is not None:  # the inputs that re-run a member alone (replay.py)
+            rate = str(tm["omega"].attrs.get("units", "1"))
+            momentum = str(tm["Q"].attrs.get("units", "1"))
+            for name, (dims, val, attrs) in self.members.member_vars(start, start + c).items():
+                attrs = dict(attrs)
+                attrs["units"] = {"rate": rate, "momentum": momentum}.get(
+                    attrs["units"], attrs["units"]
+                )
+                data_vars[name] = xr.Variable(dims, val, attrs)
+        if self.reference is not None:
+            data_vars["reference_q"] = xr.Variable(
+                ("time", "component"),
+                self.reference,
+                {
+                    "units": "1",
+                    "long_name": "reference attitude of the pointing error (body to space, "
+                    "scalar first)",
+                },
+            )
         cnt = out["counters"]
         for name, col, long in (
             ("member_n_steps", cnt[:, 0], "accepted integration steps"),
@@ -101,6 +135,29 @@ class _Assembler:
             ),
             **{k: v.variable for k, v in tm.coords.items()},
         }
+        if self.events is not None:
+            tu = tm["time"].attrs.get("units", "1")
+            data_vars["event_count"] = xr.Variable(
+                ("member", "detector"),
+                arr(out["event_count"], np.int64),
+                {"units": "1", "long_name": "occurrences of each event"},
+            )
+            data_vars["event_first_time"] = xr.Variable(
+                ("member", "detector"),
+                arr(out["event_first"]),
+                {"units": tu, "long_name": "time of the first occurrence (NaN: none)"},
+            )
+            n = len(self.events.labels)
+            coords["detector"] = (
+                "detector",
+                np.arange(n, dtype=np.int64),
+                {"long_name": "index of the event detector (labels in detector_label)"},
+            )
+            coords["detector_label"] = (
+                "detector",
+                np.array(self.events.labels),
+                {"long_name": "event name"},
+            )
         return xr.Dataset(data_vars, coords=coords, attrs=dict(self.attrs))
 
     def _orbit_var(self, orbit, name):
@@ -119,18 +176,20 @@ class _Assembler:
         self.totals["n_rhs"] += int(cnt[:, 1].sum())
         self.totals["n_rejected"] += int(cnt[:, 2].sum())
         self.n_members += cnt.shape[0]
-        ok = np.asarray(out["status"]) == 0
+        st = np.asarray(out["status"])
+        ok = (st == _rk.SUCCESS) | (st == _rk.EVENT)
         if not ok.any():
             return
         d = out["diag"] if ok.all() else out["diag"][ok]
+        mx = np.nanmax  # members ended by a terminal event have NaN samples after it
         upd = {
-            "max_abs_norm_error": float(np.max(np.abs(d[:, :, 10]))),
-            "max_abs_qQ": float(np.max(np.abs(d[:, :, 11]))),
+            "max_abs_norm_error": float(mx(np.abs(d[:, :, 10]))),
+            "max_abs_qQ": float(mx(np.abs(d[:, :, 11]))),
         }
         # Conserved quantities per member (as scenario.InvariantTracker, maximised over members).
         E = d[:, :, 9]
         sE = np.maximum(np.abs(E[:, :1]), np.finfo(float).tiny)
-        dE = float(np.max(np.abs(E - E[:, :1]) / sE))
+        dE = float(mx(np.abs(E - E[:, :1]) / sE))
         G = d[:, :, 6:9]
         sG = np.maximum(np.linalg.norm(G[:, :1], axis=-1), 1e-300)
         name = self.pot.name
@@ -139,9 +198,9 @@ class _Assembler:
         else:
             upd["max_rel_energy_variation"] = dE
         if name == "torque_free":
-            upd["max_rel_G_error"] = float(np.max(np.linalg.norm(G - G[:, :1], axis=-1) / sG))
+            upd["max_rel_G_error"] = float(mx(np.linalg.norm(G - G[:, :1], axis=-1) / sG))
         if name == "heavy_top":
-            upd["max_rel_Gz_error"] = float(np.max(np.abs(G[:, :, 2] - G[:, :1, 2]) / sG))
+            upd["max_rel_Gz_error"] = float(mx(np.abs(G[:, :, 2] - G[:, :1, 2]) / sG))
         for k, v in upd.items():
             self.inv[k] = max(self.inv.get(k, 0.0), v)
 
@@ -162,7 +221,7 @@ class _MemberWriter(StreamWriter):
     """
 
     def _create(self, ds: xr.Dataset) -> None:
-        from ..io import _set_attrs, check_attrs
+        from ..io import _set_attrs, _variable_attrs, check_attrs
 
         for name in ds.variables:  # every attr checked before anything is written
             check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
@@ -188,7 +247,7 @@ class _MemberWriter(StreamWriter):
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
-            _set_attrs(v, var.attrs)
+            _set_attrs(v, _variable_attrs(ds, name))  # CF "coordinates" of the label variables
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:
@@ -201,6 +260,25 @@ class _MemberWriter(StreamWriter):
             per = 8 * int(np.prod(rest))
         members = int(max(1, min(var.shape[0], 2**20 // per)))
         return [members, *rest]
+
+    def add_variables(self, ds: xr.Dataset) -> None:
+        """Write the variables of ``ds`` that the file does not hold yet (e.g. the percentiles
+        of a statistics run, computed when every member is done); before :meth:`commit`."""
+        from ..io import _set_attrs, _variable_attrs
+
+        nc = self._nc
+        for dim, size in ds.sizes.items():
+            if dim not in nc.dimensions:
+                nc.createDimension(dim, size)
+        comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
+        for name in [*ds.coords, *ds.data_vars]:
+            if name in nc.variables:
+                continue
+            var = ds[name].variable
+            extra = comp if name in ds.data_vars else {}
+            v = nc.createVariable(name, var.dtype, var.dims, **extra)
+            v[:] = var.values
+            _set_attrs(v, _variable_attrs(ds, name))
 
     def append(self, ds: xr.Dataset) -> None:
         from .._files import file_error

@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._validation import as_int, as_positive, as_times
+from .._validation import as_float_array, as_int, as_positive, as_times
 from ..body import RigidBody
 from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
 from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
-from . import _dask
+from . import _dask, _plan
 from ._chunks import (
     _N_DIAG,
     _compute_chunk,
@@ -38,6 +38,7 @@ from ._dask import (
 )
 from ._members import _member_inertia, _member_potentials, _member_states, _Members, _project
 from ._output import _Assembler, _concat, _MemberWriter, _open_result
+from ._percentile_store import _PercentileStore
 from .dispersions import _Sampled
 
 #: Output bytes per chunk the default chunk size aims at (states + diagnostics, float64).
@@ -90,6 +91,16 @@ def propagate_ensemble(
     scheduler_timeout: float | None = None,
     attrs: dict[str, Any] | None = None,
     lazy: bool = False,
+    events: Any = None,
+    epoch: Any = None,
+    output: str = "samples",
+    every: int = 1,
+    percentiles: Sequence[float] | None = None,
+    nominal: tuple[Any, Any] | None = None,
+    reference: Any = None,
+    boresight: Any = None,
+    max_output_size: float | str | None = _plan.MAX_OUTPUT_SIZE,
+    on_estimate: Callable[[int], None] | None = None,
     _source: Any = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
@@ -102,7 +113,7 @@ def propagate_ensemble(
     ----------
     bodies_or_body : RigidBody, array_like shape (3,) or (N, 3), or sequence of N RigidBody
         One body for all members, or one row of principal moments per member (an astropy
-        Quantity is converted to kg km²; plain numbers are dimensionless, as in ``propagate``).
+        Quantity is converted to kg m² (SI); plain numbers are dimensionless, as in ``propagate``).
     q0 : array_like, shape (N, 4)
         Initial attitudes (body → space, scalar first). A single (4,) row is shared by all.
     Q0 : array_like, shape (N, 4)
@@ -156,6 +167,45 @@ def propagate_ensemble(
         nothing is kept; totals (``n_steps``...) are not in the attrs (sum
         ``member_n_steps``). Default False: chunks are computed eagerly, in member order,
         and streamed by this process, keeping completed chunks on failure.
+    events : list, optional
+        Events (:mod:`attitude.events`) located in every member's compiled loop; the result
+        gets ``event_count`` and ``event_first_time`` (member, detector): how often each
+        occurred and when first (NaN: never), for
+        :func:`attitude.ensemble.statistics.event_time_percentiles`. A terminal event ends a
+        member (status 4, ``EVENT``; its samples after the event are NaN), not the ensemble.
+    epoch : astropy Time or str, optional
+        Date of t = 0, as in :func:`attitude.propagate` (events that read the Sun need one).
+    output : {"samples", "final", "statistics"}
+        What is stored (docs/ensemble.md, "Output choices"): every member at the output times
+        (default; ``every=k``: at ``t[::k]``), every member at ``t[-1]`` only, or no members'
+        trajectories but percentiles over members of the pointing error (from the reference
+        attitude) and of |ω| at the output times, computed as the members finish
+        (``pointing_error_percentiles``, ``omega_norm_percentiles``: dims (percentile, time)).
+        Every member is integrated to ``t[-1]`` whatever is stored, and a stored sample is bit
+        for bit that of a run storing everything. Per-member inputs and statistics
+        (``inertia``, ``initial_q``, ``member_status``...) are stored in every case.
+    every : int
+        Store every k-th output time, ``t[::every]`` (``"samples"``, ``"statistics"``).
+    percentiles : sequence of float, optional
+        ``output="statistics"``: percentiles in [0, 100], default (5, 50, 95, 100) (100 is the
+        maximum over members). Exact: ``np.percentile`` over all members at each time.
+    nominal : (q0, Q0), optional
+        The nominal initial state ((4,) each): propagated once by the same compiled loop with
+        the members' shared body and potential, its attitude is the reference of the pointing
+        error (stored as ``reference_q``). :func:`run_scenario` uses the scenario's state.
+    reference : Dataset or array_like shape (4,) or (time, 4), optional
+        Instead of ``nominal``: the reference attitude, a ``propagate`` result on ``t`` or
+        quaternions. ``output="statistics"`` needs one of the two.
+    boresight : array_like shape (3,), optional
+        ``output="statistics"``: the pointing error is the angle between the directions this
+        body axis points to (member and reference), instead of the total rotation angle.
+    max_output_size : float, str, Quantity or None
+        Refuse (:class:`~attitude.errors.OutputSizeError`, before any work) an output whose
+        expected size is larger: bytes, or a string such as ``"2 GB"``; None: no limit. The
+        default is 1 GB. With ``path`` it is the file, without it the memory of the result.
+    on_estimate : callable, optional
+        ``on_estimate(nbytes)``: called once with the expected output size before any work
+        (also in the attr ``expected_output_size``).
 
     Returns
     -------
@@ -185,7 +235,9 @@ def propagate_ensemble(
     Notes
     -----
     Memory without ``path`` is that of the whole result, ``N × m × 21 × 8`` bytes; with
-    ``path`` it is one chunk. See docs/ensemble.md for Dask clusters and dispersions.
+    ``path`` it is one chunk (and, for ``output="statistics"``, 16 bytes per member and
+    stored time, in a temporary file beside ``path`` beyond 256 MiB). See docs/ensemble.md
+    for Dask clusters and dispersions.
     """
     body = bodies_or_body
     t_start = time.perf_counter()
@@ -230,10 +282,39 @@ def propagate_ensemble(
     if scheduler_timeout is None:
         scheduler_timeout = _dask.SCHEDULER_TIMEOUT
     timeout = _positive(scheduler_timeout, "scheduler_timeout")
+    plan = _plan.make_plan(tt, output, every, percentiles, max_output_size)
+    if on_estimate is not None and not callable(on_estimate):
+        raise AttitudeTypeError("on_estimate: expected a callable on_estimate(nbytes)")
+    if nominal is not None and reference is not None:
+        raise AttitudeValueError("nominal, reference: give one of them (the pointing reference)")
+    if plan.output == "statistics":
+        if nominal is None and reference is None:
+            raise AttitudeValueError(
+                "nominal: output='statistics' measures the pointing error from one reference "
+                "for all members; give nominal=(q0, Q0) (the nominal initial state, propagated "
+                "once) or reference= (a propagate result on t, or quaternions)"
+            )
+        if lazy:
+            raise AttitudeValueError(
+                "lazy: output='statistics' is computed as the members finish; run it eagerly "
+                "(lazy=False)"
+            )
+    elif boresight is not None:
+        raise AttitudeValueError("boresight: only with output='statistics'")
+    bore = None
+    if boresight is not None:
+        bore = as_float_array(boresight, "boresight", trailing=3, ndim=1)
+        if not float(np.linalg.norm(bore)) > 0:
+            raise AttitudeValueError("boresight: the zero vector is not a direction")
+        bore = bore / float(np.linalg.norm(bore))
 
     if _source is None:
         q, Q, n = _member_states(q0, Q0)
         inertia, unit = _member_inertia(body, n)
+        if isinstance(potential, Potential):  # environment tables for this run's span
+            potential = potential.prepare(tt)
+        elif isinstance(potential, (list, tuple)):
+            potential = [p.prepare(tt) if isinstance(p, Potential) else p for p in potential]
         pot, params, pots = _member_potentials(potential, n, inertia)
         members = _Members(q, Q, inertia, params, n)
         for start in range(0, n, 65536):  # validate every state before any work
@@ -242,7 +323,10 @@ def propagate_ensemble(
     else:  # a dispersion sampler (run_scenario): already validated
         members, unit, pot, pots = _source
         n = members.n
-    user = pot if pot._kind is None else None
+    user = pot if pot._user_terms() else None
+    evset = None
+    if events is not None:
+        evset = _ensemble_events(events, tt, pot, epoch)
 
     out_path = None if path is None else Path(path)
     if out_path is not None:
@@ -290,10 +374,10 @@ def propagate_ensemble(
             import numba
 
             n_threads = numba.get_num_threads()
-    m = tt.shape[0]
+    m = plan.kernel_t.shape[0]
     csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
     csize = min(csize, n)
-    setup = _Setup(tt, rtol, atol, float(max_step), int(max_steps), user)
+    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset)
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
@@ -308,11 +392,47 @@ def propagate_ensemble(
         run_attrs["potential"] = f"{n} per-member potentials, member 0: {pot.describe()}"
     if not math.isinf(max_step):
         run_attrs["max_step"] = float(max_step)
+    if evset is not None:
+        run_attrs["events"] = evset.describe()
+        if evset.epoch is not None:
+            from orbit.timescales import format_epoch
+
+            run_attrs["epoch"] = format_epoch(evset.epoch)
+    run_attrs.update(plan.attrs())
     if attrs:
         run_attrs.update(attrs)
-    asm = _Assembler(tt, unit, pot, pots, run_attrs)
+    asm = _Assembler(plan.stored_t, unit, pot, pots, run_attrs, evset)
     if members.shared_inertia is not None:
         asm.attrs["inertia"] = np.asarray(members.shared_inertia, dtype=np.float64)
+    asm.keep, asm.members = plan.keep, members
+    asm.views = plan.output == "statistics"
+    has_ref = nominal is not None or reference is not None
+    ms = plan.stored_t.shape[0]
+    if has_ref:
+        asm.reference = np.zeros((ms, 4))  # the size estimate's placeholder
+    # The expected size, from one member's Dataset (whatever variables it has), before any work.
+    n_ev = 0 if evset is None else len(evset.labels)
+    one = asm.dataset(0, _plan.dummy_chunk(m, 1, n_ev), members.block(0, 1)[2])
+    extra = None
+    if plan.output == "statistics":
+        probe = _PercentileStore(1, plan.stored_t, plan.percentiles, np.zeros((ms, 4)))
+        try:
+            one = probe.add(one)
+            extra = probe.finish(one["time"].variable)
+        finally:
+            probe.close()
+    expected = _plan.estimate_bytes(one, n, extra)
+    _plan.check_size(expected, plan, n, out_path is None)
+    asm.attrs["expected_output_size"] = np.int64(expected)
+    if on_estimate is not None:
+        on_estimate(expected)
+    if nominal is not None:
+        asm.reference = _plan.nominal_reference(setup, members.nominal_params(), nominal, plan)
+    elif reference is not None:
+        asm.reference = _plan.given_reference(reference, plan)
+        asm.attrs["pointing_reference"] = "given"
+    if nominal is not None:
+        asm.attrs["pointing_reference"] = "nominal initial state, propagated once"
 
     bounds = [(s, min(n, s + csize)) for s in range(0, n, csize)]
     if lazy:
@@ -332,6 +452,17 @@ def propagate_ensemble(
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
     failures = _Failures(m)
+    store = None
+    stats = None
+    if plan.output == "statistics":
+        store = _PercentileStore(
+            n,
+            plan.stored_t,
+            plan.percentiles,
+            asm.reference,
+            bore,
+            None if out_path is None else out_path.parent,
+        )
     try:
         if client is None:
             results = _local_results(setup, members, bounds, threads)
@@ -349,6 +480,8 @@ def propagate_ensemble(
             asm.max_projection = max(asm.max_projection, corr)
             asm.account(out)
             ds = asm.dataset(start, out, inertia)
+            if store is not None:  # statistics only: keep the scalars, drop the members
+                ds = store.add(ds)
             if writer is not None:
                 writer.append(ds)
             else:
@@ -361,9 +494,14 @@ def propagate_ensemble(
         status = "complete" if failure is None else f"failed: {failure}"
         final = asm.final_attrs(status)
         final["n_members_failed"] = np.int64(failures.count)
+        if store is not None and asm.n_members:
+            stats = store.finish(asm.template["time"].variable)
+            final.update(store.attrs())
         final["wall_time"] = time.perf_counter() - t_start
         if writer is not None:
             if writer.n:
+                if stats is not None:
+                    writer.add_variables(stats)
                 writer.attrs = final
                 writer.commit()
             else:
@@ -373,6 +511,8 @@ def propagate_ensemble(
             writer.abort()
         raise
     finally:
+        if store is not None:
+            store.close()
         if owned:
             with contextlib.suppress(Exception):
                 client.close()
@@ -387,6 +527,10 @@ def propagate_ensemble(
         result = _open_result(out_path, csize, client is not None) if writer.n else None
     else:
         result = _concat(kept, final) if kept else None
+        if result is not None and stats is not None:
+            result = result.assign_coords(percentile=stats["percentile"]).assign(
+                {k: v.variable for k, v in stats.data_vars.items()}
+            )
     if failure is not None:
         ok = asm.n_members - failures.count
         where = (
@@ -398,6 +542,22 @@ def propagate_ensemble(
         )
         raise PropagationError(f"{failure}{where}", time=failure.time, partial=result)
     return result
+
+
+def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:
+    """The validated events of an ensemble (attitude.events.build) with the run's epoch."""
+    from orbit.errors import OrbitError
+    from orbit.timescales import as_epoch
+
+    from ..events import build
+
+    try:
+        e = as_epoch(epoch, "epoch")
+    except OrbitError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    if e is None:
+        e = getattr(getattr(pot, "orbit", None), "epoch", None)
+    return build(events, t, e)
 
 
 def _local_results(setup, members, bounds, threads):
@@ -436,6 +596,11 @@ def run_scenario(
     progress: Callable[[int, int, int], None] | None = None,
     chunk_size: int | None = None,
     scheduler_timeout: float | None = None,
+    output: str | None = None,
+    every: int | None = None,
+    percentiles: Sequence[float] | None = None,
+    max_output_size: Any = ...,
+    on_estimate: Callable[[int], None] | None = None,
     **overrides: Any,
 ) -> dict[str, Any]:
     """Run the dispersed ensemble of a scenario with an ``[ensemble]`` table, streamed to netCDF.
@@ -452,6 +617,12 @@ def run_scenario(
         ``progress(n_done, n_total, n_steps)`` after each chunk.
     chunk_size : int, optional
         Members per chunk (default: ``ensemble.chunk``, else automatic).
+    output, every, percentiles, max_output_size : optional
+        Replace the ``[ensemble]`` table's (see :func:`propagate_ensemble`; ``max_output_size``
+        None: no limit). The pointing error is measured from the scenario's nominal state,
+        propagated once (``reference_q``).
+    on_estimate : callable, optional
+        ``on_estimate(nbytes)`` with the expected file size, before any work.
     **overrides
         ``method``, ``rtol``, ``atol``, ``max_step`` replacing the scenario's.
 
@@ -479,7 +650,7 @@ def run_scenario(
             )
     out = Path(path) if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
-    pot = sc.potential.bind(sc.body)
+    pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)
     params = pot._params(inertia)
     source = _Sampled(disp, q0, Q0, inertia, params)
@@ -499,6 +670,14 @@ def run_scenario(
         chunk_size=chunk_size or disp.chunk,
         scheduler_timeout=scheduler_timeout,
         attrs=attrs,
+        events=sc.events,
+        epoch=sc.epoch,
+        output=disp.output if output is None else output,
+        every=disp.every if every is None else every,
+        percentiles=percentiles if percentiles is not None else disp.percentiles,
+        nominal=(q0, Q0),
+        max_output_size=disp.max_output_size if max_output_size is ... else max_output_size,
+        on_estimate=on_estimate,
         _source=(source, sc.body.units, pot, None),
         **kw,
     )

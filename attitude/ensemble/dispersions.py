@@ -8,13 +8,15 @@ from typing import Any
 import numpy as np
 
 from ..errors import AttitudeValueError
-from ._members import _project
+from ._members import _project, initial_state_vars
+from ._plan import MAX_OUTPUT_SIZE, OUTPUTS
 
 # ------------------------------------------------------------------------------------------------
 # dispersions: the [ensemble] table of a scenario
 # ------------------------------------------------------------------------------------------------
 
 DISTRIBUTIONS = ("normal", "uniform")
+__all__ = ["DISTRIBUTIONS", "OUTPUTS", "Dispersions"]
 #: Normal inertia errors are truncated at this many standard deviations (so every member is
 #: a rigid body; checked for the worst case before any work).
 INERTIA_TRUNCATION = 3.0
@@ -40,6 +42,10 @@ class Dispersions:
     half-width). The draws of member ``i`` come from a counter-based generator (Philox) at
     position ``i``: they do not depend on the ensemble size or on the chunking, so the first
     1000 members of a 10⁶-member run are those of a 1000-member run with the same seed.
+
+    The table's output options are kept here too: ``output``, ``every``, ``percentiles`` and
+    ``max_output_size`` (bytes, ``math.inf``: no limit) of
+    :func:`attitude.ensemble.propagate_ensemble`.
     """
 
     size: int
@@ -51,6 +57,10 @@ class Dispersions:
     rate_distribution: str = "normal"
     inertia_error: float = 0.0
     inertia_distribution: str = "normal"
+    output: str = "samples"
+    every: int = 1
+    percentiles: tuple[float, ...] | None = None
+    max_output_size: float = MAX_OUTPUT_SIZE
     key: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -98,6 +108,26 @@ class Dispersions:
                     + (" or inertia_distribution = 'uniform'" if eps > self.inertia_error else "")
                 )
 
+    def draws(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The errors applied to members start..stop−1.
+
+        Returns
+        -------
+        dtheta : ndarray, shape (C, 3)
+            Attitude error rotation vectors (body axes, rad): q_i = q0 ∘ exp(δθ_i / 2).
+        domega : ndarray, shape (C, 3)
+            Body-rate errors (rad per time unit): ω_i = ω0 + δω_i.
+        eps : ndarray, shape (C, 3)
+            Relative inertia errors: I_i = I ∘ (1 + ε_i).
+        """
+        u = self.uniforms(start, stop)
+        dtheta = self._transform(u[:, 0:3], self.attitude_error, self.attitude_distribution)
+        domega = self._transform(u[:, 3:6], self.rate_error, self.rate_distribution)
+        eps = self._transform(
+            u[:, 6:9], self.inertia_error, self.inertia_distribution, INERTIA_TRUNCATION
+        )
+        return dtheta, domega, eps
+
     def sample(
         self, q0: np.ndarray, Q0: np.ndarray, inertia: np.ndarray, start: int, stop: int
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -111,12 +141,7 @@ class Dispersions:
         """
         from ..quaternion import from_rotation_vector, multiply
 
-        u = self.uniforms(start, stop)
-        dtheta = self._transform(u[:, 0:3], self.attitude_error, self.attitude_distribution)
-        domega = self._transform(u[:, 3:6], self.rate_error, self.rate_distribution)
-        eps = self._transform(
-            u[:, 6:9], self.inertia_error, self.inertia_distribution, INERTIA_TRUNCATION
-        )
+        dtheta, domega, eps = self.draws(start, stop)
         # Nominal body rate ω0 = g0 / I, g0 = ½ vec(q̃0∘Q0) (Arribas et al. eq. 17).
         w = multiply(q0 * np.array([1.0, -1.0, -1.0, -1.0]), Q0)
         omega0 = 0.5 * w[1:] / inertia
@@ -155,6 +180,10 @@ ENSEMBLE_KEYS: dict[str, str | None] = {
     "rate_distribution": None,
     "inertia_error": None,
     "inertia_distribution": None,
+    "output": None,
+    "every": None,
+    "percentiles": None,
+    "max_output_size": "size",
 }
 
 
@@ -177,3 +206,52 @@ class _Sampled:
         params[:, 0:3] = inert
         y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
         return params, y0, inert, corr
+
+    def member_vars(self, start: int, stop: int) -> dict[str, tuple]:
+        """The members' drawn initial states and the errors applied (``name: (dims, values,
+        attrs)``; ``units`` "rate"/"momentum" are replaced by the output's units)."""
+        q, Q, _ = self.disp.sample(self.q0, self.Q0, self.inertia0, start, stop)
+        dtheta, domega, eps = self.disp.draws(start, stop)
+        out = initial_state_vars(q, Q)
+        out["dispersion_attitude"] = (
+            ("member", "axis"),
+            dtheta,
+            {
+                "units": "rad",
+                "long_name": "attitude error applied: rotation vector in body axes, "
+                "q = q_nominal o exp(dtheta / 2)",
+            },
+        )
+        out["dispersion_rate"] = (
+            ("member", "axis"),
+            domega,
+            {
+                "units": "rate",
+                "long_name": "body-rate error applied: omega = omega_nominal + domega",
+            },
+        )
+        out["dispersion_inertia"] = (
+            ("member", "axis"),
+            eps,
+            {
+                "units": "1",
+                "long_name": "relative inertia error applied: I = I_nominal (1 + eps)",
+            },
+        )
+        counter = (np.arange(start, stop, dtype=np.int64)) * (_DRAWS // 4)
+        out["member_draw_counter"] = (
+            ("member",),
+            counter,
+            {
+                "units": "1",
+                "long_name": "Philox counter of the member's draws (key from "
+                "SeedSequence(ensemble_seed); 3 x member index)",
+            },
+        )
+        return out
+
+    def nominal_params(self) -> np.ndarray:
+        """The compiled loop's parameter row (P,) of the nominal body and potential."""
+        params = np.array(self.params, dtype=np.float64)
+        params[0:3] = self.inertia0
+        return params

@@ -1,4 +1,4 @@
-"""Statistics over ensemble members: percentiles of pointing error and body rates."""
+"""Statistics over ensemble members: percentiles of pointing error, body rates, event times."""
 
 from __future__ import annotations
 
@@ -7,12 +7,40 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .._core import rk as _rk
 from .._validation import as_float_array
 from ..errors import AttitudeTypeError, AttitudeValueError
 
 # ------------------------------------------------------------------------------------------------
 # statistics over members
 # ------------------------------------------------------------------------------------------------
+
+
+#: Variables of a statistics-only result (``propagate_ensemble(..., output="statistics")``).
+STORED = {"pointing": "pointing_error_percentiles", "omega": "omega_norm_percentiles"}
+
+
+def _stored(ds: Any, which: str) -> xr.DataArray | None:
+    """The stored percentiles of a statistics-only result, or None (a result with members)."""
+    name = STORED[which]
+    if isinstance(ds, xr.Dataset) and name in ds and "q" not in ds:
+        return ds[name]
+    return None
+
+
+def _select_stored(da: xr.DataArray, p: np.ndarray) -> xr.DataArray:
+    have = np.asarray(da["percentile"].values, dtype=np.float64)
+    idx = []
+    for x in p:
+        hit = np.flatnonzero(np.isclose(have, x, rtol=0, atol=1e-9))
+        if not hit.size:
+            raise AttitudeValueError(
+                f"percentiles: this result holds statistics only, for the percentiles "
+                f"{', '.join(f'{v:g}' for v in have)}; {x:g} was not computed (choose among "
+                "those, or run with percentiles=...)"
+            )
+        idx.append(int(hit[0]))
+    return da.isel(percentile=idx)
 
 
 def _check_ensemble(ds: Any, var: str) -> xr.DataArray:
@@ -27,10 +55,12 @@ def _check_ensemble(ds: Any, var: str) -> xr.DataArray:
 
 
 def _successful(ds: xr.Dataset) -> xr.Dataset:
-    """The members that succeeded: failed ones (``member_status`` != 0) hold NaN after their
-    failure and are left out of the statistics."""
+    """The members that did not fail: failed ones hold NaN after their failure and are left
+    out of the statistics; members ended by a terminal event count up to the event (NaN after
+    it, skipped by the percentiles)."""
     if "member_status" in ds and ds["member_status"].dims == ("member",):
-        ok = np.asarray(ds["member_status"].values) == 0
+        st = np.asarray(ds["member_status"].values)
+        ok = (st == _rk.SUCCESS) | (st == _rk.EVENT)
         if not ok.all():
             if not ok.any():
                 raise AttitudeValueError("ds: every member failed (member_status); no statistics")
@@ -70,13 +100,24 @@ def _mean_attitude(q: xr.DataArray) -> np.ndarray:
 
 def _reference(ds: xr.Dataset, q: xr.DataArray, reference: Any) -> xr.DataArray:
     m = ds.sizes["time"]
+    if reference is None:
+        reference = "nominal" if "reference_q" in ds else "mean"
     if isinstance(reference, str):
-        if reference != "mean":
+        if reference not in ("mean", "nominal"):
             raise AttitudeValueError(
-                f"reference: expected 'mean', a member index, a Dataset with q (a nominal "
-                f"run) or quaternions (4,) / (time, 4), got {reference!r}"
+                f"reference: expected 'mean', 'nominal', a member index, a Dataset with q (a "
+                f"nominal run) or quaternions (4,) / (time, 4), got {reference!r}"
             )
-        ref = _mean_attitude(q)
+        if reference == "nominal":
+            if "reference_q" not in ds:
+                raise AttitudeValueError(
+                    "reference: 'nominal' needs the reference attitude stored with the "
+                    "ensemble (reference_q: propagate_ensemble(..., nominal=(q0, Q0)) or a "
+                    "scenario run); this result has none"
+                )
+            ref = np.asarray(ds["reference_q"].transpose("time", "component").values)
+        else:
+            ref = _mean_attitude(q)
     elif isinstance(reference, (int, np.integer)) and not isinstance(reference, bool):
         if int(reference) not in set(ds["member"].values.tolist()):
             raise AttitudeValueError(f"reference: no member {reference} in ds")
@@ -118,7 +159,7 @@ def _error_angles(q, r, axis):
 
 def pointing_error_percentiles(
     ds: xr.Dataset,
-    reference: Any = "mean",
+    reference: Any = None,
     percentiles: Any = (5.0, 50.0, 95.0),
     *,
     axis: Any = None,
@@ -129,11 +170,14 @@ def pointing_error_percentiles(
     Parameters
     ----------
     ds : xarray.Dataset
-        An ensemble result (:func:`propagate_ensemble`), in memory or lazy (dask). Members
-        that failed (``member_status`` != 0) are left out.
-    reference : "mean", int, Dataset or array_like shape (4,) or (time, 4)
-        What the error is measured from: ``"mean"`` (default), the average attitude of the
-        members at each time (Markley et al. 2007); a member index; a nominal
+        An ensemble result (:func:`propagate_ensemble`), in memory or lazy (dask). A
+        statistics-only result (``output="statistics"``) gives its stored percentiles. Members
+        that failed (``member_status`` other than success or a terminal event) are left out.
+    reference : None, "nominal", "mean", int, Dataset or array_like shape (4,) or (time, 4)
+        What the error is measured from. None (default): the reference stored with the
+        ensemble (``reference_q``: the nominal state propagated once, as in a scenario run),
+        else ``"mean"``. ``"nominal"``: the stored one; ``"mean"``: the average attitude of
+        the members at each time (Markley et al. 2007); a member index; a nominal
         ``propagate`` result with the same times; or reference quaternions.
     percentiles : sequence of float
         Percentiles in [0, 100] (linear interpolation between members, as ``np.percentile``).
@@ -148,6 +192,19 @@ def pointing_error_percentiles(
     -------
     xarray.DataArray, dims (percentile, time)
     """
+    stored = _stored(ds, "pointing")
+    if stored is not None:
+        if reference not in (None, "nominal") or axis is not None:
+            raise AttitudeValueError(
+                "reference: this result holds statistics only, measured from its stored "
+                "reference (reference_q); other references and axes need the members "
+                "(output='samples')"
+            )
+        out = _select_stored(stored, _percentiles(percentiles))
+        if degrees:
+            out = np.degrees(out)
+            out.attrs = {**stored.attrs, "units": "deg"}
+        return out.rename("pointing_error")
     _check_ensemble(ds, "q")
     ds = _successful(ds)
     q = ds["q"]
@@ -176,7 +233,11 @@ def pointing_error_percentiles(
     out.attrs = {
         "units": "deg" if degrees else "rad",
         "long_name": f"percentiles over members of the {kind}",
-        "reference": reference if isinstance(reference, str) else "given",
+        "reference": (
+            reference
+            if isinstance(reference, str)
+            else ("nominal" if reference is None and "reference_q" in ds else "given")
+        ),
     }
     return out.rename("pointing_error")
 
@@ -187,6 +248,7 @@ def rate_percentiles(
     *,
     norm: bool = True,
     variable: str = "omega",
+    degrees: bool = False,
 ) -> xr.DataArray:
     """Percentiles over members of the body angular velocity against time.
 
@@ -200,12 +262,30 @@ def rate_percentiles(
         True (default): of the magnitude |ω|; False: of each body-axis component.
     variable : str
         ``"omega"`` (default) or another (member, time, axis) variable (``"g"``, ``"G"``).
+    degrees : bool
+        Angular velocity in degrees (deg s^-1; per time unit for a dimensionless run)
+        instead of radians, as ``pointing_error_percentiles(degrees=True)``.
 
     Returns
     -------
     xarray.DataArray, dims (percentile, time) or (percentile, time, axis)
-        In the variable's units.
+        In the variable's units (or degrees).
     """
+    if degrees and variable != "omega":
+        raise AttitudeValueError(
+            f"degrees: only for the angular velocity (variable='omega'), not {variable!r}"
+        )
+    stored = _stored(ds, "omega") if variable == "omega" else None
+    if stored is not None:
+        if not norm:
+            raise AttitudeValueError(
+                "norm: this result holds statistics only, of |omega|; the components need the "
+                "members (output='samples')"
+            )
+        out = _select_stored(stored, _percentiles(percentiles))
+        if degrees:
+            out = _to_degrees(out, str(stored.attrs.get("units", "1")))
+        return out.rename("omega_percentiles")
     _check_ensemble(ds, variable)
     ds = _successful(ds)
     w = ds[variable]
@@ -219,4 +299,84 @@ def rate_percentiles(
         "units": w.attrs.get("units", ""),
         "long_name": f"percentiles over members of {what}",
     }
+    if degrees:
+        out = _to_degrees(out, str(w.attrs.get("units", "1")))
     return out.rename(f"{variable}_percentiles")
+
+
+def event_time_percentiles(
+    ds: xr.Dataset,
+    percentiles: Any = (5.0, 50.0, 95.0),
+) -> xr.Dataset:
+    """Percentiles over members of the time of each event's first occurrence.
+
+    "Time until the pointing error exceeds 5°": members where the event never occurred
+    (``event_first_time`` NaN) are left out of the percentiles and counted in
+    ``fraction_with_event``.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ensemble result with events (``propagate_ensemble(..., events=[...])`` or a
+        scenario with an ``[events]`` table).
+    percentiles : sequence of float
+        Percentiles in [0, 100] (linear interpolation, as ``np.nanpercentile``).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``first_time`` (percentile, detector): the percentiles (NaN for an event no member
+        had); ``fraction_with_event`` (detector); ``mean_count`` (detector): occurrences per
+        member; coordinates ``detector`` and ``detector_label``.
+    """
+    first = _check_ensemble(ds, "event_first_time")
+    count = _check_ensemble(ds, "event_count")
+    p = _percentiles(percentiles)
+    tf = np.asarray(first.transpose("member", "detector").values, dtype=np.float64)
+    cnt = np.asarray(count.transpose("member", "detector").values, dtype=np.float64)
+    have = np.isfinite(tf)
+    q = np.full((p.size, tf.shape[1]), np.nan)
+    for j in range(tf.shape[1]):
+        if have[:, j].any():
+            q[:, j] = np.percentile(tf[have[:, j], j], p)
+    coords = {
+        "percentile": ("percentile", p),
+        "detector": ds["detector"].variable,
+    }
+    if "detector_label" in ds.coords:
+        coords["detector_label"] = ds["detector_label"].variable
+    units = first.attrs.get("units", "")
+    return xr.Dataset(
+        {
+            "first_time": (
+                ("percentile", "detector"),
+                q,
+                {"units": units, "long_name": "percentiles over members of the first event time"},
+            ),
+            "fraction_with_event": (
+                ("detector",),
+                have.mean(axis=0),
+                {"units": "1", "long_name": "fraction of members where the event occurred"},
+            ),
+            "mean_count": (
+                ("detector",),
+                cnt.mean(axis=0),
+                {"units": "1", "long_name": "mean number of occurrences per member"},
+            ),
+        },
+        coords=coords,
+        attrs={"ensemble_size": np.int64(tf.shape[0])},
+    )
+
+
+def _to_degrees(da: xr.DataArray, units: str) -> xr.DataArray:
+    """An angular velocity in rad s^-1 (or rad per time unit: units "1") in degrees."""
+    if units != "1" and not units.startswith("rad"):
+        raise AttitudeValueError(
+            f"degrees: the variable's unit {units!r} is not an angular velocity in radians"
+        )
+    out = np.degrees(da)
+    out.attrs = {**da.attrs, "units": "deg" if units == "1" else "deg" + units[3:]}
+    if units == "1":
+        out.attrs["comment"] = "degrees per time unit (a dimensionless run)"
+    return out

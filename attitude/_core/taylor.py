@@ -1,0 +1,449 @@
+"""Compiled adaptive Taylor-series integration of the canonical equations (eq. 7).
+
+The canonical equations of Arribas, Elipe & Palacios (2006), eq. 7, are polynomial (cubic) in
+(q, Q): a Taylor method computes the Taylor coefficients of the solution through the current
+state to order p by automatic-differentiation recurrences (Cauchy products of power series),
+sums them with Horner's rule, and reads dense output off the same polynomial.
+
+Recurrences
+-----------
+Eq. 7 is q̇ = ½ q∘(0, ω), Q̇ = ½ Q∘(0, ω) + 2 q∘(0, τ_B), with ω = I⁻¹ g and
+g = ½ vec(q̃∘Q). Along its solution three relations hold exactly (docs/integrators.md, "taylor"):
+
+* n = |q|² and c = q·Q are constant (the generalised force is tangent),
+* g obeys Euler's equations ġ = g × ω + n τ_B (the body momentum of eq. 17),
+* Q = q∘(c, 2g) / n (because q̃∘Q = (c, 2g) and q∘q̃ = n).
+
+So the Taylor coefficients of (q, Q) are obtained from the series of q and g alone:
+
+    q[k+1] = ½ Σ_m ω_m ⋆ (q∘e_m) [k] / (k+1)      (⋆: Cauchy product, e_m principal axes)
+    g[k+1] = ((g × ω) ⋆ [k] + n τ[k]) / (k+1)
+    Q[k]   = (c q[k] + 2 Σ_m g_m ⋆ (q∘e_m) [k]) / n      (k ≥ 1; Q[0] is the state itself)
+
+where the twelve products g_m ⋆ (q∘e_m)_l serve both q̇ and Q: 15 multiply–adds per term of a
+torque-free Cauchy product, against 36 for the term-by-term expansion of eq. 7. In exact
+arithmetic these are the Taylor coefficients of eq. 7's solution (tests/test_taylor.py checks
+them against an independent mpmath expansion of eq. 7 itself).
+
+The torque enters through auxiliary series that are themselves solutions of polynomial ODEs:
+
+* heavy top: s = q̃∘s₃∘q (the vertical in body axes), ṡ = s × ω, τ = −W c × s;
+* gravity gradient: the body-axes position and velocity of the orbit r = q̃∘r_S∘q,
+  v = q̃∘v_S∘q with ṙ = v + r × ω, v̇ = −μ r/|r|³ + v × ω, and τ = 3μ |r|⁻⁵ r × I r
+  (Arribas et al. eq. 20 differentiated). |r|⁻³ and |r|⁻⁵ come from the power recurrence
+  u = s^α: u[k] = Σ_{j<k} (α(k−j) − j) s[k−j] u[j] / (k s[0]) and a series division.
+  The orbit is restarted exactly at every step from the Kepler solution (orbit._kernels.state on
+  the Kepler elements of the orbit's kernel_data, orbit._state_kernels layout),
+  so the attitude sees the same analytic orbit as every other method, with no orbital drift.
+
+Order and step (Jorba & Zou 2005, Experimental Math. 14, 99–117, Sect. 3.2)
+----------------------------------------------------------------------------
+Order p = ⌈−½ ln ε + 1⌉ with ε = rtol. Per block b ∈ {q, Q}, with the scale
+S_b = max(‖x_b[0]‖∞, atol/rtol) (relative control, or absolute below atol/rtol),
+ρ = min_b min_{j ∈ {p−1, p}} (S_b / ‖x_b[j]‖∞)^{1/j} estimates the radius of convergence and the
+step is h = ρ/e² · exp(−0.7/(p − 1)), their eqs. 3.7–3.9 (the choice heyoka makes as well).
+There is no rejected step.
+
+Layout of the persistent arrays
+-------------------------------
+``work`` : float64, shape (WORK_ROWS, NCOL)
+    rows 0..PMAX: Taylor coefficients of the last step (row k = order k; columns below);
+    row Y: the current state (8 values, columns 0..7).
+``tstate`` : float64, shape (5,)
+    ``[t, h_last, t_old, p, exp(−2 − 0.7/(p − 1))]``: current time, last step, its start, the
+    order and the step factor of Jorba & Zou.
+``counters`` : int64, shape (5,)
+    ``[n_steps, n_series_terms, 0, started, has_step]``.
+
+The coefficient table of the last step stays in ``work`` after every call: :func:`dense_eval`
+evaluates that polynomial at any time of the step (for event location).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from orbit import _kernels as _K
+from orbit import _state_kernels as _SK
+from orbit._shared_jit import jit
+
+from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .quat import rotate_inverse
+from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
+
+PMAX = 40  # highest order (rtol = 1e-34; double precision needs p ≤ 20)
+
+# Columns of the coefficient table.
+CQ = 0  # q (4)
+CP = 4  # Q (4)
+CG = 8  # g = ½ vec(q̃∘Q) (3)
+CW = 11  # ω = I⁻¹ g (3)
+CA = 14  # heavy top: s; gravity gradient: r in body axes (3)
+CV = 17  # gravity gradient: v in body axes (3)
+CR2 = 20  # |r|² (1)
+CU3 = 21  # |r|⁻³ (1)
+CU5 = 22  # |r|⁻⁵ (1)
+CX = 23  # r × I r (3)
+NCOL = 26
+Y = PMAX + 1
+WORK_ROWS = PMAX + 2
+
+_EPS = 2.220446049250313e-16
+_SAFETY_EXP = 0.7  # Jorba & Zou's safety factor exp(−0.7/(p − 1))
+
+
+def new_state():
+    """Fresh persistent arrays ``(work, tstate, counters)``."""
+    return np.zeros((WORK_ROWS, NCOL)), np.zeros(5), np.zeros(5, dtype=np.int64)
+
+
+@jit
+def order_from_tolerance(rtol):
+    """Jorba & Zou's order p = ⌈−½ ln ε + 1⌉ (eq. 3.8), clipped to [2, PMAX]."""
+    p = int(math.ceil(-0.5 * math.log(rtol) + 1.0))  # noqa: RUF046 (numba: float ceil)
+    return min(max(p, 2), PMAX)
+
+
+@jit
+def set_order(tstate, p):
+    """Store the order p and Jorba & Zou's step factor exp(−2 − 0.7/(p − 1)) in ``tstate``."""
+    tstate[3] = p
+    tstate[4] = math.exp(-2.0 - _SAFETY_EXP / (p - 1.0))
+
+
+@jit
+def _initial_row(work, t, params):
+    """Row 0 of the coefficient table from the state in row Y -> (n, c)."""
+    y = work[Y]
+    cf = work
+    q0, q1, q2, q3 = y[0], y[1], y[2], y[3]
+    Q0, Q1, Q2, Q3 = y[4], y[5], y[6], y[7]
+    for i in range(8):
+        cf[0, i] = y[i]
+    # q̃∘Q = (c, 2g)
+    c = q0 * Q0 + q1 * Q1 + q2 * Q2 + q3 * Q3
+    cf[0, CG] = 0.5 * (q0 * Q1 - q1 * Q0 - q2 * Q3 + q3 * Q2)
+    cf[0, CG + 1] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
+    cf[0, CG + 2] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
+    n = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
+    kind = int(params[P_KIND])
+    q = (q0, q1, q2, q3)
+    if kind == KIND_HEAVY_TOP:
+        s = rotate_inverse(q, (0.0, 0.0, 1.0))
+        cf[0, CA] = s[0]
+        cf[0, CA + 1] = s[1]
+        cf[0, CA + 2] = s[2]
+    elif kind == KIND_GRAVITY_GRADIENT:
+        # Exact Kepler restart: the orbit's state at t, in body axes.
+        x, yy, z, vx, vy, vz = _K.state(params[P0 + _SK.K_EL : P0 + _SK.K_EL + _K.NEL], t)
+        r = rotate_inverse(q, (x, yy, z))
+        v = rotate_inverse(q, (vx, vy, vz))
+        for i in range(3):
+            cf[0, CA + i] = r[i]
+            cf[0, CV + i] = v[i]
+    return n, c
+
+
+@jit(fastmath={"contract"})
+def taylor_coefficients(cf, p, params, n, c):
+    """Fill rows 1..p of the coefficient table ``cf`` from row 0 (see the module docstring)."""
+    kind = int(params[P_KIND])
+    iI0 = 1.0 / params[0]
+    iI1 = 1.0 / params[1]
+    iI2 = 1.0 / params[2]
+    # Euler: g × ω = ((iI2 − iI1) g1 g2, (iI0 − iI2) g2 g0, (iI1 − iI0) g0 g1)
+    e0 = iI2 - iI1
+    e1 = iI0 - iI2
+    e2 = iI1 - iI0
+    inv_n = 1.0 / n
+    W = 0.0
+    cx = cy = cz = 0.0
+    mu = 0.0
+    D0 = D1 = D2 = 0.0
+    if kind == KIND_HEAVY_TOP:
+        W = params[P0]
+        cx = params[P0 + 1]
+        cy = params[P0 + 2]
+        cz = params[P0 + 3]
+    elif kind == KIND_GRAVITY_GRADIENT:
+        mu = params[P0 + _SK.MU]
+        # r × I r = ((I2 − I1) r1 r2, (I0 − I2) r2 r0, (I1 − I0) r0 r1)
+        D0 = params[2] - params[1]
+        D1 = params[0] - params[2]
+        D2 = params[1] - params[0]
+    for k in range(p + 1):
+        cf[k, CW] = iI0 * cf[k, CG]
+        cf[k, CW + 1] = iI1 * cf[k, CG + 1]
+        cf[k, CW + 2] = iI2 * cf[k, CG + 2]
+        # A[l][m] = Σ_j (q[j]∘e_m)_l g_m[k−j]:
+        # q∘e_0 = (−q1, q0, q3, −q2), q∘e_1 = (−q2, −q3, q0, q1), q∘e_2 = (−q3, q2, −q1, q0).
+        a00 = a10 = a20 = a30 = 0.0
+        a01 = a11 = a21 = a31 = 0.0
+        a02 = a12 = a22 = a32 = 0.0
+        # Euler's equations: the Cauchy products g1 ⋆ g2, g2 ⋆ g0, g0 ⋆ g1 (same loop).
+        p12 = p20 = p01 = 0.0
+        for j in range(k + 1):
+            q0 = cf[j, 0]
+            q1 = cf[j, 1]
+            q2 = cf[j, 2]
+            q3 = cf[j, 3]
+            g0 = cf[k - j, CG]
+            g1 = cf[k - j, CG + 1]
+            g2 = cf[k - j, CG + 2]
+            p12 += cf[j, CG + 1] * g2
+            p20 += cf[j, CG + 2] * g0
+            p01 += cf[j, CG] * g1
+            a00 -= q1 * g0
+            a10 += q0 * g0
+            a20 += q3 * g0
+            a30 -= q2 * g0
+            a01 -= q2 * g1
+            a11 -= q3 * g1
+            a21 += q0 * g1
+            a31 += q1 * g1
+            a02 -= q3 * g2
+            a12 += q2 * g2
+            a22 -= q1 * g2
+            a32 += q0 * g2
+        if k > 0:
+            # Q = q∘(c, 2g)/n
+            cf[k, 4] = (c * cf[k, 0] + 2.0 * (a00 + a01 + a02)) * inv_n
+            cf[k, 5] = (c * cf[k, 1] + 2.0 * (a10 + a11 + a12)) * inv_n
+            cf[k, 6] = (c * cf[k, 2] + 2.0 * (a20 + a21 + a22)) * inv_n
+            cf[k, 7] = (c * cf[k, 3] + 2.0 * (a30 + a31 + a32)) * inv_n
+        if k == p:
+            break
+        h = 0.5 / (k + 1.0)
+        # q̇ = ½ q∘(0, ω)
+        cf[k + 1, 0] = h * (iI0 * a00 + iI1 * a01 + iI2 * a02)
+        cf[k + 1, 1] = h * (iI0 * a10 + iI1 * a11 + iI2 * a12)
+        cf[k + 1, 2] = h * (iI0 * a20 + iI1 * a21 + iI2 * a22)
+        cf[k + 1, 3] = h * (iI0 * a30 + iI1 * a31 + iI2 * a32)
+        # Torque series τ[k] (and the auxiliary series to order k + 1).
+        t0 = t1 = t2 = 0.0
+        inv = 1.0 / (k + 1.0)
+        if kind == KIND_HEAVY_TOP:
+            s0 = cf[k, CA]
+            s1 = cf[k, CA + 1]
+            s2 = cf[k, CA + 2]
+            # τ = c × F_B, F_B = −W s
+            t0 = -W * (cy * s2 - cz * s1)
+            t1 = -W * (cz * s0 - cx * s2)
+            t2 = -W * (cx * s1 - cy * s0)
+            b0 = b1 = b2 = 0.0
+            for j in range(k + 1):
+                s0 = cf[j, CA]
+                s1 = cf[j, CA + 1]
+                s2 = cf[j, CA + 2]
+                w0 = cf[k - j, CW]
+                w1 = cf[k - j, CW + 1]
+                w2 = cf[k - j, CW + 2]
+                b0 += s1 * w2 - s2 * w1
+                b1 += s2 * w0 - s0 * w2
+                b2 += s0 * w1 - s1 * w0
+            cf[k + 1, CA] = b0 * inv
+            cf[k + 1, CA + 1] = b1 * inv
+            cf[k + 1, CA + 2] = b2 * inv
+        elif kind == KIND_GRAVITY_GRADIENT:
+            # |r|², r × I r at order k
+            s = 0.0
+            x0 = x1 = x2 = 0.0
+            for j in range(k + 1):
+                r0 = cf[j, CA]
+                r1 = cf[j, CA + 1]
+                r2 = cf[j, CA + 2]
+                u0 = cf[k - j, CA]
+                u1 = cf[k - j, CA + 1]
+                u2 = cf[k - j, CA + 2]
+                s += r0 * u0 + r1 * u1 + r2 * u2
+                x0 += r1 * u2
+                x1 += r2 * u0
+                x2 += r0 * u1
+            cf[k, CR2] = s
+            cf[k, CX] = D0 * x0
+            cf[k, CX + 1] = D1 * x1
+            cf[k, CX + 2] = D2 * x2
+            s00 = cf[0, CR2]
+            if k == 0:
+                cf[0, CU3] = 1.0 / (s00 * math.sqrt(s00))
+                cf[0, CU5] = cf[0, CU3] / s00
+            else:
+                # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
+                acc = 0.0
+                for j in range(k):
+                    acc += (-1.5 * (k - j) - j) * cf[k - j, CR2] * cf[j, CU3]
+                cf[k, CU3] = acc / (k * s00)
+                acc = cf[k, CU3]
+                for j in range(1, k + 1):
+                    acc -= cf[j, CR2] * cf[k - j, CU5]
+                cf[k, CU5] = acc / s00
+            # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
+            b0 = b1 = b2 = 0.0
+            d0 = d1 = d2 = 0.0
+            f0 = f1 = f2 = 0.0
+            for j in range(k + 1):
+                u5 = cf[j, CU5]
+                u3 = cf[j, CU3]
+                w0 = cf[k - j, CW]
+                w1 = cf[k - j, CW + 1]
+                w2 = cf[k - j, CW + 2]
+                r0 = cf[j, CA]
+                r1 = cf[j, CA + 1]
+                r2 = cf[j, CA + 2]
+                v0 = cf[j, CV]
+                v1 = cf[j, CV + 1]
+                v2 = cf[j, CV + 2]
+                t0 += u5 * cf[k - j, CX]
+                t1 += u5 * cf[k - j, CX + 1]
+                t2 += u5 * cf[k - j, CX + 2]
+                b0 += r1 * w2 - r2 * w1
+                b1 += r2 * w0 - r0 * w2
+                b2 += r0 * w1 - r1 * w0
+                d0 += v1 * w2 - v2 * w1
+                d1 += v2 * w0 - v0 * w2
+                d2 += v0 * w1 - v1 * w0
+                f0 += u3 * cf[k - j, CA]
+                f1 += u3 * cf[k - j, CA + 1]
+                f2 += u3 * cf[k - j, CA + 2]
+            t0 *= 3.0 * mu
+            t1 *= 3.0 * mu
+            t2 *= 3.0 * mu
+            cf[k + 1, CA] = (cf[k, CV] + b0) * inv
+            cf[k + 1, CA + 1] = (cf[k, CV + 1] + b1) * inv
+            cf[k + 1, CA + 2] = (cf[k, CV + 2] + b2) * inv
+            cf[k + 1, CV] = (d0 - mu * f0) * inv
+            cf[k + 1, CV + 1] = (d1 - mu * f1) * inv
+            cf[k + 1, CV + 2] = (d2 - mu * f2) * inv
+        # Euler's equations: ġ = g × ω + n τ
+        cf[k + 1, CG] = (e0 * p12 + n * t0) * inv
+        cf[k + 1, CG + 1] = (e1 * p20 + n * t1) * inv
+        cf[k + 1, CG + 2] = (e2 * p01 + n * t2) * inv
+
+
+@jit
+def _block_norm(cf, k, c0):
+    m = 0.0
+    for i in range(c0, c0 + 4):
+        a = abs(cf[k, i])
+        if a > m:
+            m = a
+    return m
+
+
+@jit
+def _radius(cf, p, rtol, atol):
+    """Jorba & Zou's ρ (eq. 3.7) over the q and Q blocks; inf when the series terminates."""
+    floor = atol / rtol
+    sq = max(_block_norm(cf, 0, 0), floor)
+    sp = max(_block_norm(cf, 0, 4), floor)
+    rho = math.inf
+    for j in (p - 1, p):
+        # min over the blocks before the root (x -> x^(1/j) is increasing)
+        nq = _block_norm(cf, j, 0)
+        nQ = _block_norm(cf, j, 4)
+        ratio = math.inf
+        if nq > 0.0:
+            ratio = sq / nq
+        if nQ > 0.0:
+            ratio = min(ratio, sp / nQ)
+        if ratio < math.inf:
+            rho = min(rho, ratio ** (1.0 / j))
+    return rho
+
+
+@jit
+def dense_eval(work, p, tau, out):
+    """Evaluate the 8 state polynomials of the last step at ``tau`` = t − t_old (Horner)."""
+    for i in range(8):
+        acc = work[p, i]
+        for k in range(p - 1, -1, -1):
+            acc = acc * tau + work[k, i]
+        out[i] = acc
+
+
+@jit
+def taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step):
+    """One Taylor step from the state in ``work[Y]`` at ``tstate[0]``; returns a status.
+
+    The coefficient table of the step stays in ``work`` (rows 0..p) for :func:`dense_eval`.
+    """
+    p = int(tstate[3])
+    t = tstate[0]
+    direction = 1.0 if t_end >= t else -1.0
+    n, c = _initial_row(work, t, params)
+    taylor_coefficients(work, p, params, n, c)
+    counters[1] += p
+    rho = _radius(work, p, rtol, atol)
+    h_abs = rho * tstate[4]  # exp(−2 − 0.7/(p − 1)), set with the order
+    if not h_abs <= max_step:  # also catches a NaN radius
+        if math.isnan(h_abs):
+            return NONFINITE
+        h_abs = max_step
+    min_step = 10.0 * _EPS * max(abs(t), 1e-300)
+    t_new = t + direction * h_abs
+    if direction * (t_new - t_end) >= 0.0:
+        t_new = t_end
+    elif h_abs < min_step:
+        return STEP_TOO_SMALL
+    h = t_new - t
+    y = work[Y]
+    dense_eval(work, p, h, y)
+    for i in range(8):
+        if not math.isfinite(y[i]):
+            # Keep the state at the start of the step (work row 0) as the current state.
+            for ii in range(8):
+                y[ii] = work[0, ii]
+            return NONFINITE
+    tstate[2] = t
+    tstate[1] = h
+    tstate[0] = t_new
+    counters[0] += 1
+    counters[4] = 1
+    return SUCCESS
+
+
+@jit
+def taylor_canonical_builtin(
+    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
+):
+    """Integrate from the stored state through the output times ``t_out``: the cached entry
+    point, with the arguments of ``entry_points.dop853_canonical``.
+
+    On the first call (``counters[3] == 0``) the state is initialised from ``(t0, y0)``; later
+    calls continue from ``work``/``tstate`` bit for bit. Returns ``(status, n_done)``.
+    """
+    m = t_out.shape[0]
+    y = work[Y]
+    if counters[3] == 0:
+        for i in range(8):
+            y[i] = y0[i]
+        tstate[0] = t0
+        tstate[1] = 0.0
+        tstate[2] = t0
+        set_order(tstate, order_from_tolerance(rtol))
+        counters[3] = 1
+        counters[4] = 0
+    p = int(tstate[3])
+    direction = 1.0 if t_end >= tstate[0] else -1.0
+    k = 0
+    status = SUCCESS
+    while k < m:
+        to = t_out[k]
+        t = tstate[0]
+        if to == t:
+            for i in range(8):
+                y_out[k, i] = y[i]
+            k += 1
+            continue
+        if counters[4] == 1 and direction * (to - tstate[2]) >= 0.0 and direction * (t - to) > 0:
+            dense_eval(work, p, to - tstate[2], y_out[k])
+            k += 1
+            continue
+        if counters[0] >= max_steps:
+            return TOO_MANY_STEPS, k
+        status = taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step)
+        if status != SUCCESS:
+            return status, k
+    return status, k

@@ -1,0 +1,266 @@
+"""The validated :class:`Scenario`: running it (in memory or streamed to netCDF), invariants."""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from ..body import RigidBody
+from ..ensemble.dispersions import Dispersions
+from ..errors import AttitudeValueError, PropagationError
+from ..results import set_time_attrs
+
+if sys.version_info >= (3, 11):
+    pass
+else:  # pragma: no cover - Python 3.10
+    pass
+
+
+@dataclass
+class Scenario:
+    """A validated scenario: body, initial state, potential, output times and numerics.
+
+    Build it with :func:`load` or :func:`loads`; :meth:`run` returns the result Dataset.
+    """
+
+    name: str
+    title: str
+    description: str
+    body: RigidBody
+    q0: np.ndarray
+    Q0: np.ndarray
+    potential: Any
+    t: Any  # output times: a TimeGrid (generated a chunk at a time) or an array
+    time_unit: str
+    time_scale: float = 1.0  # internal time units per unit of the [time] table
+    method: str = "dop853"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+    max_step: float = math.inf
+    max_steps: int = 100_000_000
+    dt: float | None = None  # step of the fixed-step methods (nosquish, splitting)
+    order: int = 4
+    formulation: str = "canonical"
+    output: Path = Path("out.nc")
+    epoch: str | None = None
+    object_name: str = "UNKNOWN"
+    object_id: str = "UNKNOWN"
+    inertial_frame: str = "EME2000"
+    source: str = ""
+    path: Path | None = None
+    initial_form: str = "canonical"
+    extra_attrs: dict[str, Any] = field(default_factory=dict)
+    ensemble: Dispersions | None = None  # from an [ensemble] table
+    events: list | None = None  # from an [events] table (attitude.events)
+
+    # -- running ----------------------------------------------------------------------------
+    def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
+        kw = dict(
+            method=self.method,
+            rtol=self.rtol,
+            atol=self.atol,
+            max_step=self.max_step,
+            max_steps=self.max_steps,
+        )
+        if self.dt is not None:
+            kw.update(dt=self.dt, order=self.order)
+        if self.formulation != "canonical":
+            kw["formulation"] = self.formulation
+        kw.update({k: v for k, v in overrides.items() if v is not None})
+        return kw
+
+    def attrs(self, kw: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """Global attrs describing the scenario (added to the result's attrs)."""
+        a: dict[str, Any] = {
+            "title": self.title or self.name,
+            "scenario": self.name,
+            "scenario_description": self.description,
+            "scenario_file": str(self.path) if self.path else "",
+            "scenario_toml": self.source,
+            "initial_state_form": self.initial_form,
+            "object_name": self.object_name,
+            "object_id": self.object_id,
+            "inertial_frame": self.inertial_frame,
+        }
+        if self.epoch:
+            a["epoch"] = self.epoch
+        if kw and kw.get("max_step", math.inf) != math.inf:
+            a["max_step"] = float(kw["max_step"])
+        a.update(self.extra_attrs)
+        return a
+
+    def _history(self, ds_attrs: Mapping[str, Any]) -> str:
+        where = f" {self.path}" if self.path else ""
+        return f"{ds_attrs.get('history', '')}; scenario{where}".lstrip("; ")
+
+    def run(self, *, progress: Callable | None = None, **overrides: Any) -> xr.Dataset:
+        """Propagate and return the result Dataset (in memory).
+
+        Parameters
+        ----------
+        progress : callable, optional
+            ``progress(n_done, n_total, t)`` (see :func:`attitude.propagate.propagate`).
+        **overrides
+            ``method``, ``rtol``, ``atol``, ``max_step`` replacing the scenario's.
+
+        Raises
+        ------
+        PropagationError
+            The integration failed; ``.partial`` holds what was computed (with scenario attrs).
+        """
+        from ..propagate import propagate
+
+        kw = self._kwargs(overrides)
+        try:
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", "initial state projected")
+                ds = propagate(
+                    self.body,
+                    self.q0,
+                    self.Q0,
+                    self.t,
+                    self.potential,
+                    progress=progress,
+                    epoch=self.epoch,
+                    events=self.events,
+                    **kw,
+                )
+        except PropagationError as exc:
+            if exc.partial is not None:
+                exc.partial.attrs.update(self.attrs(kw), run_status=f"failed: {exc}")
+                set_time_attrs(exc.partial)
+            raise
+        status = "event" if ds.attrs.get("status") == "event" else "complete"
+        ds.attrs.update(self.attrs(kw), run_status=status)
+        set_time_attrs(ds)  # CF time units from the epoch
+        ds.attrs["history"] = self._history(ds.attrs)
+        return ds
+
+    def run_to_file(
+        self,
+        path: str | os.PathLike | None = None,
+        *,
+        progress: Callable | None = None,
+        chunk: int | None = None,
+        **overrides: Any,
+    ) -> dict[str, Any]:
+        """Propagate streaming the samples to a netCDF4 file (bounded memory, atomic).
+
+        A run that fails midway still commits the file with what was computed and
+        ``run_status = "failed: ..."``, then raises the :class:`PropagationError`. An interrupt
+        (KeyboardInterrupt) leaves no file under the final name.
+
+        Returns
+        -------
+        dict
+            ``path``, ``n_samples``, the run statistics and invariant diagnostics (the attrs).
+        """
+        from ..io import TIME_CHUNK, StreamWriter
+        from ..propagate import propagate
+
+        out = Path(path) if path is not None else self.output
+        kw = self._kwargs(overrides)
+        tracker = InvariantTracker()
+        writer = StreamWriter(out)
+        per_sample = 8 * (22 + (6 if getattr(self.potential, "orbit", None) else 0))
+        writer._out.check_space(per_sample * len(self.t), f"{len(self.t)} samples")
+
+        def sink(ds: xr.Dataset) -> None:
+            tracker.update(ds)
+            writer.append(ds)
+
+        failure: PropagationError | None = None
+        try:
+            try:
+                with warnings.catch_warnings():
+                    warnings.filterwarnings("ignore", "initial state projected")
+                    last = propagate(
+                        self.body,
+                        self.q0,
+                        self.Q0,
+                        self.t,
+                        self.potential,
+                        progress=progress,
+                        # ~200 chunks: a smooth progress bar, bounded memory
+                        chunk=chunk or max(64, min(TIME_CHUNK, len(self.t) // 200)),
+                        on_chunk=sink,
+                        epoch=self.epoch,
+                        events=self.events,
+                        **kw,
+                    )
+                status = "event" if last.attrs.get("status") == "event" else "complete"
+                if self.events is not None:
+                    writer.add_static(last)
+            except PropagationError as exc:
+                failure = exc
+                last = exc.partial
+                status = f"failed: {exc}"
+            if writer.n == 0:
+                raise failure or AttitudeValueError("no samples computed")
+            attrs = dict(last.attrs) if last is not None else dict(writer.attrs)
+            attrs.update(self.attrs(kw), run_status=status, n_samples=np.int64(writer.n))
+            attrs.update(tracker.attrs(attrs.get("potential_name", "")))
+            attrs["history"] = self._history(attrs)
+            writer.attrs = attrs
+            writer.commit()
+        except BaseException:
+            writer.abort()
+            raise
+        if failure is not None:
+            raise failure
+        return {"path": out, **attrs}
+
+
+class InvariantTracker:
+    """Running maxima of the invariant errors over streamed chunks of a result."""
+
+    def __init__(self):
+        self.max_norm = 0.0
+        self.max_qQ = 0.0
+        self.E0: float | None = None
+        self.G0: np.ndarray | None = None
+        self.max_dE = 0.0
+        self.max_dG = 0.0
+        self.max_dGz = 0.0
+
+    def update(self, ds: xr.Dataset) -> None:
+        if ds.sizes["time"] == 0:
+            return
+        self.max_norm = max(self.max_norm, float(np.max(np.abs(ds["norm_error"].values))))
+        self.max_qQ = max(self.max_qQ, float(np.max(np.abs(ds["qQ"].values))))
+        E = ds["energy"].values
+        G = ds["G"].values
+        if self.E0 is None:
+            self.E0 = float(E[0])
+            self.G0 = G[0].copy()
+        self.max_dE = max(self.max_dE, float(np.max(np.abs(E - self.E0))))
+        dG = np.linalg.norm(G - self.G0, axis=-1)
+        self.max_dG = max(self.max_dG, float(np.max(dG)))
+        self.max_dGz = max(self.max_dGz, float(np.max(np.abs(G[:, 2] - self.G0[2]))))
+
+    def attrs(self, potential_name: str) -> dict[str, Any]:
+        """Diagnostic attrs: constraint errors always, conserved quantities where they are."""
+        a: dict[str, Any] = {
+            "max_abs_norm_error": self.max_norm,
+            "max_abs_qQ": self.max_qQ,
+        }
+        scaleE = max(abs(self.E0 or 0.0), np.finfo(float).tiny)
+        scaleG = max(float(np.linalg.norm(self.G0)) if self.G0 is not None else 0.0, 1e-300)
+        if potential_name in ("torque_free", "heavy_top"):
+            a["max_rel_energy_error"] = self.max_dE / scaleE
+        if potential_name == "torque_free":
+            a["max_rel_G_error"] = self.max_dG / scaleG
+        if potential_name == "heavy_top":
+            a["max_rel_Gz_error"] = self.max_dGz / scaleG
+        if potential_name not in ("torque_free", "heavy_top"):
+            a["max_rel_energy_variation"] = self.max_dE / scaleE
+        return a

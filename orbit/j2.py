@@ -1,0 +1,256 @@
+"""Kepler motion with the first-order secular J2 drift of Ω, ω and M: :class:`SecularJ2Orbit`.
+
+Mean elements a, e, i are constant; the node, the argument of periapsis and the mean anomaly
+drift linearly (first-order secular theory of the Earth's oblateness; Vallado, *Fundamentals of
+Astrodynamics and Applications*, 4th ed. 2013, Ch. 9, secular J2 effects; Montenbruck & Gill,
+*Satellite Orbits* 2000, Ch. 3, the secular perturbations of the oblateness). With n = √(μ/a³),
+p = a (1 − e²), η = √(1 − e²) and k = J2 (R/p)²::
+
+    dΩ/dt = −(3/2) n k cos i
+    dω/dt =  (3/4) n k (5 cos² i − 1)
+    dM/dt =  n [1 + (3/4) k η (3 cos² i − 1)]          (= n̄, the anomalistic mean motion)
+
+The position at t is that of the Keplerian ellipse (a, e, i, Ω(t), ω(t)) at mean anomaly M(t):
+no short-period terms, so it is a *mean* orbit (positions differ from an osculating
+propagation by the J2 short-period terms, ~10 km in LEO); what it gets right is the secular
+motion of the orbital plane (sun-synchronism, nodal regression) that matters over days. The
+velocity is the exact time derivative of that position (the in-plane motion at rate n̄ plus
+Ω̇ ẑ × r + ω̇ ĥ × r), so position and velocity are consistent (interpolation, finite
+differences).
+
+Default constants: R = 6378.137 km, the WGS 84 semi-major axis, and J2 = 1.08263e-3 =
+−√5 C̄2,0 with the WGS 84 ellipsoid's C̄2,0 = −0.484166774985e-3 (NIMA TR8350.2, 3rd ed.,
+2000, Ch. 3); μ = astropy's GM_earth (398600.4 km³/s², the IAU 2015 nominal value).
+
+A sun-synchronous orbit has dΩ/dt = 360°/365.2422 d (one revolution per tropical year);
+tests/test_j2.py checks it for an inclination solved from the formula independently.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from . import _kernels as _k
+from . import _state_kernels as _sk
+from .base import OrbitBase
+from .errors import OrbitValueError
+from .keplerorbit import KeplerOrbit, _scalar
+
+__all__ = ["EARTH_J2", "EARTH_RADIUS", "SecularJ2Orbit", "j2_secular_rates"]
+
+#: Earth's J2 (WGS 84, NIMA TR8350.2 3rd ed. 2000).
+EARTH_J2 = 1.08263e-3
+#: Earth's equatorial radius [km] (WGS 84 semi-major axis).
+EARTH_RADIUS = 6378.137
+
+
+def j2_secular_rates(a: float, e: float, inc: float, mu: float, j2: float, radius: float):
+    """(dΩ/dt, dω/dt, dM/dt) [rad/s] of the first-order secular J2 theory (module docstring)."""
+    n = math.sqrt(mu / a**3)
+    p = a * (1.0 - e) * (1.0 + e)
+    eta = math.sqrt((1.0 - e) * (1.0 + e))
+    k = j2 * (radius / p) ** 2
+    c = math.cos(inc)
+    raan_dot = -1.5 * n * k * c
+    argp_dot = 0.75 * n * k * (5.0 * c * c - 1.0)
+    m_dot = n * (1.0 + 0.75 * k * eta * (3.0 * c * c - 1.0))
+    return raan_dot, argp_dot, m_dot
+
+
+class SecularJ2Orbit(OrbitBase):
+    """Kepler motion with the first-order secular J2 drift of Ω, ω and M (mean elements).
+
+    Parameters
+    ----------
+    a : float or Quantity [km]
+        Mean semi-major axis, a > 0 (elliptic orbits only).
+    e : float
+        Mean eccentricity, 0 <= e < 1.
+    inc, raan, argp : float or Quantity [rad]
+        Mean inclination, and Ω, ω at ``t0``.
+    f0 : float or Quantity [rad]
+        True anomaly at ``t0`` (default 0).
+    epoch : astropy Time or str, optional
+        Date of t = 0 (UTC unless a scale is given); the space frame is then the GCRS.
+    mu : float or Quantity [km³/s²], optional
+        Default astropy's GM_earth.
+    j2 : float, optional
+        Default 1.08263e-3 (WGS 84).
+    radius : float or Quantity [km], optional
+        Equatorial radius of the J2 term, default 6378.137 km (WGS 84).
+    t0 : float or Quantity [s], keyword-only
+        Time of the elements (seconds since the epoch), default 0.
+    M0 : float or Quantity [rad], keyword-only
+        Mean anomaly at ``t0`` instead of ``f0``.
+
+    Raises
+    ------
+    OrbitValueError
+        The element checks of :class:`KeplerOrbit`, e >= 1, j2 < 0 or not finite, radius <= 0.
+    """
+
+    def __init__(
+        self,
+        a: Any,
+        e: Any,
+        inc: Any,
+        raan: Any,
+        argp: Any,
+        f0: Any = None,
+        epoch: Any = None,
+        mu: Any = None,
+        j2: Any = None,
+        radius: Any = None,
+        *,
+        t0: Any = 0.0,
+        M0: Any = None,
+    ) -> None:
+        kep = KeplerOrbit(a, e, inc, raan, argp, f0=f0, mu=mu, t0=t0, M0=M0, epoch=epoch)
+        if kep.is_hyperbolic:
+            raise OrbitValueError(
+                f"e: SecularJ2Orbit is for closed orbits (e < 1), got e = {kep.e!r}"
+            )
+        j2_ = EARTH_J2 if j2 is None else _scalar(j2, "j2", None)
+        rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        if not (math.isfinite(j2_) and j2_ >= 0.0):
+            raise OrbitValueError(f"j2: must be a finite number >= 0, got {j2_!r}")
+        if not (math.isfinite(rad) and rad > 0.0):
+            raise OrbitValueError(f"radius: equatorial radius must be > 0 km, got {rad!r}")
+        self._kep = kep
+        self._epoch = kep.epoch
+        self._j2 = j2_
+        self._radius = rad
+        raan_dot, argp_dot, m_dot = j2_secular_rates(kep.a, kep.e, kep.inc, kep.mu, j2_, rad)
+        el = kep.kernel_elements()
+        el[_k.N] = m_dot
+        el.setflags(write=False)
+        self._el = el
+        d = np.empty(_sk.J_LEN, dtype=np.float64)
+        d[_sk.TYPE] = _sk.TYPE_SECULAR_J2
+        d[_sk.MU] = kep.mu
+        d[_sk.T_MIN] = -math.inf
+        d[_sk.T_MAX] = math.inf
+        d[_sk.J_EL : _sk.J_EL + _k.NEL] = el
+        d[_sk.J_RAAN_DOT] = raan_dot
+        d[_sk.J_ARGP_DOT] = argp_dot
+        d[_sk.J_RATIO] = m_dot / kep.mean_motion
+        d[_sk.J_COSI] = math.cos(kep.inc)
+        d[_sk.J_SINI] = math.sin(kep.inc)
+        d.setflags(write=False)
+        self._data = d
+
+    # -- elements and rates -------------------------------------------------------------------
+    @property
+    def a(self) -> float:
+        """Mean semi-major axis [km]."""
+        return self._kep.a
+
+    @property
+    def e(self) -> float:
+        """Mean eccentricity."""
+        return self._kep.e
+
+    @property
+    def inc(self) -> float:
+        """Mean inclination [rad]."""
+        return self._kep.inc
+
+    @property
+    def raan(self) -> float:
+        """Ω at t0 [rad]."""
+        return self._kep.raan
+
+    @property
+    def argp(self) -> float:
+        """ω at t0 [rad]."""
+        return self._kep.argp
+
+    @property
+    def M0(self) -> float:
+        """Mean anomaly at t0 [rad]."""
+        return self._kep.M0
+
+    @property
+    def t0(self) -> float:
+        """Time of the elements [s since the epoch]."""
+        return self._kep.t0
+
+    @property
+    def j2(self) -> float:
+        """J2 used."""
+        return self._j2
+
+    @property
+    def equatorial_radius(self) -> float:
+        """Equatorial radius R of the J2 term [km]."""
+        return self._radius
+
+    @property
+    def raan_rate(self) -> float:
+        """dΩ/dt [rad/s]."""
+        return float(self._data[_sk.J_RAAN_DOT])
+
+    @property
+    def argp_rate(self) -> float:
+        """dω/dt [rad/s]."""
+        return float(self._data[_sk.J_ARGP_DOT])
+
+    @property
+    def mean_motion(self) -> float:
+        """dM/dt = n̄ [rad/s] (anomalistic mean motion, J2 included)."""
+        return float(self._el[_k.N])
+
+    @property
+    def keplerian_mean_motion(self) -> float:
+        """n = √(μ/a³) [rad/s]."""
+        return self._kep.mean_motion
+
+    @property
+    def period(self) -> float:
+        """Anomalistic period 2π/n̄ [s] (periapsis to periapsis)."""
+        return 2.0 * math.pi / self.mean_motion
+
+    @property
+    def nodal_period(self) -> float:
+        """Draconic period 2π/(n̄ + ω̇) [s] (node to node)."""
+        return 2.0 * math.pi / (self.mean_motion + self.argp_rate)
+
+    @property
+    def source(self) -> str:
+        return (
+            f"secular J2 (a = {self.a!r} km, e = {self.e!r}, J2 = {self.j2!r}, "
+            f"R = {self.equatorial_radius!r} km)"
+        )
+
+    def raan_at(self, t: Any) -> Any:
+        """Ω(t) = Ω0 + Ω̇ (t − t0) [rad], not wrapped."""
+        flat, shape = self._seconds(t, "t")
+        return self._shape(self.raan + self.raan_rate * (flat - self.t0), shape)
+
+    def argp_at(self, t: Any) -> Any:
+        """ω(t) = ω0 + ω̇ (t − t0) [rad], not wrapped."""
+        flat, shape = self._seconds(t, "t")
+        return self._shape(self.argp + self.argp_rate * (flat - self.t0), shape)
+
+    def mean_anomaly(self, t: Any) -> Any:
+        """M(t) = M0 + n̄ (t − t0) [rad], not wrapped."""
+        flat, shape = self._seconds(t, "t")
+        return self._shape(self.M0 + self.mean_motion * (flat - self.t0), shape)
+
+    def true_anomaly(self, t: Any) -> Any:
+        """True anomaly of the mean ellipse [rad], continuous in t (not wrapped)."""
+        flat, shape = self._seconds(t, "t")
+        out = np.empty(flat.size)
+        _k.true_anomaly_loop(self._el, flat, out)
+        return self._shape(out, shape)
+
+    def __repr__(self) -> str:
+        ep = "" if self._epoch is None else f", epoch={self._epoch.utc.isot!r}"
+        return (
+            f"SecularJ2Orbit(a={self.a!r}, e={self.e!r}, inc={self.inc!r}, raan={self.raan!r}, "
+            f"argp={self.argp!r}, M0={self.M0!r}, mu={self.mu!r}, j2={self.j2!r}, "
+            f"radius={self.equatorial_radius!r}, t0={self.t0!r}{ep})  # km, rad, s"
+        )

@@ -1,0 +1,233 @@
+"""Epochs, time scales and the IERS Earth-orientation data, all through astropy.
+
+An orbit's ``epoch`` is an :class:`astropy.time.Time`; orbit times ``t`` are elapsed SI seconds
+since it. Leap seconds, TAI, TT, GPS: astropy (ERFA) does the arithmetic; there is no
+hand-written leap-second table here.
+
+Earth orientation (UT1 − UTC, polar motion, celestial-pole offsets) comes from the IERS-A table
+bundled with ``astropy-iers-data`` (``finals2000A.all``: IERS Bulletin B values for the past,
+Bulletin A predictions for about a year after the file was made), **never from the network**:
+every astropy call that needs it runs inside :func:`offline_iers`, which
+
+* sets ``astropy.utils.iers.conf.auto_download = False`` (machines have no network; an
+  attempted download would wait for a timeout and fail);
+* uses a plain :class:`astropy.utils.iers.IERS_A` table, not astropy's default ``IERS_Auto``,
+  whose "predictive values more than 30 days old" check raises for any date past the start of
+  the predictions once the bundled file is a month old and the download has failed;
+* sets ``iers_degraded_accuracy = "ignore"`` and instead checks the times itself
+  (:func:`check_iers_range`): times beyond the table (before 1973 or after its last
+  prediction) give one :class:`IERSRangeWarning` naming the first such time and the table's
+  end, and the last tabulated values are used there.
+
+``set_iers_table(path)`` replaces the bundled table with a newer ``finals2000A.all`` the user
+downloaded themselves.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import math
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from .errors import OrbitTypeError, OrbitValueError
+
+__all__ = [
+    "IERSRangeWarning",
+    "as_epoch",
+    "check_iers_range",
+    "format_epoch",
+    "iers_table",
+    "offline_iers",
+    "same_epoch",
+    "set_iers_table",
+    "ut1_minus_utc",
+]
+
+#: Time scales accepted in an epoch string suffix ("2024-01-01T00:00:00 TT").
+SCALES = ("UTC", "TAI", "TT", "TDB", "GPS")
+#: GPS time = TAI − 19 s (constant since 1980; IS-GPS-200).
+GPS_MINUS_TAI = -19.0
+
+
+class IERSRangeWarning(UserWarning):
+    """Times lie outside the IERS Earth-orientation table: degraded Earth-fixed accuracy."""
+
+
+_TABLE: list[Any] = []
+
+
+def iers_table() -> Any:
+    """The IERS table used for UT1 − UTC and polar motion (bundled IERS-A unless replaced)."""
+    if not _TABLE:
+        from astropy.utils import iers
+
+        _TABLE.append(iers.IERS_A.open(iers.IERS_A_FILE))
+    return _TABLE[0]
+
+
+def set_iers_table(table: Any = None) -> None:
+    """Use another IERS table: a path to a ``finals2000A.all`` file, an astropy ``IERS`` table,
+    or None for the bundled one."""
+    from astropy.utils import iers
+
+    if table is None:
+        _TABLE.clear()
+        return
+    if isinstance(table, iers.IERS):
+        t = table
+    else:
+        try:
+            t = iers.IERS_A.open(str(table))
+        except (OSError, ValueError) as exc:
+            raise OrbitValueError(
+                f"table: cannot read an IERS-A file from {table!r}: {exc}"
+            ) from None
+    _TABLE[:] = [t]
+
+
+@contextmanager
+def offline_iers() -> Iterator[None]:
+    """Run astropy time/frame code with our IERS policy (no network, no 30-day check)."""
+    from astropy.utils import iers
+
+    with (
+        iers.conf.set_temp("auto_download", False),
+        iers.conf.set_temp("iers_degraded_accuracy", "ignore"),
+        iers.earth_orientation_table.set(iers_table()),
+    ):
+        yield
+
+
+def check_iers_range(times: Any, name: str = "t") -> None:
+    """Warn (:class:`IERSRangeWarning`) if some of ``times`` lie outside the IERS table."""
+    tab = iers_table()
+    mjd = np.atleast_1d(np.asarray(times.utc.mjd, dtype=np.float64))
+    if mjd.size == 0:
+        return
+    lo, hi = float(tab["MJD"][0].value), float(tab["MJD"][-1].value)
+    bad = (mjd < lo) | (mjd > hi)
+    if np.any(bad):
+        from astropy.time import Time
+
+        first = Time(float(mjd[np.argmax(bad)]), format="mjd", scale="utc").isot
+        warnings.warn(
+            f"{name}: {int(bad.sum())} time(s), the first {first} UTC, lie outside the IERS "
+            f"Earth-orientation table ({Time(lo, format='mjd').iso[:10]} to "
+            f"{Time(hi, format='mjd').iso[:10]}); UT1 − UTC is held at the table's last value "
+            "and polar motion falls back to astropy's 50-year mean there, so Earth-fixed "
+            "positions (ITRS, geodetic) degrade by "
+            "roughly 0.5 m per day beyond the table (UT1 drifts ~1 ms/day). Give a newer "
+            "finals2000A.all with orbit.timescales.set_iers_table(path).",
+            IERSRangeWarning,
+            stacklevel=3,
+        )
+
+
+def ut1_minus_utc(time: Any) -> np.ndarray:
+    """UT1 − UTC [s] that this package's frame conversions use at ``time`` (astropy Time)."""
+    with offline_iers():
+        check_iers_range(time, "time")
+        u = time.utc
+        return np.asarray(u.get_delta_ut1_utc(), dtype=np.float64)
+
+
+def _parse_string(s: str, name: str) -> Any:
+    from astropy.time import Time
+
+    text = s.strip()
+    scale = "UTC"
+    parts = text.split()
+    if len(parts) == 2 and parts[1].upper() in SCALES:
+        text, scale = parts[0], parts[1].upper()
+    elif len(parts) != 1:
+        raise OrbitValueError(
+            f"{name}: {s!r} is not an ISO 8601 time; write e.g. '2024-03-20T12:00:00' (UTC), "
+            f"optionally followed by a scale: {', '.join(SCALES)}"
+        )
+    if text.endswith("Z"):
+        if scale != "UTC":
+            raise OrbitValueError(f"{name}: {s!r} has a 'Z' (UTC) and a {scale} scale")
+        text = text[:-1]
+    try:
+        if scale == "GPS":
+            t = Time(text, scale="tai") - GPS_MINUS_TAI * _sec()
+            return Time(t, scale="tai")
+        return Time(text, scale=scale.lower())
+    except (ValueError, TypeError):
+        raise OrbitValueError(
+            f"{name}: astropy cannot read {s!r} as a time; write ISO 8601 like "
+            f"'2024-03-20T12:00:00' (UTC), or '2024-03-20T12:00:00 TT' ({', '.join(SCALES)})"
+        ) from None
+
+
+def _sec() -> Any:
+    from astropy import units as u
+
+    return u.s
+
+
+def as_epoch(value: Any, name: str = "epoch", *, allow_none: bool = True) -> Any:
+    """An astropy Time from a Time, an ISO 8601 string (UTC unless a scale follows) or a
+    datetime (naive = UTC); None passes through.
+
+    Raises
+    ------
+    OrbitValueError
+        The string cannot be read, the Time is not a scalar, or it is not finite.
+    OrbitTypeError
+        Any other type.
+    """
+    from astropy.time import Time
+
+    if value is None:
+        if allow_none:
+            return None
+        raise OrbitValueError(f"{name}: a time is needed (an astropy Time or ISO 8601 string)")
+    if isinstance(value, Time):
+        t = value
+    elif isinstance(value, str):
+        t = _parse_string(value, name)
+    elif isinstance(value, _dt.datetime):
+        v = value if value.tzinfo is None else value.astimezone(_dt.timezone.utc)
+        t = Time(v.replace(tzinfo=None), scale="utc")
+    else:
+        raise OrbitTypeError(
+            f"{name}: expected an astropy Time or an ISO 8601 string such as "
+            f"'2024-03-20T12:00:00', got {type(value).__name__}"
+        )
+    if not t.isscalar:
+        raise OrbitValueError(f"{name}: expected a single time, got {t.shape} times")
+    if not (math.isfinite(float(t.jd1)) and math.isfinite(float(t.jd2))):
+        raise OrbitValueError(f"{name}: not a finite time ({value!r})")
+    return t
+
+
+def format_epoch(t: Any) -> str:
+    """UTC ISO 8601 with a trailing Z, microseconds (nanoseconds when they are needed)."""
+    u = t.utc
+    c = u.copy()
+    c.precision = 6
+    s6 = c.isot
+    from astropy.time import Time
+
+    back = Time(s6, scale="utc")
+    if abs(float((back - u).sec)) > 5e-10:
+        c.precision = 9
+        s6 = c.isot
+    return s6 + "Z"
+
+
+def same_epoch(a: Any, b: Any, tol: float = 1e-9) -> bool:
+    """Whether two epochs are the same instant (to ``tol`` seconds)."""
+    return abs(float((a - b).sec)) <= tol
+
+
+def seconds_since(epoch: Any, times: Any) -> np.ndarray:
+    """Elapsed SI seconds from ``epoch`` to ``times`` (astropy Time arrays)."""
+    d = times - epoch
+    return np.asarray(d.sec, dtype=np.float64)
