@@ -164,6 +164,27 @@ def _set_attrs(obj: Any, attrs: Mapping[str, Any]) -> None:
         obj.setncattr(k, v)
 
 
+def _descriptors_of(fd: int) -> list[int]:
+    """The other open descriptors of this process on the file of ``fd`` (Linux /proc; else [])."""
+    try:
+        st = os.fstat(fd)
+        names = os.listdir("/proc/self/fd")
+    except OSError:
+        return []
+    out = []
+    for name in names:
+        try:
+            h = int(name)
+            if h == fd:
+                continue
+            o = os.fstat(h)
+        except (OSError, ValueError):
+            continue
+        if (o.st_dev, o.st_ino) == (st.st_dev, st.st_ino):
+            out.append(h)
+    return out
+
+
 class StreamWriter:
     """Write a result Dataset to netCDF4 chunk by chunk, atomically.
 
@@ -369,7 +390,16 @@ class StreamWriter:
         fd = None
         with contextlib.suppress(OSError):
             fd = os.open(self.tmp, os.O_WRONLY)
+        held = _descriptors_of(fd) if (fd is not None and nc is not None) else []
         self._out.discard()
+        if held:
+            # HDF5's own descriptors of the file now write to /dev/null: what it flushes when
+            # the handle is closed or garbage-collected later cannot fill the disk again.
+            null = os.open(os.devnull, os.O_WRONLY)
+            for h in held:
+                with contextlib.suppress(OSError):
+                    os.dup2(null, h)
+            os.close(null)
         if nc is not None:
             with contextlib.suppress(Exception):
                 nc.close()
