@@ -203,7 +203,8 @@ def dop853_call(
     """A compiled DOP853 entry point through ``t_out``, at most :data:`STEP_BUDGET` steps a call.
 
     The arguments are those of :func:`attitude._core.rk.dop853_run` (``entry`` is one of the
-    ``dop853_*`` entry points). Each call is given the step limit ``min(max_steps, steps so far
+    ``dop853_*`` entry points, or ``attitude._core.taylor.taylor_canonical_builtin``, which has
+    the same layout). Each call is given the step limit ``min(max_steps, steps so far
     + STEP_BUDGET)``; when it stops at that limit short of ``max_steps`` it is called again,
     continuing from the stored state bit for bit, after Python has had the chance to raise a
     pending ``KeyboardInterrupt`` (and :func:`attitude._interrupt.check`). ``on_pause(k)`` is
@@ -324,21 +325,25 @@ def _run_dop853_events(
     ev = problem.events
     t = problem.t
     m = t.shape[0]
-    chunk = m if chunk is None else max(1, int(chunk))
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, 8))
     work, tstate, counters = _rk.new_state(8)
     buf = _EventBuffers(ev.n)
     done = 0
     status = _rk.SUCCESS
     last_y = y_out[:0]
+    probe = True  # a fresh run: estimate the work after its first steps (as dop853_call)
     while done < m:
         stop = min(m, done + chunk)
         while True:
+            # at most STEP_BUDGET steps a compiled call: Ctrl-C acts in between
+            budget = PROBE_STEPS if probe else STEP_BUDGET
+            limit = min(max_steps, int(counters[0]) + budget)
             y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
             status, k = problem.entry.dop853_canonical_events(
                 problem.params, ev.data, buf.evs, buf.count, buf.t, buf.k, buf.y, problem.y0,
                 t[0], t[done:stop], y_chunk, work, tstate, counters, rtol, atol, t[-1],
-                max_step, max_steps,
+                max_step, limit,
             )  # fmt: skip
             k = int(k)
             if k:
@@ -346,9 +351,22 @@ def _run_dop853_events(
                 if on_chunk is not None:
                     on_chunk(done, y_chunk[:k])
             done += k
-            if status != _rk.EVENT_BUFFER_FULL:
-                break
-            buf.grow()
+            _interrupt.check()
+            if status == _rk.EVENT_BUFFER_FULL:
+                buf.grow()
+                continue
+            if status == _rk.TOO_MANY_STEPS and (limit < max_steps or probe):
+                if probe:
+                    probe = False
+                    h = min(float(tstate[1]), max_step)
+                    check_work(int(counters[0]), float(tstate[0]), h, float(t[-1]), max_steps)
+                    if limit >= max_steps:
+                        break
+                if progress is not None:
+                    progress(done, m, float(tstate[0]))
+                continue
+            probe = False
+            break
         if progress is not None:
             progress(done, m, float(tstate[0]))
         if status != _rk.SUCCESS:

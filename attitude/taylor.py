@@ -28,7 +28,7 @@ from orbit._state_kernels import TYPE_KEPLER
 
 from ._core import rk as _rk
 from ._core import taylor as _kt
-from ._methods import Problem, RunResult
+from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
 from .body import RigidBody
 from .errors import AttitudeValueError, PropagationError
 from .potentials import GravityGradient, HeavyTop, TorqueFree
@@ -67,7 +67,7 @@ def run_taylor(
     _check_builtin(problem)
     t = problem.t
     m = t.shape[0]
-    chunk = m if chunk is None else max(1, int(chunk))
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     streaming = on_chunk is not None
     y_out = np.empty((min(chunk, m) if streaming else m, 8))
     work, tstate, counters = _kt.new_state()
@@ -79,9 +79,18 @@ def run_taylor(
         stop = min(m, done + chunk)
         t_chunk = t[done:stop]
         y_chunk = y_out[: stop - done] if streaming else y_out[done:stop]
-        status, k = _kt.taylor_canonical_builtin(
-            problem.params, problem.y0, t[0], t_chunk, y_chunk, work, tstate, counters,
-            rtol, atol, t[-1], max_step, max_steps,
+        pause = None
+        if progress is not None:
+
+            def pause(kk, done=done):
+                progress(done + kk, m, float(tstate[0]))
+
+        # at most STEP_BUDGET steps a compiled call (Ctrl-C acts in between), the work
+        # estimated after the first steps; continued bit for bit (same layout as DOP853's)
+        status, k = dop853_call(
+            _kt.taylor_canonical_builtin, problem.params, problem.y0, float(t[0]),
+            np.ascontiguousarray(t_chunk), y_chunk, work, tstate, counters, rtol, atol,
+            float(t[m - 1]), max_step, max_steps, pause,
         )  # fmt: skip
         if streaming and k:
             on_chunk(done, y_chunk[: int(k)])

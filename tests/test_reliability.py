@@ -584,6 +584,47 @@ def test_results_do_not_depend_on_the_step_budget(monkeypatch):
     assert np.array_equal(ens.member_n_steps.values, ens2.member_n_steps.values)
 
 
+def test_taylor_and_event_runs_do_not_depend_on_the_step_budget(monkeypatch):
+    # The runners added with the Taylor method and the events (single runs and ensembles)
+    # return to Python every STEP_BUDGET steps too (Ctrl-C acts), bit for bit.
+    from attitude.ensemble import _chunks
+    from attitude.events import RateExceeds
+
+    t = np.linspace(0.0, 60.0, 4)
+    Q0 = _Q([0.3, 2.0, 0.1])
+    pot = HeavyTop(0.5, [0.0, 0.0, 1.0])
+    dense = propagate(I_PAPER, Q_UNIT, Q0, np.linspace(0.0, 60.0, 601), potential=pot)
+    w = np.linalg.norm(dense.omega.values, axis=-1)
+    ev = RateExceeds(0.5 * (w.min() + w.max()), direction="both")
+    stop = RateExceeds(0.5 * (w.min() + w.max()), terminal=True)
+    runs = [
+        dict(method="taylor", rtol=1e-12),
+        dict(events=[ev]),
+        dict(events=[ev, stop]),
+    ]
+    ref = [propagate(I_PAPER, Q_UNIT, Q0, t, potential=pot, **kw) for kw in runs]
+    q0s = np.tile(Q_UNIT, (5, 1))
+    ens = attitude.propagate_ensemble(I_PAPER, q0s, Q0, t, pot, events=[ev, stop])
+    monkeypatch.setattr(_methods, "STEP_BUDGET", 7)
+    monkeypatch.setattr(_chunks, "ENSEMBLE_STEP_BUDGET", 1)
+    monkeypatch.setattr(_chunks, "MIN_MEMBER_BUDGET", 3)
+    for kw, r in zip(runs, ref, strict=True):
+        calls = []
+        got = propagate(I_PAPER, Q_UNIT, Q0, t, potential=pot, progress=lambda *a: calls.append(a), **kw)  # fmt: skip
+        assert np.array_equal(got.q.values, r.q.values), kw
+        assert np.array_equal(got.Q.values, r.Q.values), kw
+        assert got.attrs["n_steps"] == r.attrs["n_steps"]
+        # a return every 7 steps after the 64-step probe
+        assert (got.attrs["n_steps"] - _methods.PROBE_STEPS) / 7 - 2 <= len(calls), kw
+        if "events" in kw:
+            assert np.array_equal(got.event_time.values, r.event_time.values)
+            assert got.event_time.size >= 2
+    assert ref[2].attrs.get("terminal_event")
+    ens2 = attitude.propagate_ensemble(I_PAPER, q0s, Q0, t, pot, events=[ev, stop])
+    for v in ("q", "member_n_steps", "member_status", "event_first_time", "event_count"):
+        assert np.array_equal(ens[v].values, ens2[v].values, equal_nan=True), v
+
+
 def test_ctrl_c_acts_inside_a_long_compiled_run():
     # One output interval of ~3e7 steps: a single compiled call before the fix (tens of s).
     Q0 = _Q([3000.0, 0.0, 500.0])

@@ -254,36 +254,36 @@ def ensemble_serial(
 @jit(nogil=True)
 def ensemble_events_member(
     i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """Member ``i`` with events (first time and count of each in ``evs[i]``)."""
     member_events_run(
         dop853_canonical_events, diagnostics, i, params, evd, evs, y0, t, y_out, diag, work,
-        tstate, counters, status, n_done, rtol, atol, max_step, max_steps,
+        tstate, counters, status, n_done, rtol, atol, max_step, max_steps, budget,
     )  # fmt: skip
 
 
 @parallel_jit(nogil=True)
 def ensemble_events_parallel(
     params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members with events, in parallel over members (``prange``)."""
     for i in numba.prange(y0.shape[0]):
         ensemble_events_member(
             i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps,
+            rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
 
 
 @jit(nogil=True)
 def ensemble_events_serial(
     params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps,
+    rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members with events, one after the other, GIL released."""
     for i in range(y0.shape[0]):
         ensemble_events_member(
             i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps,
+            rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip

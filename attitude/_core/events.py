@@ -57,6 +57,7 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 from orbit.sun import conical_shadow
 
+from .ensemble import NOT_STARTED, RUNNING
 from .frames import frame_attitude
 from .quat import conj_mul, rotate
 from .rk import (
@@ -554,42 +555,59 @@ def member_events_run(
     atol,
     max_step,
     max_steps,
+    budget,
 ):
     """Member ``i`` of an ensemble with events: per-event first time and count in ``evs[i]``.
 
-    A terminal event ends the member (status ``EVENT``); its output rows after the event are
-    NaN. Diagnostics are computed for the rows filled.
+    As :func:`attitude._core.ensemble.member_run`: from a fresh state (``NOT_STARTED``) or on
+    from where it paused (``RUNNING``), for at most ``budget`` steps (0: to the end). A
+    terminal event ends the member (status ``EVENT``); its output rows after the event are
+    NaN, as those of a failed member after its failure. Diagnostics are computed for the rows
+    filled.
     """
+    st0 = status[i]
+    if st0 != RUNNING and st0 != NOT_STARTED:
+        return
     m = t.shape[0]
     w = work[i]
     ts = tstate[i]
     c = counters[i]
-    for r in range(w.shape[0]):
-        for j in range(w.shape[1]):
-            w[r, j] = 0.0
-    for j in range(ts.shape[0]):
-        ts[j] = 0.0
-    for j in range(c.shape[0]):
-        c[j] = 0
+    k0 = 0
+    if st0 == NOT_STARTED:
+        for r in range(w.shape[0]):
+            for j in range(w.shape[1]):
+                w[r, j] = 0.0
+        for j in range(ts.shape[0]):
+            ts[j] = 0.0
+        for j in range(c.shape[0]):
+            c[j] = 0
+    else:
+        k0 = n_done[i]
     p = params[i]
     yo = y_out[i]
-    ev_count = np.zeros(2, dtype=np.int64)
+    ev_count = np.zeros(2, dtype=np.int64)  # no records kept (capacity 0): counts in evs[i]
     rec_t = np.empty(0)
     rec_k = np.empty((0, 2), dtype=np.int64)
     rec_y = np.empty((0, y0.shape[1]))
+    limit = max_steps
+    if budget > 0 and c[0] + budget < max_steps:
+        limit = c[0] + budget
     st, k = dop853_events(
-        p, evd, evs[i], ev_count, rec_t, rec_k, rec_y, y0[i], t[0], t, yo, w, ts, c,
-        rtol, atol, t[m - 1], max_step, max_steps,
+        p, evd, evs[i], ev_count, rec_t, rec_k, rec_y, y0[i], t[0], t[k0:], yo[k0:], w, ts, c,
+        rtol, atol, t[m - 1], max_step, limit,
     )  # fmt: skip
-    status[i] = st
+    k += k0
     n_done[i] = k
-    if st == SUCCESS or st == EVENT:
-        diagnostics(t[:k], yo[:k], p, diag[i, :k])
-        for r in range(k, m):
-            for j in range(yo.shape[1]):
-                yo[r, j] = math.nan
-            for j in range(diag.shape[2]):
-                diag[i, r, j] = math.nan
+    if st == TOO_MANY_STEPS and limit < max_steps:
+        status[i] = RUNNING
+        return
+    status[i] = st
+    diagnostics(t[:k], yo[:k], p, diag[i, :k])
+    for r in range(k, m):
+        for j in range(yo.shape[1]):
+            yo[r, j] = math.nan
+        for j in range(diag.shape[2]):
+            diag[i, r, j] = math.nan
 
 
 # ---------------------------------------------------------------------------------------------

@@ -78,10 +78,10 @@ def _compute_chunk(
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
     entry = _entry(setup)
-    if setup.events is not None:
-        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel)
-    fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
     budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * max(1, threads) // max(1, c))
+    if setup.events is not None:
+        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget)
+    fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
     while True:
         fn(
             params,
@@ -137,21 +137,25 @@ def _entry(setup: _Setup) -> Any:
     return entry_points(terms, user_events)
 
 
-def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel):
+def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget):
     """:func:`_compute_chunk` with events: per member and event, the count and first time."""
-    from .._core import events as _ke
+    from .._core import events as _kev
 
     ev = setup.events
-    evs = np.zeros((y0.shape[0], ev.n, _ke.EVS_COLS))
+    evs = np.zeros((y0.shape[0], ev.n, _kev.EVS_COLS))
     fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
-    fn(
-        params, ev.data, evs, y0, setup.t, out["y"], out["diag"], work, tstate,
-        out["counters"], out["status"], out["n_done"], setup.rtol, setup.atol,
-        setup.max_step, setup.max_steps,
-    )  # fmt: skip
+    while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
+        fn(
+            params, ev.data, evs, y0, setup.t, out["y"], out["diag"], work, tstate,
+            out["counters"], out["status"], out["n_done"], setup.rtol, setup.atol,
+            setup.max_step, setup.max_steps, budget,
+        )  # fmt: skip
+        _interrupt.check()
+        if not np.any(out["status"] == _ke.RUNNING):
+            break
     out["t_stop"] = tstate[:, 0].copy()
-    out["event_count"] = evs[:, :, _ke.EVS_COUNT].astype(np.int64)
-    out["event_first"] = evs[:, :, _ke.EVS_FIRST].copy()
+    out["event_count"] = evs[:, :, _kev.EVS_COUNT].astype(np.int64)
+    out["event_first"] = evs[:, :, _kev.EVS_FIRST].copy()
     return out
 
 
