@@ -14,6 +14,7 @@ from ._times import TimeGrid
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
+    "as_bool",
     "as_float_array",
     "as_int",
     "as_positive",
@@ -128,6 +129,13 @@ def as_scalar(x: Any, name: str, *, unit: Any = None) -> float:
             f"{name}: expected a single number, got an array of shape {arr.shape}"
         )
     return float(arr)
+
+
+def as_bool(x: Any, name: str) -> bool:
+    """A flag: ``True`` or ``False`` (Python or numpy booleans; anything else is refused)."""
+    if not isinstance(x, (bool, np.bool_)):
+        raise AttitudeTypeError(f"{name}: expected True or False, got {_short(x)}")
+    return bool(x)
 
 
 def as_positive(x: Any, name: str, *, unit: Any = None, allow_inf: bool = False) -> float:

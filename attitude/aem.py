@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ._files import OutputFile, file_error
+from ._files import OutputFile, file_error, input_path
 from ._validation import as_positive
 from ._version import __version__
 from .errors import AttitudeTypeError, AttitudeValueError
@@ -425,11 +425,15 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
     from . import quaternion as qt
     from .results import index_coords, time_attrs
 
-    p = Path(path)
+    p = input_path(path, "path")  # type, NUL bytes, a directory: errors naming the path
+    if body_frame is not None and not isinstance(body_frame, str):
+        raise AttitudeTypeError(
+            f"body_frame: expected a frame name (str) or None, got {type(body_frame).__name__}"
+        )
     try:
         text = p.read_text(encoding="latin-1")
-    except FileNotFoundError:
-        raise AttitudeValueError(f"{p}: no such file") from None
+    except OSError as exc:
+        raise file_error(exc, p, "read") from None
     header, segs = _segments(text.splitlines(), str(p))
     vers = header.get("CCSDS_AEM_VERS")
     if vers is None:

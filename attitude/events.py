@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from ._core import events as _ke
-from ._validation import as_float_array
+from ._validation import as_scalar
 from .errors import AttitudeTypeError, AttitudeValueError
 from .frames import Frame, as_axis
 
@@ -79,7 +79,7 @@ def _direction(direction: Any) -> str:
 
 
 def _angle(x: Any, name: str) -> float:
-    v = float(as_float_array(x, name, unit="rad"))
+    v = as_scalar(x, name, unit="rad")
     if not 0.0 < v < math.pi:
         raise AttitudeValueError(
             f"{name}: expected an angle between 0 and 180 degrees (rad, or a Quantity such as "
@@ -280,7 +280,7 @@ class RateExceeds(Event):
         samples: int = SAMPLES,
     ):
         super().__init__(direction, terminal, name, samples)
-        r = float(as_float_array(rate, "rate", unit="rad / s"))
+        r = as_scalar(rate, "rate", unit="rad / s")
         if not r > 0:
             raise AttitudeValueError(f"rate: must be positive, got {r!r}")
         self.rate = r
@@ -314,7 +314,7 @@ class _Eclipse(Event):
                 f"orbit: {self.kind} needs the Sun's position, so a date: build the orbit with an "
                 "epoch (e.g. orbit.KeplerOrbit(..., epoch='2024-03-20T12:00:00'))"
             )
-        if shadow not in _SHADOWS:
+        if not isinstance(shadow, str) or shadow not in _SHADOWS:
             raise AttitudeValueError(f"shadow: expected 'penumbra' or 'umbra', got {shadow!r}")
         self.orbit = orbit
         self.shadow = shadow

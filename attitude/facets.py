@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_float_array
+from ._validation import as_float_array, as_scalar
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["Facet", "box_wing", "facet_array"]
@@ -79,11 +79,11 @@ class Facet:
         c = as_float_array(center, "center", unit="m")
         if c.shape != (3,):
             raise AttitudeValueError(f"center: expected 3 body-axis components (m), got {c.shape}")
-        cdv = float(as_float_array(cd, "cd"))
+        cdv = as_scalar(cd, "cd")
         if not cdv >= 0.0:
             raise AttitudeValueError(f"cd: the drag coefficient must be >= 0, got {cdv!r}")
-        s = float(as_float_array(specular, "specular"))
-        d = float(as_float_array(diffuse, "diffuse"))
+        s = as_scalar(specular, "specular")
+        d = as_scalar(diffuse, "diffuse")
         for name, v in (("specular", s), ("diffuse", d)):
             if not 0.0 <= v <= 1.0:
                 raise AttitudeValueError(
@@ -228,7 +228,10 @@ def facet_array(facets: Any, name: str = "facets") -> tuple[Facet, ...]:
         facets = [facets]
     if not isinstance(facets, Sequence) and not isinstance(facets, Iterable):
         raise AttitudeTypeError(f"{name}: expected a list of attitude.Facet")
-    out = tuple(facets)
+    try:
+        out = tuple(facets)
+    except TypeError:  # iterable by type but not by value (a scalar Quantity, a 0-d array)
+        raise AttitudeTypeError(f"{name}: expected a list of attitude.Facet") from None
     if not out:
         raise AttitudeValueError(f"{name}: needs at least one attitude.Facet")
     for i, f in enumerate(out):

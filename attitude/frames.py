@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from ._core import frames as _kf
-from ._validation import as_float_array, as_quaternion
+from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
@@ -500,9 +500,9 @@ def target(
     """
     from orbit.frames import itrs_from_geodetic
 
-    lat = float(as_float_array(latitude, "latitude", unit="rad"))
-    lon = float(as_float_array(longitude, "longitude", unit="rad"))
-    h = float(as_float_array(height, "height", unit="km"))
+    lat = as_scalar(latitude, "latitude", unit="rad")
+    lon = as_scalar(longitude, "longitude", unit="rad")
+    h = as_scalar(height, "height", unit="km")
     if abs(lat) > math.pi / 2:
         raise AttitudeValueError(f"latitude: must lie in [-90°, 90°], got {math.degrees(lat)}°")
     x = itrs_from_geodetic(lat, lon, h)
@@ -560,7 +560,7 @@ def initial_state(
             f"{type(frame).__name__}"
         )
     b = body if isinstance(body, RigidBody) else RigidBody(body)
-    t = float(as_float_array(t0, "t0", unit="s"))
+    t = as_scalar(t0, "t0", unit="s")
     qR, wR = frame.evaluate(np.array([t]))
     qR, wR = qR[0], wR[0]
     if not (np.all(np.isfinite(qR)) and np.all(np.isfinite(wR))):

@@ -758,7 +758,7 @@ class _EnvironmentModel(Potential):
 def _field_setting(field: Any, orbit: Any, what: str) -> tuple[str, np.ndarray | None, Any]:
     """('igrf' | 'dipole' | 'constant', constant field [T] or None, orbit)."""
     if isinstance(field, str):
-        if field not in ("igrf", "dipole"):
+        if not isinstance(field, str) or field not in ("igrf", "dipole"):
             raise AttitudeValueError(
                 f"field: expected 'igrf' (IGRF-14 through ppigrf), 'dipole' (its tilted "
                 f"dipole) or a constant field vector (T, space axes), got {field!r}"
@@ -901,9 +901,9 @@ class EddyCurrentDamping(_EnvironmentModel):
         conductivity : float or Quantity
             σ [S/m] (aluminium alloys: 2e7 to 3.8e7 S/m).
         """
-        r = float(as_float_array(radius, "radius", unit="m"))
-        e = float(as_float_array(thickness, "thickness", unit="m"))
-        s = float(as_float_array(conductivity, "conductivity", unit="S / m"))
+        r = as_scalar(radius, "radius", unit="m")
+        e = as_scalar(thickness, "thickness", unit="m")
+        s = as_scalar(conductivity, "conductivity", unit="S / m")
         for name, v in (("radius", r), ("thickness", e), ("conductivity", s)):
             if not v > 0:
                 raise AttitudeValueError(f"{name}: must be > 0, got {v!r}")
@@ -972,7 +972,7 @@ class AerodynamicDrag(_EnvironmentModel):
         step: Any = None,
         span: Any = None,
     ):
-        if density not in ("msis", "exponential"):
+        if not isinstance(density, str) or density not in ("msis", "exponential"):
             raise AttitudeValueError(
                 f"density: expected 'msis' (NRLMSIS 2.1 through pymsis) or 'exponential' "
                 f"(Vallado's table), got {density!r}"
@@ -981,9 +981,9 @@ class AerodynamicDrag(_EnvironmentModel):
         self.orbit = _check_orbit(orbit, "AerodynamicDrag", True, why)
         self.facets = facet_array(facets)
         self.density = density
-        self.f107 = float(as_float_array(f107, "f107"))
-        self.f107a = float(as_float_array(f107a, "f107a"))
-        self.ap = float(as_float_array(ap, "ap"))
+        self.f107 = as_scalar(f107, "f107")
+        self.f107a = as_scalar(f107a, "f107a")
+        self.ap = as_scalar(ap, "ap")
         _env.check_space_weather(self.f107, self.f107a, self.ap)
         self._setup(self.orbit, step, span)
 
@@ -1069,7 +1069,7 @@ class SolarRadiation(_EnvironmentModel):
         step: Any = None,
         span: Any = None,
     ):
-        if eclipse not in self._ECLIPSE:
+        if not isinstance(eclipse, str) or eclipse not in self._ECLIPSE:
             raise AttitudeValueError(
                 f"eclipse: expected 'conical' (with penumbra), 'cylindrical' or 'none', got "
                 f"{eclipse!r}"

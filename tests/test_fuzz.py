@@ -209,7 +209,7 @@ def mutated_scenario(draw) -> tuple[str, list[str]]:
         it = base.setdefault("integrator", {})
         it["rtol"] = draw(st.sampled_from([1e-13, 1e-10, 1e-8, 1e-6, 1e-3]))
         it["atol"] = draw(st.sampled_from([1e-16, 1e-12, 1e-9]))
-        m = draw(st.sampled_from(["dop853", "scipy:DOP853", "splitting", "nosquish"]))
+        m = draw(st.sampled_from(["dop853", "scipy:DOP853", "splitting", "nosquish", "taylor"]))
         if "ensemble" not in base:
             it["method"] = m
             if m in ("splitting", "nosquish"):
@@ -305,7 +305,7 @@ def mutated_scenario(draw) -> tuple[str, list[str]]:
         ("--atol", ["1e-14", "0", "1e-250", "nan"]),
         ("--dt", ["0.01", "0", "-1", "1e-300", "inf"]),
         ("--stop", ["1", "0", "-5", "1e300", "nan", "inf", "1e-300"]),
-        ("--method", ["dop853", "scipy:DOP853", "exact", "splitting", "rk99"]),
+        ("--method", ["dop853", "scipy:DOP853", "exact", "splitting", "rk99", "taylor"]),
         ("--formulation", ["canonical", "euler_angles", "bogus"]),
         ("--order", ["2", "4", "5", "x"]),
     ):
@@ -510,6 +510,21 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
         p = io.write(ds, path, complevel=complevel)
         return io.read(p)
 
+    # The real-spacecraft API (orbits with dates, environment models, frames, events, ensemble
+    # statistics): one valid call of each, fuzzed like the others.
+    from attitude import events as E
+    from attitude import frames as F
+    from orbit import EphemerisOrbit, SecularJ2Orbit
+
+    leo = SecularJ2Orbit(7000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch="2024-03-01T00:00:00")
+    tle = tomllib.loads((SCEN / "sso_tle_gravity_gradient.toml").read_text())["orbit"]["tle"]
+    sbody = attitude.RigidBody([0.02, 0.03, 0.04], units="kg m2")
+    box = attitude.box_wing([0.1, 0.1, 0.3])
+    dipole = attitude.MagneticDipole(leo, [0.0, 0.0, 0.05], field="dipole")
+    rate_ev = E.RateExceeds(0.25)
+    ens = attitude.propagate_ensemble(I, np.tile(q0, (4, 1)), Q0, [0.0, 0.5, 1.0])
+    aem.write_aem(small, tmp / "r.aem", epoch="2024-01-01T00:00:00", time_unit_seconds=1.0)
+
     return {
         "propagate": (attitude.propagate, dict(
             body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], potential=None, method="dop853",
@@ -538,6 +553,48 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
                                           dict(q=q0, omega=[0.1, 0.2, 0.3], inertia=I)),
         "io.write+read": (write_then_read, dict(ds=small, path=tmp / "w.nc", complevel=4)),
         "io.read": (io.read, dict(path=tmp / "w.nc")),
+        "propagate_taylor": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], method="taylor", rtol=1e-10, atol=1e-12,
+            potential=attitude.HeavyTop(0.5, [0.0, 0.0, 1.0]), max_steps=10**6)),
+        "propagate_events": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], events=[rate_ev], rtol=1e-10)),
+        "propagate_environment": (attitude.propagate, dict(
+            body=sbody, q0=q0, Q0=[0.0, 1e-4, 0.0, 0.0], t=[0.0, 30.0, 60.0],
+            potential=dipole + attitude.GravityGradient(leo), epoch=None)),
+        "propagate_ensemble_statistics": (attitude.propagate_ensemble, dict(
+            bodies_or_body=I, q0=np.tile(q0, (5, 1)), Q0=Q0, t=[0.0, 0.5, 1.0],
+            output="statistics", every=1, percentiles=(5.0, 50.0, 95.0), max_output_size=None)),
+        "SecularJ2Orbit": (SecularJ2Orbit, dict(
+            a=7000.0, e=0.001, inc=1.7, raan=0.2, argp=0.3, f0=0.0,
+            epoch="2024-03-01T00:00:00", mu=None, j2=None, radius=None)),
+        "EphemerisOrbit.from_tle": (EphemerisOrbit.from_tle, dict(
+            line1=tle[0], line2=tle[1], start=0.0, stop=600.0, step=60.0, epoch=None)),
+        "MagneticDipole": (attitude.MagneticDipole, dict(
+            orbit=leo, dipole=[0.0, 0.0, 0.05], field="dipole", step=None, span=None)),
+        "AerodynamicDrag": (attitude.AerodynamicDrag, dict(
+            orbit=leo, facets=box, density="exponential", f107=150.0, f107a=150.0, ap=4.0)),
+        "SolarRadiation": (attitude.SolarRadiation, dict(
+            orbit=leo, facets=box, eclipse="conical")),
+        "EddyCurrentDamping": (attitude.EddyCurrentDamping, dict(
+            orbit=leo, tensor=np.eye(3) * 1e3, field="dipole")),
+        "Facet": (attitude.Facet, dict(
+            area=0.1, normal=[1.0, 0.0, 0.0], center=[0.0, 0.0, 0.0], cd=2.2, specular=0.1,
+            diffuse=0.1)),
+        "box_wing": (attitude.box_wing, dict(size=[0.1, 0.1, 0.3], center=(0.0, 0.0, 0.0))),
+        "frames.nadir": (F.nadir, dict(orbit=leo, axis="+z", secondary="+x", toward="velocity")),
+        "frames.target": (F.target, dict(orbit=leo, latitude=0.5, longitude=0.1, height=0.0)),
+        "initial_state": (attitude.initial_state, dict(
+            body=sbody, frame=F.lvlh(leo), t0=0.0, offset=None, rates=None)),
+        "PointingExceeds": (E.PointingExceeds, dict(
+            frame=F.lvlh(leo), axis=[0.0, 0.0, 1.0], angle=0.1, direction="rising")),
+        "RateExceeds": (E.RateExceeds, dict(rate=0.1, direction="rising", samples=8)),
+        "EclipseEntry": (E.EclipseEntry, dict(orbit=leo, shadow="umbra")),
+        "AngleToSun": (E.AngleToSun, dict(axis=[0.0, 0.0, 1.0], angle=0.5, orbit=leo)),
+        "aem.read": (aem.read, dict(path=tmp / "r.aem", body_frame=None)),
+        "pointing_error_percentiles": (attitude.pointing_error_percentiles, dict(
+            ds=ens, reference=None, percentiles=(5.0, 50.0, 95.0), axis=None, degrees=False)),
+        "rate_percentiles": (attitude.rate_percentiles, dict(
+            ds=ens, percentiles=(5.0, 50.0, 95.0), norm=True, variable="omega", degrees=False)),
         "aem.write_aem": (aem.write_aem, dict(
             ds=small, path=tmp / "a.aem", epoch="2024-01-01T00:00:00", version=2,
             time_unit_seconds=1.0, object_name="X")),
@@ -546,12 +603,16 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
 
 def _check_api_result(name: str, result: Any, kwargs: dict[str, Any]) -> str | None:
     """Silent no-ops: a normal return without what was asked for."""
-    if name.startswith("propagate") and name != "propagate_ensemble":
+    if name.startswith("propagate") and not name.startswith("propagate_ensemble"):
         t = np.atleast_1d(np.asarray(kwargs["t"], dtype=float))
         if result.sizes["time"] != t.size or not np.all(np.isfinite(result.q.values)):
             return f"returned {result.sizes['time']} samples for {t.size} times"
     if name == "propagate_ensemble" and (
         result is None or not np.all(np.isfinite(result.q.values))
+    ):
+        return "an ensemble result with non-finite states"
+    if name == "propagate_ensemble_statistics" and (
+        result is None or not np.all(np.isfinite(result.pointing_error_percentiles.values))
     ):
         return "an ensemble result with non-finite states"
     if name == "io.write+read" and result.sizes.get("time", 0) == 0:
@@ -586,7 +647,9 @@ def test_fuzz_public_api(tmp_path_factory, capsys, monkeypatch):
         for _ in range(n_bad):
             k = data.draw(st.sampled_from(keys))
             kwargs[k] = data.draw(_bad())
-        if name in ("io.write+read", "aem.write_aem", "io.read") and data.draw(st.booleans()):
+        if name in ("io.write+read", "aem.write_aem", "io.read", "aem.read") and data.draw(
+            st.booleans()
+        ):
             kwargs["path"] = data.draw(st.sampled_from([
                 None, 3, "a\x00b", tmp / ("x" * 300), tmp, tmp / "sub/", tmp / "nodir" / "f",
                 tmp / "w.nc" / "under_a_file", "/proc/version", tmp / "ok.out",

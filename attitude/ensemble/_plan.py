@@ -115,7 +115,7 @@ def make_plan(
     max_output_size: Any,
 ) -> _Plan:
     """Validate the output arguments of ``propagate_ensemble`` (errors name them)."""
-    if output not in OUTPUTS:
+    if not isinstance(output, str) or output not in OUTPUTS:
         raise AttitudeValueError(
             f"output: expected one of {', '.join(map(repr, OUTPUTS))}, got {output!r}"
         )

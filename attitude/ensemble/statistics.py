@@ -8,7 +8,7 @@ import numpy as np
 import xarray as xr
 
 from .._core import rk as _rk
-from .._validation import as_float_array
+from .._validation import as_bool, as_float_array
 from ..errors import AttitudeTypeError, AttitudeValueError
 
 # ------------------------------------------------------------------------------------------------
@@ -46,6 +46,8 @@ def _select_stored(da: xr.DataArray, p: np.ndarray) -> xr.DataArray:
 def _check_ensemble(ds: Any, var: str) -> xr.DataArray:
     if not isinstance(ds, xr.Dataset):
         raise AttitudeTypeError(f"ds: expected an xarray.Dataset, got {type(ds).__name__}")
+    if not isinstance(var, str):
+        raise AttitudeTypeError(f"variable: expected a variable name (str), got {var!r}")
     if var not in ds or "member" not in ds[var].dims:
         raise AttitudeValueError(
             f"ds: expected an ensemble result with a variable {var!r} over 'member' "
@@ -192,9 +194,11 @@ def pointing_error_percentiles(
     -------
     xarray.DataArray, dims (percentile, time)
     """
+    degrees = as_bool(degrees, "degrees")
     stored = _stored(ds, "pointing")
     if stored is not None:
-        if reference not in (None, "nominal") or axis is not None:
+        nominal = reference is None or (isinstance(reference, str) and reference == "nominal")
+        if not nominal or axis is not None:
             raise AttitudeValueError(
                 "reference: this result holds statistics only, measured from its stored "
                 "reference (reference_q); other references and axes need the members "
@@ -271,6 +275,10 @@ def rate_percentiles(
     xarray.DataArray, dims (percentile, time) or (percentile, time, axis)
         In the variable's units (or degrees).
     """
+    norm = as_bool(norm, "norm")
+    degrees = as_bool(degrees, "degrees")
+    if not isinstance(variable, str):
+        raise AttitudeTypeError(f"variable: expected a variable name (str), got {variable!r}")
     if degrees and variable != "omega":
         raise AttitudeValueError(
             f"degrees: only for the angular velocity (variable='omega'), not {variable!r}"
