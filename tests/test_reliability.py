@@ -837,3 +837,23 @@ def test_non_streamed_formulations_refuse_huge_outputs():
             I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 1e3, 3_000_001),
             formulation="euler_equations", on_chunk=lambda ds: None,
         )  # fmt: skip
+
+
+def test_ensemble_accepts_the_Q0_quantity_that_propagate_accepts():
+    # was: propagate_ensemble refused Q0 in kg m2/s that propagate takes (an AttitudeTypeError)
+    from astropy import units as u
+
+    body = attitude.RigidBody([0.02, 0.03, 0.04], units="kg m2")
+    Q0 = np.array([0.0, 2e-3, 1e-3, 3e-3])
+    t = [0.0, 5.0, 10.0]
+    plain = attitude.propagate_ensemble(body, np.tile(Q_UNIT, (2, 1)), Q0, t)
+    qty = attitude.propagate_ensemble(body, np.tile(Q_UNIT, (2, 1)), Q0 * u.Unit("kg m2 / s"), t)
+    g_cm = attitude.propagate_ensemble(
+        body, np.tile(Q_UNIT, (2, 1)), Q0 * 1e7 * u.Unit("g cm2 / s"), t
+    )
+    assert np.array_equal(plain.q.values, qty.q.values)
+    np.testing.assert_allclose(g_cm.q.values, plain.q.values, rtol=0, atol=1e-14)
+    single = propagate(body, Q_UNIT, Q0 * u.Unit("kg m2 / s"), t)
+    assert np.array_equal(single.q.values, qty.q.values[0])
+    with pytest.raises(AttitudeTypeError, match="Q0"):  # a dimensionless body: no units
+        attitude.propagate_ensemble(I_PAPER, np.tile(Q_UNIT, (2, 1)), Q0 * u.Unit("kg m2 / s"), t)

@@ -143,9 +143,25 @@ def _pow2_rows(x: np.ndarray) -> np.ndarray:
     return np.where(m > 0.0, np.ldexp(1.0, e - 1), 1.0)
 
 
-def _member_states(q0: Any, Q0: Any) -> tuple[np.ndarray, np.ndarray, int]:
+def _body_units(body: Any) -> str | None:
+    """The unit system of the members' bodies (None: dimensionless), as ``_member_inertia``."""
+    if isinstance(body, RigidBody):
+        return body.units
+    if isinstance(body, (list, tuple)) and body and isinstance(body[0], RigidBody):
+        return body[0].units
+    from astropy import units as u
+
+    return "kg m^2" if isinstance(body, u.Quantity) else None
+
+
+def _member_states(
+    q0: Any, Q0: Any, units: str | None = None
+) -> tuple[np.ndarray, np.ndarray, int]:
+    """States (N, 4) or (4,) and N; Q0 may be a Quantity (kg m² s⁻¹) for bodies with units."""
     q = as_float_array(q0, "q0", trailing=4)
-    Q = as_float_array(Q0, "Q0", trailing=4, unit=None)
+    # Q has units of angular momentum: a Quantity is accepted when the bodies have units (as in
+    # propagate); converted to SI
+    Q = as_float_array(Q0, "Q0", trailing=4, unit=None if units is None else "kg m2 / s")
     for name, a in (("q0", q), ("Q0", Q)):
         if a.ndim not in (1, 2):
             raise AttitudeValueError(

@@ -36,7 +36,14 @@ from ._dask import (
     _worker_threads,
     _write_lazy,
 )
-from ._members import _member_inertia, _member_potentials, _member_states, _Members, _project
+from ._members import (
+    _body_units,
+    _member_inertia,
+    _member_potentials,
+    _member_states,
+    _Members,
+    _project,
+)
 from ._output import _Assembler, _concat, _MemberWriter, _open_result
 from ._percentile_store import _PercentileStore
 from .dispersions import _Sampled
@@ -309,7 +316,7 @@ def propagate_ensemble(
         bore = bore / float(np.linalg.norm(bore))
 
     if _source is None:
-        q, Q, n = _member_states(q0, Q0)
+        q, Q, n = _member_states(q0, Q0, _body_units(body))
         inertia, unit = _member_inertia(body, n)
         if isinstance(potential, Potential):  # environment tables for this run's span
             potential = potential.prepare(tt)
