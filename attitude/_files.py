@@ -33,6 +33,7 @@ import re
 import shutil
 import stat
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -359,12 +360,25 @@ class OutputFile:
             raise file_error(exc, self.target) from None
         remove_stale_temps(self.target, self._tmpdir)
 
+    @contextlib.contextmanager
+    def _discard_on_failure(self) -> Iterator[None]:
+        """Any failure inside removes the temporary file; an OSError is reported as an
+        :class:`AttitudeFileError` naming the output."""
+        try:
+            yield
+        except OSError as exc:
+            self.discard()
+            raise file_error(exc, self.target) from None
+        except BaseException:
+            self.discard()
+            raise
+
     def commit(self) -> Path:
         """Put the complete temporary file in place (rename, or copy into a device/pipe).
 
         A pending interrupt request (:func:`attitude._interrupt.check`) aborts before that.
         """
-        try:
+        with self._discard_on_failure():
             with open(self.tmp, "rb+") as fh:
                 os.fsync(fh.fileno())
             _interrupt.check()
@@ -380,13 +394,16 @@ class OutputFile:
                         os.fsync(fd)
                     finally:
                         os.close(fd)
-        except OSError as exc:
-            self.discard()
-            raise file_error(exc, self.target) from None
-        except BaseException:
-            self.discard()
-            raise
         return self.path
+
+    @contextlib.contextmanager
+    def writing(self) -> Iterator[Path]:
+        """``with target.writing() as tmp: ...write tmp...; target.commit()``: the temporary
+        file is prepared, and removed on any failure inside (an OSError reported as an
+        :class:`AttitudeFileError` naming the output)."""
+        self.prepare()
+        with self._discard_on_failure():
+            yield self.tmp
 
     def discard(self) -> None:
         """Remove the temporary file (the target is untouched)."""

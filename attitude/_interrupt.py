@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import sys
 from collections.abc import Iterator
 
 __all__ = ["check", "clear", "handling", "request", "requested"]
@@ -51,6 +52,16 @@ def _handler(signum, frame):
     raise KeyboardInterrupt
 
 
+def _quiet_unraisable(info) -> None:
+    """``sys.unraisablehook`` while :func:`handling` is active: a ``KeyboardInterrupt`` that
+    Python could not raise (in a ctypes callback, a finalizer) is recorded already and raised
+    again at the next :func:`check`; its "Exception ignored" traceback is not printed. Anything
+    else goes to the default hook."""
+    if isinstance(info.exc_value, KeyboardInterrupt) and _requested:
+        return
+    sys.__unraisablehook__(info)
+
+
 @contextlib.contextmanager
 def handling(
     signals: tuple[str, ...] = ("SIGINT", "SIGTERM"), *, then_ignore: bool = False
@@ -64,6 +75,8 @@ def handling(
     """
     clear()
     old = {}
+    hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_unraisable  # a swallowed interrupt is recorded: no traceback
     for name in signals:
         sig = getattr(signal, name, None)
         if sig is None:
@@ -75,6 +88,7 @@ def handling(
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         for sig, h in old.items():
             with contextlib.suppress(ValueError, TypeError):
                 signal.signal(sig, signal.SIG_IGN if then_ignore else h)

@@ -283,9 +283,7 @@ def write_aem(
         meta.append(_kvn("INTERPOLATION_DEGREE", min(int(interpolation[1]), n - 1)))
     meta += ["META_STOP", "", "DATA_START"]
 
-    target.prepare()
-    tmp = target.tmp
-    try:
+    with target.writing() as tmp:
         with open(tmp, "w", encoding="latin-1", errors="replace", newline="\n") as fh:
             fh.write("\n".join(head + meta) + "\n")
             for i in range(0, n, BLOCK):
@@ -314,12 +312,6 @@ def write_aem(
             fh.write("DATA_STOP\n")
             fh.flush()
         target.commit()
-    except OSError as exc:
-        target.discard()
-        raise file_error(exc, target.target) from None
-    except BaseException:
-        target.discard()
-        raise
     return target.path
 
 

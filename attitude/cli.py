@@ -629,7 +629,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
         ) from None
     from matplotlib.figure import Figure
 
-    from ._files import OutputFile, file_error
+    from ._files import OutputFile
     from .plotting import plot_ensemble, plot_result, plot_torque_budget
 
     default = Path(args.file).with_suffix(".png")
@@ -663,16 +663,10 @@ def cmd_plot(args: argparse.Namespace) -> int:
         ds.close()
     import matplotlib.pyplot as plt
 
-    target.prepare()
     try:
-        fig.savefig(target.tmp, dpi=args.dpi, format=fmt)
-        target.commit()
-    except OSError as exc:
-        target.discard()
-        raise file_error(exc, target.target) from None
-    except BaseException:
-        target.discard()
-        raise
+        with target.writing() as tmp:
+            fig.savefig(tmp, dpi=args.dpi, format=fmt)
+            target.commit()
     finally:
         plt.close(fig)
     args._written = out
@@ -990,28 +984,33 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run_command(args: argparse.Namespace) -> int:
-    from .errors import AttitudeError, PropagationError
+    from . import _interrupt
 
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
             return int(args.func(args))
-    except PropagationError as exc:
+    except Exception as exc:
+        if _interrupt.requested():  # an error caused by the interrupt (e.g. numba's compiler
+            raise KeyboardInterrupt from None  # stopped midway): report the interrupt
         if args.debug:
             raise
+        return _report_error(exc)
+
+
+def _report_error(exc: Exception) -> int:
+    """Write the one-line message of a failed command; its exit status."""
+    from .errors import AttitudeError, PropagationError
+
+    if isinstance(exc, PropagationError):
         sys.stderr.write(f"attitude: failed: {exc}\n")
         return EXIT_FAILURE
-    except (BadInput, AttitudeError, FileNotFoundError) as exc:
-        if args.debug:
-            raise
+    if isinstance(exc, (BadInput, AttitudeError, FileNotFoundError)):
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         sys.stderr.write(f"attitude: error: {msg}\n")
         return EXIT_BAD_INPUT
-    except Exception as exc:
-        if args.debug:
-            raise
-        sys.stderr.write(f"attitude: failed: {type(exc).__name__}: {exc}\n")
-        return EXIT_FAILURE
+    sys.stderr.write(f"attitude: failed: {type(exc).__name__}: {exc}\n")
+    return EXIT_FAILURE
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -227,14 +227,8 @@ class StreamWriter:
         import netCDF4
 
         self._out.prepare()
-        try:
+        with self._or_abort():
             self._nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
-        except AttitudeError:
-            self.abort()
-            raise
-        except (OSError, RuntimeError) as exc:
-            self.abort()
-            raise file_error(exc, self._out.target) from None
         return self._nc
 
     def _create(self, ds: xr.Dataset) -> None:
@@ -319,25 +313,15 @@ class StreamWriter:
         nbytes = var.dtype.itemsize * int(np.prod(self._chunks(var)))
         v.set_var_chunk_cache(size=2 * nbytes + 4096, nelems=17, preemption=1.0)
 
-    def append(self, ds: xr.Dataset) -> None:
-        """Append the samples of ``ds`` (same schema as the first chunk) along ``time``.
+    #: The dimension chunks are appended along (``_MemberWriter``: ``member``).
+    _along = "time"
 
-        The attrs of the first chunk are kept as the file's global attrs unless replaced
-        through :attr:`attrs` before :meth:`commit`. Any failure removes the temporary file.
-        """
-        if self._done:
-            raise AttitudeValueError("append: the file was already committed or aborted")
+    @contextlib.contextmanager
+    def _or_abort(self) -> Iterator[None]:
+        """Any failure inside removes the temporary file; OS and netCDF errors are reported as
+        :class:`AttitudeFileError` naming the output (a full disk, no permission...)."""
         try:
-            if self._nc is None:
-                self._create(ds)
-                self.attrs = dict(ds.attrs)
-            k = ds.sizes["time"]
-            if k == 0:
-                return
-            for name in self._vars:
-                var = ds[name].variable.transpose("time", ...)
-                self._nc.variables[name][self.n : self.n + k, ...] = var.values
-            self.n += k
+            yield
         except AttitudeError:
             self.abort()
             raise
@@ -347,6 +331,26 @@ class StreamWriter:
         except BaseException:
             self.abort()
             raise
+
+    def append(self, ds: xr.Dataset) -> None:
+        """Append the samples of ``ds`` (same schema as the first chunk) along ``time``.
+
+        The attrs of the first chunk are kept as the file's global attrs unless replaced
+        through :attr:`attrs` before :meth:`commit`. Any failure removes the temporary file.
+        """
+        if self._done:
+            raise AttitudeValueError("append: the file was already committed or aborted")
+        with self._or_abort():
+            if self._nc is None:
+                self._create(ds)
+                self.attrs = dict(ds.attrs)
+            k = ds.sizes[self._along]
+            if k == 0:
+                return
+            for name in self._vars:
+                var = ds[name].variable.transpose(self._along, ...)
+                self._nc.variables[name][self.n : self.n + k, ...] = var.values
+            self.n += k
 
     def commit(self) -> Path:
         """Write the global attrs, flush to disk and put the file in place. Returns the path.
@@ -359,7 +363,7 @@ class StreamWriter:
         if self._nc is None:
             self.abort()
             raise AttitudeValueError(f"{self.path}: nothing was written (no samples)")
-        try:
+        with self._or_abort():
             attrs = check_attrs(self.attrs, "attrs")
             for k, v in attrs.items():
                 self._nc.setncattr(k, v)
@@ -367,15 +371,6 @@ class StreamWriter:
             self._nc.close()
             self._nc = None
             self._out.commit()
-        except AttitudeError:
-            self.abort()
-            raise
-        except (OSError, RuntimeError) as exc:
-            self.abort()
-            raise file_error(exc, self._out.target) from None
-        except BaseException:
-            self.abort()
-            raise
         self._done = True
         return self.path
 

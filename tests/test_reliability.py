@@ -857,3 +857,31 @@ def test_ensemble_accepts_the_Q0_quantity_that_propagate_accepts():
     assert np.array_equal(single.q.values, qty.q.values[0])
     with pytest.raises(AttitudeTypeError, match="Q0"):  # a dimensionless body: no units
         attitude.propagate_ensemble(I_PAPER, np.tile(Q_UNIT, (2, 1)), Q0 * u.Unit("kg m2 / s"), t)
+
+
+def test_an_error_after_a_swallowed_interrupt_is_reported_as_the_interrupt(monkeypatch, capsys):
+    # was (interruption fuzzing, Ctrl-C while numba compiled): "Exception ignored on calling
+    # ctypes callback function" with a KeyboardInterrupt traceback, then "attitude: failed:
+    # RuntimeError: no compiled object yet for <Library 'frame_loop'>", then the interrupt
+    import attitude.cli as cli
+    from attitude import _interrupt
+
+    class Unraisable:  # what Python hands sys.unraisablehook for a swallowed exception
+        exc_type = KeyboardInterrupt
+        exc_value = KeyboardInterrupt()
+        exc_traceback = None
+        err_msg = "Exception ignored on calling ctypes callback function"
+        object = None
+
+    def compiling(args):
+        _interrupt.request()  # the handler records the signal, then raises in the callback
+        sys.unraisablehook(Unraisable)
+        raise RuntimeError("no compiled object yet for <Library 'frame_loop'>")
+
+    monkeypatch.setattr(cli, "cmd_info", compiling)
+    hook = sys.unraisablehook
+    assert main(["info", "whatever.nc"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err
+    assert "RuntimeError" not in err and "Traceback" not in err and "ignored" not in err
+    assert sys.unraisablehook is hook  # restored after the command

@@ -36,7 +36,7 @@ from orbit._shared_jit import jit, jit_generic
 
 from .rk import TOO_MANY_STEPS, WORK_ROWS
 
-__all__ = ["NOT_STARTED", "RUNNING", "WORK_ROWS", "member_run"]
+__all__ = ["NOT_STARTED", "RUNNING", "WORK_ROWS", "fresh_state", "member_run"]
 
 #: ``status`` of a member not integrated yet.
 NOT_STARTED = -2
@@ -45,7 +45,7 @@ RUNNING = -1
 
 
 @jit(inline="always")
-def _fresh(w, ts, c):
+def fresh_state(w, ts, c):
     """A fresh integrator state (``dop853_run`` starts over when ``counters[3] == 0``)."""
     for r in range(w.shape[0]):
         for j in range(w.shape[1]):
@@ -88,7 +88,7 @@ def member_run(
     c = counters[i]
     k0 = 0
     if st0 == NOT_STARTED:
-        _fresh(w, ts, c)
+        fresh_state(w, ts, c)
     else:
         k0 = n_done[i]
     p = params[i]

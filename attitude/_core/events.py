@@ -57,7 +57,7 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 from orbit.sun import conical_shadow
 
-from .ensemble import NOT_STARTED, RUNNING
+from .ensemble import NOT_STARTED, RUNNING, fresh_state
 from .frames import frame_attitude
 from .quat import conj_mul, rotate
 from .rk import (
@@ -574,13 +574,7 @@ def member_events_run(
     c = counters[i]
     k0 = 0
     if st0 == NOT_STARTED:
-        for r in range(w.shape[0]):
-            for j in range(w.shape[1]):
-                w[r, j] = 0.0
-        for j in range(ts.shape[0]):
-            ts[j] = 0.0
-        for j in range(c.shape[0]):
-            c[j] = 0
+        fresh_state(w, ts, c)
     else:
         k0 = n_done[i]
     p = params[i]

@@ -10,7 +10,6 @@ import xarray as xr
 
 from .._core import rk as _rk
 from ..body import RigidBody
-from ..errors import AttitudeError, AttitudeValueError
 from ..io import StreamWriter
 from ..results import build_dataset
 from ._chunks import _N_DIAG, STATUS_FLAGS
@@ -220,6 +219,8 @@ class _MemberWriter(StreamWriter):
     Variables without a ``member`` dimension (time, orbit of a shared orbit) are written once.
     """
 
+    _along = "member"
+
     def _create(self, ds: xr.Dataset) -> None:
         from ..io import _set_attrs, _variable_attrs, check_attrs
 
@@ -279,29 +280,6 @@ class _MemberWriter(StreamWriter):
             v = nc.createVariable(name, var.dtype, var.dims, **extra)
             v[:] = var.values
             _set_attrs(v, _variable_attrs(ds, name))
-
-    def append(self, ds: xr.Dataset) -> None:
-        from .._files import file_error
-
-        if self._done:
-            raise AttitudeValueError("append: the file was already committed or aborted")
-        try:
-            if self._nc is None:
-                self._create(ds)
-                self.attrs = dict(ds.attrs)
-            k = ds.sizes["member"]
-            for name in self._vars:
-                self._nc.variables[name][self.n : self.n + k, ...] = ds[name].values
-            self.n += k
-        except AttitudeError:
-            self.abort()
-            raise
-        except (OSError, RuntimeError) as exc:
-            self.abort()
-            raise file_error(exc, self._out.target) from None
-        except BaseException:
-            self.abort()
-            raise
 
 
 def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:
