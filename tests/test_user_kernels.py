@@ -116,6 +116,7 @@ def _index_entries(cache_root: Path) -> list[tuple[Path, object]]:
     return out
 
 
+@pytest.mark.slow  # four processes, each compiling a user model's kernels (~70 s)
 def test_user_kernels_stay_out_of_the_package_cache_across_processes(tmp_path):
     cache = tmp_path / "cache"
     a, b, scripts = tmp_path / "A", tmp_path / "B", tmp_path / "scripts"
