@@ -37,6 +37,12 @@ declare -A MODULE_TESTS=(
   [attitude/_core/elliptic.py]="tests/test_elliptic.py tests/test_exact.py"
   [attitude/_core/formulations.py]="tests/test_formulations.py"
   [attitude/_core/ensemble.py]="tests/test_ensemble.py"
+  [attitude/_core/entry_points.py]="tests/test_propagate.py tests/test_ensemble.py tests/test_events.py"
+  [attitude/_core/events.py]="tests/test_events.py"
+  [attitude/_core/environment.py]="tests/test_environment.py tests/test_torque_models.py"
+  [attitude/_core/frames.py]="tests/test_frames.py"
+  [attitude/_core/taylor.py]="tests/test_taylor.py"
+  [orbit/_state_kernels.py]="tests/test_orbit_sources_runs.py tests/test_keplerorbit.py"
   [orbit/_kernels.py]="tests/test_kepler.py tests/test_keplerorbit.py"
 )
 # Tests that check compiled-only behaviour (numba typing errors, caching, calls from numba).
