@@ -29,6 +29,7 @@ class _Setup:
     max_steps: int
     user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
     events: Any = None  # attitude.events.EventSet, or None
+    method: str = "dop853"  # "dop853" or "taylor"
 
 
 def _compute_chunk(
