@@ -87,10 +87,24 @@ def gravity_gradient_terms(q, t, params, base):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
     d = params[base + 1 :]
     r, ux, uy, uz = orbit_radial(d, t)
-    k = 3.0 * d[ORBIT_MU] / (r * r * r)
+    return gravity_gradient_terms_radial(q, r, ux, uy, uz, d[ORBIT_MU], params)
+
+
+@jit
+def gravity_gradient_terms_radial(q, r, ux, uy, uz, mu, params):
+    """:func:`gravity_gradient_terms` from the orbit's radius r and radial unit vector."""
+    k = 3.0 * mu / (r * r * r)
     xb = rotate_inverse(q, (ux, uy, uz))  # x̂_B = q̃∘x̂_S∘q
     ixb = (params[0] * xb[0], params[1] * xb[1], params[2] * xb[2])
     return k, xb, ixb
+
+
+@jit
+def gravity_gradient_potential_radial(q, r, ux, uy, uz, mu, params):
+    """:func:`gravity_gradient_potential` from the orbit's radius and radial unit vector (for
+    loops that look the orbit up once for many attitudes)."""
+    k, xb, ixb = gravity_gradient_terms_radial(q, r, ux, uy, uz, mu, params)
+    return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
 
 
 @jit

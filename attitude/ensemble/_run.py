@@ -39,6 +39,8 @@ from .dispersions import _Sampled
 CHUNK_BYTES = 32 * 2**20
 #: Largest default chunk (members).
 MAX_CHUNK = 4096
+#: The methods of the compiled ensemble loops.
+ENSEMBLE_METHODS = ("dop853", "taylor")
 
 # ------------------------------------------------------------------------------------------------
 # the entry point
@@ -97,7 +99,9 @@ def propagate_ensemble(
 
     Each member is integrated independently by the compiled DOP853 loop of
     :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
-    torque as the generalised force of Schwab eq. 25), with its own adaptive steps.
+    torque as the generalised force of Schwab eq. 25), with its own adaptive steps; with
+    ``method="taylor"`` by the Taylor method of ``propagate(method="taylor")``, four members
+    per SIMD instruction (each with its own steps; results bit for bit those of single runs).
 
     Parameters
     ----------
@@ -117,10 +121,13 @@ def propagate_ensemble(
         ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
         supported as one potential for all members (compiled into the user cache, see
         docs/potentials.md).
-    method : str
-        ``"dop853"`` (the only method of the compiled ensemble loop).
+    method : {"dop853", "taylor"}
+        The integrator of every member (docs/integrators.md). ``"taylor"``: built-in
+        potentials only (torque-free, heavy top, gravity gradient of a Kepler orbit), no
+        events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
     rtol, atol : float
-        Tolerances of DOP853, per state component (as in ``propagate``).
+        Tolerances, as in ``propagate`` (DOP853: per state component; Taylor: the order and
+        the step of Jorba & Zou).
     max_step : float
         Largest step.
     max_steps : int
@@ -214,8 +221,9 @@ def propagate_ensemble(
     ------
     AttitudeValueError, AttitudeTypeError
         Bad input (shapes of q0, Q0, body or potentials that do not match, N = 0, a method
-        other than dop853, a scheduler that does not answer within ``scheduler_timeout``),
-        before any work and before anything is written.
+        other than dop853 or taylor, a potential or events that taylor cannot handle, a
+        scheduler that does not answer within ``scheduler_timeout``), before any work and
+        before anything is written.
     PropagationError
         Some members of a chunk failed (non-finite state, too many steps...), or a chunk's
         task failed on the cluster. The message names the members; chunks completed before
@@ -231,10 +239,11 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if method != "dop853":
+    if method not in ENSEMBLE_METHODS:
         raise AttitudeValueError(
-            f"method: propagate_ensemble runs 'dop853' only (the compiled parallel loop), got "
-            f"{method!r}; for other methods loop over attitude.propagate"
+            f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
+            f"compiled parallel loops), got {method!r}; for other methods loop over "
+            f"attitude.propagate"
         )
     tt = as_times(t, "t")
     rtol = _positive(rtol, "rtol")
@@ -299,6 +308,8 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
+    if method == "taylor":
+        _check_taylor(pot, pots, events)
     evset = None
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
@@ -347,7 +358,7 @@ def propagate_ensemble(
     m = plan.kernel_t.shape[0]
     csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
     csize = min(csize, n)
-    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset)
+    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset, method)
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
@@ -358,6 +369,10 @@ def propagate_ensemble(
         "chunk_size": np.int64(csize),
         "execution": "dask" if client is not None else f"local threads ({n_threads})",
     }
+    if method == "taylor":
+        from .._core.taylor import order_from_tolerance
+
+        run_attrs["taylor_order"] = np.int64(order_from_tolerance(rtol))
     if pots is not None:
         run_attrs["potential"] = f"{n} per-member potentials, member 0: {pot.describe()}"
     if not math.isinf(max_step):
@@ -509,6 +524,19 @@ def propagate_ensemble(
     return result
 
 
+def _check_taylor(pot: Potential, pots: Any, events: Any) -> None:
+    """``method="taylor"``: built-in potentials it expands, no events (as ``propagate``)."""
+    from ..taylor import check_potential
+
+    if events is not None:
+        raise AttitudeValueError(
+            "events: method='taylor' does not locate events (neither does "
+            "propagate(method='taylor')); use method='dop853' for an ensemble with events"
+        )
+    for p in pots if pots is not None else (pot,):
+        check_potential(p)
+
+
 def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:
     """The validated events of an ensemble (attitude.events.build) with the run's epoch."""
     from orbit.errors import OrbitError
@@ -603,7 +631,8 @@ def run_scenario(
         if key in kw:
             raise AttitudeValueError(
                 f"integrator.{key}: ensembles run the canonical equations with method 'dop853' "
-                f"only; remove {key} from the [integrator] table of an [ensemble] scenario"
+                f"or 'taylor' only; remove {key} from the [integrator] table of an [ensemble] "
+                f"scenario"
             )
     out = Path(path) if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
