@@ -19,6 +19,8 @@ are in :mod:`attitude._core.entry_points`.
 
 from __future__ import annotations
 
+import math
+
 from orbit._shared_jit import jit, jit_generic
 
 from .quat import conj_mul, mul_vec
@@ -76,7 +78,7 @@ def diagnostics_row(y, k, U, params, out):
     out[k, 8] = G3
     out[k, 9] = T + U
     # |q| − 1 = (|q|² − 1)/(|q| + 1) without cancellation in the square root.
-    out[k, 10] = (nq - 1.0) / (1.0 + nq**0.5)
+    out[k, 10] = (nq - 1.0) / (1.0 + math.sqrt(nq))
     out[k, 11] = w[0]
     out[k, 12] = U
 

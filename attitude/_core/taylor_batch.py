@@ -379,12 +379,20 @@ def _lane_radius(cf, lane, p, rtol, atol):
 
 
 @jit(inline="always")
-def _lane_dense(cf, lane, p, tau, j):
-    """Component ``j`` of :func:`attitude._core.taylor.dense_eval` of ``lane``."""
-    acc = cf[p, j, lane]
+def _lane_dense(cf, lane, p, tau):
+    """:func:`attitude._core.taylor.dense_eval` of ``lane`` -> the 8 values."""
+    a0, a1, a2, a3 = cf[p, 0, lane], cf[p, 1, lane], cf[p, 2, lane], cf[p, 3, lane]
+    a4, a5, a6, a7 = cf[p, 4, lane], cf[p, 5, lane], cf[p, 6, lane], cf[p, 7, lane]
     for k in range(p - 1, -1, -1):
-        acc = F(acc, tau, cf[k, j, lane])
-    return acc
+        a0 = F(a0, tau, cf[k, 0, lane])
+        a1 = F(a1, tau, cf[k, 1, lane])
+        a2 = F(a2, tau, cf[k, 2, lane])
+        a3 = F(a3, tau, cf[k, 3, lane])
+        a4 = F(a4, tau, cf[k, 4, lane])
+        a5 = F(a5, tau, cf[k, 5, lane])
+        a6 = F(a6, tau, cf[k, 6, lane])
+        a7 = F(a7, tau, cf[k, 7, lane])
+    return a0, a1, a2, a3, a4, a5, a6, a7
 
 
 @jit(inline="always")
@@ -407,9 +415,11 @@ def _lane_step(cf, lane, lts, lcnt, rtol, atol, t_end, max_step):
     elif h_abs < min_step:
         return STEP_TOO_SMALL
     h = t_new - t
+    y = _lane_dense(cf, lane, p, h)
+    for j in range(8):
+        cf[Y, j, lane] = y[j]
     finite = True
     for j in range(8):
-        cf[Y, j, lane] = _lane_dense(cf, lane, p, h, j)
         finite = finite and math.isfinite(cf[Y, j, lane])
     if not finite:
         for j in range(8):
@@ -439,9 +449,9 @@ def _lane_emit(cf, lane, lts, lcnt, t_out, y_out, i, k, direction):
             and direction * (to - lts[lane, 2]) >= 0.0
             and direction * (t - to) > 0
         ):
-            tau = to - lts[lane, 2]
+            y = _lane_dense(cf, lane, p, to - lts[lane, 2])
             for j in range(8):
-                y_out[i, k, j] = _lane_dense(cf, lane, p, tau, j)
+                y_out[i, k, j] = y[j]
         else:
             break
         k += 1

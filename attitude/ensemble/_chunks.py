@@ -33,15 +33,22 @@ class _Setup:
 
 
 def _compute_chunk(
-    setup: _Setup, params: np.ndarray, y0: np.ndarray, *, parallel: bool
+    setup: _Setup,
+    params: np.ndarray,
+    y0: np.ndarray,
+    *,
+    parallel: bool,
+    y_out: np.ndarray | None = None,
+    diag: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """Integrate the members of one chunk; arrays of the chunk's results."""
+    """Integrate the members of one chunk; arrays of the chunk's results (the states and
+    diagnostics written into ``y_out`` (c, m, 8) and ``diag`` (c, m, 13) if given)."""
     c = y0.shape[0]
     t = setup.t
     m = t.shape[0]
     out = {
-        "y": np.empty((c, m, 8)),
-        "diag": np.empty((c, m, _N_DIAG)),
+        "y": np.empty((c, m, 8)) if y_out is None else y_out,
+        "diag": np.empty((c, m, _N_DIAG)) if diag is None else diag,
         "counters": np.empty((c, 5), dtype=np.int64),
         "status": np.empty(c, dtype=np.int64),
         "n_done": np.empty(c, dtype=np.int64),
@@ -93,20 +100,25 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
         # one orbit for all: looked up once per output time for the diagnostics
         orbit_tab = np.empty((setup.t.shape[0], 4))
         _tb.orbit_radial_table(params[0, P0:], setup.t, orbit_tab)
+    args = (
+        params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
+        out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
+    )  # fmt: skip
+    threads = 1
     if parallel:
         import numba
 
-        per_thread = -(-c // (4 * numba.get_num_threads()))  # about 4 groups per thread
-        group = max(TAYLOR_MIN_GROUP, per_thread)
-        fn = _tb.taylor_ensemble_parallel
+        threads = numba.get_num_threads()
+    if threads == 1:
+        _tb.taylor_ensemble_serial(*args, max(c, 1))
     else:
-        group = c
-        fn = _tb.taylor_ensemble_serial
-    fn(
-        params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
-        out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
-        max(group, 1),
-    )  # fmt: skip
+        # About 4 groups per thread, of equal size (balance), none below TAYLOR_MIN_GROUP.
+        n_groups = max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
+        old = numba.set_parallel_chunksize(1)  # a group at a time (they are few and long)
+        try:
+            _tb.taylor_ensemble_parallel(*args, -(-c // n_groups))
+        finally:
+            numba.set_parallel_chunksize(old)
     out["counters"][:, 1] = 0  # no right-hand side is evaluated (Taylor terms instead)
     out["t_stop"] = tstate[:, 0].copy()
     return out

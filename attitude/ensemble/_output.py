@@ -79,6 +79,8 @@ class _Assembler:
             "norm_error": d[:, :, 10],
             "qQ": d[:, :, 11],
         }
+        if not (lazy or self.views) and isinstance(y, np.ndarray) and y.flags.c_contiguous:
+            cols = _split(y, d)
         tm = self.template
         data_vars: dict[str, Any] = {}
         for name, da in tm.data_vars.items():
@@ -287,6 +289,28 @@ class _MemberWriter(StreamWriter):
         for name in self._vars:
             self._nc.variables[name][self.n : self.n + k, ...] = ds[name].values
         self.n += k
+
+
+def _split(y: np.ndarray, d: np.ndarray) -> dict[str, np.ndarray]:
+    """Contiguous per-variable arrays from states (N, m, 8) and diagnostics (N, m, 13), in one
+    compiled pass."""
+    from orbit._shared_jit import JIT_DISABLED
+
+    from .._core.ensemble import split_samples
+
+    n, m = y.shape[:2]
+    cols = {"q": (4,), "Q": (4,), "omega": (3,), "g": (3,), "G": (3,), "energy": (),
+            "norm_error": (), "qQ": (), "potential_energy": ()}  # fmt: skip
+    out = {k: np.empty((n, m, *shape)) for k, shape in cols.items()}
+    if JIT_DISABLED or not d.flags.c_contiguous:
+        for k, v in (("q", y[:, :, :4]), ("Q", y[:, :, 4:]), ("omega", d[:, :, 0:3]),
+                     ("g", d[:, :, 3:6]), ("G", d[:, :, 6:9]), ("energy", d[:, :, 9]),
+                     ("norm_error", d[:, :, 10]), ("qQ", d[:, :, 11]),
+                     ("potential_energy", d[:, :, 12])):  # fmt: skip
+            out[k][...] = v
+        return out
+    split_samples(y, d, *out.values())
+    return out
 
 
 def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:

@@ -436,6 +436,11 @@ def propagate_ensemble(
 
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
+    # Every sample of every member in memory: the chunks write straight into the arrays of the
+    # whole result, and its Dataset is assembled once at the end (not a Dataset per chunk).
+    direct = None
+    if writer is None and plan.output == "samples" and plan.keep is None and client is None:
+        direct = _Direct(n, m)
     failure: PropagationError | None = None
     store = None
     stats = None
@@ -451,7 +456,7 @@ def propagate_ensemble(
     try:
         try:
             if client is None:
-                results = _local_results(setup, members, bounds, threads)
+                results = _local_results(setup, members, bounds, threads, direct)
             else:
                 results = _dask_results(client, setup, members, bounds, n_threads)
             for (start, stop), got in zip(bounds, results, strict=False):
@@ -466,6 +471,11 @@ def propagate_ensemble(
                     raise PropagationError(msg, time=t_fail)
                 asm.max_projection = max(asm.max_projection, corr)
                 asm.account(out)
+                if direct is not None:
+                    direct.add(out, inertia)
+                    if progress is not None:
+                        progress(stop, n, asm.totals["n_steps"])
+                    continue
                 ds = asm.dataset(start, out, inertia)
                 if store is not None:  # statistics only: keep the scalars, drop the members
                     ds = store.add(ds)
@@ -477,6 +487,8 @@ def propagate_ensemble(
                     progress(stop, n, asm.totals["n_steps"])
         except PropagationError as exc:
             failure = exc
+        if direct is not None and direct.n:
+            kept.append(direct.dataset(asm))
         status = "complete" if failure is None else f"failed: {failure}"
         final = asm.final_attrs(status)
         if store is not None and asm.n_members:
@@ -553,18 +565,44 @@ def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> 
     return build(events, t, e)
 
 
-def _local_results(setup, members, bounds, threads):
+class _Direct:
+    """The arrays of an in-memory result that the chunks write into, in member order."""
+
+    def __init__(self, n: int, m: int) -> None:
+        self.y = np.empty((n, m, 8))
+        self.diag = np.empty((n, m, _N_DIAG))
+        self.parts: list[tuple[dict, np.ndarray]] = []
+        self.n = 0
+
+    def buffers(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        return {"y_out": self.y[start:stop], "diag": self.diag[start:stop]}
+
+    def add(self, out: dict, inertia: np.ndarray) -> None:
+        """A chunk that succeeded (its states and diagnostics are already in place)."""
+        self.parts.append(({k: v for k, v in out.items() if k not in ("y", "diag")}, inertia))
+        self.n += out["y"].shape[0]
+
+    def dataset(self, asm: Any) -> xr.Dataset:
+        """The Dataset of the members added so far (members 0..n-1)."""
+        out = {"y": self.y[: self.n], "diag": self.diag[: self.n]}
+        for key in self.parts[0][0]:
+            out[key] = np.concatenate([p[key] for p, _ in self.parts])
+        return asm.dataset(0, out, np.concatenate([i for _, i in self.parts]))
+
+
+def _local_results(setup, members, bounds, threads, direct=None):
     """Chunks computed here with the parallel driver, one after the other (generator)."""
     from orbit._shared_jit import JIT_DISABLED
 
     for start, stop in bounds:
         try:
             params, y0, inertia, corr = members.block(start, stop)
+            buf = {} if direct is None else direct.buffers(start, stop)
             with _numba_threads(threads):
                 if JIT_DISABLED:
-                    out = _compute_chunk(setup, params, y0, parallel=False)
+                    out = _compute_chunk(setup, params, y0, parallel=False, **buf)
                 else:
-                    out = _compute_chunk(setup, params, y0, parallel=True)
+                    out = _compute_chunk(setup, params, y0, parallel=True, **buf)
         except (AttitudeValueError, AttitudeTypeError):
             raise
         except Exception as exc:
