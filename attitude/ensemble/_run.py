@@ -31,7 +31,7 @@ from ._dask import (
     _write_lazy,
 )
 from ._members import _member_inertia, _member_potentials, _member_states, _Members, _project
-from ._output import _Assembler, _concat, _MemberWriter, _open_result
+from ._output import _Assembler, _concat, _Direct, _MemberWriter, _open_result
 from ._percentile_store import _PercentileStore
 from .dispersions import _Sampled
 
@@ -54,12 +54,18 @@ def _positive(x: Any, name: str) -> float:
     return v
 
 
-def _default_chunk(n: int, m: int, threads: int) -> int:
-    """Members per chunk: about 20 chunks (progress), at least 16 per thread (balance), at
-    most :data:`MAX_CHUNK` and ~:data:`CHUNK_BYTES` of output (memory)."""
+#: Fewest members per thread in a default chunk, per method: a Taylor member takes a tenth of
+#: a DOP853 member's time, and runs in SIMD batches of 4 that refill from a group of members.
+MIN_PER_THREAD = {"dop853": 16, "taylor": 256}
+
+
+def _default_chunk(n: int, m: int, threads: int, method: str = "dop853") -> int:
+    """Members per chunk: about 20 chunks (progress), at least :data:`MIN_PER_THREAD` per
+    thread (balance, and the cost of a chunk), at most :data:`MAX_CHUNK` and
+    ~:data:`CHUNK_BYTES` of output (memory)."""
     per_member = m * (8 + _N_DIAG) * 8
     cap = min(MAX_CHUNK, max(1, CHUNK_BYTES // per_member))
-    want = max(-(-n // 20), 16 * threads)
+    want = max(-(-n // 20), MIN_PER_THREAD[method] * threads)
     return max(1, min(want, max(cap, threads)))
 
 
@@ -134,8 +140,9 @@ def propagate_ensemble(
         A member that needs more steps fails (see Raises).
     chunk_size : int, optional
         Members per chunk. Default: about N / 20 (a progress report per chunk), at least 16
-        per thread, at most 4096 and ~32 MiB of output. Results do not depend on it; memory
-        does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per member).
+        per thread (taylor: 256), at most 4096 and ~32 MiB of output. Results do not depend on
+        it; memory does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per
+        member).
     path : str or Path, optional
         Stream each chunk to this netCDF4 file as soon as it is computed (atomic: written to a
         temporary file, renamed at the end). Memory then stays bounded by one chunk, and the
@@ -356,7 +363,7 @@ def propagate_ensemble(
 
             n_threads = numba.get_num_threads()
     m = plan.kernel_t.shape[0]
-    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
+    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads, method)
     csize = min(csize, n)
     setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset, method)
     run_attrs: dict[str, Any] = {
@@ -563,31 +570,6 @@ def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> 
     if e is None:
         e = getattr(getattr(pot, "orbit", None), "epoch", None)
     return build(events, t, e)
-
-
-class _Direct:
-    """The arrays of an in-memory result that the chunks write into, in member order."""
-
-    def __init__(self, n: int, m: int) -> None:
-        self.y = np.empty((n, m, 8))
-        self.diag = np.empty((n, m, _N_DIAG))
-        self.parts: list[tuple[dict, np.ndarray]] = []
-        self.n = 0
-
-    def buffers(self, start: int, stop: int) -> dict[str, np.ndarray]:
-        return {"y_out": self.y[start:stop], "diag": self.diag[start:stop]}
-
-    def add(self, out: dict, inertia: np.ndarray) -> None:
-        """A chunk that succeeded (its states and diagnostics are already in place)."""
-        self.parts.append(({k: v for k, v in out.items() if k not in ("y", "diag")}, inertia))
-        self.n += out["y"].shape[0]
-
-    def dataset(self, asm: Any) -> xr.Dataset:
-        """The Dataset of the members added so far (members 0..n-1)."""
-        out = {"y": self.y[: self.n], "diag": self.diag[: self.n]}
-        for key in self.parts[0][0]:
-            out[key] = np.concatenate([p[key] for p, _ in self.parts])
-        return asm.dataset(0, out, np.concatenate([i for _, i in self.parts]))
 
 
 def _local_results(setup, members, bounds, threads, direct=None):
