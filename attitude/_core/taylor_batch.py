@@ -93,9 +93,10 @@ NCONST = 17
 
 
 @jit(inline="always")
-def _lane_constants(params, i, n, c, cst, lane):
-    """Column ``lane`` of ``cst`` from member ``i``'s ``params`` and its current n, c (the values
-    :func:`attitude._core.taylor.taylor_coefficients` computes at its start)."""
+def _lane_constants(params, i, cst, lane):
+    """Column ``lane`` of ``cst`` from member ``i``'s ``params`` (the values
+    :func:`attitude._core.taylor.taylor_coefficients` computes at its start; n, c and 1/n
+    change every step: :func:`_lane_state_constants`)."""
     iI0 = 1.0 / params[i, 0]
     iI1 = 1.0 / params[i, 1]
     iI2 = 1.0 / params[i, 2]
@@ -105,9 +106,6 @@ def _lane_constants(params, i, n, c, cst, lane):
     cst[K_E, lane] = iI2 - iI1
     cst[K_E + 1, lane] = iI0 - iI2
     cst[K_E + 2, lane] = iI1 - iI0
-    cst[K_N, lane] = n
-    cst[K_INVN, lane] = 1.0 / n
-    cst[K_C, lane] = c
     kind = int(params[i, P_KIND])
     if kind == KIND_HEAVY_TOP:
         cst[K_W, lane] = params[i, P0]
@@ -119,6 +117,14 @@ def _lane_constants(params, i, n, c, cst, lane):
         cst[K_D, lane] = params[i, 2] - params[i, 1]
         cst[K_D + 1, lane] = params[i, 0] - params[i, 2]
         cst[K_D + 2, lane] = params[i, 1] - params[i, 0]
+
+
+@jit(inline="always")
+def _lane_state_constants(n, c, cst, lane):
+    """n = |q|², c = q·Q and 1/n of the lane's current state."""
+    cst[K_N, lane] = n
+    cst[K_INVN, lane] = 1.0 / n
+    cst[K_C, lane] = c
 
 
 @jit(inline="always")
@@ -536,7 +542,8 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
         for j in range(8):
             cf[Y, j, lane] = y0[start, j]
         n, c = _lane_initial_row(cf, lane, t[0], params, start)
-        _lane_constants(params, start, n, c, cst, lane)
+        _lane_constants(params, start, cst, lane)
+        _lane_state_constants(n, c, cst, lane)
         lint[lane, L_MEMBER] = -1
     nxt = start
     refill = True
@@ -560,6 +567,7 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
                     if k < m and lint[lane, 0] < max_steps:
                         lint[lane, L_MEMBER] = i
                         lint[lane, L_K] = k
+                        _lane_constants(params, i, cst, lane)
                     else:
                         st = SUCCESS if k >= m else TOO_MANY_STEPS
                         _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate,
@@ -570,7 +578,7 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
             if i >= 0:
                 active += 1
                 n, c = _lane_initial_row(cf, lane, lts[lane, 0], params, i)
-                _lane_constants(params, i, n, c, cst, lane)
+                _lane_state_constants(n, c, cst, lane)
         if active == 0:
             return
         taylor_coefficients_lanes(cf, p, kind, cst)
