@@ -69,6 +69,21 @@ def best_time(fn, repeat):
     return wall, cpu, out
 
 
+BUSY = (
+    "import time\nt0 = time.perf_counter()\ns = 0\nfor i in range(5_000_000):\n    s += i\n"
+    "print(time.perf_counter() - t0)"
+)
+
+
+def free_cores() -> float:
+    """Cores' worth of CPU two independent processes get at once (2.0 on an idle 2-core box):
+    what a second thread can add (benchmarks/ensemble.py measures it the same way)."""
+    one = float(subprocess.run([sys.executable, "-c", BUSY], capture_output=True).stdout)
+    procs = [subprocess.Popen([sys.executable, "-c", BUSY], stdout=subprocess.PIPE)
+             for _ in range(2)]  # fmt: skip
+    return sum(one / float(p.communicate()[0]) for p in procs)
+
+
 def error(y, ref):
     """max over members and samples of max(|Δq|∞, |ΔQ|∞ / max|Q|); y, ref (n, m, ≥8)."""
     q = np.max(np.abs(y[..., :4] - ref[..., :4]))
@@ -278,7 +293,8 @@ def main(argv=None):
         ref_note = "ours at rtol 1e-15 in double (no heyoka: install it for long double)"
 
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, numba {numba.__version__}; "
-          f"{hy_note}; load average {os.getloadavg()[0]:.2f}")  # fmt: skip
+          f"{hy_note}; load average {os.getloadavg()[0]:.2f}; two processes got "
+          f"{free_cores():.2f} cores")  # fmt: skip
     print(f"\nSect. 6.2 gravity gradient, e = 0.2, {n} members dispersed by 1 %, one orbit "
           f"({o.period:.1f} s), {t.size} outputs")  # fmt: skip
     print(f"reference: {ref_note}; error over the first {n_err} members\n")
@@ -332,7 +348,8 @@ def main(argv=None):
     for (_, th), (m, s, tc, e) in sorted(best.items(), key=lambda kv: kv[1][2]):
         ratio = f"{tc / hyb[2]:.2f}" if hyb else "–"
         print(f"| {m} | {th} | {s} | {e:.1e} | {tc:.4f} | {1e6 * tc / n:.1f} | {ratio} |")
-    print(f"\nload average at end {os.getloadavg()[0]:.2f}")
+    print(f"\nload average at end {os.getloadavg()[0]:.2f}; two processes got {free_cores():.2f} "
+          "cores")  # fmt: skip
 
 
 if __name__ == "__main__":
