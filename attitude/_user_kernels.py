@@ -96,6 +96,7 @@ def _model_block(terms: tuple[UserTerm, ...], events: tuple = ()) -> str:
     the user's event functions."""
     n = len(terms)
     lines = [
+        "REFCOUNT = True  # a user's kernels may allocate (numba's reference counting on)",
         "from attitude._core.potentials import ZERO3, complex_step_torque  # noqa: F401",
         "from attitude._core.potentials import user_torque, user_torque_rates  # noqa: F401",
         "",

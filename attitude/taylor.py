@@ -33,11 +33,12 @@ from .body import RigidBody
 from .errors import AttitudeValueError, PropagationError
 from .potentials import GravityGradient, HeavyTop, TorqueFree
 
-__all__ = ["TaylorStepper", "run_taylor"]
+__all__ = ["TaylorStepper", "check_potential", "run_taylor"]
 
 
-def _check_builtin(problem: Problem) -> None:
-    pot = problem.potential
+def check_potential(pot: Any) -> None:
+    """Raise :class:`AttitudeValueError` (naming ``method``) unless ``method="taylor"`` can
+    expand the potential ``pot``: torque-free, heavy top, gravity gradient of a Kepler orbit."""
     if not isinstance(pot, (TorqueFree, HeavyTop, GravityGradient)):
         raise AttitudeValueError(
             f"method: 'taylor' expands the built-in potentials (TorqueFree, HeavyTop, "
@@ -49,6 +50,10 @@ def _check_builtin(problem: Problem) -> None:
             f"method: 'taylor' restarts the orbit from Kepler's equation at every step; the "
             f"gravity gradient of a {type(pot.orbit).__name__} needs method='dop853'"
         )
+
+
+def _check_builtin(problem: Problem) -> None:
+    check_potential(problem.potential)
 
 
 def run_taylor(

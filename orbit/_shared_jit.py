@@ -37,6 +37,7 @@ __all__ = [
     "jit",
     "jit_generic",
     "parallel_jit",
+    "slp_vectorized",
     "sources_fingerprint",
     "user_cache_dir",
 ]
@@ -179,3 +180,31 @@ def parallel_jit(func=None, /, **options):
     """Like :func:`jit` with ``parallel=True`` (for ``prange`` loops over independent members)."""
     options.setdefault("parallel", True)
     return jit(func, **options)
+
+
+def slp_vectorized(dispatcher):
+    """Compile a :func:`jit` kernel with LLVM's SLP vectoriser on (numba turns it off unless
+    ``NUMBA_SLP_VECTORIZE=1``); a decorator placed above ``@jit``.
+
+    For structure-of-arrays kernels written on tuples of lanes (``attitude._core.lanes``): the
+    vectoriser turns each tuple operation into one SIMD instruction. It changes no result (it
+    packs identical IEEE operations; it only reassociates under fastmath flags such kernels do
+    not use). Only this kernel's own compilation is affected: callers that inline it keep its
+    vector code, and other kernels compile as before (SLP can slow scalar code down).
+    """
+    if JIT_DISABLED:
+        return dispatcher
+    from numba.core import config
+
+    compile_ = dispatcher.compile
+
+    def compile(sig):
+        old = config.SLP_VECTORIZE
+        config.SLP_VECTORIZE = 1
+        try:
+            return compile_(sig)
+        finally:
+            config.SLP_VECTORIZE = old
+
+    dispatcher.compile = compile
+    return dispatcher

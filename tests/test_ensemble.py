@@ -349,7 +349,7 @@ def test_bad_input_before_any_work(tmp_path):
             AttitudeValueError,
             "same kind",
         ),
-        ((I_PAPER, q, Q, t), {"method": "nosquish"}, AttitudeValueError, "'dop853' only"),
+        ((I_PAPER, q, Q, t), {"method": "nosquish"}, AttitudeValueError, "'dop853' or 'taylor'"),
         ((I_PAPER, q, Q, t), {"chunk_size": 0}, AttitudeValueError, "chunk_size"),
         ((I_PAPER, q, Q, t), {"rtol": -1.0}, AttitudeValueError, "rtol"),
         ((I_PAPER, q, Q, t), {"client": object()}, AttitudeTypeError, "client"),

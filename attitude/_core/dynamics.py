@@ -19,7 +19,9 @@ are in :mod:`attitude._core.entry_points`.
 
 from __future__ import annotations
 
-from orbit._shared_jit import jit_generic
+import math
+
+from orbit._shared_jit import jit, jit_generic
 
 from .quat import conj_mul, mul_vec
 
@@ -48,32 +50,37 @@ def diagnostics_with(potential, t, y, params, out):
     """
     m = y.shape[0]
     for k in range(m):
-        q = y[k, 0:4]
-        Q = y[k, 4:8]
-        w = conj_mul(q, Q)
-        g = (0.5 * w[1], 0.5 * w[2], 0.5 * w[3])
-        om = (g[0] / params[0], g[1] / params[1], g[2] / params[2])
-        # G = ½ vec(Q∘q̃)
-        G1 = 0.5 * (-Q[0] * q[1] + Q[1] * q[0] - Q[2] * q[3] + Q[3] * q[2])
-        G2 = 0.5 * (-Q[0] * q[2] + Q[1] * q[3] + Q[2] * q[0] - Q[3] * q[1])
-        G3 = 0.5 * (-Q[0] * q[3] - Q[1] * q[2] + Q[2] * q[1] + Q[3] * q[0])
-        T = 0.5 * (g[0] * om[0] + g[1] * om[1] + g[2] * om[2])
-        U = potential(q, t[k], params)
-        nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-        out[k, 0] = om[0]
-        out[k, 1] = om[1]
-        out[k, 2] = om[2]
-        out[k, 3] = g[0]
-        out[k, 4] = g[1]
-        out[k, 5] = g[2]
-        out[k, 6] = G1
-        out[k, 7] = G2
-        out[k, 8] = G3
-        out[k, 9] = T + U
-        # |q| − 1 = (|q|² − 1)/(|q| + 1) without cancellation in the square root.
-        out[k, 10] = (nq - 1.0) / (1.0 + nq**0.5)
-        out[k, 11] = w[0]
-        out[k, 12] = U
+        diagnostics_row(y, k, potential(y[k, 0:4], t[k], params), params, out)
+
+
+@jit(inline="always")
+def diagnostics_row(y, k, U, params, out):
+    """Row ``k`` of :func:`diagnostics_with` given the potential energy ``U`` of that sample."""
+    q = (y[k, 0], y[k, 1], y[k, 2], y[k, 3])  # tuples, not array views (no reference counting)
+    Q = (y[k, 4], y[k, 5], y[k, 6], y[k, 7])
+    w = conj_mul(q, Q)
+    g = (0.5 * w[1], 0.5 * w[2], 0.5 * w[3])
+    om = (g[0] / params[0], g[1] / params[1], g[2] / params[2])
+    # G = ½ vec(Q∘q̃)
+    G1 = 0.5 * (-Q[0] * q[1] + Q[1] * q[0] - Q[2] * q[3] + Q[3] * q[2])
+    G2 = 0.5 * (-Q[0] * q[2] + Q[1] * q[3] + Q[2] * q[0] - Q[3] * q[1])
+    G3 = 0.5 * (-Q[0] * q[3] - Q[1] * q[2] + Q[2] * q[1] + Q[3] * q[0])
+    T = 0.5 * (g[0] * om[0] + g[1] * om[1] + g[2] * om[2])
+    nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    out[k, 0] = om[0]
+    out[k, 1] = om[1]
+    out[k, 2] = om[2]
+    out[k, 3] = g[0]
+    out[k, 4] = g[1]
+    out[k, 5] = g[2]
+    out[k, 6] = G1
+    out[k, 7] = G2
+    out[k, 8] = G3
+    out[k, 9] = T + U
+    # |q| − 1 = (|q|² − 1)/(|q| + 1) without cancellation in the square root.
+    out[k, 10] = (nq - 1.0) / (1.0 + math.sqrt(nq))
+    out[k, 11] = w[0]
+    out[k, 12] = U
 
 
 @jit_generic

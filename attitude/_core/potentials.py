@@ -63,8 +63,13 @@ P_OFFSETS = 5  # KIND_SUM: first term offset
 
 ZERO3 = (0.0, 0.0, 0.0)
 
+# The built-in kernels never allocate, keep or return arrays: they are compiled without numba's
+# reference counting (``_nrt=False``), so the array views they take (a model's block of
+# ``params``, an orbit's kernel data) cost nothing. With it, the atomic reference-count updates
+# of such views took ~40 % of a gravity-gradient DOP853 run (perf, issue 17).
 
-@jit
+
+@jit(_nrt=False)
 def heavy_top_torque(q, params, base):
     # Gravity -weight s3 acts at the centre of mass c: τ_B = c × F_B, F_B = q̃∘(−W s3)∘q.
     w = params[base + 1]
@@ -73,7 +78,7 @@ def heavy_top_torque(q, params, base):
     return cross(c, fb)
 
 
-@jit
+@jit(_nrt=False)
 def heavy_top_potential(q, params, base):
     # V = W (q∘c∘q̃)·s3: the potential energy of the weight (height of the centre of mass).
     # Arribas et al. eq. 18 prints U = x^c·F with F = −Mg s3, which is −V; see docs/potentials.md.
@@ -82,18 +87,32 @@ def heavy_top_potential(q, params, base):
     return w * rotate(q, c)[2]
 
 
-@jit
+@jit(_nrt=False)
 def gravity_gradient_terms(q, t, params, base):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
     d = params[base + 1 :]
     r, ux, uy, uz = orbit_radial(d, t)
-    k = 3.0 * d[ORBIT_MU] / (r * r * r)
+    return gravity_gradient_terms_radial(q, r, ux, uy, uz, d[ORBIT_MU], params)
+
+
+@jit(_nrt=False)
+def gravity_gradient_terms_radial(q, r, ux, uy, uz, mu, params):
+    """:func:`gravity_gradient_terms` from the orbit's radius r and radial unit vector."""
+    k = 3.0 * mu / (r * r * r)
     xb = rotate_inverse(q, (ux, uy, uz))  # x̂_B = q̃∘x̂_S∘q
     ixb = (params[0] * xb[0], params[1] * xb[1], params[2] * xb[2])
     return k, xb, ixb
 
 
-@jit
+@jit(_nrt=False)
+def gravity_gradient_potential_radial(q, r, ux, uy, uz, mu, params):
+    """:func:`gravity_gradient_potential` from the orbit's radius and radial unit vector (for
+    loops that look the orbit up once for many attitudes)."""
+    k, xb, ixb = gravity_gradient_terms_radial(q, r, ux, uy, uz, mu, params)
+    return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
+
+
+@jit(_nrt=False)
 def gravity_gradient_torque(q, t, params, base):
     # τ_B = 3μ/r³ x̂_B × (I x̂_B): minus the derivative of eq. 20 under body rotations.
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
@@ -101,14 +120,14 @@ def gravity_gradient_torque(q, t, params, base):
     return (k * c[0], k * c[1], k * c[2])
 
 
-@jit
+@jit(_nrt=False)
 def gravity_gradient_potential(q, t, params, base):
     # Arribas et al. eq. 20: U = 3μ/(2r³) x̂_B·I x̂_B (q-independent terms of eq. 19 dropped).
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
 
 
-@jit
+@jit(_nrt=False)
 def term_torque(q, w, t, params, base):
     """Body-frame torque of the built-in model whose block starts at ``params[base]``."""
     kind = int(params[base])
@@ -127,7 +146,7 @@ def term_torque(q, w, t, params, base):
     return ZERO3
 
 
-@jit
+@jit(_nrt=False)
 def term_potential(q, t, params, base):
     """Potential energy of the built-in model whose block starts at ``params[base]`` (0: none)."""
     kind = int(params[base])
@@ -140,7 +159,7 @@ def term_potential(q, t, params, base):
     return 0.0
 
 
-@jit
+@jit(_nrt=False)
 def builtin_n_terms(params):
     """Number of terms of the built-in part of a model (0 for a user-only model)."""
     kind = int(params[P_KIND])
@@ -151,7 +170,7 @@ def builtin_n_terms(params):
     return 1
 
 
-@jit
+@jit(_nrt=False)
 def term_base(j, params):
     """Offset of the block of term ``j``."""
     if int(params[P_KIND]) == KIND_SUM:
@@ -159,7 +178,7 @@ def term_base(j, params):
     return P_KIND
 
 
-@jit
+@jit(_nrt=False)
 def builtin_torque(q, w, t, params):
     """Body-frame torque of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
@@ -171,7 +190,7 @@ def builtin_torque(q, w, t, params):
     return tau
 
 
-@jit
+@jit(_nrt=False)
 def builtin_potential(q, t, params):
     """Potential energy of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
@@ -182,7 +201,7 @@ def builtin_potential(q, t, params):
     return u
 
 
-@jit
+@jit(_nrt=False)
 def builtin_term_torque(j, q, w, t, params):
     """Torque of term ``j`` of the built-in part (the model itself when it is not a sum)."""
     return term_torque(q, w, t, params, term_base(j, params))

@@ -32,9 +32,9 @@ The torque enters through auxiliary series that are themselves solutions of poly
   v = q̃∘v_S∘q with ṙ = v + r × ω, v̇ = −μ r/|r|³ + v × ω, and τ = 3μ |r|⁻⁵ r × I r
   (Arribas et al. eq. 20 differentiated). |r|⁻³ and |r|⁻⁵ come from the power recurrence
   u = s^α: u[k] = Σ_{j<k} (α(k−j) − j) s[k−j] u[j] / (k s[0]) and a series division.
-  The orbit is restarted exactly at every step from the Kepler solution (orbit._kernels.state on
-  the Kepler elements of the orbit's kernel_data, orbit._state_kernels layout),
-  so the attitude sees the same analytic orbit as every other method, with no orbital drift.
+  The orbit is restarted exactly at every step from the Kepler solution (orbit._state_kernels
+  .orbit_state on the orbit's kernel_data), so the attitude sees the same analytic orbit as
+  every other method, with no orbital drift.
 
 Order and step (Jorba & Zou 2005, Experimental Math. 14, 99–117, Sect. 3.2)
 ----------------------------------------------------------------------------
@@ -65,10 +65,10 @@ import math
 
 import numpy as np
 
-from orbit import _kernels as _K
 from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit
 
+from .fma import fma as F
 from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
 from .quat import rotate_inverse
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
@@ -136,8 +136,9 @@ def _initial_row(work, t, params):
         cf[0, CA + 1] = s[1]
         cf[0, CA + 2] = s[2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        # Exact Kepler restart: the orbit's state at t, in body axes.
-        x, yy, z, vx, vy, vz = _K.state(params[P0 + _SK.K_EL : P0 + _SK.K_EL + _K.NEL], t)
+        # Exact Kepler restart: the orbit's state at t, in body axes (the trig of the constant
+        # angles precomputed in the orbit's kernel data: bit for bit orbit._kernels.state).
+        x, yy, z, vx, vy, vz = _SK.orbit_state(params[P0:], t)
         r = rotate_inverse(q, (x, yy, z))
         v = rotate_inverse(q, (vx, vy, vz))
         for i in range(3):
@@ -146,9 +147,15 @@ def _initial_row(work, t, params):
     return n, c
 
 
-@jit(fastmath={"contract"})
+@jit
 def taylor_coefficients(cf, p, params, n, c):
-    """Fill rows 1..p of the coefficient table ``cf`` from row 0 (see the module docstring)."""
+    """Fill rows 1..p of the coefficient table ``cf`` from row 0 (see the module docstring).
+
+    Multiply–adds are explicit :func:`~attitude._core.fma.fma` operations (F), nothing is
+    contracted or reassociated by the compiler: the SIMD batch version
+    (:func:`attitude._core.taylor_batch.taylor_coefficients_lanes`) repeats these operations
+    lane by lane and reproduces this table bit for bit.
+    """
     kind = int(params[P_KIND])
     iI0 = 1.0 / params[0]
     iI1 = 1.0 / params[1]
@@ -192,35 +199,35 @@ def taylor_coefficients(cf, p, params, n, c):
             g0 = cf[k - j, CG]
             g1 = cf[k - j, CG + 1]
             g2 = cf[k - j, CG + 2]
-            p12 += cf[j, CG + 1] * g2
-            p20 += cf[j, CG + 2] * g0
-            p01 += cf[j, CG] * g1
-            a00 -= q1 * g0
-            a10 += q0 * g0
-            a20 += q3 * g0
-            a30 -= q2 * g0
-            a01 -= q2 * g1
-            a11 -= q3 * g1
-            a21 += q0 * g1
-            a31 += q1 * g1
-            a02 -= q3 * g2
-            a12 += q2 * g2
-            a22 -= q1 * g2
-            a32 += q0 * g2
+            p12 = F(cf[j, CG + 1], g2, p12)
+            p20 = F(cf[j, CG + 2], g0, p20)
+            p01 = F(cf[j, CG], g1, p01)
+            a00 = F(-q1, g0, a00)
+            a10 = F(q0, g0, a10)
+            a20 = F(q3, g0, a20)
+            a30 = F(-q2, g0, a30)
+            a01 = F(-q2, g1, a01)
+            a11 = F(-q3, g1, a11)
+            a21 = F(q0, g1, a21)
+            a31 = F(q1, g1, a31)
+            a02 = F(-q3, g2, a02)
+            a12 = F(q2, g2, a12)
+            a22 = F(-q1, g2, a22)
+            a32 = F(q0, g2, a32)
         if k > 0:
             # Q = q∘(c, 2g)/n
-            cf[k, 4] = (c * cf[k, 0] + 2.0 * (a00 + a01 + a02)) * inv_n
-            cf[k, 5] = (c * cf[k, 1] + 2.0 * (a10 + a11 + a12)) * inv_n
-            cf[k, 6] = (c * cf[k, 2] + 2.0 * (a20 + a21 + a22)) * inv_n
-            cf[k, 7] = (c * cf[k, 3] + 2.0 * (a30 + a31 + a32)) * inv_n
+            cf[k, 4] = F(c, cf[k, 0], 2.0 * (a00 + a01 + a02)) * inv_n
+            cf[k, 5] = F(c, cf[k, 1], 2.0 * (a10 + a11 + a12)) * inv_n
+            cf[k, 6] = F(c, cf[k, 2], 2.0 * (a20 + a21 + a22)) * inv_n
+            cf[k, 7] = F(c, cf[k, 3], 2.0 * (a30 + a31 + a32)) * inv_n
         if k == p:
             break
         h = 0.5 / (k + 1.0)
         # q̇ = ½ q∘(0, ω)
-        cf[k + 1, 0] = h * (iI0 * a00 + iI1 * a01 + iI2 * a02)
-        cf[k + 1, 1] = h * (iI0 * a10 + iI1 * a11 + iI2 * a12)
-        cf[k + 1, 2] = h * (iI0 * a20 + iI1 * a21 + iI2 * a22)
-        cf[k + 1, 3] = h * (iI0 * a30 + iI1 * a31 + iI2 * a32)
+        cf[k + 1, 0] = h * F(iI2, a02, F(iI1, a01, iI0 * a00))
+        cf[k + 1, 1] = h * F(iI2, a12, F(iI1, a11, iI0 * a10))
+        cf[k + 1, 2] = h * F(iI2, a22, F(iI1, a21, iI0 * a20))
+        cf[k + 1, 3] = h * F(iI2, a32, F(iI1, a31, iI0 * a30))
         # Torque series τ[k] (and the auxiliary series to order k + 1).
         t0 = t1 = t2 = 0.0
         inv = 1.0 / (k + 1.0)
@@ -229,9 +236,9 @@ def taylor_coefficients(cf, p, params, n, c):
             s1 = cf[k, CA + 1]
             s2 = cf[k, CA + 2]
             # τ = c × F_B, F_B = −W s
-            t0 = -W * (cy * s2 - cz * s1)
-            t1 = -W * (cz * s0 - cx * s2)
-            t2 = -W * (cx * s1 - cy * s0)
+            t0 = -W * F(cy, s2, -cz * s1)
+            t1 = -W * F(cz, s0, -cx * s2)
+            t2 = -W * F(cx, s1, -cy * s0)
             b0 = b1 = b2 = 0.0
             for j in range(k + 1):
                 s0 = cf[j, CA]
@@ -240,9 +247,9 @@ def taylor_coefficients(cf, p, params, n, c):
                 w0 = cf[k - j, CW]
                 w1 = cf[k - j, CW + 1]
                 w2 = cf[k - j, CW + 2]
-                b0 += s1 * w2 - s2 * w1
-                b1 += s2 * w0 - s0 * w2
-                b2 += s0 * w1 - s1 * w0
+                b0 = F(s1, w2, F(-s2, w1, b0))
+                b1 = F(s2, w0, F(-s0, w2, b1))
+                b2 = F(s0, w1, F(-s1, w0, b2))
             cf[k + 1, CA] = b0 * inv
             cf[k + 1, CA + 1] = b1 * inv
             cf[k + 1, CA + 2] = b2 * inv
@@ -257,10 +264,10 @@ def taylor_coefficients(cf, p, params, n, c):
                 u0 = cf[k - j, CA]
                 u1 = cf[k - j, CA + 1]
                 u2 = cf[k - j, CA + 2]
-                s += r0 * u0 + r1 * u1 + r2 * u2
-                x0 += r1 * u2
-                x1 += r2 * u0
-                x2 += r0 * u1
+                s = F(r2, u2, F(r1, u1, F(r0, u0, s)))
+                x0 = F(r1, u2, x0)
+                x1 = F(r2, u0, x1)
+                x2 = F(r0, u1, x2)
             cf[k, CR2] = s
             cf[k, CX] = D0 * x0
             cf[k, CX + 1] = D1 * x1
@@ -273,11 +280,11 @@ def taylor_coefficients(cf, p, params, n, c):
                 # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
                 acc = 0.0
                 for j in range(k):
-                    acc += (-1.5 * (k - j) - j) * cf[k - j, CR2] * cf[j, CU3]
+                    acc = F((-1.5 * (k - j) - j) * cf[k - j, CR2], cf[j, CU3], acc)
                 cf[k, CU3] = acc / (k * s00)
                 acc = cf[k, CU3]
                 for j in range(1, k + 1):
-                    acc -= cf[j, CR2] * cf[k - j, CU5]
+                    acc = F(-cf[j, CR2], cf[k - j, CU5], acc)
                 cf[k, CU5] = acc / s00
             # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
             b0 = b1 = b2 = 0.0
@@ -295,31 +302,31 @@ def taylor_coefficients(cf, p, params, n, c):
                 v0 = cf[j, CV]
                 v1 = cf[j, CV + 1]
                 v2 = cf[j, CV + 2]
-                t0 += u5 * cf[k - j, CX]
-                t1 += u5 * cf[k - j, CX + 1]
-                t2 += u5 * cf[k - j, CX + 2]
-                b0 += r1 * w2 - r2 * w1
-                b1 += r2 * w0 - r0 * w2
-                b2 += r0 * w1 - r1 * w0
-                d0 += v1 * w2 - v2 * w1
-                d1 += v2 * w0 - v0 * w2
-                d2 += v0 * w1 - v1 * w0
-                f0 += u3 * cf[k - j, CA]
-                f1 += u3 * cf[k - j, CA + 1]
-                f2 += u3 * cf[k - j, CA + 2]
+                t0 = F(u5, cf[k - j, CX], t0)
+                t1 = F(u5, cf[k - j, CX + 1], t1)
+                t2 = F(u5, cf[k - j, CX + 2], t2)
+                b0 = F(r1, w2, F(-r2, w1, b0))
+                b1 = F(r2, w0, F(-r0, w2, b1))
+                b2 = F(r0, w1, F(-r1, w0, b2))
+                d0 = F(v1, w2, F(-v2, w1, d0))
+                d1 = F(v2, w0, F(-v0, w2, d1))
+                d2 = F(v0, w1, F(-v1, w0, d2))
+                f0 = F(u3, cf[k - j, CA], f0)
+                f1 = F(u3, cf[k - j, CA + 1], f1)
+                f2 = F(u3, cf[k - j, CA + 2], f2)
             t0 *= 3.0 * mu
             t1 *= 3.0 * mu
             t2 *= 3.0 * mu
             cf[k + 1, CA] = (cf[k, CV] + b0) * inv
             cf[k + 1, CA + 1] = (cf[k, CV + 1] + b1) * inv
             cf[k + 1, CA + 2] = (cf[k, CV + 2] + b2) * inv
-            cf[k + 1, CV] = (d0 - mu * f0) * inv
-            cf[k + 1, CV + 1] = (d1 - mu * f1) * inv
-            cf[k + 1, CV + 2] = (d2 - mu * f2) * inv
+            cf[k + 1, CV] = F(-mu, f0, d0) * inv
+            cf[k + 1, CV + 1] = F(-mu, f1, d1) * inv
+            cf[k + 1, CV + 2] = F(-mu, f2, d2) * inv
         # Euler's equations: ġ = g × ω + n τ
-        cf[k + 1, CG] = (e0 * p12 + n * t0) * inv
-        cf[k + 1, CG + 1] = (e1 * p20 + n * t1) * inv
-        cf[k + 1, CG + 2] = (e2 * p01 + n * t2) * inv
+        cf[k + 1, CG] = F(e0, p12, n * t0) * inv
+        cf[k + 1, CG + 1] = F(e1, p20, n * t1) * inv
+        cf[k + 1, CG + 2] = F(e2, p01, n * t2) * inv
 
 
 @jit
@@ -355,12 +362,21 @@ def _radius(cf, p, rtol, atol):
 
 @jit
 def dense_eval(work, p, tau, out):
-    """Evaluate the 8 state polynomials of the last step at ``tau`` = t − t_old (Horner)."""
-    for i in range(8):
-        acc = work[p, i]
-        for k in range(p - 1, -1, -1):
-            acc = acc * tau + work[k, i]
-        out[i] = acc
+    """Evaluate the 8 state polynomials of the last step at ``tau`` = t − t_old (Horner; the
+    eight recurrences side by side, so they overlap in the pipeline)."""
+    a0, a1, a2, a3 = work[p, 0], work[p, 1], work[p, 2], work[p, 3]
+    a4, a5, a6, a7 = work[p, 4], work[p, 5], work[p, 6], work[p, 7]
+    for k in range(p - 1, -1, -1):
+        a0 = F(a0, tau, work[k, 0])
+        a1 = F(a1, tau, work[k, 1])
+        a2 = F(a2, tau, work[k, 2])
+        a3 = F(a3, tau, work[k, 3])
+        a4 = F(a4, tau, work[k, 4])
+        a5 = F(a5, tau, work[k, 5])
+        a6 = F(a6, tau, work[k, 6])
+        a7 = F(a7, tau, work[k, 7])
+    out[0], out[1], out[2], out[3] = a0, a1, a2, a3
+    out[4], out[5], out[6], out[7] = a4, a5, a6, a7
 
 
 @jit
@@ -370,11 +386,23 @@ def taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step):
     The coefficient table of the step stays in ``work`` (rows 0..p) for :func:`dense_eval`.
     """
     p = int(tstate[3])
-    t = tstate[0]
-    direction = 1.0 if t_end >= t else -1.0
-    n, c = _initial_row(work, t, params)
+    n, c = _initial_row(work, tstate[0], params)
     taylor_coefficients(work, p, params, n, c)
     counters[1] += p
+    return step_from_coefficients(work, tstate, counters, rtol, atol, t_end, max_step)
+
+
+@jit
+def step_from_coefficients(work, tstate, counters, rtol, atol, t_end, max_step):
+    """The rest of :func:`taylor_step` once the coefficient table of the step is in ``work``:
+    Jorba & Zou's step from it, the state at the end of the step, the step's bookkeeping.
+
+    Also called lane by lane by the batch integrator (:mod:`attitude._core.taylor_batch`)
+    with ``work`` a view of one lane, so a member of a batch steps exactly as it does alone.
+    """
+    p = int(tstate[3])
+    t = tstate[0]
+    direction = 1.0 if t_end >= t else -1.0
     rho = _radius(work, p, rtol, atol)
     h_abs = rho * tstate[4]  # exp(−2 − 0.7/(p − 1)), set with the order
     if not h_abs <= max_step:  # also catches a NaN radius
@@ -425,25 +453,35 @@ def taylor_canonical_builtin(
         set_order(tstate, order_from_tolerance(rtol))
         counters[3] = 1
         counters[4] = 0
-    p = int(tstate[3])
     direction = 1.0 if t_end >= tstate[0] else -1.0
     k = 0
-    status = SUCCESS
+    while True:
+        k = emit_samples(work, tstate, counters, t_out, y_out, k, direction)
+        if k >= m:
+            return SUCCESS, k
+        if counters[0] >= max_steps:
+            return TOO_MANY_STEPS, k
+        status = taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step)
+        if status != SUCCESS:
+            return status, k
+
+
+@jit
+def emit_samples(work, tstate, counters, t_out, y_out, k, direction):
+    """Write the output samples ``k, k + 1, ...`` that need no further step: the current
+    state at its own time, the step polynomial inside the last step. Returns the next ``k``."""
+    m = t_out.shape[0]
+    p = int(tstate[3])
+    y = work[Y]
     while k < m:
         to = t_out[k]
         t = tstate[0]
         if to == t:
             for i in range(8):
                 y_out[k, i] = y[i]
-            k += 1
-            continue
-        if counters[4] == 1 and direction * (to - tstate[2]) >= 0.0 and direction * (t - to) > 0:
+        elif counters[4] == 1 and direction * (to - tstate[2]) >= 0.0 and direction * (t - to) > 0:
             dense_eval(work, p, to - tstate[2], y_out[k])
-            k += 1
-            continue
-        if counters[0] >= max_steps:
-            return TOO_MANY_STEPS, k
-        status = taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step)
-        if status != SUCCESS:
-            return status, k
-    return status, k
+        else:
+            break
+        k += 1
+    return k

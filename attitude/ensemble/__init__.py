@@ -1,10 +1,11 @@
 """Ensembles: many initial states (and bodies, potentials) through the same scenario.
 
-:func:`propagate_ensemble` integrates N members, each with its own adaptive DOP853 steps, in
-parallel compiled code (a numba ``prange`` loop over members, or Dask tasks on a cluster), and
-returns one Dataset with a ``member`` dimension and the variables of
-:func:`attitude.propagate`. Members are processed in chunks; with ``path=`` every chunk is
-streamed to a netCDF4 file as soon as it is done, so memory is bounded by one chunk whatever N.
+:func:`propagate_ensemble` integrates N members, each with its own adaptive DOP853 steps (or
+Taylor steps, ``method="taylor"``: four members per SIMD instruction), in parallel compiled
+code (a numba ``prange`` loop over members, or Dask tasks on a cluster), and returns one
+Dataset with a ``member`` dimension and the variables of :func:`attitude.propagate`. Members
+are processed in chunks; with ``path=`` every chunk is streamed to a netCDF4 file as soon as
+it is done, so memory is bounded by one chunk whatever N.
 
 A member's result does not depend on the chunk size, the number of threads, or on whether it
 ran locally or on a Dask worker: every member runs the same compiled member body from a fresh

@@ -31,6 +31,7 @@ class _Setup:
     max_steps: int
     user_potential: Any = None  # a CustomPotential/CustomTorque, or None for built-ins
     events: Any = None  # attitude.events.EventSet, or None
+    method: str = "dop853"  # "dop853" or "taylor"
 
 
 #: Integration steps per compiled call, summed over the members of a chunk and divided among
@@ -58,9 +59,17 @@ STATUS_FLAGS = {
 
 
 def _compute_chunk(
-    setup: _Setup, params: np.ndarray, y0: np.ndarray, *, parallel: bool, threads: int = 1
+    setup: _Setup,
+    params: np.ndarray,
+    y0: np.ndarray,
+    *,
+    parallel: bool,
+    threads: int = 1,
+    y_out: np.ndarray | None = None,
+    diag: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
-    """Integrate the members of one chunk; arrays of the chunk's results.
+    """Integrate the members of one chunk; arrays of the chunk's results (the states and
+    diagnostics written into ``y_out`` (c, m, 8) and ``diag`` (c, m, 13) if given).
 
     Every member is run to its end, failed or not (``status``, ``n_done``, ``t_stop`` say
     how it ended; a failed member's rows after its last sample are NaN).
@@ -69,12 +78,14 @@ def _compute_chunk(
     t = setup.t
     m = t.shape[0]
     out = {
-        "y": np.empty((c, m, 8)),
-        "diag": np.empty((c, m, _N_DIAG)),
+        "y": np.empty((c, m, 8)) if y_out is None else y_out,
+        "diag": np.empty((c, m, _N_DIAG)) if diag is None else diag,
         "counters": np.empty((c, 5), dtype=np.int64),
         "status": np.full(c, _ke.NOT_STARTED, dtype=np.int64),
         "n_done": np.zeros(c, dtype=np.int64),
     }
+    if setup.method == "taylor":
+        return _compute_chunk_taylor(setup, params, y0, out, parallel)
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
     entry = _entry(setup)
@@ -122,6 +133,50 @@ def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, np.nda
     if setup.events is not None:
         out["event_count"] = np.zeros((c, setup.events.n), dtype=np.int64)
         out["event_first"] = np.full((c, setup.events.n), np.nan)
+    return out
+
+
+#: Fewest members per batch integrator of the parallel Taylor driver: when a group runs out of
+#: members its lanes idle while the last ones finish (about 1.5 member runs per group).
+TAYLOR_MIN_GROUP = 32
+
+
+def _compute_chunk_taylor(setup, params, y0, out, parallel):
+    """:func:`_compute_chunk` with ``method="taylor"``: members in SIMD batches
+    (:mod:`attitude._core.taylor_batch`), in groups run in parallel."""
+    from .._core import taylor_batch as _tb
+    from .._core.potentials import KIND_GRAVITY_GRADIENT, P0, P_KIND
+
+    c = y0.shape[0]
+    tstate = np.empty((c, 5))
+    orbit_tab = np.empty((0, 4))
+    shared = (params[:, P_KIND:] == params[0, P_KIND:]).all()
+    if int(params[0, P_KIND]) == KIND_GRAVITY_GRADIENT and shared:
+        # one orbit for all: looked up once per output time for the diagnostics
+        orbit_tab = np.empty((setup.t.shape[0], 4))
+        _tb.orbit_radial_table(params[0, P0:], setup.t, orbit_tab)
+    args = (
+        params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
+        out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
+    )  # fmt: skip
+    threads = 1
+    if parallel:
+        import numba
+
+        threads = numba.get_num_threads()
+    if threads == 1:
+        _tb.taylor_ensemble_serial(*args, max(c, 1))
+    else:
+        # About 4 groups per thread, of equal size (balance), none below TAYLOR_MIN_GROUP.
+        n_groups = max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
+        old = numba.set_parallel_chunksize(1)  # a group at a time (they are few and long)
+        try:
+            _tb.taylor_ensemble_parallel(*args, -(-c // n_groups))
+        finally:
+            numba.set_parallel_chunksize(old)
+    out["counters"][:, 1] = 0  # no right-hand side is evaluated (Taylor terms instead)
+    out["t_stop"] = tstate[:, 0].copy()
+    _interrupt.check()  # Ctrl-C acts between chunks (a chunk's SIMD batches run to their end)
     return out
 
 

@@ -268,7 +268,11 @@ def _member_potentials(potential: Any, n: int, inertia: np.ndarray):
                 )
         ref = inertia if inertia.ndim == 1 else inertia[0]
         rows = [p._params(ref) for p in pots]
-        params = np.stack(rows)
+        # Rows of different lengths (orbits of different types): padded, the kernels read a
+        # block by its own type code and size.
+        params = np.zeros((n, max(r.shape[0] for r in rows)))
+        for i, r in enumerate(rows):
+            params[i, : r.shape[0]] = r
         return pots[0], params, pots
     pot = as_potential(potential)
     if inertia.ndim == 1:

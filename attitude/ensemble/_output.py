@@ -64,22 +64,14 @@ class _Assembler:
                 return x if dtype is None else x.astype(dtype)
             return np.ascontiguousarray(x, dtype=dtype)
 
-        c = out["y"].shape[0]
-        y, d = out["y"], out["diag"]
-        if self.keep is not None:  # every k-th or the final sample (_plan)
-            y, d = y[:, self.keep], d[:, self.keep]
-        cols = {
-            "q": y[:, :, :4],
-            "Q": y[:, :, 4:],
-            "omega": d[:, :, 0:3],
-            "g": d[:, :, 3:6],
-            "G": d[:, :, 6:9],
-            "energy": d[:, :, 9],
-            "potential_energy": d[:, :, 12],
-            "norm_error": d[:, :, 10],
-            "qQ": d[:, :, 11],
-        }
+        if "cols" in out:  # already split into the variables (_Direct)
+            cols = out["cols"]
+            c = cols["q"].shape[0]
+        else:
+            cols = self._columns(out, lazy)
+            c = out["y"].shape[0]
         tm = self.template
+
         data_vars: dict[str, Any] = {}
         for name, da in tm.data_vars.items():
             if name in cols:
@@ -158,6 +150,25 @@ class _Assembler:
                 {"long_name": "event name"},
             )
         return xr.Dataset(data_vars, coords=coords, attrs=dict(self.attrs))
+
+    def _columns(self, out, lazy):
+        """The variables' arrays (views) of a chunk's states and diagnostics."""
+        y, d = out["y"], out["diag"]
+        if self.keep is not None:  # every k-th or the final sample (_plan)
+            y, d = y[:, self.keep], d[:, self.keep]
+        if not (lazy or self.views) and isinstance(y, np.ndarray) and y.flags.c_contiguous:
+            return _split(y, d)
+        return {
+            "q": y[:, :, :4],
+            "Q": y[:, :, 4:],
+            "omega": d[:, :, 0:3],
+            "g": d[:, :, 3:6],
+            "G": d[:, :, 6:9],
+            "energy": d[:, :, 9],
+            "potential_energy": d[:, :, 12],
+            "norm_error": d[:, :, 10],
+            "qQ": d[:, :, 11],
+        }
 
     def _orbit_var(self, orbit, name):
         from ..results import _plain
@@ -280,6 +291,68 @@ class _MemberWriter(StreamWriter):
             v = nc.createVariable(name, var.dtype, var.dims, **extra)
             v[:] = var.values
             _set_attrs(v, _variable_attrs(ds, name))
+
+
+#: The variables split from the states and diagnostics, with their trailing shapes (in the order
+#: of attitude._core.ensemble.split_samples).
+_COLS = {"q": (4,), "Q": (4,), "omega": (3,), "g": (3,), "G": (3,), "energy": (), "norm_error": (),
+         "qQ": (), "potential_energy": ()}  # fmt: skip
+
+
+def _split(y: np.ndarray, d: np.ndarray, out: dict[str, np.ndarray] | None = None):
+    """Contiguous per-variable arrays (or ``out``'s, written) from states (N, m, 8) and
+    diagnostics (N, m, 13), in one compiled pass."""
+    from orbit._shared_jit import JIT_DISABLED
+
+    from .._core.ensemble import split_samples
+
+    n, m = y.shape[:2]
+    if out is None:
+        out = {k: np.empty((n, m, *shape)) for k, shape in _COLS.items()}
+    if JIT_DISABLED or not d.flags.c_contiguous:
+        for k, v in (("q", y[:, :, :4]), ("Q", y[:, :, 4:]), ("omega", d[:, :, 0:3]),
+                     ("g", d[:, :, 3:6]), ("G", d[:, :, 6:9]), ("energy", d[:, :, 9]),
+                     ("norm_error", d[:, :, 10]), ("qQ", d[:, :, 11]),
+                     ("potential_energy", d[:, :, 12])):  # fmt: skip
+            out[k][...] = v
+        return out
+    split_samples(y, d, *out.values())
+    return out
+
+
+class _Direct:
+    """An in-memory result assembled as the chunks finish: each chunk's states and diagnostics
+    (written into one reused buffer, so its memory is touched once) are split into the result's
+    per-variable arrays at once, and the Dataset is built once at the end."""
+
+    def __init__(self, n: int, m: int) -> None:
+        self.m = m
+        self.cols = {k: np.empty((n, m, *shape)) for k, shape in _COLS.items()}
+        self.buf: tuple[np.ndarray, np.ndarray] | None = None
+        self.parts: list[tuple[dict, np.ndarray]] = []
+        self.n = 0
+
+    def buffers(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """``y_out``, ``diag`` of a chunk's :func:`_compute_chunk`."""
+        c = stop - start
+        if self.buf is None or self.buf[0].shape[0] < c:
+            self.buf = (np.empty((c, self.m, 8)), np.empty((c, self.m, _N_DIAG)))
+        return {"y_out": self.buf[0][:c], "diag": self.buf[1][:c]}
+
+    def add(self, out: dict, inertia: np.ndarray) -> None:
+        """A chunk (the next members in order; failed members included, NaN after their end)."""
+        c = out["y"].shape[0]
+        _split(out["y"], out["diag"], {k: v[self.n : self.n + c] for k, v in self.cols.items()})
+        keep = {k: v for k, v in out.items() if k not in ("y", "diag", "error")}
+        self.parts.append((keep, inertia))
+        self.n += c
+
+    def dataset(self, asm: _Assembler) -> xr.Dataset:
+        """The Dataset of the members added so far (members 0..n-1)."""
+        out: dict[str, Any] = {"cols": {k: v[: self.n] for k, v in self.cols.items()}}
+        for key in self.parts[0][0]:
+            out[key] = np.concatenate([p[key] for p, _ in self.parts])
+        return asm.dataset(0, out, np.concatenate([i for _, i in self.parts]))
 
 
 def _concat(parts: list[xr.Dataset], attrs: dict[str, Any]) -> xr.Dataset:

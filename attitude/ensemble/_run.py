@@ -44,7 +44,7 @@ from ._members import (
     _Members,
     _project,
 )
-from ._output import _Assembler, _concat, _MemberWriter, _open_result
+from ._output import _Assembler, _concat, _Direct, _MemberWriter, _open_result
 from ._percentile_store import _PercentileStore
 from .dispersions import _Sampled
 
@@ -52,6 +52,8 @@ from .dispersions import _Sampled
 CHUNK_BYTES = 32 * 2**20
 #: Largest default chunk (members).
 MAX_CHUNK = 4096
+#: The methods of the compiled ensemble loops.
+ENSEMBLE_METHODS = ("dop853", "taylor")
 
 # ------------------------------------------------------------------------------------------------
 # the entry point
@@ -69,12 +71,18 @@ def _max_threads() -> int:
     return int(numba.config.NUMBA_NUM_THREADS)
 
 
-def _default_chunk(n: int, m: int, threads: int) -> int:
-    """Members per chunk: about 20 chunks (progress), at least 16 per thread (balance), at
-    most :data:`MAX_CHUNK` and ~:data:`CHUNK_BYTES` of output (memory)."""
+#: Fewest members per thread in a default chunk, per method: a Taylor member takes a tenth of
+#: a DOP853 member's time, and runs in SIMD batches of 4 that refill from a group of members.
+MIN_PER_THREAD = {"dop853": 16, "taylor": 256}
+
+
+def _default_chunk(n: int, m: int, threads: int, method: str = "dop853") -> int:
+    """Members per chunk: about 20 chunks (progress), at least :data:`MIN_PER_THREAD` per
+    thread (balance, and the cost of a chunk), at most :data:`MAX_CHUNK` and
+    ~:data:`CHUNK_BYTES` of output (memory)."""
     per_member = m * (8 + _N_DIAG) * 8
     cap = min(MAX_CHUNK, max(1, CHUNK_BYTES // per_member))
-    want = max(-(-n // 20), 16 * threads)
+    want = max(-(-n // 20), MIN_PER_THREAD[method] * threads)
     return max(1, min(want, max(cap, threads)))
 
 
@@ -114,7 +122,9 @@ def propagate_ensemble(
 
     Each member is integrated independently by the compiled DOP853 loop of
     :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
-    torque as the generalised force of Schwab eq. 25), with its own adaptive steps.
+    torque as the generalised force of Schwab eq. 25), with its own adaptive steps; with
+    ``method="taylor"`` by the Taylor method of ``propagate(method="taylor")``, four members
+    per SIMD instruction (each with its own steps; results bit for bit those of single runs).
 
     Parameters
     ----------
@@ -134,18 +144,22 @@ def propagate_ensemble(
         ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
         supported as one potential for all members (compiled into the user cache, see
         docs/potentials.md).
-    method : str
-        ``"dop853"`` (the only method of the compiled ensemble loop).
+    method : {"dop853", "taylor"}
+        The integrator of every member (docs/integrators.md). ``"taylor"``: built-in
+        potentials only (torque-free, heavy top, gravity gradient of a Kepler orbit), no
+        events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
     rtol, atol : float
-        Tolerances of DOP853, per state component (as in ``propagate``).
+        Tolerances, as in ``propagate`` (DOP853: per state component; Taylor: the order and
+        the step of Jorba & Zou).
     max_step : float
         Largest step.
     max_steps : int
         A member that needs more steps fails (see Raises).
     chunk_size : int, optional
         Members per chunk. Default: about N / 20 (a progress report per chunk), at least 16
-        per thread, at most 4096 and ~32 MiB of output. Results do not depend on it; memory
-        does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per member).
+        per thread (taylor: 256), at most 4096 and ~32 MiB of output. Results do not depend on
+        it; memory does (one chunk: ~2 kB of work arrays plus m × 168 bytes of output per
+        member).
     path : str or Path, optional
         Stream each chunk to this netCDF4 file as soon as it is computed (atomic: written to a
         temporary file, renamed at the end). Memory then stays bounded by one chunk, and the
@@ -231,8 +245,9 @@ def propagate_ensemble(
     ------
     AttitudeValueError, AttitudeTypeError
         Bad input (shapes of q0, Q0, body or potentials that do not match, N = 0, a method
-        other than dop853, a scheduler that does not answer within ``scheduler_timeout``),
-        before any work and before anything is written.
+        other than dop853 or taylor, a potential or events that taylor cannot handle, a
+        scheduler that does not answer within ``scheduler_timeout``), before any work and
+        before anything is written.
     PropagationError
         Some members of a chunk failed (non-finite state, too many steps...), or a chunk's
         task failed on the cluster. The message names the members; chunks completed before
@@ -248,10 +263,11 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if method != "dop853":
+    if method not in ENSEMBLE_METHODS:
         raise AttitudeValueError(
-            f"method: propagate_ensemble runs 'dop853' only (the compiled parallel loop), got "
-            f"{method!r}; for other methods loop over attitude.propagate"
+            f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
+            f"compiled parallel loops), got {method!r}; for other methods loop over "
+            f"attitude.propagate"
         )
     tt = as_times(t, "t")
     rtol = as_positive(rtol, "rtol")
@@ -331,6 +347,8 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
+    if method == "taylor":
+        _check_taylor(pot, pots, events)
     evset = None
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
@@ -382,9 +400,9 @@ def propagate_ensemble(
 
             n_threads = numba.get_num_threads()
     m = plan.kernel_t.shape[0]
-    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads)
+    csize = int(chunk_size) if chunk_size is not None else _default_chunk(n, m, n_threads, method)
     csize = min(csize, n)
-    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset)
+    setup = _Setup(plan.kernel_t, rtol, atol, float(max_step), int(max_steps), user, evset, method)
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
@@ -395,6 +413,10 @@ def propagate_ensemble(
         "chunk_size": np.int64(csize),
         "execution": "dask" if client is not None else f"local threads ({n_threads})",
     }
+    if method == "taylor":
+        from .._core.taylor import order_from_tolerance
+
+        run_attrs["taylor_order"] = np.int64(order_from_tolerance(rtol))
     if pots is not None:
         run_attrs["potential"] = f"{n} per-member potentials, member 0: {pot.describe()}"
     if not math.isinf(max_step):
@@ -459,6 +481,11 @@ def propagate_ensemble(
     writer = _MemberWriter(out_path, complevel=COMPLEVEL) if out_path is not None else None
     kept: list[xr.Dataset] = []
     failures = _Failures(m)
+    # Every sample of every member in memory: the chunks write straight into the arrays of the
+    # whole result, and its Dataset is assembled once at the end (not a Dataset per chunk).
+    direct = None
+    if writer is None and plan.output == "samples" and plan.keep is None and client is None:
+        direct = _Direct(n, m)
     store = None
     stats = None
     if plan.output == "statistics":
@@ -472,7 +499,7 @@ def propagate_ensemble(
         )
     try:
         if client is None:
-            results = _local_results(setup, members, bounds, threads)
+            results = _local_results(setup, members, bounds, threads, direct)
         else:
             results = _dask_results(client, setup, members, bounds, n_threads)
         for (start, stop), got in zip(bounds, results, strict=False):
@@ -486,6 +513,11 @@ def propagate_ensemble(
             failures.add(out, start)
             asm.max_projection = max(asm.max_projection, corr)
             asm.account(out)
+            if direct is not None:
+                direct.add(out, inertia)
+                if progress is not None:
+                    progress(stop, n, asm.totals["n_steps"])
+                continue
             ds = asm.dataset(start, out, inertia)
             if store is not None:  # statistics only: keep the scalars, drop the members
                 ds = store.add(ds)
@@ -495,6 +527,8 @@ def propagate_ensemble(
                 kept.append(ds)
             if progress is not None:
                 progress(stop, n, asm.totals["n_steps"])
+        if direct is not None and direct.n:
+            kept.append(direct.dataset(asm))
         failure: PropagationError | None = None
         if failures.count:
             failure = PropagationError(failures.message(n), time=failures.first[1])
@@ -551,6 +585,19 @@ def propagate_ensemble(
     return result
 
 
+def _check_taylor(pot: Potential, pots: Any, events: Any) -> None:
+    """``method="taylor"``: built-in potentials it expands, no events (as ``propagate``)."""
+    from ..taylor import check_potential
+
+    if events is not None:
+        raise AttitudeValueError(
+            "events: method='taylor' does not locate events (neither does "
+            "propagate(method='taylor')); use method='dop853' for an ensemble with events"
+        )
+    for p in pots if pots is not None else (pot,):
+        check_potential(p)
+
+
 def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:
     """The validated events of an ensemble (attitude.events.build) with the run's epoch."""
     from orbit.errors import OrbitError
@@ -567,7 +614,7 @@ def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> 
     return build(events, t, e)
 
 
-def _local_results(setup, members, bounds, threads):
+def _local_results(setup, members, bounds, threads, direct=None):
     """Chunks computed here with the parallel driver, one after the other (generator).
 
     A chunk that raises (not a member's integration: that is in its status) yields the
@@ -578,14 +625,15 @@ def _local_results(setup, members, bounds, threads):
     for start, stop in bounds:
         try:
             params, y0, inertia, corr = members.block(start, stop)
+            buf = {} if direct is None else direct.buffers(start, stop)
             with _numba_threads(threads):
                 if JIT_DISABLED:
-                    out = _compute_chunk(setup, params, y0, parallel=False)
+                    out = _compute_chunk(setup, params, y0, parallel=False, **buf)
                 else:
                     import numba
 
                     out = _compute_chunk(
-                        setup, params, y0, parallel=True, threads=numba.get_num_threads()
+                        setup, params, y0, parallel=True, threads=numba.get_num_threads(), **buf
                     )
         except (AttitudeValueError, AttitudeTypeError):
             raise
@@ -653,7 +701,8 @@ def run_scenario(
         if key in kw:
             raise AttitudeValueError(
                 f"integrator.{key}: ensembles run the canonical equations with method 'dop853' "
-                f"only; remove {key} from the [integrator] table of an [ensemble] scenario"
+                f"or 'taylor' only; remove {key} from the [integrator] table of an [ensemble] "
+                f"scenario"
             )
     out = Path(path) if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)

@@ -101,7 +101,7 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
     """Integrate member ``k`` of an ensemble result alone; its samples bit for bit.
 
     A one-member :func:`propagate_ensemble` from the member's stored body and initial state,
-    with the run's tolerances, over its integration span (``integration_start`` ..
+    with the run's method and tolerances, over its integration span (``integration_start`` ..
     ``integration_stop``), evaluated at the result's stored times.
 
     Parameters
@@ -143,6 +143,7 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
         grid = np.unique(np.concatenate([t, np.asarray(span, dtype=np.float64)]))
         rows = np.searchsorted(grid, t)
         kw: dict[str, Any] = {
+            "method": str(a.get("method", "dop853")),
             "rtol": float(a.get("rtol", 1e-10)),
             "atol": float(a.get("atol", 1e-12)),
         }
