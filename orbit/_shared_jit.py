@@ -18,6 +18,10 @@ it), so the shared module lives here, and its name says that it is shared.
   cannot import the user's module. The cached callers are the entry points of
   :mod:`attitude._core.entry_points` (built-in models, in the package's cache) and their
   per-model copies for user kernels (:mod:`attitude._user_kernels`, in :func:`user_cache_dir`).
+* :func:`specialise` makes an in-memory copy of a module whose compiled functions see other
+  objects under some of their global names (e.g. the entry points of one built-in model with
+  ``torque`` bound to that model's kernel alone): each copy compiles only the code it reaches,
+  and is cached under its own name (the function's name plus a tag).
 * Setting the environment variable ``ATTITUDE_DISABLE_JIT=1`` (or numba's own
   ``NUMBA_DISABLE_JIT=1``) before import turns every kernel into plain Python: slow, but with
   readable tracebacks (tests/test_propagate.py checks a propagation in that mode).
@@ -28,6 +32,7 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import types
 from pathlib import Path
 
 import numba
@@ -38,6 +43,7 @@ __all__ = [
     "jit_generic",
     "parallel_jit",
     "sources_fingerprint",
+    "specialise",
     "user_cache_dir",
 ]
 
@@ -158,7 +164,9 @@ def jit(func=None, /, **options):
     def wrap(f):
         if JIT_DISABLED:
             return f
-        return numba.jit(**opts)(f)
+        disp = numba.jit(**opts)(f)
+        disp._attitude_jit_options = opts  # what specialise() compiles a copy with
+        return disp
 
     return wrap if func is None else wrap(func)
 
@@ -179,3 +187,48 @@ def parallel_jit(func=None, /, **options):
     """Like :func:`jit` with ``parallel=True`` (for ``prange`` loops over independent members)."""
     options.setdefault("parallel", True)
     return jit(func, **options)
+
+
+def specialise(module, tag: str, names=None, **bindings):
+    """An in-memory copy of ``module`` whose functions see ``bindings`` among their globals.
+
+    Every function defined in ``module`` with :func:`jit` (only those in ``names`` if given) is
+    copied with the same options; the copies share one namespace, the module's globals updated
+    with ``bindings`` and with the copies themselves, so calls between them stay within the
+    copy. numba resolves a global when it compiles, so a copy compiles the code its bindings
+    reach and nothing else (e.g. ``torque`` bound to one model's kernel instead of the switch
+    over every kind).
+
+    Each copy is cached on disk like the original, under the original's name with
+    ``__<tag>`` appended: ``tag`` must name the bindings uniquely (the same tag with other
+    bindings would load the other copy's machine code). Bind module-level objects of the
+    package only, never a user's function (user models get their own modules in
+    :func:`user_cache_dir`).
+
+    Returns a module object (``types.ModuleType``) whose attributes are the copy's namespace.
+    """
+    name = f"{module.__name__}[{tag}]"
+    copy = types.ModuleType(name, module.__doc__)
+    ns = copy.__dict__
+    ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
+    ns.update(bindings)
+    for key, obj in vars(module).items():
+        if key in bindings or (names is not None and key not in names):
+            continue
+        f = getattr(obj, "py_func", obj) if not JIT_DISABLED else obj
+        if not isinstance(f, types.FunctionType) or f.__module__ != module.__name__:
+            continue
+        if not JIT_DISABLED and not hasattr(obj, "_attitude_jit_options"):
+            continue  # a plain Python helper of the module: shared as it is
+        g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
+        g.__kwdefaults__ = f.__kwdefaults__
+        g.__doc__ = f.__doc__
+        g.__module__ = f.__module__
+        g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
+        if JIT_DISABLED:
+            ns[key] = g
+        else:
+            disp = numba.jit(**obj._attitude_jit_options)(g)
+            disp._attitude_jit_options = obj._attitude_jit_options
+            ns[key] = disp
+    return copy

@@ -98,6 +98,7 @@ __all__ = [
     "K_LEN",
     "K_TRIG",
     "MU",
+    "RADIAL_KERNELS",
     "TYPE",
     "TYPE_EPHEMERIS",
     "TYPE_KEPLER",
@@ -454,6 +455,22 @@ def _eph_state(d, t, with_velocity):
     return x, y, z, vx, vy, vz
 
 
+@jit
+def _eph_radial(d, t):
+    x, y, z, _, _, _ = _eph_state(d, t, False)
+    r = math.sqrt(x * x + y * y + z * z)
+    return r, x / r, y / r, z / r
+
+
+#: The radial kernel of each orbit type: what ``orbit_radial`` dispatches to (a kernel compiled
+#: for one orbit type binds it instead of the dispatcher, see attitude._core.models).
+RADIAL_KERNELS = {
+    TYPE_KEPLER: _kepler_radial,
+    TYPE_SECULAR_J2: _j2_radial,
+    TYPE_EPHEMERIS: _eph_radial,
+}
+
+
 # ---------------------------------------------------------------------------------------------
 # From a state to the orbital frame.
 @jit
@@ -521,9 +538,7 @@ def orbit_radial(d, t):
         return _kepler_radial(d, t)
     if kind == TYPE_SECULAR_J2:
         return _j2_radial(d, t)
-    x, y, z, _, _, _ = _eph_state(d, t, False)
-    r = math.sqrt(x * x + y * y + z * z)
-    return r, x / r, y / r, z / r
+    return _eph_radial(d, t)
 
 
 @jit

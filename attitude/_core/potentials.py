@@ -20,6 +20,11 @@ to the offset ``base`` of its kind code, and one cached, compiled function
 (:func:`builtin_torque`) serves every model and every sum of built-in models: the integrators
 that call it are cached on disk too.
 
+A model that is one term (not a sum) of the three classic kinds runs on the kernels of the
+section "one model alone" instead: they call its kind's functions directly, and the entry
+points compiled with them (:mod:`attitude._core.models`) compile that kind's code only, not the
+switch over every kind (a fresh install's first run compiles a third of the code).
+
 A torque is a function of the attitude q, the body angular velocity ω (body axes; rate-dependent
 models such as eddy-current damping use it), and the time t (the orbit and the environment are
 functions of t, read from the model's numbers). Torques are body-frame components; they enter
@@ -163,7 +168,8 @@ def term_base(j, params):
 def builtin_torque(q, w, t, params):
     """Body-frame torque of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
-        return term_torque(q, w, t, params, P_KIND)
+        # int(): an int64 base, as in the sum below (a literal 3 would compile the switch twice)
+        return term_torque(q, w, t, params, int(P_KIND))
     tau = term_torque(q, w, t, params, int(params[P_OFFSETS]))
     for j in range(1, int(params[P_NTERMS])):
         d = term_torque(q, w, t, params, int(params[P_OFFSETS + j]))
@@ -175,7 +181,7 @@ def builtin_torque(q, w, t, params):
 def builtin_potential(q, t, params):
     """Potential energy of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
-        return term_potential(q, t, params, P_KIND)
+        return term_potential(q, t, params, int(P_KIND))
     u = term_potential(q, t, params, int(params[P_OFFSETS]))
     for j in range(1, int(params[P_NTERMS])):
         u += term_potential(q, t, params, int(params[P_OFFSETS + j]))
@@ -186,6 +192,65 @@ def builtin_potential(q, t, params):
 def builtin_term_torque(j, q, w, t, params):
     """Torque of term ``j`` of the built-in part (the model itself when it is not a sum)."""
     return term_torque(q, w, t, params, term_base(j, params))
+
+
+# One model alone ------------------------------------------------------------------------------
+# The model of a single built-in term (not a sum): its kind's kernels called directly, for the
+# entry points compiled for that model alone (attitude._core.models binds them as the
+# ``torque``/``potential``/``term_torque``/``n_terms`` of attitude._core.entry_points). The
+# gravity gradient's are further specialised there to the orbit's type (``orbit_radial`` bound
+# to the Kepler, secular-J2 or ephemeris kernel).
+
+
+@jit
+def torque_free_torque(q, w, t, params):
+    """No torque (the free rigid body)."""
+    return ZERO3
+
+
+@jit
+def torque_free_potential(q, t, params):
+    """No potential energy."""
+    return 0.0
+
+
+@jit
+def heavy_top_model_torque(q, w, t, params):
+    """Torque of a heavy top alone (its block at ``P_KIND``)."""
+    return heavy_top_torque(q, params, int(P_KIND))
+
+
+@jit
+def heavy_top_model_potential(q, t, params):
+    """Potential energy of a heavy top alone."""
+    return heavy_top_potential(q, params, int(P_KIND))
+
+
+@jit
+def gravity_gradient_model_torque(q, w, t, params):
+    """Torque of the gravity gradient alone."""
+    return gravity_gradient_torque(q, t, params, int(P_KIND))
+
+
+@jit
+def gravity_gradient_model_potential(q, t, params):
+    """Potential energy of the gravity gradient alone."""
+    return gravity_gradient_potential(q, t, params, int(P_KIND))
+
+
+MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._core.models
+
+
+@jit
+def model_term_torque(j, q, w, t, params):
+    """Term j of a model that is one term: its torque."""
+    return MODEL_TORQUE(q, w, t, params)
+
+
+@jit
+def model_n_terms(params):
+    """A model alone is one term."""
+    return 1
 
 
 # User models ----------------------------------------------------------------------------------
