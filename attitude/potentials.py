@@ -28,7 +28,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from orbit import _state_kernels as _sk
 from orbit._shared_jit import JIT_DISABLED
 
 from . import _user_kernels
@@ -338,7 +337,7 @@ class GravityGradient(Potential):
         self.orbit.check_times(t, name)
 
     def _entry_points(self):
-        return _models.entry_points(self._kind, int(self._orbit_data[_sk.TYPE]))
+        return _models.entry_points(self._kind, self._orbit_data)
 
     def _inertia_for_eval(self) -> np.ndarray:
         if self.inertia is None:

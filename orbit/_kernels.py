@@ -140,6 +140,9 @@ _MK_B = 1.6 * PI / (PI * PI - 6.0)
 _INV_CBRT_MAGIC = np.int64(0x553EF0FF289DD794)  # Moroz et al. (2021), inverse cube root
 _HYP_SERIES = 2.5  # |H| below which sinh H − H and cosh H − 1 come from their series
 _HYP_LOG_REGIME = 1.0e10  # M/e above which H = log(2(M + H)/e) to double precision
+#: False here; True in the copy of the kernels for an elliptic orbit alone
+#: (orbit._state_kernels.radial_kernel), which then compiles without the hyperbolic solver.
+ELLIPTIC_ONLY = False
 
 
 # ---------------------------------------------------------------------------------------------
@@ -556,7 +559,7 @@ def _half_angle_parts(el, t):
     """
     e = el[ECC]
     M = mean_anomaly(el, t)
-    if e < 1.0:
+    if ELLIPTIC_ONLY or e < 1.0:  # a constant True prunes the hyperbolic branch at compile time
         Er, _, k = _kepler_E_reduced(M, e)
         h = 0.5 * Er
         c = math.sqrt(1.0 - e) * math.cos(h)

@@ -22,6 +22,8 @@ it), so the shared module lives here, and its name says that it is shared.
   objects under some of their global names (e.g. the entry points of one built-in model with
   ``torque`` bound to that model's kernel alone): each copy compiles only the code it reaches,
   and is cached under its own name (the function's name plus a tag).
+* :func:`interpreted` gives a module's kernels as plain Python (for a few scalar evaluations
+  from Python, e.g. when an orbit is built, where compiling would cost more than it saves).
 * Setting the environment variable ``ATTITUDE_DISABLE_JIT=1`` (or numba's own
   ``NUMBA_DISABLE_JIT=1``) before import turns every kernel into plain Python: slow, but with
   readable tracebacks (tests/test_propagate.py checks a propagation in that mode).
@@ -39,6 +41,7 @@ import numba
 
 __all__ = [
     "JIT_DISABLED",
+    "interpreted",
     "jit",
     "jit_generic",
     "parallel_jit",
@@ -158,7 +161,15 @@ def jit(func=None, /, **options):
 
     Usable bare (``@jit``) or with extra numba options (``@jit(inline="always")``).
     """
-    opts = {"cache": True, "nopython": True, "fastmath": False, "error_model": "numpy"}
+    # No C-callable (cfunc) wrapper: nothing takes a kernel's address; compiling one per
+    # function cost a few percent of a fresh install's first run.
+    opts = {
+        "cache": True,
+        "nopython": True,
+        "fastmath": False,
+        "error_model": "numpy",
+        "no_cfunc_wrapper": True,
+    }
     opts.update(options)
 
     def wrap(f):
@@ -232,3 +243,29 @@ def specialise(module, tag: str, names=None, **bindings):
             disp._attitude_jit_options = obj._attitude_jit_options
             ns[key] = disp
     return copy
+
+
+_INTERPRETED: dict[str, types.ModuleType] = {}
+
+
+def interpreted(module) -> types.ModuleType:
+    """``module``'s kernels as plain Python functions calling each other: nothing compiles.
+
+    For a few scalar evaluations from Python (an orbit's mean anomaly at epoch when it is
+    built): the same code and IEEE arithmetic as the compiled kernel (numba does not contract
+    or reassociate without ``fastmath``), so the same results, without compiling a kernel and
+    the helpers it calls before a run can start. Python raises where compiled code returns
+    inf or NaN (a division by zero, a math domain error): call it with validated input only.
+    """
+    if module.__name__ not in _INTERPRETED:
+        copy = types.ModuleType(f"{module.__name__}[interpreted]", module.__doc__)
+        ns = copy.__dict__
+        ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
+        for key, obj in vars(module).items():
+            f = getattr(obj, "py_func", obj)
+            if isinstance(f, types.FunctionType) and f.__module__ == module.__name__:
+                g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
+                g.__kwdefaults__ = f.__kwdefaults__
+                ns[key] = g
+        _INTERPRETED[module.__name__] = copy
+    return _INTERPRETED[module.__name__]

@@ -77,9 +77,11 @@ density, Sun direction) can be stored and interpolated the same way.
 from __future__ import annotations
 
 import math
+import sys
+from typing import Any
 
 from . import _kernels as _k
-from ._shared_jit import jit
+from ._shared_jit import jit, specialise
 
 __all__ = [
     "E_H",
@@ -98,7 +100,6 @@ __all__ = [
     "K_LEN",
     "K_TRIG",
     "MU",
-    "RADIAL_KERNELS",
     "TYPE",
     "TYPE_EPHEMERIS",
     "TYPE_KEPLER",
@@ -111,6 +112,7 @@ __all__ = [
     "orbit_frame",
     "orbit_radial",
     "orbit_state",
+    "radial_kernel",
     "table_interval",
 ]
 
@@ -462,13 +464,18 @@ def _eph_radial(d, t):
     return r, x / r, y / r, z / r
 
 
-#: The radial kernel of each orbit type: what ``orbit_radial`` dispatches to (a kernel compiled
-#: for one orbit type binds it instead of the dispatcher, see attitude._core.models).
-RADIAL_KERNELS = {
-    TYPE_KEPLER: _kepler_radial,
-    TYPE_SECULAR_J2: _j2_radial,
-    TYPE_EPHEMERIS: _eph_radial,
-}
+def radial_kernel(d) -> tuple[str, Any]:
+    """(tag, kernel): the kernel ``orbit_radial`` runs for the orbit ``d`` (its type's), for
+    compiled code specialised to one orbit (attitude._core.models binds it instead of the
+    dispatcher); an elliptic Kepler orbit gets the copy without the hyperbolic solver."""
+    kind = int(d[TYPE])
+    if kind == TYPE_KEPLER:
+        if d[K_EL + _k.ECC] < 1.0:
+            return "kepler_elliptic", _ELLIPTIC._kepler_radial
+        return "kepler", _kepler_radial
+    if kind == TYPE_SECULAR_J2:
+        return "j2", _j2_radial
+    return "ephemeris", _eph_radial
 
 
 # ---------------------------------------------------------------------------------------------
@@ -695,3 +702,15 @@ def acceleration_loop(d, t, out):
         s = orbit_acceleration(d, t[i])
         for j in range(3):
             out[i, j] = s[j]
+
+
+# The Kepler radial kernel of an elliptic orbit alone (radial_kernel): copies of
+# _half_angle_parts (ELLIPTIC_ONLY) and of the kernels that reach it.
+_ELLIPTIC = specialise(
+    sys.modules[__name__],
+    "elliptic",
+    names=("_kepler_radial",),
+    _k=specialise(
+        _k, "elliptic", names=("_half_angle_parts", "_radius_cos_sin_f"), ELLIPTIC_ONLY=True
+    ),
+)

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _kernels as _k
 from . import _state_kernels as _sk
+from ._shared_jit import interpreted
 from .base import OrbitBase
 from .errors import OrbitValueError, PerigeeInsideEarthWarning
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
@@ -115,6 +116,20 @@ def kepler_kernel_data(el: np.ndarray) -> np.ndarray:
     )
     d.setflags(write=False)
     return d
+
+
+def _mean_from_true(f: float, e: float, hyperbolic: bool) -> float:
+    """Mean anomaly from the true anomaly, by the kernels of orbit._kernels run as plain Python
+    (one scalar: compiling them would cost a fresh install's first run ~0.4 s); where Python
+    raises (an overflow), the compiled kernel's inf/NaN, which the caller then rejects."""
+    for k in (interpreted(_k), _k):
+        try:
+            if hyperbolic:
+                return k.mean_from_hyperbolic_scalar(k.hyperbolic_from_true_scalar(f, e), e)
+            return k.mean_from_eccentric_scalar(k.eccentric_from_true_scalar(f, e), e)
+        except (ArithmeticError, ValueError):
+            continue
+    raise AssertionError("unreachable: the compiled kernels do not raise")
 
 
 class KeplerOrbit(OrbitBase):
@@ -235,12 +250,12 @@ class KeplerOrbit(OrbitBase):
                         f"f0: a hyperbola with e = {e_!r} only reaches |f| < acos(−1/e) = "
                         f"{lim!r} rad, got f0 = {f0_!r}"
                     )
-                M0_ = _k.mean_from_hyperbolic_scalar(_k.hyperbolic_from_true_scalar(f0_, e_), e_)
+                M0_ = _mean_from_true(f0_, e_, hyperbolic)
         else:
             if f0_ is not None:
                 if abs(f0_) > MAX_MEAN_ANOMALY:
                     raise OrbitValueError(f"f0: |f0| must be at most 2**50 rad, got {f0_!r}")
-                M0_ = _k.mean_from_eccentric_scalar(_k.eccentric_from_true_scalar(f0_, e_), e_)
+                M0_ = _mean_from_true(f0_, e_, hyperbolic)
             elif abs(M0_) > MAX_MEAN_ANOMALY:
                 raise OrbitValueError(f"M0: |M0| must be at most 2**50 rad, got {M0_!r}")
         n = math.sqrt(mu_ / abs(a_) ** 3)

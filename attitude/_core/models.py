@@ -11,7 +11,9 @@ A model that is a single term of the classic kinds (torque-free, heavy top, grav
 gets the same entry points compiled with its own kernels bound instead
 (:func:`orbit._shared_jit.specialise`: an in-memory copy of the module, cached on disk under
 the model's tag), so its first run compiles its own code only; the gravity gradient's kernels
-are specialised once more to the orbit type (``orbit_radial`` bound to that type's kernel).
+are specialised once more to the orbit (``orbit_radial`` bound to the kernel of its type,
+:func:`orbit._state_kernels.radial_kernel`; an elliptic Kepler orbit's without the hyperbolic
+solver).
 The arithmetic is the same code, so the results are bit-identical to the generic entry points.
 Sums of models and the environment models run on the generic entry points; user models on
 their copies in the user cache (:mod:`attitude._user_kernels`).
@@ -22,14 +24,12 @@ from __future__ import annotations
 from typing import Any
 
 from orbit._shared_jit import specialise
-from orbit._state_kernels import RADIAL_KERNELS, TYPE_EPHEMERIS, TYPE_KEPLER, TYPE_SECULAR_J2
+from orbit._state_kernels import radial_kernel
 
 from . import entry_points as _generic
 from . import potentials as _kp
 
 __all__ = ["entry_points"]
-
-_ORBIT_TAGS = {TYPE_KEPLER: "kepler", TYPE_SECULAR_J2: "j2", TYPE_EPHEMERIS: "ephemeris"}
 
 #: The gravity-gradient kernels that read the orbit (copied per orbit type).
 _GG_KERNELS = (
@@ -58,19 +58,21 @@ def _model(tag: str, torque: Any, potential: Any) -> Any:
     return _CACHE[tag]
 
 
-def entry_points(kind: int | None, orbit_type: int | None = None) -> Any:
+def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
     """The compiled entry points of a built-in model of kind ``kind`` (``KIND_*`` of
-    :mod:`attitude._core.potentials`; a gravity gradient also gives its orbit's type code):
-    specialised to that model alone where there is a specialisation, else the generic module.
+    :mod:`attitude._core.potentials`; a gravity gradient also gives its orbit's
+    ``kernel_data()``): specialised to that model alone where there is a specialisation, else
+    the generic module.
     """
     if kind == _kp.KIND_TORQUE_FREE:
         return _model("torque_free", _kp.torque_free_torque, _kp.torque_free_potential)
     if kind == _kp.KIND_HEAVY_TOP:
         return _model("heavy_top", _kp.heavy_top_model_torque, _kp.heavy_top_model_potential)
-    if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_type in _ORBIT_TAGS:
-        tag = f"gravity_gradient_{_ORBIT_TAGS[orbit_type]}"
+    if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_data is not None:
+        orbit_tag, radial = radial_kernel(orbit_data)
+        tag = f"gravity_gradient_{orbit_tag}"
         if tag not in _CACHE:
-            gg = specialise(_kp, tag, names=_GG_KERNELS, orbit_radial=RADIAL_KERNELS[orbit_type])
+            gg = specialise(_kp, tag, names=_GG_KERNELS, orbit_radial=radial)
             return _model(
                 tag, gg.gravity_gradient_model_torque, gg.gravity_gradient_model_potential
             )
