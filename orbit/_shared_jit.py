@@ -31,6 +31,7 @@ it), so the shared module lives here, and its name says that it is shared.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 import sys
@@ -41,6 +42,7 @@ import numba
 
 __all__ = [
     "JIT_DISABLED",
+    "Kernel",
     "interpreted",
     "jit",
     "jit_generic",
@@ -175,11 +177,70 @@ def jit(func=None, /, **options):
     def wrap(f):
         if JIT_DISABLED:
             return f
-        disp = numba.jit(**opts)(f)
+        if opts.get("inline", "never") != "never":  # inlined: never compiled on its own
+            disp = numba.jit(**opts)(f)
+        else:
+            disp = Kernel(f, opts)
         disp._attitude_jit_options = opts  # what specialise() compiles a copy with
         return disp
 
     return wrap if func is None else wrap(func)
+
+
+class Kernel:
+    """A compiled function: numba's dispatcher for calls from compiled code, and for calls from
+    Python a second one with numba's CPython wrapper, compiled on the first such call.
+
+    numba compiles a CPython wrapper (boxing and unboxing every argument) with every function,
+    although most kernels are only ever called from other kernels; leaving it out of those
+    saves a tenth of a fresh install's first run. Compiled code sees :attr:`dispatcher` (numba
+    types this object as that dispatcher, ``_numba_type_``); a call from Python goes to
+    :attr:`python_dispatcher`, the same function cached under the name ``<name>__python``
+    (numba's cache index does not tell the two compilations apart). Other attributes
+    (``py_func``, ``signatures``, ``overloads``, ...) are the compiled-code dispatcher's;
+    ``stats`` are those of the Python one once it exists (what a call from Python loaded or
+    compiled).
+    """
+
+    def __init__(self, f, opts):
+        self.dispatcher = numba.jit(**opts, no_cpython_wrapper=True)(f)
+        self._opts = opts
+        self._python = None
+        functools.update_wrapper(self, f)
+
+    @property
+    def _numba_type_(self):
+        return self.dispatcher._numba_type_
+
+    @property
+    def python_dispatcher(self):
+        """The dispatcher (with a CPython wrapper) that calls from Python go to."""
+        if self._python is None:
+            f = self.dispatcher.py_func
+            g = types.FunctionType(
+                f.__code__, f.__globals__, f.__name__, f.__defaults__, f.__closure__
+            )
+            g.__kwdefaults__ = f.__kwdefaults__
+            g.__doc__ = f.__doc__
+            g.__module__ = f.__module__
+            g.__qualname__ = f"{f.__qualname__}__python"  # its own cache files
+            self._python = numba.jit(**self._opts)(g)
+        return self._python
+
+    def __call__(self, *args, **kwargs):
+        return self.python_dispatcher(*args, **kwargs)
+
+    @property
+    def stats(self):
+        return (self._python or self.dispatcher).stats
+
+    def __getattr__(self, name):
+        if name.startswith("__"):
+            raise AttributeError(name)
+        return getattr(self.dispatcher, name)
+
+    def __repr__(self) -> str:
+        return f"<attitude kernel {self.__qualname__}>"
 
 
 def jit_generic(func=None, /, **options):
@@ -236,12 +297,7 @@ def specialise(module, tag: str, names=None, **bindings):
         g.__doc__ = f.__doc__
         g.__module__ = f.__module__
         g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
-        if JIT_DISABLED:
-            ns[key] = g
-        else:
-            disp = numba.jit(**obj._attitude_jit_options)(g)
-            disp._attitude_jit_options = obj._attitude_jit_options
-            ns[key] = disp
+        ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
     return copy
 
 

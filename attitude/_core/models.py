@@ -36,8 +36,6 @@ _GG_KERNELS = (
     "gravity_gradient_terms",
     "gravity_gradient_torque",
     "gravity_gradient_potential",
-    "gravity_gradient_model_torque",
-    "gravity_gradient_model_potential",
 )
 
 _CACHE: dict[str, Any] = {}
@@ -67,14 +65,12 @@ def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
     if kind == _kp.KIND_TORQUE_FREE:
         return _model("torque_free", _kp.torque_free_torque, _kp.torque_free_potential)
     if kind == _kp.KIND_HEAVY_TOP:
-        return _model("heavy_top", _kp.heavy_top_model_torque, _kp.heavy_top_model_potential)
+        return _model("heavy_top", _kp.heavy_top_torque, _kp.heavy_top_potential)
     if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_data is not None:
         orbit_tag, radial = radial_kernel(orbit_data)
         tag = f"gravity_gradient_{orbit_tag}"
         if tag not in _CACHE:
             gg = specialise(_kp, tag, names=_GG_KERNELS, orbit_radial=radial)
-            return _model(
-                tag, gg.gravity_gradient_model_torque, gg.gravity_gradient_model_potential
-            )
+            return _model(tag, gg.gravity_gradient_torque, gg.gravity_gradient_potential)
         return _CACHE[tag]
     return _generic

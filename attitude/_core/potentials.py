@@ -70,7 +70,7 @@ ZERO3 = (0.0, 0.0, 0.0)
 
 
 @jit
-def heavy_top_torque(q, params, base):
+def heavy_top_torque(q, w, t, params, base=P_KIND):
     # Gravity -weight s3 acts at the centre of mass c: τ_B = c × F_B, F_B = q̃∘(−W s3)∘q.
     w = params[base + 1]
     c = (params[base + 2], params[base + 3], params[base + 4])
@@ -79,7 +79,7 @@ def heavy_top_torque(q, params, base):
 
 
 @jit
-def heavy_top_potential(q, params, base):
+def heavy_top_potential(q, t, params, base=P_KIND):
     # V = W (q∘c∘q̃)·s3: the potential energy of the weight (height of the centre of mass).
     # Arribas et al. eq. 18 prints U = x^c·F with F = −Mg s3, which is −V; see docs/potentials.md.
     w = params[base + 1]
@@ -99,7 +99,7 @@ def gravity_gradient_terms(q, t, params, base):
 
 
 @jit
-def gravity_gradient_torque(q, t, params, base):
+def gravity_gradient_torque(q, w, t, params, base=P_KIND):
     # τ_B = 3μ/r³ x̂_B × (I x̂_B): minus the derivative of eq. 20 under body rotations.
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     c = cross(xb, ixb)
@@ -107,7 +107,7 @@ def gravity_gradient_torque(q, t, params, base):
 
 
 @jit
-def gravity_gradient_potential(q, t, params, base):
+def gravity_gradient_potential(q, t, params, base=P_KIND):
     # Arribas et al. eq. 20: U = 3μ/(2r³) x̂_B·I x̂_B (q-independent terms of eq. 19 dropped).
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
@@ -118,9 +118,9 @@ def term_torque(q, w, t, params, base):
     """Body-frame torque of the built-in model whose block starts at ``params[base]``."""
     kind = int(params[base])
     if kind == KIND_HEAVY_TOP:
-        return heavy_top_torque(q, params, base)
+        return heavy_top_torque(q, w, t, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
-        return gravity_gradient_torque(q, t, params, base)
+        return gravity_gradient_torque(q, w, t, params, base)
     if kind == KIND_MAGNETIC_DIPOLE:
         return magnetic_torque(q, t, params, base)
     if kind == KIND_EDDY_CURRENTS:
@@ -137,7 +137,7 @@ def term_potential(q, t, params, base):
     """Potential energy of the built-in model whose block starts at ``params[base]`` (0: none)."""
     kind = int(params[base])
     if kind == KIND_HEAVY_TOP:
-        return heavy_top_potential(q, params, base)
+        return heavy_top_potential(q, t, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
         return gravity_gradient_potential(q, t, params, base)
     if kind == KIND_MAGNETIC_DIPOLE:
@@ -195,11 +195,11 @@ def builtin_term_torque(j, q, w, t, params):
 
 
 # One model alone ------------------------------------------------------------------------------
-# The model of a single built-in term (not a sum): its kind's kernels called directly, for the
-# entry points compiled for that model alone (attitude._core.models binds them as the
-# ``torque``/``potential``/``term_torque``/``n_terms`` of attitude._core.entry_points). The
-# gravity gradient's are further specialised there to the orbit's type (``orbit_radial`` bound
-# to the Kepler, secular-J2 or ephemeris kernel).
+# The model of a single built-in term (not a sum): its kind's kernels called directly (their
+# ``base`` defaults to the block of a single model), for the entry points compiled for that
+# model alone (attitude._core.models binds them as the ``torque``/``potential``/``term_torque``/
+# ``n_terms`` of attitude._core.entry_points). The gravity gradient's are further specialised
+# there to the orbit (``orbit_radial`` bound to its type's kernel).
 
 
 @jit
@@ -212,30 +212,6 @@ def torque_free_torque(q, w, t, params):
 def torque_free_potential(q, t, params):
     """No potential energy."""
     return 0.0
-
-
-@jit
-def heavy_top_model_torque(q, w, t, params):
-    """Torque of a heavy top alone (its block at ``P_KIND``)."""
-    return heavy_top_torque(q, params, int(P_KIND))
-
-
-@jit
-def heavy_top_model_potential(q, t, params):
-    """Potential energy of a heavy top alone."""
-    return heavy_top_potential(q, params, int(P_KIND))
-
-
-@jit
-def gravity_gradient_model_torque(q, w, t, params):
-    """Torque of the gravity gradient alone."""
-    return gravity_gradient_torque(q, t, params, int(P_KIND))
-
-
-@jit
-def gravity_gradient_model_potential(q, t, params):
-    """Potential energy of the gravity gradient alone."""
-    return gravity_gradient_potential(q, t, params, int(P_KIND))
 
 
 MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._core.models
