@@ -704,13 +704,5 @@ def acceleration_loop(d, t, out):
             out[i, j] = s[j]
 
 
-# The Kepler radial kernel of an elliptic orbit alone (radial_kernel): copies of
-# _half_angle_parts (ELLIPTIC_ONLY) and of the kernels that reach it.
-_ELLIPTIC = specialise(
-    sys.modules[__name__],
-    "elliptic",
-    names=("_kepler_radial",),
-    _k=specialise(
-        _k, "elliptic", names=("_half_angle_parts", "_radius_cos_sin_f"), ELLIPTIC_ONLY=True
-    ),
-)
+# The Kepler radial kernel of an elliptic orbit (radial_kernel): on orbit._kernels.ELLIPTIC.
+_ELLIPTIC = specialise(sys.modules[__name__], "elliptic", names=("_kepler_radial",), _k=_k.ELLIPTIC)

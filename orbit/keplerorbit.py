@@ -275,8 +275,12 @@ class KeplerOrbit(OrbitBase):
         el[_k.T0] = t0_
         el[_k.MU] = mu_
         el[_k.N] = n
-        el.setflags(write=False)
+        # Writable (never modified): the loops then run on the compiled code of the gravity
+        # gradient's orbit kernels (numba compiles a read-only array as another type).
         self._el = el
+        # The kernels this orbit's loops run on: an ellipse's are compiled without the
+        # hyperbolic solver.
+        self._kernels = _k.ELLIPTIC if e_ < 1.0 else _k
         self._f0 = f0_
         self._data = kepler_kernel_data(el)
 
@@ -499,7 +503,7 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty(flat.size)
-        _k.eccentric_anomaly_loop(self._el, flat, out)
+        self._kernels.eccentric_anomaly_loop(self._el, flat, out)
         return self._shape(out, shape)
 
     def true_anomaly(self, t: Any) -> Any:
@@ -515,13 +519,13 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty(flat.size)
-        _k.true_anomaly_loop(self._el, flat, out)
+        self._kernels.true_anomaly_loop(self._el, flat, out)
         return self._shape(out, shape)
 
     def _radial(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
         flat, shape = self._times(t)
         out = np.empty((flat.size, 4))
-        _k.radial_loop(self._el, flat, out)
+        self._kernels.radial_loop(self._el, flat, out)
         return out, shape
 
     def radius(self, t: Any) -> Any:
@@ -555,7 +559,7 @@ class KeplerOrbit(OrbitBase):
     def _state(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
         flat, shape = self._times(t)
         out = np.empty((flat.size, 6))
-        _k.state_loop(self._el, flat, out)
+        self._kernels.state_loop(self._el, flat, out)
         return out, shape
 
     def position(self, t: Any) -> np.ndarray:
@@ -621,7 +625,7 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty((flat.size, 5))
-        _k.frame_loop(self._el, flat, out)
+        self._kernels.frame_loop(self._el, flat, out)
         return out[:, 1:].reshape((*shape, 4))
 
     def __repr__(self) -> str:
