@@ -31,7 +31,6 @@ it), so the shared module lives here, and its name says that it is shared.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import os
 import sys
@@ -39,6 +38,8 @@ import types
 from pathlib import Path
 
 import numba
+from numba.core import types as nbtypes
+from numba.core.registry import CPUDispatcher
 
 __all__ = [
     "JIT_DISABLED",
@@ -177,70 +178,48 @@ def jit(func=None, /, **options):
     def wrap(f):
         if JIT_DISABLED:
             return f
-        if opts.get("inline", "never") != "never":  # inlined: never compiled on its own
-            disp = numba.jit(**opts)(f)
-        else:
-            disp = Kernel(f, opts)
+        disp = numba.jit(**opts)(f)
+        if opts.get("inline", "never") == "never":  # (an inlined one never compiles on its own)
+            disp.__class__ = Kernel
         disp._attitude_jit_options = opts  # what specialise() compiles a copy with
         return disp
 
     return wrap if func is None else wrap(func)
 
 
-class Kernel:
-    """A compiled function: numba's dispatcher for calls from compiled code, and for calls from
-    Python a second one with numba's CPython wrapper, compiled on the first such call.
+class Kernel(CPUDispatcher):
+    """numba's dispatcher, for calls from Python; compiled code calls :attr:`dispatcher`, the same
+    function compiled without the CPython wrapper.
 
     numba compiles a CPython wrapper (boxing and unboxing every argument) with every function,
-    although most kernels are only ever called from other kernels; leaving it out of those
-    saves a tenth of a fresh install's first run. Compiled code sees :attr:`dispatcher` (numba
-    types this object as that dispatcher, ``_numba_type_``); a call from Python goes to
-    :attr:`python_dispatcher`, the same function cached under the name ``<name>__python``
-    (numba's cache index does not tell the two compilations apart). Other attributes
-    (``py_func``, ``signatures``, ``overloads``, ...) are the compiled-code dispatcher's;
-    ``stats`` are those of the Python one once it exists (what a call from Python loaded or
-    compiled).
+    although most kernels are only ever called from other kernels; leaving it out of those saves
+    a tenth of a fresh install's first run. This object is numba's ordinary dispatcher for calls
+    from Python (numba's fast call path, its ``stats``, ``signatures``, ...), but numba types it
+    as :attr:`dispatcher` in compiled code (``_numba_type_``): a copy compiled without the
+    wrapper, created on first use and cached under the name ``<name>__kernel`` (numba's cache
+    index does not tell the two compilations apart).
     """
 
-    def __init__(self, f, opts):
-        self.dispatcher = numba.jit(**opts, no_cpython_wrapper=True)(f)
-        self._opts = opts
-        self._python = None
-        functools.update_wrapper(self, f)
-
     @property
-    def _numba_type_(self):
-        return self.dispatcher._numba_type_
-
-    @property
-    def python_dispatcher(self):
-        """The dispatcher (with a CPython wrapper) that calls from Python go to."""
-        if self._python is None:
-            f = self.dispatcher.py_func
+    def dispatcher(self):
+        """The dispatcher compiled code calls (no CPython wrapper)."""
+        d = self.__dict__.get("_kernel_dispatcher")
+        if d is None:
+            f = self.py_func
             g = types.FunctionType(
                 f.__code__, f.__globals__, f.__name__, f.__defaults__, f.__closure__
             )
             g.__kwdefaults__ = f.__kwdefaults__
             g.__doc__ = f.__doc__
             g.__module__ = f.__module__
-            g.__qualname__ = f"{f.__qualname__}__python"  # its own cache files
-            self._python = numba.jit(**self._opts)(g)
-        return self._python
-
-    def __call__(self, *args, **kwargs):
-        return self.python_dispatcher(*args, **kwargs)
+            g.__qualname__ = f"{f.__qualname__}__kernel"  # its own cache files
+            d = numba.jit(**self._attitude_jit_options, no_cpython_wrapper=True)(g)
+            self._kernel_dispatcher = d
+        return d
 
     @property
-    def stats(self):
-        return (self._python or self.dispatcher).stats
-
-    def __getattr__(self, name):
-        if name.startswith("__"):
-            raise AttributeError(name)
-        return getattr(self.dispatcher, name)
-
-    def __repr__(self) -> str:
-        return f"<attitude kernel {self.__qualname__}>"
+    def _numba_type_(self):
+        return nbtypes.Dispatcher(self.dispatcher)
 
 
 def jit_generic(func=None, /, **options):
