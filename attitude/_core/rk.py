@@ -263,7 +263,7 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
     return SUCCESS, h_abs
 
 
-@jit_generic(inline="never")
+@jit_generic
 def dop853_run(
     rhs,
     params,
