@@ -48,6 +48,7 @@ __all__ = [
     "jit",
     "jit_generic",
     "parallel_jit",
+    "rebind",
     "sources_fingerprint",
     "specialise",
     "user_cache_dir",
@@ -141,9 +142,24 @@ def _install_cache_locators() -> None:
                 return None
             return cls(py_func, py_file)
 
+    class _Redirect:
+        # A copy of a package kernel bound to a user module's functions (rebind): cached as if
+        # it were defined in the user module's file, never in the package's cache.
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            source = getattr(py_func, "_attitude_cache_source", None)
+            if source is None:
+                return None
+            for c in classes:
+                if getattr(c, "__module__", "") != __name__:
+                    locator = c.from_function(py_func, source)
+                    if locator is not None:
+                        return locator
+            return None
+
     classes = cls("CacheImpl")._locator_classes
     if not any(getattr(c, "__module__", "") == __name__ for c in classes):
-        classes[0:0] = [_EnvDir, _InTree, _UserWide]
+        classes[0:0] = [_Redirect, _EnvDir, _InTree, _UserWide]
 
 
 if not JIT_DISABLED:
@@ -263,8 +279,13 @@ def specialise(module, tag: str, names=None, **bindings):
     ns = copy.__dict__
     ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
     ns.update(bindings)
+    ns["__kernel_tag__"] = tag
+    rebound = []
     for key, obj in vars(module).items():
         if key in bindings or (names is not None and key not in names):
+            continue
+        if hasattr(obj, "_attitude_rebind"):  # a rebind() of the module: redone in the copy
+            rebound.append((key, obj._attitude_rebind))
             continue
         f = getattr(obj, "py_func", obj) if not JIT_DISABLED else obj
         if not isinstance(f, types.FunctionType) or f.__module__ != module.__name__:
@@ -277,7 +298,54 @@ def specialise(module, tag: str, names=None, **bindings):
         g.__module__ = f.__module__
         g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
         ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
+    for key, (template, rtag, rnames, cache) in rebound:
+        ns[key] = rebind(template, ns, rtag, cache=cache, **rnames)
     return copy
+
+
+def rebind(template, namespace: dict, tag: str, *, cache: bool | None = None, **names: str):
+    """A copy of the kernel ``template`` (of another module) with some of its globals bound to
+    the objects a module has under the given names.
+
+    ``dop853_canonical = rebind(dop853_run, globals(), "canonical", RHS="canonical_rhs")`` in a
+    module of entry points: the DOP853 driver of :mod:`attitude._core.rk` compiled with that
+    module's ``canonical_rhs`` as its right-hand side ``RHS``. The right-hand side is a global of
+    the copy, not an argument: a compiled function that takes a compiled function as an argument
+    cannot be cached on its own, so it must be inlined into a cached caller, and numba's
+    inliner deep-copies the whole inlined loop (a second per cold start for the DOP853 driver).
+
+    The copy is cached under the template's name with ``__<tag>`` appended (and the tag of a
+    :func:`specialise` copy of the module, which redoes the rebind with its own objects); for a
+    module outside the package (a user model, :mod:`attitude._user_kernels`) also that module's
+    name, and the cache goes with that module's file, never into the package's cache.
+    ``cache=False`` compiles it for this process only.
+    """
+    f = getattr(template, "py_func", template)
+    tags = [tag, namespace.get("__kernel_tag__")]
+    file = str(namespace.get("__file__") or "")
+    outside = not os.path.abspath(file).startswith(_PACKAGE_DIRS)
+    if outside:  # a user module: its own name and cache
+        tags.append(str(namespace["__name__"]))
+        if not os.path.isfile(file):
+            cache = False
+    glob = dict(f.__globals__)
+    glob.update({g: namespace[n] for g, n in names.items()})
+    g = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
+    g.__kwdefaults__ = f.__kwdefaults__
+    g.__doc__ = f.__doc__
+    g.__module__ = f.__module__
+    g.__qualname__ = "__".join([f.__qualname__, *filter(None, tags)])  # its cache files
+    if outside and cache is not False:
+        g._attitude_cache_source = os.path.abspath(file)
+    if JIT_DISABLED:
+        k = g
+    else:
+        opts = dict(template._attitude_jit_options)
+        if cache is not None:
+            opts["cache"] = cache
+        k = jit(g, **opts)
+    k._attitude_rebind = (template, tag, names, cache)
+    return k
 
 
 _INTERPRETED: dict[str, types.ModuleType] = {}

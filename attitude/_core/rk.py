@@ -1,8 +1,10 @@
 """Compiled adaptive Runge–Kutta integration (DOP853) with dense output.
 
 One generic stepper: the method is the data in :mod:`attitude._core.tableaux`, the physics is
-the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``),
-and the whole step loop runs in compiled code. Step-size control and error norm follow
+the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``:
+an argument of the step kernels, which are inlined; the global ``RHS`` of the driver
+:func:`dop853_run`, compiled once per right-hand side), and the whole step loop runs in
+compiled code. Step-size control and error norm follow
 Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.4 and II.10 (DOP853), as in SciPy's
 ``solve_ivp(method="DOP853")``, so the two paths take comparable steps.
 
@@ -263,9 +265,13 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
     return SUCCESS, h_abs
 
 
-@jit_generic
+#: The right-hand side ``rhs(t, y, params, dydt)`` of a copy of :func:`dop853_run`: the entry
+#: points bind it (``orbit._shared_jit.rebind``); the original here is never compiled.
+RHS = None
+
+
+@jit
 def dop853_run(
-    rhs,
     params,
     y0,
     t0,
@@ -304,7 +310,7 @@ def dop853_run(
         tstate[1] = 0.0
         tstate[2] = t0
         tstate[3] = 0.0
-        rhs(t0, y, params, f)
+        RHS(t0, y, params, f)
         counters[1] += 1
         counters[3] = 1
         counters[4] = 0
@@ -330,7 +336,7 @@ def dop853_run(
                 and direction * (tstate[0] - to) > 0.0
             ):
                 if counters[4] == 0:
-                    _dense_coefficients(rhs, params, work, tstate, counters)
+                    _dense_coefficients(RHS, params, work, tstate, counters)
                 _interpolate(work, tstate, to, y_out[k])
             else:
                 break
@@ -342,13 +348,13 @@ def dop853_run(
             if h_abs == 0.0:
                 t = tstate[0]
                 h_abs = _initial_step(
-                    rhs, params, t, y, f, direction, rtol, atol, abs(t_end - t), work, counters
+                    RHS, params, t, y, f, direction, rtol, atol, abs(t_end - t), work, counters
                 )
         if counters[0] >= max_steps:
             tstate[1] = h_abs
             return TOO_MANY_STEPS, k
         status, h_abs = dop853_step(
-            rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step
+            RHS, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step
         )
         if status != SUCCESS:
             return status, k
