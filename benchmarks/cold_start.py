@@ -49,7 +49,8 @@ class Listener(event.Listener):
         if depth[0] == 0 and f is not None and f.__name__.startswith("dop853"):
             marks.setdefault("compiled", time.time())  # the integrator entry point is ready
 event.register("numba:compile", Listener())
-from attitude import propagate as P
+import attitude
+P = sys.modules["attitude.propagate"]  # (attitude.propagate is the function)
 runner = P.METHODS["dop853"]
 def timed(problem, **options):
     marks.setdefault("run", time.time())  # the runner starts: it loads or compiles, then steps
@@ -80,10 +81,11 @@ def run_once(numba_dir: str, attitude_dir: str, out: Path) -> dict:
         env=env,
         capture_output=True,
         text=True,
-        check=True,
         cwd=ROOT,
     )
     total = time.time() - t0
+    if res.returncode:
+        raise RuntimeError(f"attitude run failed:\n{res.stderr}")
     info = json.loads(res.stdout.strip().splitlines()[-1])
     info["total"] = total
     return info

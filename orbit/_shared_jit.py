@@ -354,21 +354,39 @@ _INTERPRETED: dict[str, types.ModuleType] = {}
 def interpreted(module) -> types.ModuleType:
     """``module``'s kernels as plain Python functions calling each other: nothing compiles.
 
-    For a few scalar evaluations from Python (an orbit's mean anomaly at epoch when it is
-    built): the same code and IEEE arithmetic as the compiled kernel (numba does not contract
-    or reassociate without ``fastmath``), so the same results, without compiling a kernel and
-    the helpers it calls before a run can start. Python raises where compiled code returns
-    inf or NaN (a division by zero, a math domain error): call it with validated input only.
+    For a few scalar evaluations from Python (an orbit's mean anomaly at epoch when it is built,
+    a reference frame at the initial time): the same code and IEEE arithmetic as the compiled
+    kernels (numba does not contract or reassociate without ``fastmath``), so the same results,
+    without compiling a kernel and everything it calls before a run can start. Kernels and
+    modules of the package that ``module`` uses are followed into their interpreted copies.
+    Python raises where compiled code returns inf or NaN (a division by zero, a math domain
+    error): call it with validated input, and fall back to the compiled kernel if it raises.
     """
-    if module.__name__ not in _INTERPRETED:
-        copy = types.ModuleType(f"{module.__name__}[interpreted]", module.__doc__)
-        ns = copy.__dict__
-        ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
-        for key, obj in vars(module).items():
-            f = getattr(obj, "py_func", obj)
-            if isinstance(f, types.FunctionType) and f.__module__ == module.__name__:
-                g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
-                g.__kwdefaults__ = f.__kwdefaults__
-                ns[key] = g
-        _INTERPRETED[module.__name__] = copy
-    return _INTERPRETED[module.__name__]
+    name = module.__name__
+    if name in _INTERPRETED:
+        return _INTERPRETED[name]
+    copy = types.ModuleType(f"{name}[interpreted]", module.__doc__)
+    _INTERPRETED[name] = copy  # before following imports (modules may import each other)
+    ns = copy.__dict__
+    ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
+    for key, obj in vars(module).items():
+        if isinstance(obj, types.ModuleType):
+            if obj.__name__ in sys.modules and _in_package(obj):
+                ns[key] = interpreted(obj)
+            continue
+        f = getattr(obj, "py_func", obj)
+        if not isinstance(f, types.FunctionType):
+            continue
+        if f.__module__ == name:
+            g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
+            g.__kwdefaults__ = f.__kwdefaults__
+            ns[key] = g
+        elif f is not obj:  # a kernel imported from another module of the package
+            home = sys.modules.get(f.__module__)
+            if home is not None and _in_package(home) and getattr(home, f.__name__, None) is obj:
+                ns[key] = getattr(interpreted(home), f.__name__)
+    return copy
+
+
+def _in_package(module) -> bool:
+    return os.path.abspath(getattr(module, "__file__", None) or "").startswith(_PACKAGE_DIRS)
