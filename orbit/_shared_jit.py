@@ -229,7 +229,8 @@ class Kernel(CPUDispatcher):
             g.__doc__ = f.__doc__
             g.__module__ = f.__module__
             g.__qualname__ = f"{f.__qualname__}__kernel"  # its own cache files
-            d = numba.jit(**self._attitude_jit_options, no_cpython_wrapper=True)(g)
+            opts = getattr(self, "_attitude_jit_options", {"nopython": True})
+            d = numba.jit(**{**opts, "no_cpython_wrapper": True})(g)
             self._kernel_dispatcher = d
         return d
 
