@@ -44,6 +44,8 @@ from typing import Any
 
 import numpy as np
 
+from orbit._shared_jit import interpreted as _interpreted
+
 from ._core import frames as _kf
 from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
@@ -244,13 +246,22 @@ class Frame:
             Continuous in sign along a 1-D ``t``.
         omega : ndarray, shape t.shape + (3,)
         """
+        return self._evaluate(t)
+
+    def _evaluate(self, t: Any, interpreted: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        # interpreted: the kernels run as plain Python (orbit._shared_jit.interpreted: the same
+        # results, nothing compiled), for a sample or two such as an initial state, where
+        # compiling the frame dispatcher would cost a fresh install seconds before a run starts.
         tt = _seconds(t)
         flat = np.ascontiguousarray(tt.ravel())
         self.check_times(flat)
         out = np.empty((flat.size, 7))
         if flat.size:
             d = self.kernel_data(float(flat.min()), float(flat.max()))
-            _kf.frame_loop(d, flat, out)
+            try:
+                (_interpreted(_kf) if interpreted else _kf).frame_loop(d, flat, out)
+            except (ArithmeticError, ValueError):  # Python raised where compiled code gives NaN
+                _kf.frame_loop(d, flat, out)
         q = out[:, :4]
         if tt.ndim == 1:
             q = _continuous(q)
@@ -561,7 +572,7 @@ def initial_state(
         )
     b = body if isinstance(body, RigidBody) else RigidBody(body)
     t = as_scalar(t0, "t0", unit="s")
-    qR, wR = frame.evaluate(np.array([t]))
+    qR, wR = frame._evaluate(np.array([t]), interpreted=True)
     qR, wR = qR[0], wR[0]
     if not (np.all(np.isfinite(qR)) and np.all(np.isfinite(wR))):
         raise AttitudeValueError(f"frame: {frame.describe()} is undefined at t0 = {t}")

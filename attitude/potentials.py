@@ -32,8 +32,8 @@ from orbit._shared_jit import JIT_DISABLED
 
 from . import _user_kernels
 from . import environment as _env
-from ._core import entry_points as _entry_points
 from ._core import environment as _ke
+from ._core import models as _models
 from ._core import potentials as _kp
 from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
@@ -91,9 +91,10 @@ class Potential:
         return ()
 
     def _entry_points(self):
-        """The compiled entry points of this model (:mod:`attitude._core.entry_points`)."""
+        """The compiled entry points of this model (:mod:`attitude._core.entry_points`, or their
+        copy for this kind of model alone: :mod:`attitude._core.models`)."""
         terms = self._user_terms()
-        return _user_kernels.entry_points(terms) if terms else _entry_points
+        return _user_kernels.entry_points(terms) if terms else _models.entry_points(self._kind)
 
     def _inertia_for_eval(self) -> np.ndarray:
         return np.ones(3)
@@ -334,6 +335,9 @@ class GravityGradient(Potential):
     def check_times(self, t: Any, name: str = "t") -> None:
         """Raise if the orbit is not defined at some of the times (an ephemeris table's span)."""
         self.orbit.check_times(t, name)
+
+    def _entry_points(self):
+        return _models.entry_points(self._kind, self._orbit_data)
 
     def _inertia_for_eval(self) -> np.ndarray:
         if self.inertia is None:

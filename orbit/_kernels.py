@@ -57,14 +57,17 @@ without overflow.
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
-from ._shared_jit import jit
+from ._shared_jit import jit, specialise
 
 __all__ = [
     "ARGP",
     "ECC",
+    "ELLIPTIC",
+    "ELLIPTIC_ONLY",
     "INC",
     "M0",
     "MU",
@@ -140,6 +143,9 @@ _MK_B = 1.6 * PI / (PI * PI - 6.0)
 _INV_CBRT_MAGIC = np.int64(0x553EF0FF289DD794)  # Moroz et al. (2021), inverse cube root
 _HYP_SERIES = 2.5  # |H| below which sinh H − H and cosh H − 1 come from their series
 _HYP_LOG_REGIME = 1.0e10  # M/e above which H = log(2(M + H)/e) to double precision
+#: False here; True in :data:`ELLIPTIC`, the copy of the kernels for elliptic orbits, whose
+#: hyperbolic branches numba then prunes: the hyperbolic solver is not compiled for an ellipse.
+ELLIPTIC_ONLY = False
 
 
 # ---------------------------------------------------------------------------------------------
@@ -556,7 +562,7 @@ def _half_angle_parts(el, t):
     """
     e = el[ECC]
     M = mean_anomaly(el, t)
-    if e < 1.0:
+    if ELLIPTIC_ONLY or e < 1.0:  # a constant True prunes the hyperbolic branch at compile time
         Er, _, k = _kepler_E_reduced(M, e)
         h = 0.5 * Er
         c = math.sqrt(1.0 - e) * math.cos(h)
@@ -606,7 +612,7 @@ def _perifocal(el, t):
     e = el[ECC]
     aa = abs(el[A])
     M = mean_anomaly(el, t)
-    if e < 1.0:
+    if ELLIPTIC_ONLY or e < 1.0:
         Er, _, _ = _kepler_E_reduced(M, e)
         ch = math.cos(0.5 * Er)
         sh = math.sin(0.5 * Er)
@@ -788,7 +794,7 @@ def eccentric_anomaly_loop(el, t, out):
     e = el[ECC]
     for i in range(t.size):
         M = mean_anomaly(el, t[i])
-        out[i] = kepler_E(M, e) if e < 1.0 else kepler_H(M, e)
+        out[i] = kepler_E(M, e) if ELLIPTIC_ONLY or e < 1.0 else kepler_H(M, e)
 
 
 @jit
@@ -796,7 +802,7 @@ def true_anomaly_loop(el, t, out):
     e = el[ECC]
     for i in range(t.size):
         M = mean_anomaly(el, t[i])
-        if e < 1.0:
+        if ELLIPTIC_ONLY or e < 1.0:
             out[i] = true_from_eccentric_scalar(kepler_E(M, e), e)
         else:
             out[i] = true_from_hyperbolic_scalar(kepler_H(M, e), e)
@@ -824,3 +830,26 @@ def frame_loop(el, t, out):
         s = radius_and_frame(el, t[i])
         for j in range(5):
             out[i, j] = s[j]
+
+
+#: The kernels of an elliptic orbit (e < 1): copies of those that branch on e, with
+#: ``ELLIPTIC_ONLY`` True (a KeplerOrbit with e < 1 runs its loops on them, and the gravity
+#: gradient's radial kernel, orbit._state_kernels.radial_kernel, its orbit on them).
+ELLIPTIC = specialise(
+    sys.modules[__name__],
+    "elliptic",
+    names=(
+        "_half_angle_parts",
+        "_radius_cos_sin_f",
+        "radius_and_radial_unit",
+        "_perifocal",
+        "state",
+        "radius_and_frame",
+        "eccentric_anomaly_loop",
+        "true_anomaly_loop",
+        "state_loop",
+        "radial_loop",
+        "frame_loop",
+    ),
+    ELLIPTIC_ONLY=True,
+)

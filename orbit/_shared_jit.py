@@ -18,6 +18,12 @@ it), so the shared module lives here, and its name says that it is shared.
   cannot import the user's module. The cached callers are the entry points of
   :mod:`attitude._core.entry_points` (built-in models, in the package's cache) and their
   per-model copies for user kernels (:mod:`attitude._user_kernels`, in :func:`user_cache_dir`).
+* :func:`specialise` makes an in-memory copy of a module whose compiled functions see other
+  objects under some of their global names (e.g. the entry points of one built-in model with
+  ``torque`` bound to that model's kernel alone): each copy compiles only the code it reaches,
+  and is cached under its own name (the function's name plus a tag).
+* :func:`interpreted` gives a module's kernels as plain Python (for a few scalar evaluations
+  from Python, e.g. when an orbit is built, where compiling would cost more than it saves).
 * Setting the environment variable ``ATTITUDE_DISABLE_JIT=1`` (or numba's own
   ``NUMBA_DISABLE_JIT=1``) before import turns every kernel into plain Python: slow, but with
   readable tracebacks (tests/test_propagate.py checks a propagation in that mode).
@@ -28,17 +34,24 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import types
 from pathlib import Path
 
 import numba
+from numba.core import types as nbtypes
+from numba.core.registry import CPUDispatcher
 
 __all__ = [
     "JIT_DISABLED",
+    "Kernel",
+    "interpreted",
     "jit",
     "jit_generic",
     "parallel_jit",
+    "rebind",
     "slp_vectorized",
     "sources_fingerprint",
+    "specialise",
     "user_cache_dir",
 ]
 
@@ -130,9 +143,24 @@ def _install_cache_locators() -> None:
                 return None
             return cls(py_func, py_file)
 
+    class _Redirect:
+        # A copy of a package kernel bound to a user module's functions (rebind): cached as if
+        # it were defined in the user module's file, never in the package's cache.
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            source = getattr(py_func, "_attitude_cache_source", None)
+            if source is None:
+                return None
+            for c in classes:
+                if getattr(c, "__module__", "") != __name__:
+                    locator = c.from_function(py_func, source)
+                    if locator is not None:
+                        return locator
+            return None
+
     classes = cls("CacheImpl")._locator_classes
     if not any(getattr(c, "__module__", "") == __name__ for c in classes):
-        classes[0:0] = [_EnvDir, _InTree, _UserWide]
+        classes[0:0] = [_Redirect, _EnvDir, _InTree, _UserWide]
 
 
 if not JIT_DISABLED:
@@ -153,15 +181,63 @@ def jit(func=None, /, **options):
 
     Usable bare (``@jit``) or with extra numba options (``@jit(inline="always")``).
     """
-    opts = {"cache": True, "nopython": True, "fastmath": False, "error_model": "numpy"}
+    # No C-callable (cfunc) wrapper: nothing takes a kernel's address; compiling one per
+    # function cost a few percent of a fresh install's first run.
+    opts = {
+        "cache": True,
+        "nopython": True,
+        "fastmath": False,
+        "error_model": "numpy",
+        "no_cfunc_wrapper": True,
+    }
     opts.update(options)
 
     def wrap(f):
         if JIT_DISABLED:
             return f
-        return numba.jit(**opts)(f)
+        disp = numba.jit(**opts)(f)
+        if opts.get("inline", "never") == "never":  # (an inlined one never compiles on its own)
+            disp.__class__ = Kernel
+        disp._attitude_jit_options = opts  # what specialise() compiles a copy with
+        return disp
 
     return wrap if func is None else wrap(func)
+
+
+class Kernel(CPUDispatcher):
+    """numba's dispatcher, for calls from Python; compiled code calls :attr:`dispatcher`, the same
+    function compiled without the CPython wrapper.
+
+    numba compiles a CPython wrapper (boxing and unboxing every argument) with every function,
+    although most kernels are only ever called from other kernels; leaving it out of those saves
+    a tenth of a fresh install's first run. This object is numba's ordinary dispatcher for calls
+    from Python (numba's fast call path, its ``stats``, ``signatures``, ...), but numba types it
+    as :attr:`dispatcher` in compiled code (``_numba_type_``): a copy compiled without the
+    wrapper, created on first use and cached under the name ``<name>__kernel`` (numba's cache
+    index does not tell the two compilations apart).
+    """
+
+    @property
+    def dispatcher(self):
+        """The dispatcher compiled code calls (no CPython wrapper)."""
+        d = self.__dict__.get("_kernel_dispatcher")
+        if d is None:
+            f = self.py_func
+            g = types.FunctionType(
+                f.__code__, f.__globals__, f.__name__, f.__defaults__, f.__closure__
+            )
+            g.__kwdefaults__ = f.__kwdefaults__
+            g.__doc__ = f.__doc__
+            g.__module__ = f.__module__
+            g.__qualname__ = f"{f.__qualname__}__kernel"  # its own cache files
+            opts = getattr(self, "_attitude_jit_options", {"nopython": True})
+            d = numba.jit(**{**opts, "no_cpython_wrapper": True})(g)
+            self._kernel_dispatcher = d
+        return d
+
+    @property
+    def _numba_type_(self):
+        return nbtypes.Dispatcher(self.dispatcher)
 
 
 def jit_generic(func=None, /, **options):
@@ -208,3 +284,149 @@ def slp_vectorized(dispatcher):
 
     dispatcher.compile = compile
     return dispatcher
+
+
+def specialise(module, tag: str, names=None, **bindings):
+    """An in-memory copy of ``module`` whose functions see ``bindings`` among their globals.
+
+    Every function defined in ``module`` with :func:`jit` (only those in ``names`` if given) is
+    copied with the same options; the copies share one namespace, the module's globals updated
+    with ``bindings`` and with the copies themselves, so calls between them stay within the
+    copy. numba resolves a global when it compiles, so a copy compiles the code its bindings
+    reach and nothing else (e.g. ``torque`` bound to one model's kernel instead of the switch
+    over every kind).
+
+    Each copy is cached on disk like the original, under the original's name with
+    ``__<tag>`` appended: ``tag`` must name the bindings uniquely (the same tag with other
+    bindings would load the other copy's machine code). Bind module-level objects of the
+    package only, never a user's function (user models get their own modules in
+    :func:`user_cache_dir`).
+
+    Returns a module object (``types.ModuleType``) whose attributes are the copy's namespace.
+    """
+    name = f"{module.__name__}[{tag}]"
+    copy = types.ModuleType(name, module.__doc__)
+    ns = copy.__dict__
+    ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
+    ns.update(bindings)
+    ns["__kernel_tag__"] = tag
+    rebound = []
+    for key, obj in vars(module).items():
+        if key in bindings or (names is not None and key not in names):
+            continue
+        if hasattr(obj, "_attitude_rebind"):  # a rebind() of the module: redone in the copy
+            rebound.append((key, obj._attitude_rebind))
+            continue
+        f = getattr(obj, "py_func", obj) if not JIT_DISABLED else obj
+        if not isinstance(f, types.FunctionType) or f.__module__ != module.__name__:
+            continue
+        if not JIT_DISABLED and not hasattr(obj, "_attitude_jit_options"):
+            continue  # a plain Python helper of the module: shared as it is
+        g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
+        g.__kwdefaults__ = f.__kwdefaults__
+        g.__doc__ = f.__doc__
+        g.__module__ = f.__module__
+        g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
+        ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
+    for key, (template, rtag, rnames, cache, options) in rebound:
+        ns[key] = rebind(template, ns, rtag, cache=cache, options=options, **rnames)
+    return copy
+
+
+def rebind(
+    template,
+    namespace: dict,
+    tag: str,
+    *,
+    cache: bool | None = None,
+    options: dict | None = None,
+    **names: str,
+):
+    """A copy of the kernel ``template`` (of another module) with some of its globals bound to
+    the objects a module has under the given names.
+
+    ``dop853_canonical = rebind(dop853_run, globals(), "canonical", RHS="canonical_rhs")`` in a
+    module of entry points: the DOP853 driver of :mod:`attitude._core.rk` compiled with that
+    module's ``canonical_rhs`` as its right-hand side ``RHS``. The right-hand side is a global of
+    the copy, not an argument: a compiled function that takes a compiled function as an argument
+    cannot be cached on its own, so it must be inlined into a cached caller, and numba's
+    inliner deep-copies the whole inlined loop (a second per cold start for the DOP853 driver).
+
+    The copy is cached under the template's name with ``__<tag>`` appended (and the tag of a
+    :func:`specialise` copy of the module, which redoes the rebind with its own objects); for a
+    module outside the package (a user model, :mod:`attitude._user_kernels`) also that module's
+    name, and the cache goes with that module's file, never into the package's cache.
+    ``cache=False`` compiles it for this process only; ``options`` are jit options of the
+    copy that replace the template's (e.g. ``{"_nrt": False}``: no reference counting).
+    """
+    f = getattr(template, "py_func", template)
+    tags = [tag, namespace.get("__kernel_tag__")]
+    file = str(namespace.get("__file__") or "")
+    outside = not os.path.abspath(file).startswith(_PACKAGE_DIRS)
+    if outside:  # a user module: its own name and cache
+        tags.append(str(namespace["__name__"]))
+        if not os.path.isfile(file):
+            cache = False
+    glob = dict(f.__globals__)
+    glob.update({g: namespace[n] for g, n in names.items()})
+    g = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
+    g.__kwdefaults__ = f.__kwdefaults__
+    g.__doc__ = f.__doc__
+    g.__module__ = f.__module__
+    g.__qualname__ = "__".join([f.__qualname__, *filter(None, tags)])  # its cache files
+    if outside and cache is not False:
+        g._attitude_cache_source = os.path.abspath(file)
+    if JIT_DISABLED:
+        k = g
+    else:
+        opts = dict(template._attitude_jit_options)
+        opts.update(options or {})
+        if cache is not None:
+            opts["cache"] = cache
+        k = jit(g, **opts)
+    k._attitude_rebind = (template, tag, names, cache, options)
+    return k
+
+
+_INTERPRETED: dict[str, types.ModuleType] = {}
+
+
+def interpreted(module) -> types.ModuleType:
+    """``module``'s kernels as plain Python functions calling each other: nothing compiles.
+
+    For a few scalar evaluations from Python (an orbit's mean anomaly at epoch when it is built,
+    a reference frame at the initial time): the same code and IEEE arithmetic as the compiled
+    kernels (numba does not contract or reassociate without ``fastmath``), so the same results,
+    without compiling a kernel and everything it calls before a run can start. Kernels and
+    modules of the package that ``module`` uses are followed into their interpreted copies.
+    Python raises where compiled code returns inf or NaN (a division by zero, a math domain
+    error): call it with validated input, and fall back to the compiled kernel if it raises.
+    """
+    name = module.__name__
+    if name in _INTERPRETED:
+        return _INTERPRETED[name]
+    copy = types.ModuleType(f"{name}[interpreted]", module.__doc__)
+    _INTERPRETED[name] = copy  # before following imports (modules may import each other)
+    ns = copy.__dict__
+    ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
+    for key, obj in vars(module).items():
+        if isinstance(obj, types.ModuleType):
+            if obj.__name__ in sys.modules and _in_package(obj):
+                ns[key] = interpreted(obj)
+            continue
+        f = getattr(obj, "py_func", obj)
+        if not isinstance(f, types.FunctionType):
+            continue
+        if f.__module__ == name:
+            g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
+            g.__kwdefaults__ = f.__kwdefaults__
+            ns[key] = g
+        elif f is not obj:  # a kernel imported from another module of the package
+            home = sys.modules.get(f.__module__)
+            if home is not None and _in_package(home) and getattr(home, f.__name__, None) is obj:
+                ns[key] = getattr(interpreted(home), f.__name__)
+    return copy
+
+
+def _in_package(module) -> bool:
+    return os.path.abspath(getattr(module, "__file__", None) or "").startswith(_PACKAGE_DIRS)

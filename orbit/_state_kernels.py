@@ -77,9 +77,11 @@ density, Sun direction) can be stored and interpolated the same way.
 from __future__ import annotations
 
 import math
+import sys
+from typing import Any
 
 from . import _kernels as _k
-from ._shared_jit import jit
+from ._shared_jit import jit, specialise
 
 __all__ = [
     "E_H",
@@ -110,6 +112,7 @@ __all__ = [
     "orbit_frame",
     "orbit_radial",
     "orbit_state",
+    "radial_kernel",
     "table_interval",
 ]
 
@@ -454,6 +457,27 @@ def _eph_state(d, t, with_velocity):
     return x, y, z, vx, vy, vz
 
 
+@jit
+def _eph_radial(d, t):
+    x, y, z, _, _, _ = _eph_state(d, t, False)
+    r = math.sqrt(x * x + y * y + z * z)
+    return r, x / r, y / r, z / r
+
+
+def radial_kernel(d) -> tuple[str, Any]:
+    """(tag, kernel): the kernel ``orbit_radial`` runs for the orbit ``d`` (its type's), for
+    compiled code specialised to one orbit (attitude._core.models binds it instead of the
+    dispatcher); an elliptic Kepler orbit gets the copy without the hyperbolic solver."""
+    kind = int(d[TYPE])
+    if kind == TYPE_KEPLER:
+        if d[K_EL + _k.ECC] < 1.0:
+            return "kepler_elliptic", _ELLIPTIC._kepler_radial
+        return "kepler", _kepler_radial
+    if kind == TYPE_SECULAR_J2:
+        return "j2", _j2_radial
+    return "ephemeris", _eph_radial
+
+
 # ---------------------------------------------------------------------------------------------
 # From a state to the orbital frame.
 @jit
@@ -521,9 +545,7 @@ def orbit_radial(d, t):
         return _kepler_radial(d, t)
     if kind == TYPE_SECULAR_J2:
         return _j2_radial(d, t)
-    x, y, z, _, _, _ = _eph_state(d, t, False)
-    r = math.sqrt(x * x + y * y + z * z)
-    return r, x / r, y / r, z / r
+    return _eph_radial(d, t)
 
 
 @jit
@@ -680,3 +702,7 @@ def acceleration_loop(d, t, out):
         s = orbit_acceleration(d, t[i])
         for j in range(3):
             out[i, j] = s[j]
+
+
+# The Kepler radial kernel of an elliptic orbit (radial_kernel): on orbit._kernels.ELLIPTIC.
+_ELLIPTIC = specialise(sys.modules[__name__], "elliptic", names=("_kepler_radial",), _k=_k.ELLIPTIC)

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _kernels as _k
 from . import _state_kernels as _sk
+from ._shared_jit import interpreted
 from .base import OrbitBase
 from .errors import OrbitValueError, PerigeeInsideEarthWarning
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
@@ -115,6 +116,20 @@ def kepler_kernel_data(el: np.ndarray) -> np.ndarray:
     )
     d.setflags(write=False)
     return d
+
+
+def _mean_from_true(f: float, e: float, hyperbolic: bool) -> float:
+    """Mean anomaly from the true anomaly, by the kernels of orbit._kernels run as plain Python
+    (one scalar: compiling them would cost a fresh install's first run ~0.4 s); where Python
+    raises (an overflow), the compiled kernel's inf/NaN, which the caller then rejects."""
+    for k in (interpreted(_k), _k):
+        try:
+            if hyperbolic:
+                return k.mean_from_hyperbolic_scalar(k.hyperbolic_from_true_scalar(f, e), e)
+            return k.mean_from_eccentric_scalar(k.eccentric_from_true_scalar(f, e), e)
+        except (ArithmeticError, ValueError):
+            continue
+    raise AssertionError("unreachable: the compiled kernels do not raise")
 
 
 class KeplerOrbit(OrbitBase):
@@ -235,12 +250,12 @@ class KeplerOrbit(OrbitBase):
                         f"f0: a hyperbola with e = {e_!r} only reaches |f| < acos(−1/e) = "
                         f"{lim!r} rad, got f0 = {f0_!r}"
                     )
-                M0_ = _k.mean_from_hyperbolic_scalar(_k.hyperbolic_from_true_scalar(f0_, e_), e_)
+                M0_ = _mean_from_true(f0_, e_, hyperbolic)
         else:
             if f0_ is not None:
                 if abs(f0_) > MAX_MEAN_ANOMALY:
                     raise OrbitValueError(f"f0: |f0| must be at most 2**50 rad, got {f0_!r}")
-                M0_ = _k.mean_from_eccentric_scalar(_k.eccentric_from_true_scalar(f0_, e_), e_)
+                M0_ = _mean_from_true(f0_, e_, hyperbolic)
             elif abs(M0_) > MAX_MEAN_ANOMALY:
                 raise OrbitValueError(f"M0: |M0| must be at most 2**50 rad, got {M0_!r}")
         try:  # |a|³ overflows (a = 1e300 km) or vanishes (a = 1e-300 km): no orbit
@@ -263,8 +278,12 @@ class KeplerOrbit(OrbitBase):
         el[_k.T0] = t0_
         el[_k.MU] = mu_
         el[_k.N] = n
-        el.setflags(write=False)
+        # Writable (never modified): the loops then run on the compiled code of the gravity
+        # gradient's orbit kernels (numba compiles a read-only array as another type).
         self._el = el
+        # The kernels this orbit's loops run on: an ellipse's are compiled without the
+        # hyperbolic solver.
+        self._kernels = _k.ELLIPTIC if e_ < 1.0 else _k
         self._f0 = f0_
         self._data = kepler_kernel_data(el)
 
@@ -487,7 +506,7 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty(flat.size)
-        _k.eccentric_anomaly_loop(self._el, flat, out)
+        self._kernels.eccentric_anomaly_loop(self._el, flat, out)
         return self._shape(out, shape)
 
     def true_anomaly(self, t: Any) -> Any:
@@ -503,13 +522,13 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty(flat.size)
-        _k.true_anomaly_loop(self._el, flat, out)
+        self._kernels.true_anomaly_loop(self._el, flat, out)
         return self._shape(out, shape)
 
     def _radial(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
         flat, shape = self._times(t)
         out = np.empty((flat.size, 4))
-        _k.radial_loop(self._el, flat, out)
+        self._kernels.radial_loop(self._el, flat, out)
         return out, shape
 
     def radius(self, t: Any) -> Any:
@@ -543,7 +562,7 @@ class KeplerOrbit(OrbitBase):
     def _state(self, t: Any) -> tuple[np.ndarray, tuple[int, ...]]:
         flat, shape = self._times(t)
         out = np.empty((flat.size, 6))
-        _k.state_loop(self._el, flat, out)
+        self._kernels.state_loop(self._el, flat, out)
         return out, shape
 
     def position(self, t: Any) -> np.ndarray:
@@ -609,7 +628,7 @@ class KeplerOrbit(OrbitBase):
         """
         flat, shape = self._times(t)
         out = np.empty((flat.size, 5))
-        _k.frame_loop(self._el, flat, out)
+        self._kernels.frame_loop(self._el, flat, out)
         return out[:, 1:].reshape((*shape, 4))
 
     def __repr__(self) -> str:

@@ -153,7 +153,10 @@ def test_user_kernels_stay_out_of_the_package_cache_across_processes(tmp_path):
     for nbi, _overloads in _index_entries(cache):
         text = nbi.read_bytes()
         assert b"mymodel" not in text and b"othermodel" not in text, nbi
-        assert b"attitude_user_" not in text, nbi
+        assert b"attitude_user_" not in text and "attitude_user_" not in nbi.name, nbi
+    # the user model's copy of the DOP853 driver (orbit._shared_jit.rebind) is cached with it
+    user = [p.name for p in (cache / "user").rglob("*.nbi")]
+    assert any(n.startswith("rk.dop853_run__canonical__attitude_user_") for n in user), user
 
 
 def test_model_key_follows_the_source_and_the_values_it_reads(tmp_path):
@@ -216,3 +219,60 @@ def test_package_cache_indexes_load_and_hold_no_function_typed_signatures():
                     assert not isinstance(ty, (types.Dispatcher, types.FunctionType)), (nbi, sig)
                 n += 1
     assert n > 0  # the suite compiled and cached package kernels
+
+
+MAIN_JOB = textwrap.dedent(
+    """
+    import json, sys
+    from numba.core import event
+    compiled = []
+    class Listener(event.Listener):
+        def on_start(self, ev):
+            pass
+        def on_end(self, ev):
+            f = getattr(ev.data.get("dispatcher"), "py_func", None)
+            compiled.append(getattr(f, "__qualname__", "?"))
+    event.register("numba:compile", Listener())
+    from attitude.cli import main
+    main(["run", sys.argv[1], "-o", sys.argv[2], "-q"])
+    print(json.dumps(compiled))
+    """
+)
+
+
+def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
+    """The README's main job in a fresh install: what its first run compiles is all cached.
+
+    Fresh, empty numba caches (``NUMBA_CACHE_DIR``, ``ATTITUDE_CACHE_DIR``): the first
+    ``attitude run scenarios/paper_keplerian.toml`` compiles (the kernels of the gravity
+    gradient alone on an elliptic Kepler orbit, attitude._core.models); a second process loads
+    every one of them from the cache (numba's compile events: none) and writes the same file.
+    """
+    env = {
+        **os.environ,
+        "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+        "ATTITUDE_CACHE_DIR": str(tmp_path / "attitude"),
+        "PYTHONPATH": str(ROOT),
+        "PYTHONWARNINGS": "ignore",
+    }
+    script = tmp_path / "main_job.py"
+    script.write_text(MAIN_JOB)
+    scenario = str(ROOT / "scenarios" / "paper_keplerian.toml")
+
+    def run(out: Path) -> list[str]:
+        res = subprocess.run(
+            [sys.executable, str(script), scenario, str(out)],
+            cwd=tmp_path, env=env, capture_output=True, text=True, timeout=900,
+        )  # fmt: skip
+        assert res.returncode == 0, res.stderr
+        return json.loads(res.stdout.strip().splitlines()[-1])
+
+    first = run(tmp_path / "first.nc")
+    assert any(name.startswith("dop853_run__canonical") for name in first), first
+    second = run(tmp_path / "second.nc")
+    assert second == []  # every kernel the job needs came from the cache
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "first.nc") as a, xr.open_dataset(tmp_path / "second.nc") as b:
+        for name in a.variables:
+            np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)

@@ -26,9 +26,11 @@ user model compiles once per change of its source file, not once per process.
 Why whole entry points and not a function argument: numba cannot cache a function compiled
 for a *function-typed argument* without recording the caller's function type in the cache
 index (which then fails to load in any process where that function's module is missing). The
-generic loops (``dop853_run``, ``canonical_rhs_with``, ...) therefore take the model as an
+generic loops (``canonical_rhs_with``, ``composition_run``, ...) therefore take the model as an
 argument but are never compiled on their own (``jit_generic``: inlined, never cached); they
-are inlined here, where the model is a module global.
+are inlined here, where the model is a module global. The DOP853 driver, the largest, is not
+inlined (numba's inliner deep-copies it, a second of a cold start): it reads its right-hand
+side from a global, and ``rebind`` compiles a copy of it per right-hand side of this module.
 
 Every import below is absolute, so the file also works as the template of a user module.
 
@@ -65,7 +67,7 @@ from attitude._core.potentials import (
 )
 from attitude._core.rk import dop853_run
 from attitude._core.splitting import composition_run
-from orbit._shared_jit import jit, parallel_jit
+from orbit._shared_jit import jit, parallel_jit, rebind
 
 # --- model: begin (replaced in user modules) ---
 # The built-in models allocate nothing: their hot loops compile without reference counting
@@ -115,15 +117,13 @@ def canonical_rhs(t, y, params, dydt):
     canonical_rhs_with(torque, t, y, params, dydt)
 
 
-@jit(_nrt=REFCOUNT)
-def dop853_canonical(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on eq. 7 (layout of the arguments: :func:`attitude._core.rk.dop853_run`)."""
-    return dop853_run(
-        canonical_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
-        rtol, atol, t_end, max_step, max_steps,
-    )  # fmt: skip
+#: DOP853 on eq. 7: :func:`attitude._core.rk.dop853_run` compiled with ``canonical_rhs`` as its
+#: right-hand side (arguments ``params, y0, t0, t_out, y_out, work, tstate, counters, rtol,
+#: atol, t_end, max_step, max_steps``; layouts in attitude._core.rk), without reference counting
+#: for the built-in models (REFCOUNT).
+dop853_canonical = rebind(
+    dop853_run, globals(), "canonical", options={"_nrt": REFCOUNT}, RHS="canonical_rhs"
+)
 
 
 @jit
@@ -173,15 +173,8 @@ def euler_angles_rhs(t, y, params, dydt):
     euler_angles_rhs_with(torque, t, y, params, dydt)
 
 
-@jit
-def dop853_euler_angles(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on the Euler-angle equations."""
-    return dop853_run(
-        euler_angles_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
-        rtol, atol, t_end, max_step, max_steps,
-    )  # fmt: skip
+#: DOP853 on the Euler-angle equations (attitude._core.rk.dop853_run with euler_angles_rhs).
+dop853_euler_angles = rebind(dop853_run, globals(), "euler_angles", RHS="euler_angles_rhs")
 
 
 @jit
@@ -190,15 +183,8 @@ def schwab_rhs(t, y, params, dydt):
     schwab_rhs_with(torque, t, y, params, dydt)
 
 
-@jit
-def dop853_schwab(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on Schwab's equations."""
-    return dop853_run(
-        schwab_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
-        rtol, atol, t_end, max_step, max_steps,
-    )  # fmt: skip
+#: DOP853 on Schwab's equations (attitude._core.rk.dop853_run with schwab_rhs).
+dop853_schwab = rebind(dop853_run, globals(), "schwab", RHS="schwab_rhs")
 
 
 @jit
@@ -207,15 +193,8 @@ def euler_equations_rhs(t, y, params, dydt):
     euler_equations_rhs_with(torque, t, y, params, dydt)
 
 
-@jit
-def dop853_euler_equations(
-    params, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps
-):
-    """DOP853 on Euler's equations."""
-    return dop853_run(
-        euler_equations_rhs, params, y0, t0, t_out, y_out, work, tstate, counters,
-        rtol, atol, t_end, max_step, max_steps,
-    )  # fmt: skip
+#: DOP853 on Euler's equations (attitude._core.rk.dop853_run with euler_equations_rhs).
+dop853_euler_equations = rebind(dop853_run, globals(), "euler_equations", RHS="euler_equations_rhs")
 
 
 # Ensembles (attitude.ensemble; array layout in attitude._core.ensemble) ------------------------

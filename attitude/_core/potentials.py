@@ -20,6 +20,11 @@ to the offset ``base`` of its kind code, and one cached, compiled function
 (:func:`builtin_torque`) serves every model and every sum of built-in models: the integrators
 that call it are cached on disk too.
 
+A model that is one term (not a sum) of the three classic kinds runs on the kernels of the
+section "one model alone" instead: they call its kind's functions directly, and the entry
+points compiled with them (:mod:`attitude._core.models`) compile that kind's code only, not the
+switch over every kind (a fresh install's first run compiles a third of the code).
+
 A torque is a function of the attitude q, the body angular velocity ω (body axes; rate-dependent
 models such as eddy-current damping use it), and the time t (the orbit and the environment are
 functions of t, read from the model's numbers). Torques are body-frame components; they enter
@@ -70,7 +75,7 @@ ZERO3 = (0.0, 0.0, 0.0)
 
 
 @jit(_nrt=False)
-def heavy_top_torque(q, params, base):
+def heavy_top_torque(q, w, t, params, base=P_KIND):
     # Gravity -weight s3 acts at the centre of mass c: τ_B = c × F_B, F_B = q̃∘(−W s3)∘q.
     w = params[base + 1]
     c = (params[base + 2], params[base + 3], params[base + 4])
@@ -79,7 +84,7 @@ def heavy_top_torque(q, params, base):
 
 
 @jit(_nrt=False)
-def heavy_top_potential(q, params, base):
+def heavy_top_potential(q, t, params, base=P_KIND):
     # V = W (q∘c∘q̃)·s3: the potential energy of the weight (height of the centre of mass).
     # Arribas et al. eq. 18 prints U = x^c·F with F = −Mg s3, which is −V; see docs/potentials.md.
     w = params[base + 1]
@@ -113,7 +118,7 @@ def gravity_gradient_potential_radial(q, r, ux, uy, uz, mu, params):
 
 
 @jit(_nrt=False)
-def gravity_gradient_torque(q, t, params, base):
+def gravity_gradient_torque(q, w, t, params, base=P_KIND):
     # τ_B = 3μ/r³ x̂_B × (I x̂_B): minus the derivative of eq. 20 under body rotations.
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     c = cross(xb, ixb)
@@ -121,7 +126,7 @@ def gravity_gradient_torque(q, t, params, base):
 
 
 @jit(_nrt=False)
-def gravity_gradient_potential(q, t, params, base):
+def gravity_gradient_potential(q, t, params, base=P_KIND):
     # Arribas et al. eq. 20: U = 3μ/(2r³) x̂_B·I x̂_B (q-independent terms of eq. 19 dropped).
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
@@ -132,9 +137,9 @@ def term_torque(q, w, t, params, base):
     """Body-frame torque of the built-in model whose block starts at ``params[base]``."""
     kind = int(params[base])
     if kind == KIND_HEAVY_TOP:
-        return heavy_top_torque(q, params, base)
+        return heavy_top_torque(q, w, t, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
-        return gravity_gradient_torque(q, t, params, base)
+        return gravity_gradient_torque(q, w, t, params, base)
     if kind == KIND_MAGNETIC_DIPOLE:
         return magnetic_torque(q, t, params, base)
     if kind == KIND_EDDY_CURRENTS:
@@ -151,7 +156,7 @@ def term_potential(q, t, params, base):
     """Potential energy of the built-in model whose block starts at ``params[base]`` (0: none)."""
     kind = int(params[base])
     if kind == KIND_HEAVY_TOP:
-        return heavy_top_potential(q, params, base)
+        return heavy_top_potential(q, t, params, base)
     if kind == KIND_GRAVITY_GRADIENT:
         return gravity_gradient_potential(q, t, params, base)
     if kind == KIND_MAGNETIC_DIPOLE:
@@ -182,7 +187,8 @@ def term_base(j, params):
 def builtin_torque(q, w, t, params):
     """Body-frame torque of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
-        return term_torque(q, w, t, params, P_KIND)
+        # int(): an int64 base, as in the sum below (a literal 3 would compile the switch twice)
+        return term_torque(q, w, t, params, int(P_KIND))
     tau = term_torque(q, w, t, params, int(params[P_OFFSETS]))
     for j in range(1, int(params[P_NTERMS])):
         d = term_torque(q, w, t, params, int(params[P_OFFSETS + j]))
@@ -194,7 +200,7 @@ def builtin_torque(q, w, t, params):
 def builtin_potential(q, t, params):
     """Potential energy of the built-in model (or sum) described by ``params``."""
     if int(params[P_KIND]) != KIND_SUM:
-        return term_potential(q, t, params, P_KIND)
+        return term_potential(q, t, params, int(P_KIND))
     u = term_potential(q, t, params, int(params[P_OFFSETS]))
     for j in range(1, int(params[P_NTERMS])):
         u += term_potential(q, t, params, int(params[P_OFFSETS + j]))
@@ -205,6 +211,41 @@ def builtin_potential(q, t, params):
 def builtin_term_torque(j, q, w, t, params):
     """Torque of term ``j`` of the built-in part (the model itself when it is not a sum)."""
     return term_torque(q, w, t, params, term_base(j, params))
+
+
+# One model alone ------------------------------------------------------------------------------
+# The model of a single built-in term (not a sum): its kind's kernels called directly (their
+# ``base`` defaults to the block of a single model), for the entry points compiled for that
+# model alone (attitude._core.models binds them as the ``torque``/``potential``/``term_torque``/
+# ``n_terms`` of attitude._core.entry_points). The gravity gradient's are further specialised
+# there to the orbit (``orbit_radial`` bound to its type's kernel).
+
+
+@jit
+def torque_free_torque(q, w, t, params):
+    """No torque (the free rigid body)."""
+    return ZERO3
+
+
+@jit
+def torque_free_potential(q, t, params):
+    """No potential energy."""
+    return 0.0
+
+
+MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._core.models
+
+
+@jit
+def model_term_torque(j, q, w, t, params):
+    """Term j of a model that is one term: its torque."""
+    return MODEL_TORQUE(q, w, t, params)
+
+
+@jit
+def model_n_terms(params):
+    """A model alone is one term."""
+    return 1
 
 
 # User models ----------------------------------------------------------------------------------

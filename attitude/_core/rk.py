@@ -1,8 +1,10 @@
 """Compiled adaptive Runge–Kutta integration (DOP853) with dense output.
 
 One generic stepper: the method is the data in :mod:`attitude._core.tableaux`, the physics is
-the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``),
-and the whole step loop runs in compiled code. Step-size control and error norm follow
+the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``:
+an argument of the step kernels, which are inlined; the global ``RHS`` of the driver
+:func:`dop853_run`, compiled once per right-hand side), and the whole step loop runs in
+compiled code. Step-size control and error norm follow
 Hairer, Nørsett & Wanner, *Solving ODEs I*, Sect. II.4 and II.10 (DOP853), as in SciPy's
 ``solve_ivp(method="DOP853")``, so the two paths take comparable steps.
 
@@ -108,7 +110,7 @@ def _initial_step(rhs, params, t0, y0, f0, direction, rtol, atol, t_span, work, 
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    return min(100.0 * h0, h1, t_span)
+    return min(min(100.0 * h0, h1), t_span)  # the two-argument min: compiled once
 
 
 @jit_generic
@@ -263,9 +265,13 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
     return SUCCESS, h_abs
 
 
-@jit_generic
+#: The right-hand side ``rhs(t, y, params, dydt)`` of a copy of :func:`dop853_run`: the entry
+#: points bind it (``orbit._shared_jit.rebind``); the original here is never compiled.
+RHS = None
+
+
+@jit
 def dop853_run(
-    rhs,
     params,
     y0,
     t0,
@@ -304,58 +310,52 @@ def dop853_run(
         tstate[1] = 0.0
         tstate[2] = t0
         tstate[3] = 0.0
-        rhs(t0, y, params, f)
+        RHS(t0, y, params, f)
         counters[1] += 1
         counters[3] = 1
         counters[4] = 0
     direction = 1.0 if t_end >= tstate[0] else -1.0
 
     k = 0
-    # Outputs already covered by the stored state (continuation of a chunked run).
-    while k < m:
-        to = t_out[k]
-        if to == tstate[0]:
-            for i in range(n):
-                y_out[k, i] = y[i]
-            k += 1
-        elif (
-            counters[0] > 0
-            and direction * (to - tstate[2]) >= 0.0
-            and direction * (tstate[0] - to) > 0.0
-        ):
-            if counters[4] == 0:
-                _dense_coefficients(rhs, params, work, tstate, counters)
-            _interpolate(work, tstate, to, y_out[k])
-            k += 1
-        else:
-            break
-    if k == m:
-        return SUCCESS, k
-
-    t = tstate[0]
     h_abs = tstate[1]
-    if h_abs == 0.0:
-        h_abs = _initial_step(
-            rhs, params, t, y, f, direction, rtol, atol, abs(t_end - t), work, counters
-        )
-    while k < m:
+    started = False
+    stepped = False
+    while True:
+        # Serve the output times the stored state covers: the current time, and those before
+        # it (inside the last step: its dense output). On entry, continuing a chunked run, only
+        # those inside the last step. (One place serves them all, so the dense-output stages
+        # are compiled once.)
+        while k < m:
+            to = t_out[k]
+            if to == tstate[0]:
+                for i in range(n):
+                    y_out[k, i] = y[i]
+            elif (
+                counters[0] > 0
+                and (stepped or direction * (to - tstate[2]) >= 0.0)
+                and direction * (tstate[0] - to) > 0.0
+            ):
+                if counters[4] == 0:
+                    _dense_coefficients(RHS, params, work, tstate, counters)
+                _interpolate(work, tstate, to, y_out[k])
+            else:
+                break
+            k += 1
+        if k == m:
+            return SUCCESS, k
+        if not started:
+            started = True
+            if h_abs == 0.0:
+                t = tstate[0]
+                h_abs = _initial_step(
+                    RHS, params, t, y, f, direction, rtol, atol, abs(t_end - t), work, counters
+                )
         if counters[0] >= max_steps:
             tstate[1] = h_abs
             return TOO_MANY_STEPS, k
         status, h_abs = dop853_step(
-            rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step
+            RHS, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step
         )
         if status != SUCCESS:
             return status, k
-        t = tstate[0]
-        # Serve every output time inside the step just taken.
-        while k < m and direction * (t - t_out[k]) >= 0.0:
-            if t_out[k] == t:
-                for i in range(n):
-                    y_out[k, i] = y[i]
-            else:
-                if counters[4] == 0:
-                    _dense_coefficients(rhs, params, work, tstate, counters)
-                _interpolate(work, tstate, t_out[k], y_out[k])
-            k += 1
-    return SUCCESS, k
+        stepped = True

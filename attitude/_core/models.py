@@ -1,0 +1,76 @@
+"""Which compiled entry points a built-in model runs on.
+
+:mod:`attitude._core.entry_points` is written against a model, five global kernels
+(``torque``, ``potential``, ``term_torque``, ``n_terms``, ``event``). Bound to the built-in switch
+over every kind (:func:`attitude._core.potentials.builtin_torque`), one set of entry points
+serves every built-in model and every sum of them, but compiling it compiles every kind: the
+environment models, the heavy top, and the gravity gradient with every orbit type (Kepler,
+secular J2, Hermite ephemeris), about 20 s on a fresh install before the first step.
+
+A model that is a single term of the classic kinds (torque-free, heavy top, gravity gradient)
+gets the same entry points compiled with its own kernels bound instead
+(:func:`orbit._shared_jit.specialise`: an in-memory copy of the module, cached on disk under
+the model's tag), so its first run compiles its own code only; the gravity gradient's kernels
+are specialised once more to the orbit (``orbit_radial`` bound to the kernel of its type,
+:func:`orbit._state_kernels.radial_kernel`; an elliptic Kepler orbit's without the hyperbolic
+solver).
+The arithmetic is the same code, so the results are bit-identical to the generic entry points.
+Sums of models and the environment models run on the generic entry points; user models on
+their copies in the user cache (:mod:`attitude._user_kernels`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from orbit._shared_jit import specialise
+from orbit._state_kernels import radial_kernel
+
+from . import entry_points as _generic
+from . import potentials as _kp
+
+__all__ = ["entry_points"]
+
+#: The gravity-gradient kernels that read the orbit (copied per orbit type).
+_GG_KERNELS = (
+    "gravity_gradient_terms",
+    "gravity_gradient_torque",
+    "gravity_gradient_potential",
+)
+
+_CACHE: dict[str, Any] = {}
+
+
+def _model(tag: str, torque: Any, potential: Any) -> Any:
+    """The entry points with ``torque``/``potential`` of one model alone (cached per process)."""
+    if tag not in _CACHE:
+        term = specialise(_kp, tag, names=("model_term_torque",), MODEL_TORQUE=torque)
+        _CACHE[tag] = specialise(
+            _generic,
+            tag,
+            torque=torque,
+            potential=potential,
+            term_torque=term.model_term_torque,
+            n_terms=_kp.model_n_terms,
+        )
+    return _CACHE[tag]
+
+
+def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
+    """The compiled entry points of a built-in model of kind ``kind`` (``KIND_*`` of
+    :mod:`attitude._core.potentials`; a gravity gradient also gives its orbit's
+    ``kernel_data()``): specialised to that model alone where there is a specialisation, else
+    the generic module.
+    """
+    if kind == _kp.KIND_TORQUE_FREE:
+        return _model("torque_free", _kp.torque_free_torque, _kp.torque_free_potential)
+    if kind == _kp.KIND_HEAVY_TOP:
+        return _model("heavy_top", _kp.heavy_top_torque, _kp.heavy_top_potential)
+    if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_data is not None:
+        orbit_tag, radial = radial_kernel(orbit_data)
+        tag = f"gravity_gradient_{orbit_tag}"
+        if tag not in _CACHE:
+            gg = specialise(_kp, tag, names=_GG_KERNELS, orbit_radial=radial)
+            return _model(tag, gg.gravity_gradient_torque, gg.gravity_gradient_potential)
+        return _CACHE[tag]
+    return _generic
