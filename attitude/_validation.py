@@ -6,6 +6,7 @@ arrays come out, or an :mod:`attitude.errors` exception naming the argument and 
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -104,7 +105,7 @@ def as_float_array(
         raise AttitudeValueError(f"{name}: expected a {ndim}-D array, got shape {arr.shape}")
     if trailing is not None and (arr.ndim == 0 or arr.shape[-1] != trailing):
         raise AttitudeValueError(f"{name}: expected shape (..., {trailing}), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
         raise AttitudeValueError(f"{name}: contains a non-finite value (NaN or inf) at index {bad}")
     return arr
@@ -121,6 +122,8 @@ def as_scalar(x: Any, name: str, *, unit: Any = None) -> float:
     Strings, booleans, complex numbers and arrays are refused with an
     :class:`~attitude.errors.AttitudeTypeError` naming ``name``.
     """
+    if type(x) is float and math.isfinite(x):  # the common case, without numpy (µs per call)
+        return x
     if isinstance(x, (bool, np.bool_)):
         raise AttitudeTypeError(f"{name}: expected a number, got the boolean {x!r}")
     arr = as_float_array(x, name, unit=unit)

@@ -277,11 +277,19 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
             raise AttitudeValueError(
                 f"{name}: expected one quaternion of shape (4,), got {a.shape}"
             )
+    return _project(q, Q, tol)
+
+
+def _project(
+    q: np.ndarray, Q: np.ndarray, tol: float = 1e-6
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`project_state` of validated float arrays of shape (4,) (a nonzero, finite q)."""
     # Norms and q·Q of copies scaled by a power of two (exact, so the results are those of the
     # unscaled formulas bit for bit wherever these do not overflow): a plain |Q| of
     # (1e155, 1e155, 0, 0) is inf, which made any q·Q look relatively 0.
     sq = _pow2(q)
-    nq = float(np.linalg.norm(q / sq)) * sq
+    qs = q / sq
+    nq = math.sqrt(float(qs.dot(qs))) * sq  # np.linalg.norm's own formula for 1-D arrays
     dn = abs(nq - 1.0)
     if dn > tol:
         raise AttitudeValueError(
@@ -291,8 +299,8 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
     qn = q / nq
     sQ = _pow2(Q)
     Qs = Q / sQ
-    nQs = float(np.linalg.norm(Qs))  # |Q| / sQ
-    qQs = float(np.dot(qn, Qs))  # q·Q / sQ
+    nQs = math.sqrt(float(Qs.dot(Qs)))  # |Q| / sQ (as np.linalg.norm)
+    qQs = float(qn.dot(Qs))  # q·Q / sQ
     qQ = qQs * sQ
     dq = abs(qQs) / nQs if nQs * sQ >= 1.0 else abs(qQ)  # |q·Q| / max(|Q|, 1)
     if dq > tol:
@@ -306,7 +314,7 @@ def project_state(q: Any, Q: Any, *, tol: float = 1e-6) -> tuple[np.ndarray, np.
 
 def _pow2(x: np.ndarray) -> float:
     """A power of two within a factor 2 of max|x| (1.0 for x = 0): an exact scale for norms."""
-    m = float(np.max(np.abs(x)))
+    m = float(np.abs(x).max())
     if m == 0.0:
         return 1.0
     return math.ldexp(1.0, math.frexp(m)[1] - 1)

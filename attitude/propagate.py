@@ -35,7 +35,7 @@ from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
 from ._validation import as_float_array, as_int, as_positive, as_times
 from .body import RigidBody
-from .canonical import project_state
+from .canonical import _project
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
@@ -258,6 +258,8 @@ def propagate(
     if formulation != "canonical":
         form = get_formulation(formulation, method)
     q0a = as_float_array(q0, "q0", trailing=4, ndim=1)
+    if not q0a.any():
+        raise AttitudeValueError("q0: the zero quaternion does not represent a rotation")
     # Q has units of angular momentum: a Quantity is accepted when the body has units.
     Q0a = as_float_array(
         Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
@@ -320,7 +322,7 @@ def propagate(
 
     if progress is not None and chunk is None:  # report during the run, not once at the end
         chunk = max(1, -(-tt.shape[0] // PROGRESS_CHUNKS))
-    q0p, Q0p, correction = project_state(q0a, Q0a)
+    q0p, Q0p, correction = _project(q0a, Q0a)  # q0a, Q0a validated above
     if correction > PROJECTION_WARN:
         warnings.warn(
             f"initial state projected onto |q| = 1, q·Q = 0 (correction {correction:.2g})",
