@@ -50,6 +50,7 @@ from .potentials import (
     TorqueFree,
 )
 from .propagate import propagate
+from .results import Trajectory
 
 del _accessor
 
@@ -71,6 +72,7 @@ __all__ = [
     "SingularityError",
     "SolarRadiation",
     "TorqueFree",
+    "Trajectory",
     "__version__",
     "box_wing",
     "canonical",

@@ -40,7 +40,7 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import add_event_variables, build_dataset
+from .results import Trajectory, add_event_variables, build_dataset
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
 
@@ -158,7 +158,8 @@ def propagate(
     on_chunk: Callable[[xr.Dataset], None] | None = None,
     epoch: Any = None,
     events: Any = None,
-) -> xr.Dataset:
+    output: str = "dataset",
+) -> xr.Dataset | Trajectory:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
     Integrates Hamilton's equations in (q, Q) (Arribas, Elipe & Palacios 2006, eq. 7) with the
@@ -229,14 +230,20 @@ def propagate(
         dimension (time, which event, direction, state); a terminal event ends the run at its
         root (attrs ``status = "event"``; the state there is the last sample). See
         docs/events.md.
+    output : {"dataset", "arrays"}
+        ``"dataset"`` (default): the result Dataset. ``"arrays"``: a
+        :class:`~attitude.results.Trajectory` ``(t, q, Q, stats)`` of plain arrays, without
+        diagnostics, torques or a Dataset (for loops and optimisers calling ``propagate`` many
+        times: about half the overhead of a short call); not with ``events`` or ``on_chunk``.
 
     Returns
     -------
-    xarray.Dataset
+    xarray.Dataset or Trajectory
         Dimension ``time``; variables ``q``, ``Q``, ``omega``, ``g``, ``G``, ``energy``,
         ``potential_energy``, ``norm_error``, ``qQ`` (and ``r``, ``f``, ``p`` with an orbit;
         ``event_*`` and ``detector_*`` with events); attrs record the method, tolerances,
-        statistics, body and potential. See docs/results.md.
+        statistics, body and potential. See docs/results.md. With ``output="arrays"`` the
+        states as a :class:`~attitude.results.Trajectory` (the same numbers, bit for bit).
 
     Raises
     ------
@@ -244,8 +251,17 @@ def propagate(
         Bad input, before any work; or an adaptive run that cannot finish within max_steps
         (found after its first 64 steps).
     PropagationError
-        The integration failed midway; ``.partial`` holds the samples computed so far.
+        The integration failed midway; ``.partial`` holds the samples computed so far (a
+        Trajectory with ``output="arrays"``).
     """
+    if not isinstance(output, str) or output not in ("dataset", "arrays"):
+        raise AttitudeValueError(f"output: expected 'dataset' or 'arrays', got {output!r}")
+    arrays = output == "arrays"
+    if arrays and (events is not None or on_chunk is not None):
+        raise AttitudeValueError(
+            "output: 'arrays' returns the states only; events and on_chunk need the Dataset "
+            "(output='dataset')"
+        )
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
@@ -381,7 +397,10 @@ def propagate(
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
-    ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+    if arrays:
+        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:], attrs)
+    else:
+        ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))

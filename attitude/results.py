@@ -10,7 +10,7 @@ SI results (orbit quantities in km); a body without units gives dimensionless on
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import xarray as xr
@@ -22,6 +22,7 @@ __all__ = [
     "AXIS_LABELS",
     "COMPONENT_LABELS",
     "SI",
+    "Trajectory",
     "UnitSystem",
     "add_event_variables",
     "build_dataset",
@@ -30,6 +31,30 @@ __all__ = [
     "time_unit",
     "time_values",
 ]
+
+
+class Trajectory(NamedTuple):
+    """The plain-array result of ``propagate(..., output="arrays")``: the states only, without
+    diagnostics, torques or a Dataset (for loops and optimisers that call ``propagate`` many
+    times; the same numbers as the Dataset's ``time``, ``q`` and ``Q``, bit for bit).
+
+    Attributes
+    ----------
+    t : ndarray, shape (m,)
+        Output times (s for a body with units, else the time unit of the run).
+    q : ndarray, shape (m, 4)
+        Attitude quaternions, body to space, scalar first.
+    Q : ndarray, shape (m, 4)
+        Conjugate momenta (kg m² s⁻¹ for a body with units).
+    stats : dict
+        The run's statistics (tolerances, steps, right-hand sides...), as the Dataset's attrs.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    Q: np.ndarray
+    stats: dict
+
 
 #: Unit strings of a body with units (SI; orbit lengths in km). Each is parsed to the same unit
 #: by astropy, UDUNITS (cf_units) and pint's default registry (tests/test_cf.py).

@@ -325,18 +325,22 @@ def overhead(repeat: int = 2000) -> None:
     I_paper = [1.25, 1.0, 0.75]
     t = np.array([0.0, 1.0])
     print("\n## propagate() overhead, torque-free, 2 output samples\n")
-    print("| method | propagate() [ms] | runner alone [ms] | Dataset (build_dataset) [ms] |")
-    print("| --- | ---: | ---: | ---: |")
+    print(
+        "| method | propagate() [ms] | propagate(output='arrays') [ms] | runner alone [ms] "
+        "| Dataset (build_dataset) [ms] |"
+    )
+    print("| --- | ---: | ---: | ---: | ---: |")
     problem = make_problem(np.array(I_paper), TorqueFree(), np.concatenate([q0, Q0]), t)
     for m in ("dop853", "taylor"):
         run = METHODS[m]
         tp = min_time(lambda m=m: propagate(I_paper, q0, Q0, t, method=m), repeat)
+        ta = min_time(lambda m=m: propagate(I_paper, q0, Q0, t, method=m, output="arrays"), repeat)
         tr = min_time(lambda run=run: run(problem, rtol=1e-10, atol=1e-12), repeat)
         y = run(problem, rtol=1e-10, atol=1e-12).y
         tb = min_time(
             lambda y=y: build_dataset(t, y, DIAG2, problem.body, problem.potential, {}), repeat
         )
-        print(f"| {m} | {1e3 * tp:.3f} | {1e3 * tr:.3f} | {1e3 * tb:.3f} |")
+        print(f"| {m} | {1e3 * tp:.3f} | {1e3 * ta:.3f} | {1e3 * tr:.3f} | {1e3 * tb:.3f} |")
 
 
 DIAG2 = np.zeros((2, 13))

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
+import attitude
 from attitude import canonical as C
 from attitude import quaternion as qt
 from attitude.body import RigidBody
@@ -322,3 +323,50 @@ def test_exact_method_matches_dop853(paper_state):
     np.testing.assert_allclose(a.G.values, np.broadcast_to(a.G.values[0], (21, 3)), atol=1e-14)
     with pytest.raises(AttitudeValueError, match="exact"):
         propagate(I_PAPER, q0, Q0, t, method="exact", potential=HeavyTop(0.5, [1, 0, 0]))
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        {},
+        {"method": "taylor", "rtol": 1e-12},
+        {"method": "splitting", "dt": 0.05},
+        {"formulation": "euler_equations"},
+        {"method": "scipy:DOP853", "rtol": 1e-9},
+    ],
+)
+def test_arrays_output_is_the_dataset_bit_for_bit(kw):
+    # output="arrays" (issue 17: a short call without the Dataset) returns the same states
+    body = attitude.RigidBody([1.25, 1.0, 0.75])
+    Q0 = attitude.canonical.momenta_from_angular_velocity([1.0, 0, 0, 0], [0.3, 2.0, 0.1], body)
+    t = np.linspace(0.0, 20.0, 41)
+    pot = attitude.HeavyTop(0.5, [0.0, 0.0, 1.0])
+    ds = attitude.propagate(body, [1.0, 0, 0, 0], Q0, t, potential=pot, **kw)
+    tr = attitude.propagate(body, [1.0, 0, 0, 0], Q0, t, potential=pot, output="arrays", **kw)
+    assert isinstance(tr, attitude.Trajectory)
+    assert np.array_equal(tr.t, ds.time.values)
+    assert np.array_equal(tr.q, ds.q.values) and np.array_equal(tr.Q, ds.Q.values)
+    assert tr.stats["method"] == ds.attrs["method"]
+    assert tr.stats.get("n_steps") == ds.attrs.get("n_steps")
+
+
+def test_arrays_output_errors_and_partial():
+    body = [1.25, 1.0, 0.75]
+    Q0 = [0.0, 0.6, 0.4, 0.2]
+    t = np.linspace(0.0, 1000.0, 11)  # ~1000 steps
+    with pytest.raises(AttitudeValueError, match="output"):
+        attitude.propagate(body, [1.0, 0, 0, 0], Q0, t, output="array")
+    with pytest.raises(AttitudeValueError, match="output"):
+        attitude.propagate(body, [1.0, 0, 0, 0], Q0, t, output=["arrays"])
+    with pytest.raises(AttitudeValueError, match="events"):
+        attitude.propagate(
+            body, [1.0, 0, 0, 0], Q0, t, output="arrays",
+            events=[attitude.events.RateExceeds(0.1)],
+        )  # fmt: skip
+    with pytest.raises(PropagationError) as exc:
+        attitude.propagate(body, [1.0, 0, 0, 0], Q0, t, output="arrays", max_steps=30)
+    part = exc.value.partial
+    assert isinstance(part, attitude.Trajectory)
+    full = attitude.propagate(body, [1.0, 0, 0, 0], Q0, t)
+    k = part.q.shape[0]
+    assert 0 < k < t.size and np.array_equal(part.q, full.q.values[:k])
