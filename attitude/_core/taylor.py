@@ -392,6 +392,25 @@ def taylor_step(params, work, tstate, counters, rtol, atol, t_end, max_step):
     return step_from_coefficients(work, tstate, counters, rtol, atol, t_end, max_step)
 
 
+@jit(inline="always")
+def step_end(t, h_abs, t_end, max_step):
+    """(status, end time) of a step of size ``h_abs`` from ``t`` toward ``t_end``: capped by
+    ``max_step`` and by ``t_end``; NONFINITE for a NaN size, STEP_TOO_SMALL below round-off.
+    Shared by the single run and the lanes of the batch integrator (the same operations)."""
+    direction = 1.0 if t_end >= t else -1.0
+    if not h_abs <= max_step:  # also catches a NaN radius
+        if math.isnan(h_abs):
+            return NONFINITE, t
+        h_abs = max_step
+    min_step = 10.0 * _EPS * max(abs(t), 1e-300)
+    t_new = t + direction * h_abs
+    if direction * (t_new - t_end) >= 0.0:
+        t_new = t_end
+    elif h_abs < min_step:
+        return STEP_TOO_SMALL, t
+    return SUCCESS, t_new
+
+
 @jit
 def step_from_coefficients(work, tstate, counters, rtol, atol, t_end, max_step):
     """The rest of :func:`taylor_step` once the coefficient table of the step is in ``work``:
@@ -402,19 +421,11 @@ def step_from_coefficients(work, tstate, counters, rtol, atol, t_end, max_step):
     """
     p = int(tstate[3])
     t = tstate[0]
-    direction = 1.0 if t_end >= t else -1.0
     rho = _radius(work, p, rtol, atol)
     h_abs = rho * tstate[4]  # exp(−2 − 0.7/(p − 1)), set with the order
-    if not h_abs <= max_step:  # also catches a NaN radius
-        if math.isnan(h_abs):
-            return NONFINITE
-        h_abs = max_step
-    min_step = 10.0 * _EPS * max(abs(t), 1e-300)
-    t_new = t + direction * h_abs
-    if direction * (t_new - t_end) >= 0.0:
-        t_new = t_end
-    elif h_abs < min_step:
-        return STEP_TOO_SMALL
+    status, t_new = step_end(t, h_abs, t_end, max_step)
+    if status != SUCCESS:
+        return status
     h = t_new - t
     y = work[Y]
     dense_eval(work, p, h, y)

@@ -59,9 +59,8 @@ from .potentials import (
     gravity_gradient_potential_radial,
 )
 from .quat import rotate_inverse
-from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
+from .rk import NONFINITE, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
-    _EPS,
     CA,
     CG,
     CR2,
@@ -75,6 +74,7 @@ from .taylor import (
     Y,
     order_from_tolerance,
     set_order,
+    step_end,
 )
 
 __all__ = ["LANES", "taylor_ensemble_parallel", "taylor_ensemble_serial"]
@@ -407,19 +407,11 @@ def _lane_step(cf, lane, lts, lcnt, rtol, atol, t_end, max_step):
     ``lts[lane]``, counters ``lcnt[lane]``)."""
     p = int(lts[lane, 3])
     t = lts[lane, 0]
-    direction = 1.0 if t_end >= t else -1.0
     rho = _lane_radius(cf, lane, p, rtol, atol)
     h_abs = rho * lts[lane, 4]
-    if not h_abs <= max_step:
-        if math.isnan(h_abs):
-            return NONFINITE
-        h_abs = max_step
-    min_step = 10.0 * _EPS * max(abs(t), 1e-300)
-    t_new = t + direction * h_abs
-    if direction * (t_new - t_end) >= 0.0:
-        t_new = t_end
-    elif h_abs < min_step:
-        return STEP_TOO_SMALL
+    status, t_new = step_end(t, h_abs, t_end, max_step)
+    if status != SUCCESS:
+        return status
     h = t_new - t
     y = _lane_dense(cf, lane, p, h)
     for j in range(8):
