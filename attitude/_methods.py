@@ -332,41 +332,38 @@ def _run_dop853_events(
     done = 0
     status = _rk.SUCCESS
     last_y = y_out[:0]
-    probe = True  # a fresh run: estimate the work after its first steps (as dop853_call)
+
+    def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, n):
+        # the events entry point with dop853_run's arguments (the buffers read at each call:
+        # they grow)
+        return problem.entry.dop853_canonical_events(
+            params, ev.data, buf.evs, buf.count, buf.t, buf.k, buf.y, y0, t0, t_out, y_o, work,
+            tstate, counters, rtol, atol, t_end, h, n,
+        )  # fmt: skip
+
     while done < m:
         stop = min(m, done + chunk)
         while True:
-            # at most STEP_BUDGET steps a compiled call: Ctrl-C acts in between
-            budget = PROBE_STEPS if probe else STEP_BUDGET
-            limit = min(max_steps, int(counters[0]) + budget)
             y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
-            status, k = problem.entry.dop853_canonical_events(
-                problem.params, ev.data, buf.evs, buf.count, buf.t, buf.k, buf.y, problem.y0,
-                t[0], t[done:stop], y_chunk, work, tstate, counters, rtol, atol, t[-1],
-                max_step, limit,
+            pause = None
+            if progress is not None:
+
+                def pause(kk, done=done):
+                    progress(done + kk, m, float(tstate[0]))
+
+            # the step budget, Ctrl-C and the work estimate as for the run without events
+            status, k = dop853_call(
+                entry, problem.params, problem.y0, float(t[0]), t[done:stop], y_chunk, work,
+                tstate, counters, rtol, atol, float(t[m - 1]), max_step, max_steps, pause,
             )  # fmt: skip
-            k = int(k)
             if k:
                 last_y = y_chunk[:k]
                 if on_chunk is not None:
                     on_chunk(done, y_chunk[:k])
             done += k
-            _interrupt.check()
-            if status == _rk.EVENT_BUFFER_FULL:
-                buf.grow()
-                continue
-            if status == _rk.TOO_MANY_STEPS and (limit < max_steps or probe):
-                if probe:
-                    probe = False
-                    h = min(float(tstate[1]), max_step)
-                    check_work(int(counters[0]), float(tstate[0]), h, float(t[-1]), max_steps)
-                    if limit >= max_steps:
-                        break
-                if progress is not None:
-                    progress(done, m, float(tstate[0]))
-                continue
-            probe = False
-            break
+            if status != _rk.EVENT_BUFFER_FULL:
+                break
+            buf.grow()
         if progress is not None:
             progress(done, m, float(tstate[0]))
         if status != _rk.SUCCESS:

@@ -36,7 +36,16 @@ from orbit._shared_jit import jit, jit_generic
 
 from .rk import TOO_MANY_STEPS, WORK_ROWS
 
-__all__ = ["NOT_STARTED", "RUNNING", "WORK_ROWS", "fresh_state", "member_run", "split_samples"]
+__all__ = [
+    "NOT_STARTED",
+    "RUNNING",
+    "WORK_ROWS",
+    "fresh_state",
+    "member_begin",
+    "member_end",
+    "member_run",
+    "split_samples",
+]
 
 #: ``status`` of a member not integrated yet.
 NOT_STARTED = -2
@@ -54,6 +63,47 @@ def fresh_state(w, ts, c):
         ts[j] = 0.0
     for j in range(c.shape[0]):
         c[j] = 0
+
+
+@jit(inline="always")
+def member_begin(i, status, n_done, work, tstate, counters, max_steps, budget):
+    """Start or resume member ``i``: (runs, first output row, step limit of this call).
+
+    ``runs`` is False for a member that has ended; a ``NOT_STARTED`` one gets a fresh
+    integrator state; the limit is ``max_steps``, or ``budget`` more steps (budget > 0).
+    """
+    st0 = status[i]
+    if st0 != RUNNING and st0 != NOT_STARTED:
+        return False, 0, 0
+    c = counters[i]
+    k0 = 0
+    if st0 == NOT_STARTED:
+        fresh_state(work[i], tstate[i], c)
+    else:
+        k0 = n_done[i]
+    limit = max_steps
+    if budget > 0 and c[0] + budget < max_steps:
+        limit = c[0] + budget
+    return True, k0, limit
+
+
+@jit_generic
+def member_end(diagnostics, i, st, k, limit, max_steps, params, t, y_out, diag, status, n_done):
+    """Record a call's end for member ``i`` (``k`` output rows filled, status ``st``): paused
+    at its budget (``RUNNING``), or ended: its diagnostics, and NaN after its last sample."""
+    n_done[i] = k
+    if st == TOO_MANY_STEPS and limit < max_steps:
+        status[i] = RUNNING
+        return
+    status[i] = st
+    yo = y_out[i]
+    d = diag[i]
+    diagnostics(t[:k], yo[:k], params[i], d[:k])
+    for r in range(k, t.shape[0]):  # a failed member: the samples it did not reach
+        for j in range(yo.shape[1]):
+            yo[r, j] = np.nan
+        for j in range(d.shape[1]):
+            d[r, j] = np.nan
 
 
 @jit_generic
@@ -79,37 +129,15 @@ def member_run(
 ):
     """Integrate member ``i`` (from a fresh state, or on from where it paused), for at most
     ``budget`` steps (0: to the end); when it ends, its diagnostics and NaN after a failure."""
-    st0 = status[i]
-    if st0 != RUNNING and st0 != NOT_STARTED:
+    runs, k0, limit = member_begin(i, status, n_done, work, tstate, counters, max_steps, budget)
+    if not runs:
         return
     m = t.shape[0]
-    w = work[i]
-    ts = tstate[i]
-    c = counters[i]
-    k0 = 0
-    if st0 == NOT_STARTED:
-        fresh_state(w, ts, c)
-    else:
-        k0 = n_done[i]
-    p = params[i]
-    yo = y_out[i]
-    limit = max_steps
-    if budget > 0 and c[0] + budget < max_steps:
-        limit = c[0] + budget
-    st, k = dop853(p, y0[i], t[0], t[k0:], yo[k0:], w, ts, c, rtol, atol, t[m - 1], max_step, limit)
-    k += k0
-    n_done[i] = k
-    if st == TOO_MANY_STEPS and limit < max_steps:
-        status[i] = RUNNING
-        return
-    status[i] = st
-    d = diag[i]
-    diagnostics(t[:k], yo[:k], p, d[:k])
-    for r in range(k, m):  # a failed member: the samples it did not reach
-        for j in range(yo.shape[1]):
-            yo[r, j] = np.nan
-        for j in range(d.shape[1]):
-            d[r, j] = np.nan
+    st, k = dop853(
+        params[i], y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i],
+        rtol, atol, t[m - 1], max_step, limit,
+    )  # fmt: skip
+    member_end(diagnostics, i, st, k + k0, limit, max_steps, params, t, y_out, diag, status, n_done)
 
 
 @jit(nogil=True)

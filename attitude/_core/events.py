@@ -57,7 +57,7 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 from orbit.sun import conical_shadow
 
-from .ensemble import NOT_STARTED, RUNNING, fresh_state
+from .ensemble import member_begin, member_end
 from .frames import frame_attitude
 from .quat import conj_mul, rotate
 from .rk import (
@@ -565,43 +565,19 @@ def member_events_run(
     NaN, as those of a failed member after its failure. Diagnostics are computed for the rows
     filled.
     """
-    st0 = status[i]
-    if st0 != RUNNING and st0 != NOT_STARTED:
+    runs, k0, limit = member_begin(i, status, n_done, work, tstate, counters, max_steps, budget)
+    if not runs:
         return
     m = t.shape[0]
-    w = work[i]
-    ts = tstate[i]
-    c = counters[i]
-    k0 = 0
-    if st0 == NOT_STARTED:
-        fresh_state(w, ts, c)
-    else:
-        k0 = n_done[i]
-    p = params[i]
-    yo = y_out[i]
     ev_count = np.zeros(2, dtype=np.int64)  # no records kept (capacity 0): counts in evs[i]
     rec_t = np.empty(0)
     rec_k = np.empty((0, 2), dtype=np.int64)
     rec_y = np.empty((0, y0.shape[1]))
-    limit = max_steps
-    if budget > 0 and c[0] + budget < max_steps:
-        limit = c[0] + budget
     st, k = dop853_events(
-        p, evd, evs[i], ev_count, rec_t, rec_k, rec_y, y0[i], t[0], t[k0:], yo[k0:], w, ts, c,
-        rtol, atol, t[m - 1], max_step, limit,
+        params[i], evd, evs[i], ev_count, rec_t, rec_k, rec_y, y0[i], t[0], t[k0:],
+        y_out[i, k0:], work[i], tstate[i], counters[i], rtol, atol, t[m - 1], max_step, limit,
     )  # fmt: skip
-    k += k0
-    n_done[i] = k
-    if st == TOO_MANY_STEPS and limit < max_steps:
-        status[i] = RUNNING
-        return
-    status[i] = st
-    diagnostics(t[:k], yo[:k], p, diag[i, :k])
-    for r in range(k, m):
-        for j in range(yo.shape[1]):
-            yo[r, j] = math.nan
-        for j in range(diag.shape[2]):
-            diag[i, r, j] = math.nan
+    member_end(diagnostics, i, st, k + k0, limit, max_steps, params, t, y_out, diag, status, n_done)
 
 
 # ---------------------------------------------------------------------------------------------
