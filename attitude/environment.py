@@ -34,13 +34,16 @@ __all__ = [
     "AU_KM",
     "DEFAULT_STEP",
     "F107_RANGE",
+    "FOLD_TOLERANCE",
     "OMEGA_EARTH",
     "P_SUN_1AU",
     "SOLAR_IRRADIANCE",
     "VALLADO_EXPONENTIAL",
     "Grid",
     "dipole_field_itrs",
+    "earth_disk_larger",
     "exponential_density",
+    "folds_density",
     "grid",
     "igrf_dipole_coefficients",
     "igrf_field_itrs",
@@ -50,6 +53,7 @@ __all__ = [
     "pack_table",
     "relative_velocity",
     "sun_relative",
+    "sun_shadow",
     "table",
     "table_by_utc_day",
 ]
@@ -252,7 +256,10 @@ def pack_segment(t: np.ndarray, values: np.ndarray, lo: float, hi: float) -> np.
         v = v[:, None]
     n, ncomp = v.shape
     h = float(t[1] - t[0]) if n > 1 else 0.0
-    return np.concatenate([[n, h, ncomp, lo, hi], np.asarray(t, dtype=np.float64), v.ravel()])
+    inv_h = 1.0 / h if n > 1 else 0.0
+    return np.concatenate(
+        [[n, h, inv_h, ncomp, lo, hi], np.asarray(t, dtype=np.float64), v.ravel()]
+    )
 
 
 def pack_table(segments: list[np.ndarray]) -> np.ndarray:
@@ -263,6 +270,33 @@ def pack_table(segments: list[np.ndarray]) -> np.ndarray:
         offsets.append(at)
         at += seg.size
     return np.concatenate([[nseg, *offsets], *segments]).astype(np.float64)
+
+
+#: Largest difference [relative to max |√ρ v|] between the interpolants of √ρ v and of v and
+#: ln ρ apart at which the drag table holds √ρ v (:func:`folds_density`): below the precision
+#: of the densities themselves (pymsis runs NRLMSIS in single precision: ~3e-6 rms in ρ, so
+#: ~1.5e-6 in √ρ), and of the documented interpolation error of the tables.
+FOLD_TOLERANCE = 1e-6
+
+
+def folds_density(plain: np.ndarray, folded: np.ndarray, g: Grid) -> bool:
+    """Whether the drag table ``folded`` (√ρ v, ln ρ) interpolates √ρ v as well as ``plain``
+    (v, ln ρ) gives it: compared half-way between the nodes, where interpolation errs most, to
+    :data:`FOLD_TOLERANCE`. Near-circular orbits pass (ρ changes by a few percent per node);
+    fast passes through a steep atmosphere, where √ρ is far from a polynomial over the window,
+    keep v and ln ρ apart.
+    """
+    mid = np.ascontiguousarray(0.5 * (g.t[1:] + g.t[:-1]))
+    mid = mid[(mid >= g.lo) & (mid <= g.hi)]
+    if mid.size == 0:
+        return False
+    a = np.empty((mid.size, 4))
+    b = np.empty((mid.size, 4))
+    _ke.table_loop(mid, plain, 0, a)
+    _ke.table_loop(mid, folded, 0, b)
+    want = a[:, :3] * np.exp(0.5 * a[:, 3:4])
+    scale = float(np.max(np.abs(want)))
+    return bool(scale > 0.0 and np.max(np.abs(b[:, :3] - want)) <= FOLD_TOLERANCE * scale)
 
 
 def table(g: Grid, values: np.ndarray) -> np.ndarray:
@@ -563,6 +597,31 @@ def exponential_density(height: Any) -> np.ndarray:
 # --------------------------------------------------------------------------------------------
 # Sun
 # --------------------------------------------------------------------------------------------
+
+
+def sun_shadow(g: Grid) -> np.ndarray:
+    """(n, 8): :func:`sun_relative`, then the conical shadow's margins g_penumbra, g_umbra
+    [rad] (:func:`orbit.sun.shadow_function`; positive in light), which the torque kernel
+    interpolates to skip the shadow function well inside the light or the umbra."""
+    key = "sun_shadow"
+    if key not in g._memo:
+        from orbit.sun import shadow_function
+
+        rel = sun_relative(g)
+        r = rel[:, 3:]
+        _, gp, gu = shadow_function(r, rel[:, :3] + r, margins=True)
+        g._memo[key] = np.concatenate([rel, gp[:, None], gu[:, None]], axis=1)
+    return g._memo[key]
+
+
+def earth_disk_larger(rows: np.ndarray, margin: float = 1e-3) -> bool:
+    """Whether the Earth's disk is larger than the Sun's by ``margin`` [rad] at every node of
+    :func:`sun_shadow`'s rows: only then is g_umbra < 0 the umbra (else an annular shadow)."""
+    from orbit.sun import R_EARTH, R_SUN
+
+    b = np.arcsin(np.minimum(R_EARTH / np.linalg.norm(rows[:, 3:6], axis=1), 1.0))
+    a = np.arcsin(R_SUN / np.linalg.norm(rows[:, :3], axis=1))
+    return bool(np.all(b - a > margin))
 
 
 def sun_relative(g: Grid) -> np.ndarray:

@@ -240,3 +240,62 @@ def facet_array(facets: Any, name: str = "facets") -> tuple[Facet, ...]:
                 f"{name}[{i}]: expected an attitude.Facet, got {type(f).__name__}"
             )
     return out
+
+
+def _normal_groups(facets: Sequence[Facet]) -> tuple[list[np.ndarray], list[list[tuple]]]:
+    """Group facets by their normal up to sign: (unit normals n̂_g, per group the facets as
+    (facet, side)), side +1 for a facet along n̂_g, −1 for one along −n̂_g (exact comparison)."""
+    normals: list[np.ndarray] = []
+    members: list[list[tuple]] = []
+    where: dict[tuple, tuple[int, int]] = {}
+    for f in facets:
+        key = tuple(float(x) for x in f.normal)
+        hit = where.get(key)
+        if hit is None:
+            hit = where[key] = (len(normals), 1)
+            where.setdefault(tuple(-x for x in key), (len(normals), -1))
+            normals.append(np.asarray(f.normal, dtype=np.float64))
+            members.append([])
+        members[hit[0]].append((f, hit[1]))
+    return normals, members
+
+
+def drag_groups(facets: Sequence[Facet]) -> np.ndarray:
+    """The facets as the drag kernel sums them (attitude._core.environment): (g, 9) rows
+    [n̂ (3), a₊ (3), a₋ (3)], one per normal up to sign, a± = Σ C_D A c [m³] over the facets
+    along ±n̂.
+
+    A facet's drag torque is −½ ρ max(n̂_f·v, 0) (C_D A c) × v (v the velocity relative to the
+    atmosphere, body axes), linear in C_D A c: facets with one normal share max(n̂·v, 0), and
+    of two opposite normals at most one faces the flow, so one dot product serves both.
+    """
+    normals, members = _normal_groups(facets)
+    rows = np.zeros((len(normals), 9))
+    for g, (n, fs) in enumerate(zip(normals, members, strict=True)):
+        rows[g, :3] = n
+        for f, side in fs:
+            at = 3 if side > 0 else 6
+            rows[g, at : at + 3] += f.cd * f.area * np.asarray(f.center, dtype=np.float64)
+    return rows
+
+
+def optical_groups(facets: Sequence[Facet]) -> np.ndarray:
+    """The facets as the solar-radiation kernel sums them: (g, 21) rows [n̂ (3), then for the
+    facets along +n̂ and then −n̂: a (3) m³, β_s (3) m³, β_d (3) m³], one row per normal up to
+    sign, with a = Σ A (1 − C_s) c, β_s = Σ 2 A C_s c × n̂_f, β_d = Σ (2/3) A C_d c × n̂_f.
+
+    A facet's torque −P [cos θ A (1 − C_s) c × ŝ + (2 A C_s cos² θ + (2/3) A C_d cos θ) c × n̂_f]
+    (cos θ = n̂_f·ŝ > 0; Wertz 1978, Sect. 17.2.2) is linear in those three vectors.
+    """
+    normals, members = _normal_groups(facets)
+    rows = np.zeros((len(normals), 21))
+    for g, (n, fs) in enumerate(zip(normals, members, strict=True)):
+        rows[g, :3] = n
+        for f, side in fs:
+            at = 3 if side > 0 else 12
+            c = np.asarray(f.center, dtype=np.float64)
+            cn = np.cross(c, np.asarray(f.normal, dtype=np.float64))
+            rows[g, at : at + 3] += f.area * (1.0 - f.specular) * c
+            rows[g, at + 3 : at + 6] += 2.0 * f.area * f.specular * cn
+            rows[g, at + 6 : at + 9] += (2.0 / 3.0) * f.area * f.diffuse * cn
+    return rows

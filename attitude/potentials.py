@@ -38,7 +38,7 @@ from ._core import potentials as _kp
 from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
-from .facets import Facet, facet_array
+from .facets import Facet, drag_groups, facet_array, optical_groups
 
 __all__ = [
     "AerodynamicDrag",
@@ -989,28 +989,48 @@ class AerodynamicDrag(_EnvironmentModel):
         self.f107a = as_scalar(f107a, "f107a")
         self.ap = as_scalar(ap, "ap")
         _env.check_space_weather(self.f107, self.f107a, self.ap)
+        self._density_code = (
+            _ke.DENSITY_EXPONENTIAL if density == "exponential" else _ke.DENSITY_TABLE
+        )
         self._setup(self.orbit, step, span)
 
     def _head(self) -> list[float]:
-        nf = len(self.facets)
         bands = _env.VALLADO_EXPONENTIAL
-        code = _ke.DENSITY_EXPONENTIAL if self.density == "exponential" else _ke.DENSITY_TABLE
-        facets = [x for f in self.facets for x in f.drag_row()]
-        bands_at = _ke.D_FACETS + _ke.D_STRIDE * nf
-        return [0.0, nf, code, bands_at, len(bands), *facets, *bands.ravel()]
+        code = self._density_code
+        groups = drag_groups(self.facets)
+        bands_at = _ke.D_FACETS + _ke.D_STRIDE * len(groups)
+        return [0.0, len(groups), code, bands_at, len(bands), *groups.ravel(), *bands.ravel()]
 
     def _rows(self, g: Any) -> np.ndarray:
-        lat, lon, h = g.geodetic
-        if self.density == "exponential":
-            x = h
-        else:
-            x = np.log(_env.msis_density(g.datetime64, lat, lon, h, self.f107, self.f107a, self.ap))
-        return np.concatenate([_env.relative_velocity(g), x[:, None]], axis=1)
+        key = ("drag_rows", self.density, self.f107, self.f107a, self.ap)
+        if key not in g._memo:
+            lat, lon, h = g.geodetic
+            if self.density == "exponential":
+                x = h
+            else:
+                x = np.log(
+                    _env.msis_density(g.datetime64, lat, lon, h, self.f107, self.f107a, self.ap)
+                )
+            g._memo[key] = np.concatenate([_env.relative_velocity(g), x[:, None]], axis=1)
+        return g._memo[key]
+
+    def _folded_rows(self, g: Any) -> np.ndarray:
+        rows = self._rows(g).copy()
+        rows[:, :3] *= np.exp(0.5 * rows[:, 3:4])  # √ρ v
+        return rows
 
     def _table(self, g: Any) -> np.ndarray:
         if self.density == "exponential":
+            self._density_code = _ke.DENSITY_EXPONENTIAL
             return _env.table(g, self._rows(g))
-        return _env.table_by_utc_day(g, self._rows)  # pymsis's density jumps at 00:00 UTC
+        # pymsis's density jumps at 00:00 UTC: tables cut there
+        plain = _env.table_by_utc_day(g, self._rows)
+        folded = _env.table_by_utc_day(g, self._folded_rows)
+        if _env.folds_density(plain, folded, g):
+            self._density_code = _ke.DENSITY_FOLDED
+            return folded
+        self._density_code = _ke.DENSITY_TABLE
+        return plain
 
     def atmosphere(self, t: Any) -> dict[str, np.ndarray]:
         """What the torque uses at times ``t``: ``density`` [kg/m³] and ``velocity`` [m/s],
@@ -1020,6 +1040,8 @@ class AerodynamicDrag(_EnvironmentModel):
             rho = _env.exponential_density(v[..., 3])
         else:
             rho = np.exp(v[..., 3])
+        if self._density_code == _ke.DENSITY_FOLDED:
+            return {"density": rho, "velocity": v[..., :3] * np.exp(-0.5 * v[..., 3:4])}
         return {"density": rho, "velocity": v[..., :3]}
 
     def __repr__(self) -> str:
@@ -1082,25 +1104,29 @@ class SolarRadiation(_EnvironmentModel):
         self.orbit = _check_orbit(orbit, "SolarRadiation", True, why)
         self.facets = facet_array(facets)
         self.eclipse = eclipse
+        self._umbra = False
         self._setup(self.orbit, step, span)
 
     def _head(self) -> list[float]:
         from orbit.sun import R_EARTH, R_SUN
 
-        facets = [x for f in self.facets for x in f.optical_row()]
+        groups = optical_groups(self.facets)
         return [
             0.0,
-            len(self.facets),
+            len(groups),
             self._ECLIPSE[self.eclipse],
             _env.P_SUN_1AU,
             _env.AU_KM,
             R_SUN,
             R_EARTH,
-            *facets,
+            float(self._umbra),  # the shadow margins may decide the umbra (set by _table)
+            *groups.ravel(),
         ]
 
     def _table(self, g: Any) -> np.ndarray:
-        return _env.table(g, _env.sun_relative(g))
+        rows = _env.sun_shadow(g)
+        self._umbra = _env.earth_disk_larger(rows)
+        return _env.table(g, rows)
 
     def sunlight(self, t: Any) -> dict[str, np.ndarray]:
         """What the torque uses at times ``t``: ``shadow`` ν (1 sunlit, 0 umbra),

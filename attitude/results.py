@@ -10,6 +10,8 @@ SI results (orbit quantities in km); a body without units gives dimensionless on
 
 from __future__ import annotations
 
+import datetime
+import time
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -86,10 +88,14 @@ _LEAP_SECOND_NOTE = (
 
 def _utc_now() -> str:
     """Current UTC time as ISO 8601 to the second, with a Z (for the CF ``history`` attr)."""
-    import datetime
+    sec = int(time.time())
+    if _NOW[0] != sec:  # formatted once per second (a short propagate() is ~0.1 ms)
+        stamp = datetime.datetime.fromtimestamp(sec, datetime.timezone.utc)
+        _NOW[:] = [sec, stamp.strftime("%Y-%m-%dT%H:%M:%SZ")]
+    return _NOW[1]
 
-    now = datetime.datetime.now(datetime.timezone.utc).replace(microsecond=0)
-    return now.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+_NOW: list[Any] = [None, ""]
 
 
 def _plain(x: Any, unit: str | None) -> np.ndarray:

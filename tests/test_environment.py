@@ -565,6 +565,91 @@ def test_sum_of_environment_terms_is_the_sum_of_their_torques(sso):
     )
 
 
+def test_facets_grouped_by_normal_give_the_sum_of_the_single_facet_torques(sso):
+    # The kernels sum facets by normal up to sign (attitude.facets.drag_groups,
+    # optical_groups): a box with wings, an off-axis facet and a facet repeated must give the
+    # sum of the torques of one-facet models (each its own table, same grid) to round-off.
+    facets = [
+        *attitude.box_wing(
+            [0.1, 0.1, 0.34],
+            center=[0.003, 0.0, -0.015],
+            specular=0.1,
+            diffuse=0.2,
+            wings=[(0.03, [1, 0, 0], [0.05, 0.2, 0.0]), (0.03, [1, 0, 0], [0.05, -0.2, 0.0])],
+        ),
+        Facet(0.02, [0.0, 0.6, 0.8], [0.01, -0.03, 0.1], cd=2.0, specular=0.4, diffuse=0.1),
+        Facet(0.02, [0.0, 0.6, 0.8], [0.02, 0.03, -0.1], cd=2.6, specular=0.0, diffuse=0.5),
+    ]
+    groups = attitude.facets.drag_groups(facets)
+    assert len(groups) == 4 < len(facets)  # ±b1, ±b2, ±b3 and the tilted pair
+    t = _off_grid_times(60)
+    q = _random_unit(t.size)
+    for model in (AerodynamicDrag, SolarRadiation):
+        got = model(sso, facets).torque(q, t)
+        each = sum(model(sso, [f]).torque(q, t) for f in facets)
+        scale = np.abs(each).max()
+        assert scale > 0
+        np.testing.assert_allclose(got, each, rtol=0, atol=1e-14 * scale)
+
+
+def test_drag_tables_fold_the_density_only_where_it_interpolates_as_well(sso, monkeypatch):
+    from attitude._core import environment as ke
+    from attitude.environment import FOLD_TOLERANCE
+
+    facets = attitude.box_wing([0.1, 0.1, 0.34], center=[0.0, 0.0, 0.02])
+    t = _off_grid_times(80)
+    q = _random_unit(t.size)
+    folded = AerodynamicDrag(sso, facets)
+    tau = folded.torque(q, t)
+    assert folded._density_code == ke.DENSITY_FOLDED  # near-circular LEO: √ρ v tabulated
+    monkeypatch.setattr("attitude.environment.FOLD_TOLERANCE", -1.0)
+    plain = AerodynamicDrag(sso, facets)
+    want = plain.torque(q, t)
+    assert plain._density_code == ke.DENSITY_TABLE
+    # the same torque to the tolerance the choice allows (2 x: ρ v² from √ρ v squared)
+    np.testing.assert_allclose(tau, want, rtol=0, atol=2 * FOLD_TOLERANCE * np.abs(want).max())
+    a, b = folded.atmosphere(t), plain.atmosphere(t)
+    np.testing.assert_allclose(a["density"], b["density"], rtol=1e-14)  # ln ρ in both
+    v = np.abs(b["velocity"]).max()
+    np.testing.assert_allclose(a["velocity"], b["velocity"], rtol=0, atol=2 * FOLD_TOLERANCE * v)
+    monkeypatch.undo()
+    # a fast dive through the lower thermosphere (perigee 200 km, e = 0.3): √ρ is far from a
+    # polynomial over a window, so v and ln ρ stay apart
+    a = (6378.137 + 200.0) / 0.7
+    dive = orbit.KeplerOrbit(a, 0.3, 1.7, 0.0, 0.0, epoch="2020-02-22T02:00:00")
+    m = AerodynamicDrag(dive, facets, span=(-600.0, 600.0))
+    m.torque(q[:3], np.array([-100.0, 0.0, 100.0]))
+    assert m._density_code == ke.DENSITY_TABLE
+
+
+def test_shadow_margins_decide_light_and_umbra_as_the_shadow_function_does(sso):
+    # Inside the light or the umbra the kernel reads the tabulated margins; the shadow
+    # function at the interpolated positions must agree at every time, across both penumbrae.
+    from attitude._core import environment as ke
+    from attitude.environment import earth_disk_larger, sun_shadow
+
+    model = SolarRadiation(sso, [Facet(0.05, [0.0, 0.0, 1.0], [0.2, -0.1, 0.05])])
+    t = np.linspace(0.0, SPAN, 40_001)
+    nu = model.sunlight(t)["shadow"]
+    assert model._umbra  # LEO: the Earth's disk is the larger
+    assert (nu == 0).sum() > 1000 and (nu == 1).sum() > 1000 and ((nu > 0) & (nu < 1)).sum() > 5
+    params = model._kernel_params(t)
+    r = np.empty((t.size, 8))
+    ke.table_loop(t, params, int(params[ke.B_TAB]), r)
+    d, x = r[:, :3], r[:, 3:6]
+    exact = [
+        ke.shadow(ke.ECLIPSE_CONICAL, *x[i], *d[i], params[ke.S_REARTH], params[ke.S_RSUN])
+        for i in range(t.size)
+    ]
+    np.testing.assert_array_equal(nu, exact)
+    # far from the Earth (1.5 million km) g_umbra < 0 is an annular shadow, not the umbra
+    rows = np.zeros((1, 8))
+    rows[0, :3] = [1.5e8, 0.0, 0.0]
+    rows[0, 3:6] = [-1.5e6, 0.0, 0.0]
+    assert not earth_disk_larger(rows)
+    assert earth_disk_larger(sun_shadow(attitude.environment.grid(sso, 0.0, SPAN, 30.0)))
+
+
 def test_cubesat_run_with_all_models_reports_each_torque(sso):
     facets = attitude.box_wing([0.1, 0.1, 0.34], center=[0.0, 0.0, 0.02])
     body = attitude.RigidBody([0.044, 0.044, 0.0067] * u.Unit("kg m2"))

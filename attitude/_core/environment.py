@@ -17,30 +17,39 @@ midnight, is cut there; a time on a boundary belongs to the later segment)::
     segment at s:
     d[s]                      n, the number of nodes (1: a constant, valid at every t)
     d[s + 1]                  h, the uniform node spacing [s]
-    d[s + 2]                  ncomp, values per node
-    d[s + 3], d[s + 4]        lo, hi: where the segment is valid (the nodes may start or end
+    d[s + 2]                  1/h [1/s] (the lookup multiplies: no division per evaluation)
+    d[s + 3]                  ncomp, values per node
+    d[s + 4], d[s + 5]        lo, hi: where the segment is valid (the nodes may start or end
                               up to one step inside it: the edge window extrapolates)
-    d[s + 5 : s + 5 + n]      node times t_k = t_0 + k h [s]
-    d[s + 5 + n : ...]        n rows of ncomp values (row-major)
+    d[s + 6 : s + 6 + n]      node times t_k = t_0 + k h [s]
+    d[s + 6 + n : ...]        n rows of ncomp values (row-major)
 
 Block layouts (``kind`` first, ``tab`` the relative offset of the table):
 
 * magnetic dipole ``[kind, tab, m (3, A m²), table: B (3, T, space axes)]``
 * eddy currents ``[kind, tab, M (9, row-major, body axes, S m⁴), table: B (3, T)]``
-* drag ``[kind, tab, nf, density code, bands, nb, facets (nf × 8: A m², n̂ (3), c (3) m, C_D),
-  density bands (nb × 3: h0 km, ρ0 kg m⁻³, H km), table: v_rel (3, m/s, space axes), then
-  ln ρ (density code 0) or the geodetic height in km (code 1)]``
-* solar radiation ``[kind, tab, nf, eclipse code, P (N m⁻², at 1 AU), AU km, R_sun km,
-  R_earth km, facets (nf × 9: A, n̂ (3), c (3), specular, diffuse), table: Sun − satellite
-  (3, km), satellite (3, km), both space axes]``
+* drag ``[kind, tab, ng, density code, bands, nb, facet groups (ng × 9: n̂ (3), a₊ (3), a₋ (3),
+  m³), density bands (nb × 3: h0 km, ρ0 kg m⁻³, H km), table: v_rel (3, m/s, space axes),
+  then ln ρ (density code 0) or the geodetic height in km (code 1); code 2: √ρ v_rel (3,
+  kg^½ m^-½ s⁻¹), then ln ρ]``
+* solar radiation ``[kind, tab, ng, eclipse code, P (N m⁻², at 1 AU), AU km, R_sun km,
+  R_earth km, umbra shortcut (1 or 0), facet groups (ng × 21: n̂ (3), then for +n̂ and −n̂:
+  a (3), β_s (3), β_d (3), m³), table: Sun − satellite (3, km), satellite (3, km), both
+  space axes, the shadow margins g_penumbra, g_umbra (rad)]``
+
+The facets are grouped by their normal up to sign, with the per-facet constants the torques
+are linear in summed over each group (:func:`attitude.facets.drag_groups`,
+:func:`attitude.facets.optical_groups`): a box's six faces are three groups, each one dot
+product, no branch.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from orbit._shared_jit import jit
-from orbit._state_kernels import table_interval
 from orbit.sun import conical_shadow
 
 from .quat import cross, rotate_inverse
@@ -48,10 +57,11 @@ from .quat import cross, rotate_inverse
 # Segment header.
 T_N = 0
 T_H = 1
-T_NCOMP = 2
-T_LO = 3
-T_HI = 4
-T_TIMES = 5
+T_INV_H = 2
+T_NCOMP = 3
+T_LO = 4
+T_HI = 5
+T_TIMES = 6
 #: Nodes of the interpolation window (degree 7).
 WINDOW = 8
 
@@ -67,9 +77,10 @@ D_DENSITY = 3
 D_BANDS = 4
 D_NB = 5
 D_FACETS = 6
-D_STRIDE = 8
+D_STRIDE = 9
 DENSITY_TABLE = 0  # ln ρ tabulated
 DENSITY_EXPONENTIAL = 1  # geodetic height tabulated, exponential bands evaluated here
+DENSITY_FOLDED = 2  # √ρ v_rel tabulated in place of v_rel (then ln ρ, for the Python side)
 
 # Solar radiation.
 S_NF = 2
@@ -78,13 +89,20 @@ S_P = 4
 S_AU = 5
 S_RSUN = 6
 S_REARTH = 7
-S_FACETS = 8
-S_STRIDE = 9
+S_UMBRA = 8
+S_FACETS = 9
+S_STRIDE = 21
+#: Margin [rad] of the tabulated shadow margins beyond which light or umbra is taken from them
+#: (the interpolation error of the margins is ~1e-12 rad; the exact shadow function decides
+#: nearer the boundaries).
+SHADOW_MARGIN = 1e-6
 ECLIPSE_NONE = 0
 ECLIPSE_CYLINDRICAL = 1
 ECLIPSE_CONICAL = 2
 
 _NAN = math.nan
+#: Unsigned offsets 0 ... 12 (an unsigned index compiles without wraparound code).
+_U = tuple(np.uint64(k) for k in range(13))
 # the Lagrange denominators' reciprocals, 1 / ((−1)^(7−j) j! (7−j)!)
 _C0 = -1.0 / 5040.0
 _C1 = 1.0 / 720.0
@@ -100,8 +118,9 @@ _C7 = 1.0 / 5040.0
 def lagrange8(x):
     """Weights of the degree-7 Lagrange interpolant on the nodes 0, 1, ..., 7 at x.
 
-    L_j(x) = Π_{k≠j} (x − k) / Π_{k≠j} (j − k), from prefix and suffix products (no division
-    by x − j, so exact at the nodes).
+    L_j(x) = Π_{k≠j} (x − k) / Π_{k≠j} (j − k), the products taken as a tree of pairs (depth
+    three multiplications instead of seven: the weights sit on the critical path of every
+    right-hand side) and without division by x − j, so exact at the nodes.
     """
     d0 = x
     d1 = x - 1.0
@@ -111,50 +130,49 @@ def lagrange8(x):
     d5 = x - 5.0
     d6 = x - 6.0
     d7 = x - 7.0
-    p1 = d0
-    p2 = p1 * d1
-    p3 = p2 * d2
-    p4 = p3 * d3
-    p5 = p4 * d4
-    p6 = p5 * d5
-    p7 = p6 * d6
-    s6 = d7
-    s5 = s6 * d6
-    s4 = s5 * d5
-    s3 = s4 * d4
-    s2 = s3 * d3
-    s1 = s2 * d2
-    s0 = s1 * d1
+    a01 = d0 * d1
+    a23 = d2 * d3
+    a45 = d4 * d5
+    a67 = d6 * d7
+    lo = a01 * a23  # Π_{k<4} (x − k)
+    hi = a45 * a67  # Π_{k>=4} (x − k)
     # 1 / Π_{k≠j} (j − k) = (−1)^(7−j) / (j! (7−j)!), as products (no divisions)
     return (
-        s0 * _C0,
-        p1 * s1 * _C1,
-        p2 * s2 * _C2,
-        p3 * s3 * _C3,
-        p4 * s4 * _C4,
-        p5 * s5 * _C5,
-        p6 * s6 * _C6,
-        p7 * _C7,
+        (d1 * a23) * (hi * _C0),
+        (d0 * a23) * (hi * _C1),
+        (a01 * d3) * (hi * _C2),
+        (a01 * d2) * (hi * _C3),
+        (d5 * a67) * (lo * _C4),
+        (d4 * a67) * (lo * _C5),
+        (a45 * d7) * (lo * _C6),
+        (a45 * d6) * (lo * _C7),
     )
 
 
-@jit
+@jit(inline="always")
 def table_segment(d, o, t):
     """Offset of the segment of the table at ``o`` that holds t (the last one starting <= t)."""
-    s = o + int(d[o + 1])
-    for j in range(1, int(d[o])):
+    nseg = int(d[o])
+    s = o + 1 + nseg  # the first segment follows the offsets
+    for j in range(1, nseg):
         sj = o + int(d[o + 1 + j])
         if t >= d[sj + T_LO] - 1e-9 * d[sj + T_H]:  # a boundary belongs to the later segment
             s = sj
     return s
 
 
-@jit
+@jit(inline="always")
 def table_locate(d, o, t):
     """(segment offset, row offset of the window's first node, weights (8)) for time t.
 
-    A constant (n = 1) gives its row with weights (1, 0, ...); t outside the table gives NaN
-    weights.
+    The window is the 8 nodes j0 ... j0 + 7 centred on the interval of t (clamped at the
+    ends), j0 from (t − t_0)/h; the local coordinate is taken from the stored time of node j0.
+    A rounding of (t − t_0)/h at a node picks the window one node over, which holds t as well:
+    the two interpolants differ by the interpolation error, not more. A constant (n = 1) gives
+    its row with weights (1, 0, ...); t outside the table gives NaN weights.
+
+    On the critical path of every right-hand side, so no dependent load more than needed: the
+    header, then the window.
     """
     s = table_segment(d, o, t)
     n = int(d[s + T_N])
@@ -163,44 +181,57 @@ def table_locate(d, o, t):
     voff = toff + n
     if n == 1:
         return s, voff, (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    h = d[s + T_H]
-    tol = 1e-9 * h
+    tol = 1e-9 * d[s + T_H]
     if not (t >= d[s + T_LO] - tol and t <= d[s + T_HI] + tol):
         return s, voff, (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-    i = table_interval(d, toff, n, h, t)
-    j0 = min(max(i - 3, 0), n - WINDOW)
-    x = (t - d[toff + j0]) / h
+    inv_h = d[s + T_INV_H]
+    u = (t - d[toff]) * inv_h - 3.0
+    j0 = 0
+    if u >= n - WINDOW:
+        j0 = n - WINDOW
+    elif u > 0.0:
+        j0 = int(u)
+    x = (t - d[toff + j0]) * inv_h
     return s, voff + j0 * ncomp, lagrange8(x)
 
 
-@jit
+@jit(inline="always")
+def window_sum(d, r, ncomp, w):
+    """Σ_j w_j d[r + j ncomp] over the window's 8 nodes, summed as a tree of pairs."""
+    u = np.uint64(r)
+    c = np.uint64(ncomp)
+    r1 = u + c
+    r2 = r1 + c
+    r3 = r2 + c
+    r4 = r3 + c
+    r5 = r4 + c
+    r6 = r5 + c
+    r7 = r6 + c
+    return ((w[0] * d[u] + w[1] * d[r1]) + (w[2] * d[r2] + w[3] * d[r3])) + (
+        (w[4] * d[r4] + w[5] * d[r5]) + (w[6] * d[r6] + w[7] * d[r7])
+    )
+
+
+@jit(inline="always")
 def table_component(d, s, row, w, c):
     """Interpolated component ``c`` of segment ``s`` from the window at ``row``, weights ``w``."""
-    ncomp = int(d[s + T_NCOMP])
     if int(d[s + T_N]) == 1:
         return d[row + c]
-    v = 0.0
-    for j in range(WINDOW):
-        v += w[j] * d[row + j * ncomp + c]
-    return v
+    return window_sum(d, row + c, int(d[s + T_NCOMP]), w)
 
 
-@jit
+@jit(inline="always")
 def table_vec3(d, s, row, w, c0):
     """Components c0, c0 + 1, c0 + 2 as a 3-tuple."""
-    ncomp = int(d[s + T_NCOMP])
+    r = row + c0
     if int(d[s + T_N]) == 1:
-        return d[row + c0], d[row + c0 + 1], d[row + c0 + 2]
-    x = 0.0
-    y = 0.0
-    z = 0.0
-    for j in range(WINDOW):
-        r = row + j * ncomp + c0
-        wj = w[j]
-        x += wj * d[r]
-        y += wj * d[r + 1]
-        z += wj * d[r + 2]
-    return x, y, z
+        return d[r], d[r + 1], d[r + 2]
+    ncomp = int(d[s + T_NCOMP])
+    return (
+        window_sum(d, r, ncomp, w),
+        window_sum(d, r + 1, ncomp, w),
+        window_sum(d, r + 2, ncomp, w),
+    )
 
 
 @jit
@@ -214,7 +245,7 @@ def table_eval(d, o, t, out):
 # Magnetic field ---------------------------------------------------------------------------------
 
 
-@jit
+@jit(inline="always")
 def field_body(q, t, params, base):
     """The magnetic field in body axes, B_B = q̃∘B_S∘q [T], B_S from the block's table."""
     s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
@@ -267,46 +298,49 @@ def exponential_density(params, bands, nb, h):
     return params[r + 1] * math.exp(-(h - params[r]) / params[r + 2])
 
 
-@jit
+# The facet kernels let LLVM fuse multiply-adds (fastmath "contract" only: no reassociation, no
+# assumption about NaN or infinities): a third fewer instructions in the sums over the facets
+# and the table window, and one rounding less in each fused pair.
+@jit(fastmath={"contract"})
 def drag_torque(q, t, params, base):
     # Flat plates in free-molecular flow: a facet whose outward normal n̂ faces the flow
     # (cos θ = n̂·v̂ > 0, v the velocity relative to the atmosphere) feels
     # F = −½ ρ C_D A cos θ |v|² v̂ at its centre c (Montenbruck & Gill 2000, Sect. 3.5, with the
-    # projected area A cos θ); τ = Σ c × F. Facets shadowing each other are not handled.
+    # projected area A cos θ); τ = Σ c × F = −½ ρ (Σ max(n̂·v, 0) C_D A c) × v, with no
+    # normalisation of v. Facets shadowing each other are not handled.
+    # With √ρ v tabulated (DENSITY_FOLDED, where the tables showed it interpolates as well as
+    # v and ln ρ apart) the same sum over that vector is the torque with ρ = 1: τ is
+    # homogeneous of degree 2 in v (max(n̂·λv, 0) = λ max(n̂·v, 0) for λ > 0).
     s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
     vs = table_vec3(params, s, row, w, 0)
-    x = table_component(params, s, row, w, 3)
-    if int(params[base + D_DENSITY]) == DENSITY_EXPONENTIAL:
-        rho = exponential_density(
-            params, base + int(params[base + D_BANDS]), int(params[base + D_NB]), x
-        )
+    code = int(params[base + D_DENSITY])
+    if code == DENSITY_FOLDED:
+        rho = 1.0
     else:
-        rho = math.exp(x)
-    vb = rotate_inverse(q, vs)
-    v = math.sqrt(vb[0] * vb[0] + vb[1] * vb[1] + vb[2] * vb[2])
-    ux = vb[0] / v
-    uy = vb[1] / v
-    uz = vb[2] / v
-    k = -0.5 * rho * v * v
-    tx = 0.0
-    ty = 0.0
-    tz = 0.0
+        x = table_component(params, s, row, w, 3)
+        if code == DENSITY_EXPONENTIAL:
+            rho = exponential_density(
+                params, base + int(params[base + D_BANDS]), int(params[base + D_NB]), x
+            )
+        else:
+            rho = math.exp(x)
+    v = rotate_inverse(q, vs)
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
     f0 = base + D_FACETS
     for i in range(int(params[base + D_NF])):
-        p = f0 + D_STRIDE * i
-        c = ux * params[p + 1] + uy * params[p + 2] + uz * params[p + 3]
-        if c > 0.0:
-            g = k * params[p + 7] * params[p] * c
-            fx = g * ux
-            fy = g * uy
-            fz = g * uz
-            cx = params[p + 4]
-            cy = params[p + 5]
-            cz = params[p + 6]
-            tx += cy * fz - cz * fy
-            ty += cz * fx - cx * fz
-            tz += cx * fy - cy * fx
-    return tx, ty, tz
+        f = params[f0 + D_STRIDE * i : f0 + D_STRIDE * (i + 1)]
+        c = v[0] * f[0] + v[1] * f[1] + v[2] * f[2]
+        # the facets along n̂ face the flow when c > 0, those along −n̂ when c < 0 (unsigned
+        # offsets: no negative-index wraparound code on the loads)
+        k = _U[3] if c > 0.0 else _U[6]
+        c = abs(c)
+        ax += c * f[k]
+        ay += c * f[k + _U[1]]
+        az += c * f[k + _U[2]]
+    k = -0.5 * rho
+    return k * (ay * v[2] - az * v[1]), k * (az * v[0] - ax * v[2]), k * (ax * v[1] - ay * v[0])
 
 
 # Solar radiation pressure -----------------------------------------------------------------------
@@ -361,55 +395,75 @@ def shadow(code, rx, ry, rz, dx, dy, dz, re, rs):
     return conical_shadow(rx, ry, rz, sx, sy, sz, re, rs)[0]
 
 
-@jit
+@jit(inline="always")
+def sunlight(code, umbra, params, base, s, row, w):
+    """Shadow fraction ν at the table window (s, row, w).
+
+    Conical: well inside the light or the umbra the interpolated shadow margins decide
+    (:data:`SHADOW_MARGIN`; the umbra only where the Earth's disk is the larger, ``umbra``),
+    elsewhere :func:`shadow` at the interpolated positions, which gives the same ν there.
+    """
+    if code == ECLIPSE_NONE:
+        return 1.0
+    if code == ECLIPSE_CONICAL:
+        if table_component(params, s, row, w, 6) > SHADOW_MARGIN:
+            return 1.0
+        if umbra and table_component(params, s, row, w, 7) < -SHADOW_MARGIN:
+            return 0.0
+    ds = table_vec3(params, s, row, w, 0)
+    r = table_vec3(params, s, row, w, 3)
+    return shadow(
+        code, r[0], r[1], r[2], ds[0], ds[1], ds[2],
+        params[base + S_REARTH], params[base + S_RSUN],
+    )  # fmt: skip
+
+
+@jit(fastmath={"contract"})  # (as drag_torque)
 def solar_torque(q, t, params, base):
     # Flat plates with absorbed, specular and diffuse fractions (1 − C_s − C_d, C_s, C_d): a
     # facet facing the Sun (cos θ = n̂·ŝ > 0, ŝ towards the Sun) feels
     # F = −P A cos θ [(1 − C_s) ŝ + 2 (C_s cos θ + C_d/3) n̂] (Wertz 1978, Sect. 17.2.2;
     # Montenbruck & Gill 2000, Sect. 3.4.1), P = ν P_1AU (1 AU/d)², ν the shadow fraction;
-    # τ = Σ c × F. Facets shadowing each other are not handled.
+    # τ = Σ c × F = −P [(Σ cos θ A (1 − C_s) c) × ŝ + Σ (2 A C_s cos² θ + ⅔ A C_d cos θ) c × n̂]
+    # over the facets with cos θ > 0. Facets shadowing each other are not handled.
     s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
+    nu = sunlight(
+        int(params[base + S_ECLIPSE]), params[base + S_UMBRA] != 0.0, params, base, s, row, w
+    )
+    if nu == 0.0:
+        return 0.0, 0.0, 0.0
     ds = table_vec3(params, s, row, w, 0)  # satellite → Sun [km]
-    dn = math.sqrt(ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2])
-    nu = 1.0
-    ecl = int(params[base + S_ECLIPSE])
-    if ecl != ECLIPSE_NONE:
-        r = table_vec3(params, s, row, w, 3)
-        nu = shadow(
-            ecl, r[0], r[1], r[2], ds[0], ds[1], ds[2],
-            params[base + S_REARTH], params[base + S_RSUN],
-        )  # fmt: skip
-        if nu == 0.0:
-            return 0.0, 0.0, 0.0
-    au = params[base + S_AU] / dn
-    pressure = nu * params[base + S_P] * au * au
-    sb = rotate_inverse(q, (ds[0] / dn, ds[1] / dn, ds[2] / dn))
-    tx = 0.0
-    ty = 0.0
-    tz = 0.0
+    d2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2]
+    idn = 1.0 / math.sqrt(d2)
+    au = params[base + S_AU] * idn  # 1 AU / d
+    pressure = nu * params[base + S_P] * (au * au)
+    sb = rotate_inverse(q, (ds[0] * idn, ds[1] * idn, ds[2] * idn))
+    ax = 0.0
+    ay = 0.0
+    az = 0.0
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
     f0 = base + S_FACETS
     for i in range(int(params[base + S_NF])):
-        p = f0 + S_STRIDE * i
-        nx = params[p + 1]
-        ny = params[p + 2]
-        nz = params[p + 3]
-        c = sb[0] * nx + sb[1] * ny + sb[2] * nz
-        if c > 0.0:
-            cs = params[p + 7]
-            cd = params[p + 8]
-            a = -pressure * params[p] * c
-            gs = a * (1.0 - cs)
-            gn = a * 2.0 * (cs * c + cd / 3.0)
-            fx = gs * sb[0] + gn * nx
-            fy = gs * sb[1] + gn * ny
-            fz = gs * sb[2] + gn * nz
-            cx = params[p + 4]
-            cy = params[p + 5]
-            cz = params[p + 6]
-            tx += cy * fz - cz * fy
-            ty += cz * fx - cx * fz
-            tz += cx * fy - cy * fx
-    return tx, ty, tz
+        f = params[f0 + S_STRIDE * i : f0 + S_STRIDE * (i + 1)]
+        c = sb[0] * f[0] + sb[1] * f[1] + sb[2] * f[2]
+        # the facets along n̂ face the Sun when c > 0, those along −n̂ when c < 0 (unsigned
+        # offsets: no negative-index wraparound code on the loads)
+        k = _U[3] if c > 0.0 else _U[12]
+        c = abs(c)
+        c2 = c * c
+        ax += c * f[k]
+        ay += c * f[k + _U[1]]
+        az += c * f[k + _U[2]]
+        bx += c2 * f[k + _U[3]] + c * f[k + _U[6]]
+        by += c2 * f[k + _U[4]] + c * f[k + _U[7]]
+        bz += c2 * f[k + _U[5]] + c * f[k + _U[8]]
+    return (
+        -pressure * (ay * sb[2] - az * sb[1] + bx),
+        -pressure * (az * sb[0] - ax * sb[2] + by),
+        -pressure * (ax * sb[1] - ay * sb[0] + bz),
+    )
 
 
 @jit
@@ -418,11 +472,9 @@ def solar_state(t, params, base):
     s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
     ds = table_vec3(params, s, row, w, 0)
     dn = math.sqrt(ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2])
-    r = table_vec3(params, s, row, w, 3)
-    nu = shadow(
-        int(params[base + S_ECLIPSE]), r[0], r[1], r[2], ds[0], ds[1], ds[2],
-        params[base + S_REARTH], params[base + S_RSUN],
-    )  # fmt: skip
+    nu = sunlight(
+        int(params[base + S_ECLIPSE]), params[base + S_UMBRA] != 0.0, params, base, s, row, w
+    )
     return nu, dn, ds[0] / dn, ds[1] / dn, ds[2] / dn
 
 
