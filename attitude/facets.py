@@ -260,6 +260,20 @@ def _normal_groups(facets: Sequence[Facet]) -> tuple[list[np.ndarray], list[list
     return normals, members
 
 
+def _group_rows(facets: Sequence[Facet], side: Any) -> np.ndarray:
+    """(g, 3 + 2 k) rows [n̂ (3), Σ side(f) over the facets along +n̂ (k), then along −n̂ (k)],
+    one per normal up to sign; ``side(f)`` the k numbers a facet's torque is linear in."""
+    normals, members = _normal_groups(facets)
+    k = len(side(facets[0]))
+    rows = np.zeros((len(normals), 3 + 2 * k))
+    for g, (n, fs) in enumerate(zip(normals, members, strict=True)):
+        rows[g, :3] = n
+        for f, sign in fs:
+            at = 3 if sign > 0 else 3 + k
+            rows[g, at : at + k] += side(f)
+    return rows
+
+
 def drag_groups(facets: Sequence[Facet]) -> np.ndarray:
     """The facets as the drag kernel sums them (attitude._core.environment): (g, 9) rows
     [n̂ (3), a₊ (3), a₋ (3)], one per normal up to sign, a± = Σ C_D A c [m³] over the facets
@@ -269,14 +283,7 @@ def drag_groups(facets: Sequence[Facet]) -> np.ndarray:
     atmosphere, body axes), linear in C_D A c: facets with one normal share max(n̂·v, 0), and
     of two opposite normals at most one faces the flow, so one dot product serves both.
     """
-    normals, members = _normal_groups(facets)
-    rows = np.zeros((len(normals), 9))
-    for g, (n, fs) in enumerate(zip(normals, members, strict=True)):
-        rows[g, :3] = n
-        for f, side in fs:
-            at = 3 if side > 0 else 6
-            rows[g, at : at + 3] += f.cd * f.area * np.asarray(f.center, dtype=np.float64)
-    return rows
+    return _group_rows(facets, lambda f: f.cd * f.area * f.center)
 
 
 def optical_groups(facets: Sequence[Facet]) -> np.ndarray:
@@ -287,15 +294,16 @@ def optical_groups(facets: Sequence[Facet]) -> np.ndarray:
     A facet's torque −P [cos θ A (1 − C_s) c × ŝ + (2 A C_s cos² θ + (2/3) A C_d cos θ) c × n̂_f]
     (cos θ = n̂_f·ŝ > 0; Wertz 1978, Sect. 17.2.2) is linear in those three vectors.
     """
-    normals, members = _normal_groups(facets)
-    rows = np.zeros((len(normals), 21))
-    for g, (n, fs) in enumerate(zip(normals, members, strict=True)):
-        rows[g, :3] = n
-        for f, side in fs:
-            at = 3 if side > 0 else 12
-            c = np.asarray(f.center, dtype=np.float64)
-            cn = np.cross(c, np.asarray(f.normal, dtype=np.float64))
-            rows[g, at : at + 3] += f.area * (1.0 - f.specular) * c
-            rows[g, at + 3 : at + 6] += 2.0 * f.area * f.specular * cn
-            rows[g, at + 6 : at + 9] += (2.0 / 3.0) * f.area * f.diffuse * cn
-    return rows
+
+    def side(f: Facet) -> np.ndarray:
+        cn = np.cross(f.center, f.normal)
+        a = f.area
+        return np.concatenate(
+            [
+                a * (1.0 - f.specular) * f.center,
+                2.0 * a * f.specular * cn,
+                (2.0 / 3.0) * a * f.diffuse * cn,
+            ]
+        )
+
+    return _group_rows(facets, side)
