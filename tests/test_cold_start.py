@@ -4,7 +4,7 @@
   (attitude._core.models); a sum runs on the generic ones. The two must integrate the same model
   to the same bits: a gravity gradient alone against the same gravity gradient through the
   generic switch, on every orbit type (an ellipse's copy is compiled without the hyperbolic
-  solver), and the torque-free and heavy-top cases.
+  solver), the torque-free and heavy-top cases, and each environment model.
 * One-off evaluations run the kernels as plain Python (orbit._shared_jit.interpreted): an
   orbit's mean anomaly at epoch and a reference frame at the initial time must be the compiled
   kernels' values, bit for bit.
@@ -22,7 +22,16 @@ from attitude import frames
 from attitude._core import entry_points as generic
 from attitude._core import rk
 from attitude.canonical import project_state
-from attitude.potentials import GravityGradient, HeavyTop, TorqueFree
+from attitude.potentials import (
+    AerodynamicDrag,
+    EddyCurrentDamping,
+    Facet,
+    GravityGradient,
+    HeavyTop,
+    MagneticDipole,
+    SolarRadiation,
+    TorqueFree,
+)
 from orbit import _kernels as K
 from orbit._shared_jit import interpreted
 
@@ -82,6 +91,33 @@ def test_classic_models_alone_match_the_generic_switch_bit_for_bit(pot):
     np.testing.assert_array_equal(y1, y2)
     np.testing.assert_array_equal(d1, d2)
     np.testing.assert_array_equal(c1, c2)
+
+
+def _environment_models():
+    leo = orbit.KeplerOrbit(6978.0, 0.001, 1.7, 0.3, 0.4, epoch=EPOCH)
+    plates = [Facet(0.1, [1.0, 0.0, 0.0], [0.05, 0.02, 0.0], specular=0.2, diffuse=0.1)]
+    return [
+        MagneticDipole(leo, [0.1, 0.0, 0.3]),
+        EddyCurrentDamping(leo, 4.0),
+        AerodynamicDrag(leo, plates),
+        SolarRadiation(leo, plates),
+    ]
+
+
+@pytest.mark.parametrize("pot", _environment_models(), ids=lambda p: p.name)
+def test_environment_models_alone_match_the_generic_switch_bit_for_bit(pot):
+    t = np.linspace(0.0, 3000.0, 31)
+    pot.prepare(t)
+    params = pot._params(INERTIA)
+    model = pot._entry_points()
+    assert model is not generic
+    y1, d1, c1 = _run(model, params, t)
+    y2, d2, c2 = _run(generic, params, t)
+    np.testing.assert_array_equal(y1, y2)
+    np.testing.assert_array_equal(d1, d2)
+    np.testing.assert_array_equal(c1, c2)
+    y0, _, _ = _run(generic, TorqueFree()._params(INERTIA), t)
+    assert np.max(np.abs(y0[-1] - y1[-1])) > 1e-9
 
 
 def test_mean_anomaly_at_epoch_interpreted_is_the_compiled_kernels():

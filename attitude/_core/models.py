@@ -7,16 +7,16 @@ serves every built-in model and every sum of them, but compiling it compiles eve
 environment models, the heavy top, and the gravity gradient with every orbit type (Kepler,
 secular J2, Hermite ephemeris), about 20 s on a fresh install before the first step.
 
-A model that is a single term of the classic kinds (torque-free, heavy top, gravity gradient)
-gets the same entry points compiled with its own kernels bound instead
+A model that is a single term (torque-free, heavy top, gravity gradient, or one environment
+model) gets the same entry points compiled with its own kernels bound instead
 (:func:`orbit._shared_jit.specialise`: an in-memory copy of the module, cached on disk under
 the model's tag), so its first run compiles its own code only; the gravity gradient's kernels
 are specialised once more to the orbit (``orbit_radial`` bound to the kernel of its type,
 :func:`orbit._state_kernels.radial_kernel`; an elliptic Kepler orbit's without the hyperbolic
 solver).
 The arithmetic is the same code, so the results are bit-identical to the generic entry points.
-Sums of models and the environment models run on the generic entry points; user models on
-their copies in the user cache (:mod:`attitude._user_kernels`).
+Sums of models run on the generic entry points; user models on their copies in the user
+cache (:mod:`attitude._user_kernels`).
 """
 
 from __future__ import annotations
@@ -39,6 +39,26 @@ _GG_KERNELS = (
 )
 
 _CACHE: dict[str, Any] = {}
+
+#: The environment models alone: (tag, torque, potential).
+_ENVIRONMENT = {
+    _kp.KIND_MAGNETIC_DIPOLE: (
+        "magnetic_dipole",
+        _kp.magnetic_model_torque,
+        _kp.magnetic_model_potential,
+    ),
+    _kp.KIND_EDDY_CURRENTS: ("eddy_currents", _kp.eddy_model_torque, _kp.torque_free_potential),
+    _kp.KIND_AERODYNAMIC_DRAG: (
+        "aerodynamic_drag",
+        _kp.drag_model_torque,
+        _kp.torque_free_potential,
+    ),
+    _kp.KIND_SOLAR_RADIATION: (
+        "solar_radiation",
+        _kp.solar_model_torque,
+        _kp.torque_free_potential,
+    ),
+}
 
 
 def _model(tag: str, torque: Any, potential: Any) -> Any:
@@ -66,6 +86,8 @@ def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
         return _model("torque_free", _kp.torque_free_torque, _kp.torque_free_potential)
     if kind == _kp.KIND_HEAVY_TOP:
         return _model("heavy_top", _kp.heavy_top_torque, _kp.heavy_top_potential)
+    if kind in _ENVIRONMENT:
+        return _model(*_ENVIRONMENT[kind])
     if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_data is not None:
         orbit_tag, radial = radial_kernel(orbit_data)
         tag = f"gravity_gradient_{orbit_tag}"

@@ -20,7 +20,7 @@ to the offset ``base`` of its kind code, and one cached, compiled function
 (:func:`builtin_torque`) serves every model and every sum of built-in models: the integrators
 that call it are cached on disk too.
 
-A model that is one term (not a sum) of the three classic kinds runs on the kernels of the
+A model that is one term (not a sum) of any built-in kind runs on the kernels of the
 section "one model alone" instead: they call its kind's functions directly, and the entry
 points compiled with them (:mod:`attitude._core.models`) compile that kind's code only, not the
 switch over every kind (a fresh install's first run compiles a third of the code).
@@ -234,6 +234,41 @@ def torque_free_potential(q, t, params):
 
 
 MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._core.models
+
+
+# The environment models alone: their kernels take the block offset; a single model's block is
+# at P_KIND (an int64 like the sums' offsets, so the kernel compiles once for both).
+_BASE = int(P_KIND)
+
+
+@jit(_nrt=False)
+def magnetic_model_torque(q, w, t, params):
+    """A magnetic dipole alone: its torque."""
+    return magnetic_torque(q, t, params, _BASE)
+
+
+@jit(_nrt=False)
+def magnetic_model_potential(q, t, params):
+    """A magnetic dipole alone: its potential energy −m·B."""
+    return magnetic_potential(q, t, params, _BASE)
+
+
+@jit(_nrt=False)
+def eddy_model_torque(q, w, t, params):
+    """Eddy currents alone: their torque."""
+    return eddy_torque(q, w, t, params, _BASE)
+
+
+@jit(_nrt=False)
+def drag_model_torque(q, w, t, params):
+    """Aerodynamic drag alone: its torque."""
+    return drag_torque(q, t, params, _BASE)
+
+
+@jit(_nrt=False)
+def solar_model_torque(q, w, t, params):
+    """Solar radiation alone: its torque."""
+    return solar_torque(q, t, params, _BASE)
 
 
 @jit
