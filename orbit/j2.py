@@ -37,7 +37,7 @@ from . import _kernels as _k
 from . import _state_kernels as _sk
 from .base import OrbitBase
 from .errors import OrbitValueError
-from .keplerorbit import KeplerOrbit, _scalar
+from .keplerorbit import ClassicalElements, KeplerOrbit, _scalar
 
 __all__ = ["EARTH_J2", "EARTH_RADIUS", "SecularJ2Orbit", "j2_secular_rates"]
 
@@ -60,7 +60,7 @@ def j2_secular_rates(a: float, e: float, inc: float, mu: float, j2: float, radiu
     return raan_dot, argp_dot, m_dot
 
 
-class SecularJ2Orbit(OrbitBase):
+class SecularJ2Orbit(ClassicalElements, OrbitBase):
     """Kepler motion with the first-order secular J2 drift of Ω, ω and M (mean elements).
 
     Parameters
@@ -142,42 +142,7 @@ class SecularJ2Orbit(OrbitBase):
         d.setflags(write=False)
         self._data = d
 
-    # -- elements and rates -------------------------------------------------------------------
-    @property
-    def a(self) -> float:
-        """Mean semi-major axis [km]."""
-        return self._kep.a
-
-    @property
-    def e(self) -> float:
-        """Mean eccentricity."""
-        return self._kep.e
-
-    @property
-    def inc(self) -> float:
-        """Mean inclination [rad]."""
-        return self._kep.inc
-
-    @property
-    def raan(self) -> float:
-        """Ω at t0 [rad]."""
-        return self._kep.raan
-
-    @property
-    def argp(self) -> float:
-        """ω at t0 [rad]."""
-        return self._kep.argp
-
-    @property
-    def M0(self) -> float:
-        """Mean anomaly at t0 [rad]."""
-        return self._kep.M0
-
-    @property
-    def t0(self) -> float:
-        """Time of the elements [s since the epoch]."""
-        return self._kep.t0
-
+    # -- elements (ClassicalElements: a, e, inc, raan, argp, M0, t0) and rates ------------------
     @property
     def j2(self) -> float:
         """J2 used."""

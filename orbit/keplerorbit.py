@@ -132,7 +132,49 @@ def _mean_from_true(f: float, e: float, hyperbolic: bool) -> float:
     raise AssertionError("unreachable: the compiled kernels do not raise")
 
 
-class KeplerOrbit(OrbitBase):
+class ClassicalElements:
+    """The classical elements at t0 of an orbit whose element array ``_el`` has the layout of
+    :mod:`orbit._kernels` (Kepler elements; a :class:`orbit.SecularJ2Orbit`'s mean elements)."""
+
+    _el: np.ndarray
+
+    @property
+    def a(self) -> float:
+        """Semi-major axis [km] (negative for a hyperbola; the mean one under J2)."""
+        return float(self._el[_k.A])
+
+    @property
+    def e(self) -> float:
+        """Eccentricity (the mean one under J2)."""
+        return float(self._el[_k.ECC])
+
+    @property
+    def inc(self) -> float:
+        """Inclination [rad] (the mean one under J2)."""
+        return float(self._el[_k.INC])
+
+    @property
+    def raan(self) -> float:
+        """Right ascension of the ascending node Ω at t0 [rad]."""
+        return float(self._el[_k.RAAN])
+
+    @property
+    def argp(self) -> float:
+        """Argument of periapsis ω at t0 [rad]."""
+        return float(self._el[_k.ARGP])
+
+    @property
+    def M0(self) -> float:
+        """Mean anomaly at t0 [rad]."""
+        return float(self._el[_k.M0])
+
+    @property
+    def t0(self) -> float:
+        """Time of the elements [s since the epoch]."""
+        return float(self._el[_k.T0])
+
+
+class KeplerOrbit(ClassicalElements, OrbitBase):
     """A Keplerian orbit about a point mass: elliptic (0 <= e < 1) or hyperbolic (e > 1).
 
     Parameters
@@ -368,46 +410,11 @@ class KeplerOrbit(OrbitBase):
 
     # -----------------------------------------------------------------------------------------
     @property
-    def a(self) -> float:
-        """Semi-major axis [km] (negative for a hyperbola)."""
-        return float(self._el[_k.A])
-
-    @property
-    def e(self) -> float:
-        """Eccentricity."""
-        return float(self._el[_k.ECC])
-
-    @property
-    def inc(self) -> float:
-        """Inclination [rad]."""
-        return float(self._el[_k.INC])
-
-    @property
-    def raan(self) -> float:
-        """Right ascension of the ascending node Ω [rad]."""
-        return float(self._el[_k.RAAN])
-
-    @property
-    def argp(self) -> float:
-        """Argument of periapsis ω [rad]."""
-        return float(self._el[_k.ARGP])
-
-    @property
-    def M0(self) -> float:
-        """Mean anomaly at t0 [rad]."""
-        return float(self._el[_k.M0])
-
-    @property
     def f0(self) -> float:
         """True anomaly at t0 [rad]."""
         if self._f0 is not None:
             return float(self._f0)
         return float(self.true_anomaly(self.t0))
-
-    @property
-    def t0(self) -> float:
-        """Epoch of M0 [s]."""
-        return float(self._el[_k.T0])
 
     @property
     def mu(self) -> float:
