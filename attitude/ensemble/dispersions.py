@@ -169,24 +169,6 @@ class Dispersions:
         }
 
 
-#: Keys of the ``[ensemble]`` table and the kind of quantity of their ``_unit`` (scenario.py).
-ENSEMBLE_KEYS: dict[str, str | None] = {
-    "size": None,
-    "seed": None,
-    "chunk": None,
-    "attitude_error": "angle",
-    "attitude_distribution": None,
-    "rate_error": "rate",
-    "rate_distribution": None,
-    "inertia_error": None,
-    "inertia_distribution": None,
-    "output": None,
-    "every": None,
-    "percentiles": None,
-    "max_output_size": "size",
-}
-
-
 class _Sampled:
     """Members drawn chunk by chunk from :class:`Dispersions` (memory: one chunk)."""
 
