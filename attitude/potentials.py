@@ -673,7 +673,9 @@ class _EnvironmentModel(Potential):
     The tables (:mod:`attitude.environment`) span the run: :meth:`prepare` computes them for
     the times of a run (``attitude.propagate`` calls it), once, and keeps them while later runs
     fit in the same span. Subclasses give ``_table(grid)``, the environment on a
-    :class:`attitude.environment.Grid`, and ``_head()``, the block's numbers before the table.
+    :class:`attitude.environment.Grid`, and ``_head()``, the block's numbers before the table;
+    ``_table`` runs first and may record what it chose for ``_head`` (drag: whether the table
+    holds √ρ v; radiation: whether the shadow margins may decide the umbra).
     """
 
     time_dependent = True

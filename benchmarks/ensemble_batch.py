@@ -102,27 +102,12 @@ def _heyoka_system(hy, length, mu_km):
     x, y, z, vx, vy, vz = hy.make_vars("x", "y", "z", "vx", "vy", "vz")
     inertia = (hy.par[0], hy.par[1], hy.par[2])
 
-    def mul_vec(a, v):  # a∘(0, v)
-        return (
-            -a[1] * v[0] - a[2] * v[1] - a[3] * v[2],
-            a[0] * v[0] + a[2] * v[2] - a[3] * v[1],
-            a[0] * v[1] - a[1] * v[2] + a[3] * v[0],
-            a[0] * v[2] + a[1] * v[1] - a[2] * v[0],
-        )
+    # the package's quaternion kernels as plain Python: they build heyoka expressions too
+    from attitude._core import quat
+    from orbit._shared_jit import interpreted
 
-    def rotate_inverse(a, v):  # vec(ã∘(0, v)∘a) for unit a
-        w, qx, qy, qz = a[0], -a[1], -a[2], -a[3]
-        tx = 2.0 * (qy * v[2] - qz * v[1])
-        ty = 2.0 * (qz * v[0] - qx * v[2])
-        tz = 2.0 * (qx * v[1] - qy * v[0])
-        return (
-            v[0] + w * tx + (qy * tz - qz * ty),
-            v[1] + w * ty + (qz * tx - qx * tz),
-            v[2] + w * tz + (qx * ty - qy * tx),
-        )
-
-    def cross(a, b):
-        return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+    qk = interpreted(quat)
+    mul_vec, rotate_inverse, cross = qk.mul_vec, qk.rotate_inverse, qk.cross
 
     w1 = q[0] * Q[1] - q[1] * Q[0] - q[2] * Q[3] + q[3] * Q[2]
     w2 = q[0] * Q[2] + q[1] * Q[3] - q[2] * Q[0] - q[3] * Q[1]
@@ -209,6 +194,8 @@ def heyoka_in_subprocess(python, data, tols, repeat, n_err, reference):
 
 def _worker(inp, out, args):
     import heyoka as hy
+
+    sys.path.insert(0, str(ROOT))  # the package's quaternion kernels build the system
 
     a = json.loads(args)
     with np.load(inp) as f:

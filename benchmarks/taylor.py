@@ -39,11 +39,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import orbit
+from attitude._core import quat as _quat
 from attitude.body import RigidBody
 from attitude.canonical import project_state
 from attitude.exact import torque_free
 from attitude.potentials import GravityGradient, HeavyTop, TorqueFree, as_potential
 from attitude.propagate import METHODS, Problem, propagate
+from orbit._shared_jit import interpreted
 
 TARGET = 1e-9
 
@@ -85,30 +87,9 @@ def _heyoka():
     return heyoka
 
 
-def _mul_vec(a, v):
-    return (
-        -a[1] * v[0] - a[2] * v[1] - a[3] * v[2],
-        a[0] * v[0] + a[2] * v[2] - a[3] * v[1],
-        a[0] * v[1] - a[1] * v[2] + a[3] * v[0],
-        a[0] * v[2] + a[1] * v[1] - a[2] * v[0],
-    )
-
-
-def _rotate_inverse(q, v):
-    # attitude._core.quat.rotate_inverse: vec(q̃∘(0, v)∘q) for unit q
-    w, x, y, z = q[0], -q[1], -q[2], -q[3]
-    tx = 2.0 * (y * v[2] - z * v[1])
-    ty = 2.0 * (z * v[0] - x * v[2])
-    tz = 2.0 * (x * v[1] - y * v[0])
-    return (
-        v[0] + w * tx + (y * tz - z * ty),
-        v[1] + w * ty + (z * tx - x * tz),
-        v[2] + w * tz + (x * ty - y * tx),
-    )
-
-
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+# The package's quaternion kernels as plain Python: they build heyoka expressions too.
+_QK = interpreted(_quat)
+_mul_vec, _rotate_inverse, _cross = _QK.mul_vec, _QK.rotate_inverse, _QK.cross
 
 
 def heyoka_system(hy, inertia, potential, length=1.0):

@@ -128,29 +128,8 @@ def test_per_member_orbits_and_heavy_tops_bit_for_bit(gg_case):
 
 
 # ------------------------------------------------------------------------------------------------
-# closed forms and conservation laws
+# conservation laws (the closed form of symmetric tops: tests/test_ensemble.py, both methods)
 # ------------------------------------------------------------------------------------------------
-
-
-def test_symmetric_tops_closed_form_per_member():
-    """I1 = I2 per member: q(t) = exp_S(Ĝ|G|t/I1)∘q0∘exp_B(e3 ν t)."""
-    rng = np.random.default_rng(2)
-    n = 7
-    i1 = rng.uniform(1.5, 2.5, n)
-    i3 = i1 * rng.uniform(0.3, 1.6, n)
-    inertia = np.stack([i1, i1, i3], axis=1)
-    q0 = random_unit(rng, n)
-    g0 = rng.normal(size=(n, 3))
-    Q0 = C.momenta_from_body_angular_momentum(q0, g0)
-    t = np.linspace(0.0, 50.0, 101)
-    ds = propagate_ensemble(inertia, q0, Q0, t, method="taylor", rtol=1e-13, atol=1e-13)
-    for i in range(n):
-        G = qt.rotate(q0[i], g0[i])
-        nu = g0[i, 2] * (1 / i3[i] - 1 / i1[i])
-        prec = qt.from_rotation_vector(np.outer(t, G / i1[i]))
-        spin = qt.from_rotation_vector(np.outer(t, [0.0, 0.0, nu]))
-        exact = qt.multiply(qt.multiply(prec, q0[i]), spin)
-        assert np.max(qt.angle_between(ds.q.values[i], exact)) < 1e-10
 
 
 @pytest.mark.parametrize("pot", [TorqueFree(), HeavyTop(0.5, [1.0, 0.0, 0.2])])

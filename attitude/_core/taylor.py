@@ -345,19 +345,23 @@ def _radius(cf, p, rtol, atol):
     floor = atol / rtol
     sq = max(_block_norm(cf, 0, 0), floor)
     sp = max(_block_norm(cf, 0, 4), floor)
-    rho = math.inf
-    for j in (p - 1, p):
-        # min over the blocks before the root (x -> x^(1/j) is increasing)
-        nq = _block_norm(cf, j, 0)
-        nQ = _block_norm(cf, j, 4)
-        ratio = math.inf
-        if nq > 0.0:
-            ratio = sq / nq
-        if nQ > 0.0:
-            ratio = min(ratio, sp / nQ)
-        if ratio < math.inf:
-            rho = min(rho, ratio ** (1.0 / j))
-    return rho
+    rho = order_radius(sq, sp, _block_norm(cf, p - 1, 0), _block_norm(cf, p - 1, 4), p - 1)
+    return min(rho, order_radius(sq, sp, _block_norm(cf, p, 0), _block_norm(cf, p, 4), p))
+
+
+@jit(inline="always")
+def order_radius(sq, sp, nq, nQ, j):
+    """(‖q‖/‖q_j‖)^(1/j) and (‖Q‖/‖Q_j‖)^(1/j), the smaller (inf if both coefficients vanish):
+    the term of order j in ρ (the min over the blocks before the root: x -> x^(1/j) is
+    increasing). Shared by the single run and the lanes of the batch."""
+    ratio = math.inf
+    if nq > 0.0:
+        ratio = sq / nq
+    if nQ > 0.0:
+        ratio = min(ratio, sp / nQ)
+    if ratio < math.inf:
+        return ratio ** (1.0 / j)
+    return math.inf
 
 
 @jit

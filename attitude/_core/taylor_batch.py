@@ -73,6 +73,7 @@ from .taylor import (
     WORK_ROWS,
     Y,
     order_from_tolerance,
+    order_radius,
     set_order,
     step_end,
 )
@@ -370,18 +371,10 @@ def _lane_radius(cf, lane, p, rtol, atol):
     floor = atol / rtol
     sq = max(_lane_block_norm(cf, lane, 0, 0), floor)
     sp = max(_lane_block_norm(cf, lane, 0, 4), floor)
-    rho = math.inf
-    for j in (p - 1, p):
-        nq = _lane_block_norm(cf, lane, j, 0)
-        nQ = _lane_block_norm(cf, lane, j, 4)
-        ratio = math.inf
-        if nq > 0.0:
-            ratio = sq / nq
-        if nQ > 0.0:
-            ratio = min(ratio, sp / nQ)
-        if ratio < math.inf:
-            rho = min(rho, ratio ** (1.0 / j))
-    return rho
+    q1 = _lane_block_norm(cf, lane, p - 1, 0)
+    rho = order_radius(sq, sp, q1, _lane_block_norm(cf, lane, p - 1, 4), p - 1)
+    q2 = _lane_block_norm(cf, lane, p, 0)
+    return min(rho, order_radius(sq, sp, q2, _lane_block_norm(cf, lane, p, 4), p))
 
 
 @jit(inline="always")
