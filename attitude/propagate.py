@@ -40,7 +40,8 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import Trajectory, add_event_variables, build_dataset
+from .results import Trajectory, add_actuator_variables, add_event_variables, build_dataset
+from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
 
@@ -110,6 +111,8 @@ def _lookup_method(method: str) -> tuple[Callable[..., RunResult], dict[str, Any
 def _as_body(body: Any) -> RigidBody:
     if isinstance(body, RigidBody):
         return body
+    if isinstance(body, Spacecraft):
+        return body.body
     return RigidBody(body)
 
 
@@ -159,6 +162,7 @@ def propagate(
     epoch: Any = None,
     events: Any = None,
     output: str = "dataset",
+    commands: Any = None,
 ) -> xr.Dataset | Trajectory:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -167,8 +171,10 @@ def propagate(
 
     Parameters
     ----------
-    body : RigidBody or array_like, shape (3,)
-        The body (principal moments of inertia).
+    body : RigidBody, Spacecraft or array_like, shape (3,)
+        The body (principal moments of inertia), or a :class:`~attitude.Spacecraft` with
+        actuators: with reaction wheels a gyrostat, whose state adds the wheels' axial momenta
+        (docs/actuators.md).
     q0 : array_like, shape (4,)
         Initial attitude quaternion (body → space, scalar first).
     Q0 : array_like, shape (4,)
@@ -235,6 +241,9 @@ def propagate(
         :class:`~attitude.results.Trajectory` ``(t, q, Q, stats)`` of plain arrays, without
         diagnostics, torques or a Dataset (for loops and optimisers calling ``propagate`` many
         times: about half the overhead of a short call); not with ``events`` or ``on_chunk``.
+    commands : CommandSchedule, optional
+        Open-loop actuator commands of a :class:`~attitude.Spacecraft`, held from each time of
+        the schedule to the next (the integrator restarts at every one of them).
 
     Returns
     -------
@@ -262,9 +271,17 @@ def propagate(
             "output: 'arrays' returns the states only; events and on_chunk need the Dataset "
             "(output='dataset')"
         )
+    craft = body if isinstance(body, Spacecraft) and body.has_actuators else None
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
+    if craft is not None:
+        runner = _spacecraft_runner(craft, method, formulation, events, output, pot)
+    elif commands is not None:
+        raise AttitudeValueError(
+            "commands: a CommandSchedule drives the actuators of an attitude.Spacecraft; this "
+            "body has none (give Spacecraft(body, wheels=..., magnetorquers=..., thrusters=...))"
+        )
     form = None
     if not isinstance(formulation, (str, Formulation)):
         raise AttitudeTypeError(
@@ -344,14 +361,23 @@ def propagate(
             f"initial state projected onto |q| = 1, q·Q = 0 (correction {correction:.2g})",
             stacklevel=2,
         )
+    y0 = np.concatenate([q0p, Q0p])
+    sc_run = None
+    if craft is not None:
+        from . import _holds
+
+        craft.check_orbit(getattr(pot, "orbit", None))
+        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands)
+        run_attrs["spacecraft"] = craft.describe()
     problem = Problem(
         body=body,
         potential=pot,
         params=pot._params(body.inertia),
-        y0=np.concatenate([q0p, Q0p]),
+        y0=y0,
         t=tt,
         entry=_entry_points(pot, evset),
         events=evset,
+        spacecraft=sc_run,
     )
     _check_work(problem, method, max_step, max_steps)
     options = dict(
@@ -398,7 +424,7 @@ def propagate(
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
     if arrays:
-        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:], attrs)
+        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:8], attrs)
     else:
         ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
@@ -419,6 +445,35 @@ def propagate(
             partial=ds,
         )
     return ds
+
+
+def _spacecraft_runner(
+    craft: Spacecraft, method: str, formulation: Any, events: Any, output: str, pot: Potential
+) -> Callable[..., RunResult]:
+    """The runner of a spacecraft with actuators (the methods that integrate the gyrostat)."""
+    from . import _holds
+
+    if formulation != "canonical":
+        raise AttitudeValueError(
+            f"formulation: a spacecraft with actuators is integrated in canonical variables "
+            f"(q, Q, h); got formulation={formulation!r}"
+        )
+    if method not in _holds.SPACECRAFT_METHODS:
+        raise AttitudeValueError(
+            f"method: a spacecraft with actuators (a gyrostat driven by held commands) is "
+            f"integrated by {', '.join(repr(m) for m in _holds.SPACECRAFT_METHODS)}; "
+            f"{method!r} does not model wheels, magnetorquers or thrusters"
+        )
+    if events is not None:
+        raise AttitudeValueError(
+            "events: not located yet for a spacecraft with actuators; run without events"
+        )
+    if output != "dataset":
+        raise AttitudeValueError(
+            "output: a spacecraft with actuators returns the Dataset (its wheel states and "
+            "commands are in it); use output='dataset'"
+        )
+    return _holds.run_dop853
 
 
 def _entry_points(pot: Potential, evset: Any) -> Any:
@@ -495,6 +550,16 @@ def finish_dataset(
     if t_last is not None and n:
         t = t.copy()
         t[-1] = t_last
+    if problem.spacecraft is not None:
+        from . import _holds
+
+        d = _holds.diagnostics(problem, t, y)
+        if not problem.potential.has_potential:
+            attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
+        ds = build_dataset(
+            t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
+        )
+        return add_actuator_variables(ds, problem.spacecraft, y, d)
     diag = np.empty((n, 13))
     n_terms = len(problem.potential.terms)
     torques = np.empty((n, n_terms + 1, 3))

@@ -26,6 +26,7 @@ __all__ = [
     "SI",
     "Trajectory",
     "UnitSystem",
+    "add_actuator_variables",
     "add_event_variables",
     "build_dataset",
     "set_time_attrs",
@@ -517,6 +518,192 @@ def add_event_variables(
     if terminal and k:
         j = int(records.which[-1])
         out.attrs["terminal_event"] = f"{evset.labels[j]} at t = {float(records.t[-1])!r}"
+    return out
+
+
+#: CF flag masks and meanings of ``wheel_limit`` (attitude._core.actuators FLAG_*).
+WHEEL_LIMIT_FLAGS = (
+    (1, "torque_limit"),
+    (2, "speed_limit"),
+    (4, "power_limit"),
+    (8, "dead_band"),
+)
+
+
+def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) -> xr.Dataset:
+    """The actuators of a spacecraft run as variables (docs/results.md, "Actuators").
+
+    On the dimensions ``wheel``, ``magnetorquer``, ``thruster`` (labels in ``*_label``): the
+    wheels' speed relative to the body, axial momentum, command, applied motor torque,
+    friction torque and limit flags; the magnetorquers' commanded and applied dipoles; the
+    thrusters' commands and forces; the actuators' constants. The torque budget gains the
+    terms ``wheels`` (the torque of the wheels' motors and bearings on the body: internal,
+    left out of ``total``), ``magnetorquers`` and ``thrusters``.
+    """
+    craft = run.spacecraft
+    u = UnitSystem(craft.body)
+    nw, nm, nt = craft.counts
+    n = run.n_state
+    rec = d["records"]
+    wn, mn, tn = craft.names()
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    new: dict[str, xr.Variable] = {}
+    coords: dict[str, Any] = {}
+    c = 0
+    if nw:
+        w = np.arange(nw)
+        coords["wheel"] = (
+            "wheel",
+            w.astype(np.int32),
+            {"long_name": "reaction wheel index", "units": "1"},
+        )
+        coords["wheel_label"] = ("wheel", np.array(wn), {"long_name": "reaction wheel"})
+        r = rec[:, c : c + 4 * nw].reshape(-1, nw, 4)
+        new["wheel_speed"] = var(
+            ("time", "wheel"), d["wheels"][:, :, 0], u.rate, "wheel speed relative to the body"
+        )
+        new["wheel_momentum"] = var(
+            ("time", "wheel"),
+            rows[:, 8:n],
+            u.momentum,
+            "axial angular momentum of the wheel, J (a.omega + speed)",
+        )
+        new["wheel_torque_command"] = var(
+            ("time", "wheel"), r[:, :, 0], u.torque, "commanded motor torque"
+        )
+        new["wheel_torque"] = var(
+            ("time", "wheel"),
+            r[:, :, 1],
+            u.torque,
+            "applied motor torque (after the wheel's limits)",
+        )
+        new["wheel_friction"] = var(
+            ("time", "wheel"),
+            d["wheels"][:, :, 1],
+            u.torque,
+            "bearing friction torque on the wheel",
+        )
+        new["wheel_limit"] = var(
+            ("time", "wheel"),
+            r[:, :, 2].astype(np.int8),
+            None,
+            "limits acting on the wheel command",
+            flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),
+            flag_meanings=" ".join(name for _, name in WHEEL_LIMIT_FLAGS),
+        )
+        new["wheel_axis"] = var(
+            ("wheel", "axis"), craft.wheel_axes, "1", "wheel spin axis in body axes"
+        )
+        new["wheel_inertia"] = var(
+            ("wheel",), craft.wheel_inertias, u.inertia, "wheel axial moment of inertia"
+        )
+        new["wheel_max_torque"] = var(
+            ("wheel",),
+            np.array([x.max_torque for x in craft.wheels]),
+            u.torque,
+            "motor torque limit (inf: none)",
+        )
+        new["wheel_max_speed"] = var(
+            ("wheel",),
+            np.array([x.max_speed for x in craft.wheels]),
+            u.rate,
+            "wheel speed limit (inf: none)",
+        )
+        c += 4 * nw
+    if nm:
+        coords["magnetorquer"] = (
+            "magnetorquer",
+            np.arange(nm, dtype=np.int32),
+            {"long_name": "magnetorquer index", "units": "1"},
+        )
+        coords["magnetorquer_label"] = ("magnetorquer", np.array(mn), {"long_name": "magnetorquer"})
+        r = rec[:, c : c + 2 * nm].reshape(-1, nm, 2)
+        dip = "A m^2" if u.torque != "1" else "1"
+        new["dipole_command"] = var(
+            ("time", "magnetorquer"), r[:, :, 0], dip, "commanded magnetic dipole"
+        )
+        new["dipole"] = var(
+            ("time", "magnetorquer"),
+            r[:, :, 1],
+            dip,
+            "applied magnetic dipole (clipped to the rod's limit)",
+        )
+        new["magnetorquer_axis"] = var(
+            ("magnetorquer", "axis"),
+            np.array([x.axis for x in craft.magnetorquers]),
+            "1",
+            "magnetorquer axis in body axes",
+        )
+        c += 2 * nm
+    if nt:
+        coords["thruster"] = (
+            "thruster",
+            np.arange(nt, dtype=np.int32),
+            {"long_name": "thruster index", "units": "1"},
+        )
+        coords["thruster_label"] = ("thruster", np.array(tn), {"long_name": "thruster"})
+        r = rec[:, c : c + 2 * nt].reshape(-1, nt, 2)
+        fmax = np.array([x.max_thrust for x in craft.thrusters])
+        force = u.torque.replace(" m", "") if u.torque != "1" else "1"
+        new["thruster_command"] = var(
+            ("time", "thruster"), r[:, :, 0], "1", "commanded on-time fraction of the hold"
+        )
+        new["thruster_force"] = var(
+            ("time", "thruster"),
+            r[:, :, 1] * fmax,
+            force,
+            "thrust at the sample (0 when not firing)",
+        )
+        new["thruster_direction"] = var(
+            ("thruster", "axis"),
+            np.array([x.direction for x in craft.thrusters]),
+            "1",
+            "force direction in body axes",
+        )
+        new["thruster_position"] = var(
+            ("thruster", "axis"),
+            np.array([x.position for x in craft.thrusters]),
+            SI["length"] if u.torque != "1" else "1",
+            "point of application in body axes",
+        )
+    # The torque budget with the actuators.
+    terms = list(ds.model_label.values[:-1])
+    tq = d["torques"]
+    parts = [tq[:, :-1]]
+    total = tq[:, -1].copy()
+    names = list(terms)
+    for j, (label, present) in enumerate(
+        (("wheels", nw), ("magnetorquers", nm), ("thrusters", nt))
+    ):
+        if present:
+            parts.append(d["actuators"][:, j : j + 1])
+            names.append(label)
+            if label != "wheels":
+                total = total + d["actuators"][:, j]
+    parts.append(total[:, None])
+    names.append("total")
+    out = ds.drop_vars(["torque", "model", "model_label"])
+    coords["model"] = (
+        "model",
+        np.arange(len(names), dtype=np.int32),
+        {"long_name": "torque model term index (labels in model_label)", "units": "1"},
+    )
+    coords["model_label"] = ("model", np.array(names), {"long_name": "torque model term"})
+    new["torque"] = var(
+        ("time", "model", "axis"),
+        np.concatenate(parts, axis=1),
+        u.torque,
+        "body-frame torque of each model term and actuator, and the external total "
+        "(model = total; the wheels' torque is internal and not in it)",
+    )
+    out = out.assign_coords(coords).assign(new)
+    out.attrs = dict(ds.attrs)
     return out
 
 

@@ -45,7 +45,12 @@ from __future__ import annotations
 
 import numba
 
-from attitude._core.dynamics import canonical_rhs_with, diagnostics_with, term_torques_with
+from attitude._core.dynamics import (
+    canonical_rhs_with,
+    diagnostics_with,
+    term_torques_at_rates_with,
+    term_torques_with,
+)
 from attitude._core.ensemble import member_run
 from attitude._core.events import (
     builtin_event,
@@ -59,6 +64,8 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
+from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
+from attitude._core.holds import holds_run
 from attitude._core.potentials import (
     builtin_n_terms,
     builtin_potential,
@@ -162,6 +169,35 @@ def composition_events(
         torque, event, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
         evd, evs, ev_count, rec_t, rec_k, rec_y,
     )  # fmt: skip
+
+
+# The spacecraft with actuators (attitude.Spacecraft: a gyrostat in (q, Q, h)) --------------------
+
+
+@jit(_nrt=REFCOUNT)
+def spacecraft_rhs(t, y, P, dydt):
+    """The gyrostat's eq. 7 with the model's torque and the actuators' (``P = (params, sc)``)."""
+    spacecraft_rhs_with(torque, t, y, P, dydt)
+
+
+#: DOP853 through held commands (:func:`attitude._core.holds.holds_run`) on the gyrostat.
+dop853_spacecraft = rebind(
+    holds_run, globals(), "spacecraft", options={"_nrt": REFCOUNT}, RHS="spacecraft_rhs"
+)
+
+
+@jit(_nrt=REFCOUNT)
+def spacecraft_diagnostics(t, y, params, sc, out):
+    """Diagnostics of gyrostat states ``y`` (m, 8 + n_w) into ``out`` (m, 13)."""
+    for k in range(y.shape[0]):
+        U = potential(y[k, 0:4], t[k], params)
+        spacecraft_diagnostics_row(y, k, U, params, sc, out)
+
+
+@jit
+def term_torques_at_rates(t, y, rates, params, out):
+    """:func:`term_torques` at given body angular velocities ``rates`` (m, 3)."""
+    term_torques_at_rates_with(term_torque, n_terms(params), t, y, rates, params, out)
 
 
 # Other formulations (attitude.formulations) ----------------------------------------------------
