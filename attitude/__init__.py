@@ -18,8 +18,19 @@ Hamilton product; ``q`` maps body components to space components, x_S = qâˆ˜x_Bâ
 from __future__ import annotations
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
-from . import canonical, errors, events, exact, formulations, frames, potentials, quaternion
+from . import (
+    actuators,
+    canonical,
+    errors,
+    events,
+    exact,
+    formulations,
+    frames,
+    potentials,
+    quaternion,
+)
 from ._version import __version__
+from .actuators import CommandSchedule, Magnetorquer, ReactionWheel, Thruster
 from .body import RigidBody
 from .ensemble import (
     event_time_percentiles,
@@ -51,6 +62,7 @@ from .potentials import (
 )
 from .propagate import propagate
 from .results import Trajectory
+from .spacecraft import Spacecraft
 
 del _accessor
 
@@ -59,6 +71,7 @@ __all__ = [
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
+    "CommandSchedule",
     "CustomPotential",
     "CustomTorque",
     "EddyCurrentDamping",
@@ -66,14 +79,19 @@ __all__ = [
     "GravityGradient",
     "HeavyTop",
     "MagneticDipole",
+    "Magnetorquer",
     "Potential",
     "PropagationError",
+    "ReactionWheel",
     "RigidBody",
     "SingularityError",
     "SolarRadiation",
+    "Spacecraft",
+    "Thruster",
     "TorqueFree",
     "Trajectory",
     "__version__",
+    "actuators",
     "box_wing",
     "canonical",
     "errors",

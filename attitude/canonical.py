@@ -74,7 +74,9 @@ def momenta_from_body_angular_momentum(q: Any, g: Any) -> np.ndarray:
     return 2.0 * multiply(q, _pure(g))
 
 
-def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarray:
+def momenta_from_angular_velocity(
+    q: Any, omega: Any, inertia: Any, wheel_speeds: Any = None
+) -> np.ndarray:
     """Conjugate momenta from the body angular velocity: Q = 2 q∘(0, I ω).
 
     Parameters
@@ -84,14 +86,39 @@ def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarra
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
         (``deg/s``, ``rpm``...) for a body with units (converted to rad/s).
-    inertia : RigidBody, array_like or Quantity, shape (3,)
-        Principal moments of inertia.
+    inertia : RigidBody, Spacecraft, array_like or Quantity, shape (3,)
+        Principal moments of inertia, or a :class:`~attitude.Spacecraft`: with wheels g is
+        the total momentum I ω + Σ J_k Ω_k a_k of body and wheels.
+    wheel_speeds : array_like or Quantity, shape (..., n_wheels), optional
+        A spacecraft's wheel speeds Ω_k relative to the body (rad/s; default: the wheels'
+        initial speeds).
 
     Returns
     -------
     Q : ndarray, shape (..., 4)
         In kg m² s⁻¹ for a body with units.
     """
+    if hasattr(inertia, "body_momentum"):  # a Spacecraft (with its wheels)
+        craft = inertia
+        omega = as_rate(omega, "omega", dimensional=not craft.body.is_dimensionless)
+        speeds = None
+        if wheel_speeds is not None:
+            speeds = as_rate(
+                wheel_speeds,
+                "wheel_speeds",
+                dimensional=not craft.body.is_dimensionless,
+                trailing=None,
+            )
+            if speeds.shape[-1:] != (len(craft.wheels),):
+                raise AttitudeValueError(
+                    f"wheel_speeds: expected {len(craft.wheels)} wheel speeds in the last "
+                    f"dimension, got shape {speeds.shape}"
+                )
+        return momenta_from_body_angular_momentum(q, craft.body_momentum(omega, speeds))
+    if wheel_speeds is not None:
+        raise AttitudeValueError(
+            "wheel_speeds: only a Spacecraft has wheels; give inertia=Spacecraft(...)"
+        )
     body = _body(inertia)
     inert = body.inertia
     omega = as_rate(omega, "omega", dimensional=not body.is_dimensionless)
@@ -130,13 +157,22 @@ def space_angular_momentum(q: Any, Q: Any) -> np.ndarray:
     return 0.5 * multiply(Q, conjugate(q))[..., 1:]
 
 
-def angular_velocity(q: Any, Q: Any, inertia: Any) -> np.ndarray:
+def angular_velocity(q: Any, Q: Any, inertia: Any, wheel_speeds: Any = None) -> np.ndarray:
     """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q).
+
+    For a :class:`~attitude.Spacecraft` with wheels, ω = I⁻¹ (g − Σ J_k Ω_k a_k) with the
+    wheel speeds Ω_k relative to the body (``wheel_speeds``, default the wheels' initial
+    speeds).
 
     Returns
     -------
     omega : ndarray, shape (..., 3)
     """
+    if hasattr(inertia, "rate_from_momentum"):
+        speeds = None
+        if wheel_speeds is not None:
+            speeds = as_rate(wheel_speeds, "wheel_speeds", dimensional=True, trailing=None)
+        return inertia.rate_from_momentum(body_angular_momentum(q, Q), speeds)
     return body_angular_momentum(q, Q) / _inertia(inertia)
 
 

@@ -544,8 +544,9 @@ def initial_state(
 
     Parameters
     ----------
-    body : RigidBody or array_like, shape (3,)
-        The body (principal moments).
+    body : RigidBody, Spacecraft or array_like, shape (3,)
+        The body (principal moments); a spacecraft's wheels keep their initial speeds
+        relative to the body (Q0 holds the total momentum of body and wheels).
     frame : Frame
         From :mod:`attitude.frames` (``lvlh(orbit)``, ...).
     t0 : float or Quantity
@@ -570,7 +571,9 @@ def initial_state(
             f"frame: expected a reference frame from attitude.frames (lvlh(orbit), ...), got "
             f"{type(frame).__name__}"
         )
-    b = body if isinstance(body, RigidBody) else RigidBody(body)
+    from .spacecraft import Spacecraft
+
+    b = body if isinstance(body, (RigidBody, Spacecraft)) else RigidBody(body)
     t = as_scalar(t0, "t0", unit="s")
     qR, wR = frame._evaluate(np.array([t]), interpreted=True)
     qR, wR = qR[0], wR[0]
