@@ -20,7 +20,7 @@ NANO = 1_000_000_000
 
 
 def _nanos(t: float) -> int:
-    return int(round(t * NANO))
+    return round(t * NANO)
 
 
 def rw_open_loop(
@@ -65,7 +65,7 @@ def rw_open_loop(
 
     commands = np.asarray(commands, dtype=np.float64)
     K, n = commands.shape
-    steps = int(round(hold / dt))
+    steps = round(hold / dt)
     assert abs(steps * dt - hold) < 1e-12 * hold
 
     sim = SimulationBaseClass.SimBaseClass()

@@ -107,9 +107,14 @@ def test_wheel_on_the_symmetry_axis_spun_up_by_a_constant_torque():
     craft = Spacecraft(body, [ReactionWheel([0, 0, 1], J)])
     t = np.linspace(0.0, 100.0, 11)
     ds = attitude.propagate(
-        craft, Q_ID, np.zeros(4), t, rtol=1e-12, atol=1e-15,
+        craft,
+        Q_ID,
+        np.zeros(4),
+        t,
+        rtol=1e-12,
+        atol=1e-15,
         commands=CommandSchedule([0.0], wheel_torque=[[u]]),
-    )  # fmt: skip
+    )
     np.testing.assert_allclose(ds.omega.values[:, 2], -u * t / (8.0 - J), rtol=0, atol=1e-15)
     np.testing.assert_allclose(
         ds.wheel_speed.values[:, 0], u * t / J + u * t / (8.0 - J), rtol=1e-13, atol=1e-13
@@ -191,8 +196,9 @@ def test_from_tensor_with_skew_wheels_against_euler_equations_in_the_structural_
     w0_p = R.T @ w0_f
     Q0 = total_momenta(craft, q_sp, w0_p)
     t = np.linspace(0.0, 200.0, 81)
-    ds = attitude.propagate(craft, q_sp, Q0, t, rtol=1e-13, atol=1e-15,
-                            commands=CommandSchedule(times, cmd))  # fmt: skip
+    ds = attitude.propagate(
+        craft, q_sp, Q0, t, rtol=1e-13, atol=1e-15, commands=CommandSchedule(times, cmd)
+    )
     # reference in F: state (q_sf, ω_F, h)
     It = Jt - sum(Jw[k] * np.outer(axes[k], axes[k]) for k in range(3))
     h0 = Jw * (axes @ w0_f + np.array([50.0, 100.0, 150.0]))
@@ -213,16 +219,21 @@ def test_from_tensor_with_skew_wheels_against_euler_equations_in_the_structural_
         grid = t[(t > ta) & (t <= tb + 1e-12)]
         if tb <= ta:
             continue
-        sol = solve_ivp(rhs, (ta, tb), y, method="DOP853", rtol=1e-13, atol=1e-15,
-                        t_eval=grid, first_step=None)  # fmt: skip
+        sol = solve_ivp(
+            rhs, (ta, tb), y, method="DOP853", rtol=1e-13, atol=1e-15, t_eval=grid, first_step=None
+        )
         for j in range(grid.size):
             out.append(sol.y[:, j])
-        y = sol.y[:, -1] if sol.t[-1] == tb else solve_ivp(
-            rhs, (ta, tb), y, method="DOP853", rtol=1e-13, atol=1e-15).y[:, -1]  # fmt: skip
+        y = (
+            sol.y[:, -1]
+            if sol.t[-1] == tb
+            else solve_ivp(rhs, (ta, tb), y, method="DOP853", rtol=1e-13, atol=1e-15).y[:, -1]
+        )
     ref = np.array(out)[: t.size]
     q_f = qt.multiply(ds.q.values, qt.conjugate(q_pf))
-    np.testing.assert_allclose(q_f * np.sign(q_f[:, :1]), ref[:, :4] * np.sign(ref[:, :1]),
-                               atol=1e-10)  # fmt: skip
+    np.testing.assert_allclose(
+        q_f * np.sign(q_f[:, :1]), ref[:, :4] * np.sign(ref[:, :1]), atol=1e-10
+    )
     np.testing.assert_allclose(ds.omega.values @ R.T, ref[:, 4:7], atol=1e-11)
     np.testing.assert_allclose(ds.wheel_momentum.values, ref[:, 7:], atol=1e-12)
 
@@ -242,10 +253,10 @@ def test_magnetorquers_equal_a_magnetic_dipole_of_the_same_moment():
     q0 = qt.normalize(np.array([0.7, 0.1, 0.5, -0.2]))
     Q0 = C.momenta_from_angular_velocity(q0, [0.01, 0.02, -0.01], BODY)
     t = np.linspace(0.0, 3000.0, 61)
-    ds = attitude.propagate(craft, q0, Q0, t, rtol=1e-12, atol=1e-14,
-                            commands=CommandSchedule([0.0], dipole=[m]))  # fmt: skip
-    ref = attitude.propagate(BODY, q0, Q0, t, attitude.MagneticDipole(o, m), rtol=1e-12,
-                             atol=1e-14)  # fmt: skip
+    ds = attitude.propagate(
+        craft, q0, Q0, t, rtol=1e-12, atol=1e-14, commands=CommandSchedule([0.0], dipole=[m])
+    )
+    ref = attitude.propagate(BODY, q0, Q0, t, attitude.MagneticDipole(o, m), rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(ds.q.values, ref.q.values, atol=1e-11)
     np.testing.assert_allclose(ds.dipole.values, np.broadcast_to(m, (61, 3)))
     np.testing.assert_allclose(
@@ -266,21 +277,34 @@ def test_thruster_pair_pulse_against_the_closed_form():
     craft = Spacecraft(BODY, thrusters=th)
     tau = 2.0 * 2.0 * 0.5  # two 2 N forces on 0.5 m arms
     t = np.linspace(0.0, 10.0, 101)
-    ds = attitude.propagate(craft, Q_ID, np.zeros(4), t, rtol=1e-13, atol=1e-16,
-                            commands=CommandSchedule([0.0, 10.0], thrust=[[0.37, 0.37], [0, 0]]))  # fmt: skip
+    ds = attitude.propagate(
+        craft,
+        Q_ID,
+        np.zeros(4),
+        t,
+        rtol=1e-13,
+        atol=1e-16,
+        commands=CommandSchedule([0.0, 10.0], thrust=[[0.37, 0.37], [0, 0]]),
+    )
     ton = 3.7
     G3 = tau * np.minimum(t, ton)
     np.testing.assert_allclose(ds.G.values[:, 2], G3, atol=1e-13)
-    ang = np.where(t <= ton, 0.5 * tau / 8.0 * t**2,
-                   0.5 * tau / 8.0 * ton**2 + tau * ton / 8.0 * (t - ton))  # fmt: skip
+    ang = np.where(
+        t <= ton, 0.5 * tau / 8.0 * t**2, 0.5 * tau / 8.0 * ton**2 + tau * ton / 8.0 * (t - ton)
+    )
     ref = qt.from_rotation_vector(np.outer(ang, [0, 0, 1]))
     np.testing.assert_allclose(ds.q.values, ref, atol=1e-12)
     firing = t < ton
     np.testing.assert_array_equal(ds.thruster_force.values[:, 0], np.where(firing, 2.0, 0.0))
     # a minimum impulse bit drops shorter firings
     th2 = [Thruster([0.5, 0, 0], [0, 1, 0], 2.0, min_impulse_bit=8.0)]
-    ds2 = attitude.propagate(Spacecraft(BODY, thrusters=th2), Q_ID, np.zeros(4), t,
-                             commands=CommandSchedule([0.0], thrust=[[0.37]]))  # fmt: skip
+    ds2 = attitude.propagate(
+        Spacecraft(BODY, thrusters=th2),
+        Q_ID,
+        np.zeros(4),
+        t,
+        commands=CommandSchedule([0.0], thrust=[[0.37]]),
+    )
     assert np.all(ds2.G.values == 0.0)
 
 
@@ -292,8 +316,15 @@ def _basilisk_friction(om, fc, fs, beta, cv, lc, stribeck):
 
     def f(w):
         if stribeck:
-            return (math.sqrt(2 * math.e) * (fs - fc) * math.exp(-((w / beta) ** 2) / 2)
-                    * w / (beta * math.sqrt(2)) + fc * math.tanh(w * 10 / beta) + cv * w)  # fmt: skip
+            return (
+                math.sqrt(2 * math.e)
+                * (fs - fc)
+                * math.exp(-((w / beta) ** 2) / 2)
+                * w
+                / (beta * math.sqrt(2))
+                + fc * math.tanh(w * 10 / beta)
+                + cv * w
+            )
         return np.sign(w) * fc + cv * w
 
     out = f(om)
@@ -304,8 +335,15 @@ def _basilisk_friction(om, fc, fs, beta, cv, lc, stribeck):
 
 @pytest.mark.parametrize("stribeck", [False, True])
 def test_friction_kernel_is_basilisks_law(stribeck):
-    w = ReactionWheel([1, 0, 0], 0.1, coulomb_friction=5e-4, static_friction=8e-4,
-                      stribeck_speed=0.5, viscous_friction=2e-6, limit_cycle_speed=0.01)  # fmt: skip
+    w = ReactionWheel(
+        [1, 0, 0],
+        0.1,
+        coulomb_friction=5e-4,
+        static_friction=8e-4,
+        stribeck_speed=0.5,
+        viscous_friction=2e-6,
+        limit_cycle_speed=0.01,
+    )
     om = np.array([-300.0, -1.0, -0.3, -0.011, -0.005, 0.0, 1e-5, 0.004, 0.02, 0.7, 2.0, 500.0])
     ours = w.friction(om, stribeck=stribeck)
     ref = [_basilisk_friction(x, 5e-4, 8e-4, 0.5, 2e-6, 0.01, stribeck) for x in om]
@@ -317,8 +355,9 @@ def test_coulomb_friction_stops_a_wheel_at_the_closed_form_time():
     limit-cycle speed, then exponentially: the speed reaches ω_lc at the closed-form time."""
     J, fc, lc = 0.05, 1e-3, 1e-3
     body = attitude.RigidBody([10.0, 10.0, 8.0], units="kg m2")
-    craft = Spacecraft(body, [ReactionWheel([0, 0, 1], J, speed=2.0, coulomb_friction=fc,
-                                            limit_cycle_speed=lc)])  # fmt: skip
+    craft = Spacecraft(
+        body, [ReactionWheel([0, 0, 1], J, speed=2.0, coulomb_friction=fc, limit_cycle_speed=lc)]
+    )
     # body + wheel about b3 with no external torque: ḣ = −f_c, g3 = 0 → ω3 = −h/Ĩ3,
     # Ω = h/J − ω3 = h (1/J + 1/Ĩ3): Ω̇ = −f_c (1/J + 1/Ĩ3)
     It3 = 8.0 - J
@@ -326,8 +365,9 @@ def test_coulomb_friction_stops_a_wheel_at_the_closed_form_time():
     Om0 = 2.0
     t_lc = (Om0 - lc) / rate
     t = np.linspace(0.0, t_lc, 51)
-    ds = attitude.propagate(craft, Q_ID, total_momenta(craft, Q_ID, np.zeros(3)), t,
-                            rtol=1e-13, atol=1e-16)  # fmt: skip
+    ds = attitude.propagate(
+        craft, Q_ID, total_momenta(craft, Q_ID, np.zeros(3)), t, rtol=1e-13, atol=1e-16
+    )
     np.testing.assert_allclose(ds.wheel_speed.values[:, 0], Om0 - rate * t, atol=1e-11)
     np.testing.assert_allclose(ds.wheel_friction.values[:, 0], -fc, rtol=1e-12)
 
@@ -341,8 +381,12 @@ def test_bad_actuators_and_schedules_are_refused_before_any_work():
     with pytest.warns(AxisNormalizedWarning):
         w = ReactionWheel([0, 0, 2.0], 0.1)
     assert np.allclose(w.axis, [0, 0, 1])
-    for bad in ({"max_torque": 0.0}, {"max_speed": -1.0}, {"coulomb_friction": -1e-3},
-                {"max_power": 0.0}):  # fmt: skip
+    for bad in (
+        {"max_torque": 0.0},
+        {"max_speed": -1.0},
+        {"coulomb_friction": -1e-3},
+        {"max_power": 0.0},
+    ):
         with pytest.raises(AttitudeValueError, match=next(iter(bad))):
             ReactionWheel([1, 0, 0], 0.1, **bad)
     with pytest.raises(AttitudeValueError, match="inertia"):
@@ -360,11 +404,17 @@ def test_bad_actuators_and_schedules_are_refused_before_any_work():
     craft = Spacecraft(BODY, pyramid(0.05))
     t = np.linspace(0, 10, 3)
     with pytest.raises(AttitudeValueError, match="4 wheels"):
-        attitude.propagate(craft, Q_ID, np.zeros(4), t,
-                           commands=CommandSchedule([0.0], wheel_torque=[[0.1, 0.1, 0.1]]))  # fmt: skip
+        attitude.propagate(
+            craft,
+            Q_ID,
+            np.zeros(4),
+            t,
+            commands=CommandSchedule([0.0], wheel_torque=[[0.1, 0.1, 0.1]]),
+        )
     with pytest.raises(AttitudeValueError, match="no magnetorquers"):
-        attitude.propagate(craft, Q_ID, np.zeros(4), t,
-                           commands=CommandSchedule([0.0], dipole=[[0.1]]))  # fmt: skip
+        attitude.propagate(
+            craft, Q_ID, np.zeros(4), t, commands=CommandSchedule([0.0], dipole=[[0.1]])
+        )
     with pytest.raises(AttitudeValueError, match="commands"):
         attitude.propagate(BODY, Q_ID, np.zeros(4), t, commands=CommandSchedule([0.0]))
     for method in ("exact", "splitting", "nosquish", "scipy:RK45"):
@@ -374,8 +424,9 @@ def test_bad_actuators_and_schedules_are_refused_before_any_work():
 
 def test_command_schedule_from_csv(tmp_path):
     p = tmp_path / "cmd.csv"
-    p.write_text("# a schedule\ntime,wheel_torque_1,wheel_torque_2,dipole_1\n0,0.1,0.2,0.01\n"
-                 "5,-0.1,0,0.02\n")  # fmt: skip
+    p.write_text(
+        "# a schedule\ntime,wheel_torque_1,wheel_torque_2,dipole_1\n0,0.1,0.2,0.01\n5,-0.1,0,0.02\n"
+    )
     s = CommandSchedule.from_csv(p)
     np.testing.assert_array_equal(s.times, [0.0, 5.0])
     np.testing.assert_array_equal(s.wheel_torque, [[0.1, 0.2], [-0.1, 0.0]])
@@ -406,23 +457,34 @@ def test_open_loop_wheels_against_basilisk():
     wheels = [dict(axis=axes[:, k], Js=Js[k], Omega=W0[k]) for k in range(3)]
     sigma0 = np.array([0.1, 0.2, -0.3])
     omega0 = np.array([0.3, -0.4, 0.5])
-    refs = {dt: br.rw_open_loop(I, wheels, sigma0, omega0, hold, cmd, dt)
-            for dt in (hold, hold / 2, hold / 4)}  # fmt: skip
-    craft = Spacecraft(attitude.RigidBody(np.diag(I), units="kg m2"),
-                       [ReactionWheel(axes[:, k], Js[k], speed=W0[k]) for k in range(3)])  # fmt: skip
+    refs = {
+        dt: br.rw_open_loop(I, wheels, sigma0, omega0, hold, cmd, dt)
+        for dt in (hold, hold / 2, hold / 4)
+    }
+    craft = Spacecraft(
+        attitude.RigidBody(np.diag(I), units="kg m2"),
+        [ReactionWheel(axes[:, k], Js[k], speed=W0[k]) for k in range(3)],
+    )
     q0 = br.mrp_to_quaternion(sigma0)
     Q0 = total_momenta(craft, q0, omega0)
     t = refs[hold]["t"]
-    ds = attitude.propagate(craft, q0, Q0, t, rtol=1e-13, atol=1e-15,
-                            commands=CommandSchedule(np.arange(K) * hold, cmd))  # fmt: skip
+    ds = attitude.propagate(
+        craft, q0, Q0, t, rtol=1e-13, atol=1e-15, commands=CommandSchedule(np.arange(K) * hold, cmd)
+    )
 
     def diff(a, b):
         qa, qb = br.mrp_to_quaternion(a["sigma"]), br.mrp_to_quaternion(b["sigma"])
-        return (qt.angle_between(qa, qb).max(), np.abs(a["omega"] - b["omega"]).max(),
-                np.abs(a["Omega"] - b["Omega"]).max())  # fmt: skip
+        return (
+            qt.angle_between(qa, qb).max(),
+            np.abs(a["omega"] - b["omega"]).max(),
+            np.abs(a["Omega"] - b["Omega"]).max(),
+        )
 
-    ours = {"sigma": qt.to_mrp(ds.q.values), "omega": ds.omega.values,
-            "Omega": ds.wheel_speed.values}  # fmt: skip
+    ours = {
+        "sigma": qt.to_mrp(ds.q.values),
+        "omega": ds.omega.values,
+        "Omega": ds.wheel_speed.values,
+    }
     for h in (hold, hold / 2):
         step = diff(refs[h], refs[h / 2])
         err = diff(ours, refs[h])
