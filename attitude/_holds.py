@@ -23,10 +23,18 @@ from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["SpacecraftRun", "diagnostics", "prepare", "run_dop853"]
+__all__ = [
+    "SPACECRAFT_METHODS",
+    "SpacecraftRun",
+    "check_taylor",
+    "diagnostics",
+    "prepare",
+    "run_dop853",
+    "run_taylor",
+]
 
 #: Methods that integrate a spacecraft with actuators.
-SPACECRAFT_METHODS = ("dop853",)
+SPACECRAFT_METHODS = ("dop853", "taylor")
 
 
 @dataclass
@@ -171,6 +179,120 @@ def run_dop853(
 
 
 run_dop853.streams = True  # type: ignore[attr-defined]
+
+
+def check_taylor(spacecraft: Any, potential: Any) -> None:
+    """Raise :class:`AttitudeValueError` (naming ``method``) unless ``method="taylor"`` expands
+    this spacecraft: a built-in potential it expands (torque-free, heavy top, gravity gradient
+    of a Kepler orbit), wheels whose friction is piecewise affine (Coulomb + viscous with a
+    limit-cycle speed, no Stribeck regime), thrusters; no magnetorquers (the field is a table,
+    not a series)."""
+    from .taylor import check_potential
+
+    check_potential(potential)
+    if spacecraft.magnetorquers:
+        raise AttitudeValueError(
+            "method: 'taylor' does not expand the magnetorquers' torque (the geomagnetic field "
+            "is tabulated, not a series); use method='dop853'"
+        )
+    for i, w in enumerate(spacecraft.wheels):
+        if w.stribeck_speed is not None:
+            raise AttitudeValueError(
+                f"method: 'taylor' expands piecewise-affine wheel friction; wheel {i} has a "
+                "Stribeck regime (exp and tanh of the speed): use method='dop853'"
+            )
+        if w.coulomb_friction > 0.0 and w.limit_cycle_speed == 0.0:
+            raise AttitudeValueError(
+                f"method: wheel {i}'s Coulomb friction with limit_cycle_speed = 0 jumps at "
+                "zero speed; give it a limit-cycle speed (Basilisk's default 1e-4 rad/s) or "
+                "use method='dop853'"
+            )
+
+
+def run_taylor(
+    problem: Problem,
+    *,
+    rtol: float,
+    atol: float,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
+    on_chunk: Callable[[int, np.ndarray], None] | None = None,
+    **_: Any,
+) -> RunResult:
+    """``method="taylor"`` for a spacecraft: the gyrostat's Taylor series, restarted at every
+    hold boundary, the order chosen for each hold (:mod:`attitude._core.taylor_gyrostat`)."""
+    from ._core import taylor as _kt
+    from ._core import taylor_gyrostat as _ktg
+
+    sr: SpacecraftRun = problem.spacecraft
+    check_taylor(sr.spacecraft, problem.potential)
+    t = problem.t
+    m = t.shape[0]
+    n = sr.n_state
+    nw = n - 8
+    width = n + sr.n_rec
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
+    y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
+    work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
+    tstate = np.zeros(_ktg.TS_SIZE + nw)
+    counters = np.zeros(5, dtype=np.int64)
+    hs = np.zeros(_kh.HS_SIZE)
+    P = (problem.params, sr.fresh_block())
+    ctl = (sr.hold_t, sr.hold_u, hs, np.zeros(sr.hold_u.shape[1]))
+    kernel = _ktg.taylor_holds_run
+
+    def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
+        return kernel(
+            P, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax, ctl
+        )
+
+    t0, t_end = float(t[0]), float(t[m - 1])
+    done = 0
+    k = 0
+    status = _rk.SUCCESS
+    y_chunk = y_out[:0]
+    while done < m:
+        stop = min(m, done + chunk)
+        t_chunk = np.ascontiguousarray(t[done:stop])
+        y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
+        pause = None
+        if progress is not None:
+
+            def pause(kk, done=done):
+                progress(done + kk, m, float(tstate[0]))
+
+        status, k = dop853_call(
+            entry, problem.params, problem.y0, t0, t_chunk, y_chunk, work, tstate, counters,
+            rtol, atol, t_end, max_step, max_steps, pause,
+        )  # fmt: skip
+        if on_chunk is not None and k:
+            on_chunk(done, y_chunk[:k])
+        done += k
+        if progress is not None:
+            progress(done, m, float(tstate[0]))
+        if status != _rk.SUCCESS:
+            break
+    stats = {
+        "rtol": rtol,
+        "atol": atol,
+        "order": int(tstate[3]),
+        "n_steps": int(counters[0]),
+        "n_series_terms": int(counters[1]),
+        "n_holds": int(hs[_kh.HS_NEXT]),
+    }
+    msg = _rk.STATUS_MESSAGES[int(status)]
+    t_stop = None if status == _rk.SUCCESS else float(tstate[0])
+    if on_chunk is not None:
+        last = max(done - 1, 0)
+        return RunResult(
+            y_chunk[:k][-1:].copy(), int(status), msg, stats, first=last, t_stop=t_stop
+        )
+    return RunResult(y_out[:done], int(status), msg, stats, t_stop=t_stop)
+
+
+run_taylor.streams = True  # type: ignore[attr-defined]
 
 
 def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:

@@ -473,6 +473,9 @@ def _spacecraft_runner(
             "output: a spacecraft with actuators returns the Dataset (its wheel states and "
             "commands are in it); use output='dataset'"
         )
+    if method == "taylor":
+        _holds.check_taylor(craft, pot)
+        return _holds.run_taylor
     return _holds.run_dop853
 
 

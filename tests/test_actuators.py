@@ -350,26 +350,76 @@ def test_friction_kernel_is_basilisks_law(stribeck):
     np.testing.assert_allclose(ours, ref, rtol=1e-14, atol=1e-20)
 
 
-def test_coulomb_friction_stops_a_wheel_at_the_closed_form_time():
-    """Viscous-free Coulomb friction decelerates a free wheel at f_c / (J (1 + J/Ĩ₃)) until the
-    limit-cycle speed, then exponentially: the speed reaches ω_lc at the closed-form time."""
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_coulomb_friction_stops_a_wheel_through_the_kink_at_the_closed_form_time(method):
+    """Coulomb friction decelerates a free wheel at the constant rate f_c (1/J + 1/Ĩ₃) down to
+    the limit-cycle speed, then, linear below it, exponentially: both phases against the
+    closed form, across the kink (taylor cuts its step at the kink: round-off; dop853's error
+    control steps across it)."""
     J, fc, lc = 0.05, 1e-3, 1e-3
     body = attitude.RigidBody([10.0, 10.0, 8.0], units="kg m2")
-    craft = Spacecraft(
-        body, [ReactionWheel([0, 0, 1], J, speed=2.0, coulomb_friction=fc, limit_cycle_speed=lc)]
+    wheel = ReactionWheel([0, 0, 1], J, speed=2.0, coulomb_friction=fc, limit_cycle_speed=lc)
+    craft = Spacecraft(body, [wheel])
+    # body + wheel about b3, no external torque: ḣ = f, g3 = 0 → ω3 = −h/Ĩ3, Ω = h (1/J + 1/Ĩ3)
+    k = 1 / J + 1 / (8.0 - J)
+    rate = fc * k
+    t_lc = (2.0 - lc) / rate
+    t = np.linspace(0.0, t_lc + 5.0 / ((fc / lc) * k), 201)
+    Q0 = total_momenta(craft, Q_ID, np.zeros(3))
+    ds = attitude.propagate(craft, Q_ID, Q0, t, method=method, rtol=1e-13, atol=1e-16)
+    ref = np.where(t <= t_lc, 2.0 - rate * t, lc * np.exp(-(fc / lc) * k * (t - t_lc)))
+    tol = 1e-13 if method == "taylor" else 1e-9
+    np.testing.assert_allclose(ds.wheel_speed.values[:, 0], ref, rtol=0, atol=tol)
+    np.testing.assert_allclose(
+        ds.wheel_friction.values[:, 0], -np.minimum(fc, fc / lc * ref), rtol=0, atol=tol * fc / lc
     )
-    # body + wheel about b3 with no external torque: ḣ = −f_c, g3 = 0 → ω3 = −h/Ĩ3,
-    # Ω = h/J − ω3 = h (1/J + 1/Ĩ3): Ω̇ = −f_c (1/J + 1/Ĩ3)
-    It3 = 8.0 - J
-    rate = fc * (1 / J + 1 / It3)
-    Om0 = 2.0
-    t_lc = (Om0 - lc) / rate
-    t = np.linspace(0.0, t_lc, 51)
+
+
+@pytest.mark.parametrize("potential", ["torque_free", "gravity_gradient"])
+def test_taylor_equals_dop853_with_wheels_and_thrusters(potential):
+    """The two integrators of a spacecraft agree to their tolerance under the same schedule
+    (pyramid wheels, a thruster, viscous friction), and against a tight DOP853 reference."""
+    import orbit
+
+    pot = None
+    if potential == "gravity_gradient":
+        pot = attitude.GravityGradient(orbit.KeplerOrbit(7000.0, 0.1, 0.5, 0.2, 0.1, f0=0.0))
+    wheels = pyramid(0.05, max_torque=0.02, max_speed=80.0, viscous_friction=1e-5)
+    craft = Spacecraft(BODY, wheels, thrusters=[Thruster([0.5, 0, 0], [0, 1, 0], 0.01)])
+    rng = np.random.default_rng(7)
+    times = np.arange(0.0, 2000.0, 2.0)
+    sched = CommandSchedule(
+        times, rng.normal(0, 0.02, (times.size, 4)), thrust=rng.uniform(0, 1, (times.size, 1))
+    )
+    q0 = qt.normalize(np.array([0.9, 0.1, -0.3, 0.2]))
+    Q0 = total_momenta(craft, q0, [0.01, -0.02, 0.015])
+    t = np.linspace(0.0, 2000.0, 401)
+    run = {
+        m: attitude.propagate(craft, q0, Q0, t, pot, method=m, rtol=rt, atol=1e-15, commands=sched)
+        for m, rt in (("taylor", 1e-12), ("dop853", 1e-14))
+    }
+    a, b = run["taylor"], run["dop853"]
+    assert np.max(np.abs(a.q.values - b.q.values)) < 1e-9
+    assert np.max(np.abs(a.wheel_speed.values - b.wheel_speed.values)) < 1e-10
+    assert np.max(np.abs(a.omega.values - b.omega.values)) < 1e-10 * np.max(np.abs(b.omega.values))
+    # q·Q = c to round-off (Q is rebuilt from q and g)
+    assert np.max(np.abs(a.qQ.values)) < 1e-15 * np.max(np.abs(a.Q.values)) * 10
+    G = a.G.values
+    # G changes only by the thruster's angular impulse: compare with dop853's G
+    np.testing.assert_allclose(G, b.G.values, atol=1e-11 * np.max(np.abs(G)))
+
+
+def test_taylor_order_follows_the_hold():
+    """At a 10 Hz hold the step is the hold, at an order far below rtol's (Jorba & Zou)."""
+    craft = Spacecraft(BODY, pyramid(0.05))
+    times = np.arange(0.0, 100.0, 0.1)
+    sched = CommandSchedule(times, 0.01 * np.ones((times.size, 4)))
+    Q0 = total_momenta(craft, Q_ID, [0.01, 0.02, 0.03])
     ds = attitude.propagate(
-        craft, Q_ID, total_momenta(craft, Q_ID, np.zeros(3)), t, rtol=1e-13, atol=1e-16
+        craft, Q_ID, Q0, np.linspace(0, 100, 11), method="taylor", rtol=1e-12, commands=sched
     )
-    np.testing.assert_allclose(ds.wheel_speed.values[:, 0], Om0 - rate * t, atol=1e-11)
-    np.testing.assert_allclose(ds.wheel_friction.values[:, 0], -fc, rtol=1e-12)
+    assert ds.attrs["n_steps"] == times.size
+    assert ds.attrs["n_series_terms"] <= 8 * times.size <= 0.6 * ds.attrs["order"] * times.size
 
 
 # --- bad input ----------------------------------------------------------------------------------
