@@ -85,7 +85,7 @@ def momenta_from_angular_velocity(
         Unit quaternion (body → space).
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
-        (``deg/s``, ``rpm``...) for a body with units (converted to rad/s).
+        (``deg/s``, ``cycle/min``...) for a body with units (converted to rad/s).
     inertia : RigidBody, Spacecraft, array_like or Quantity, shape (3,)
         Principal moments of inertia, or a :class:`~attitude.Spacecraft`: with wheels g is
         the total momentum I ω + Σ J_k Ω_k a_k of body and wheels.

@@ -48,11 +48,11 @@ class ReactionWheel:
     max_torque : float or Quantity
         Motor torque limit (N m); a command beyond it is clipped (default: none).
     max_speed : float or Quantity
-        Speed limit relative to the body (rad/s; a Quantity in rpm is converted): at a
+        Speed limit relative to the body (rad/s; a Quantity such as ``6000 * u.cycle / u.min`` (rpm) is converted): at a
         boundary where |Ω| >= max_speed a command that would spin the wheel further is cut to
         zero, as Basilisk does (default: none).
     speed : float or Quantity
-        Initial speed Ω relative to the body (rad/s, or rpm as a Quantity).
+        Initial speed Ω relative to the body (rad/s, or a Quantity such as ``100 * u.cycle / u.min``).
     min_torque : float or Quantity
         Commands below this magnitude are not applied (N m; Basilisk's ``u_min``).
     max_power : float or Quantity
