@@ -48,11 +48,13 @@ class ReactionWheel:
     max_torque : float or Quantity
         Motor torque limit (N m); a command beyond it is clipped (default: none).
     max_speed : float or Quantity
-        Speed limit relative to the body (rad/s; a Quantity such as ``6000 * u.cycle / u.min`` (rpm) is converted): at a
-        boundary where |Ω| >= max_speed a command that would spin the wheel further is cut to
-        zero, as Basilisk does (default: none).
+        Speed limit relative to the body (rad/s; a Quantity such as
+        ``6000 * u.cycle / u.min``, i.e. rpm, is converted): at a boundary where
+        |Ω| >= max_speed a command that would spin the wheel further is cut to zero, as
+        Basilisk does (default: none).
     speed : float or Quantity
-        Initial speed Ω relative to the body (rad/s, or a Quantity such as ``100 * u.cycle / u.min``).
+        Initial speed Ω relative to the body (rad/s, or a Quantity such as
+        ``100 * u.cycle / u.min``).
     min_torque : float or Quantity
         Commands below this magnitude are not applied (N m; Basilisk's ``u_min``).
     max_power : float or Quantity
@@ -120,12 +122,23 @@ class ReactionWheel:
         s(self, "speed", as_scalar(sp, "speed"))
         s(self, "min_torque", nonnegative(min_torque, "min_torque", "N m", "dead band"))
         s(self, "max_power", limit(max_power, "max_power", "W", "power limit"))
-        s(self, "coulomb_friction", nonnegative(coulomb_friction, "coulomb_friction", "N m",
-                                                "Coulomb friction torque"))  # fmt: skip
-        s(self, "static_friction", nonnegative(static_friction, "static_friction", "N m",
-                                               "static friction torque"))  # fmt: skip
-        s(self, "viscous_friction", nonnegative(viscous_friction, "viscous_friction", "N m s",
-                                                "viscous friction coefficient"))  # fmt: skip
+        s(
+            self,
+            "coulomb_friction",
+            nonnegative(coulomb_friction, "coulomb_friction", "N m", "Coulomb friction torque"),
+        )
+        s(
+            self,
+            "static_friction",
+            nonnegative(static_friction, "static_friction", "N m", "static friction torque"),
+        )
+        s(
+            self,
+            "viscous_friction",
+            nonnegative(
+                viscous_friction, "viscous_friction", "N m s", "viscous friction coefficient"
+            ),
+        )
         if stribeck_speed is None:
             beta = None
         else:
@@ -133,8 +146,11 @@ class ReactionWheel:
             if not math.isfinite(beta):
                 raise AttitudeValueError("stribeck_speed: must be finite (or None for none)")
         s(self, "stribeck_speed", beta)
-        s(self, "limit_cycle_speed", nonnegative(limit_cycle_speed, "limit_cycle_speed",
-                                                 "rad / s", "limit-cycle speed"))  # fmt: skip
+        s(
+            self,
+            "limit_cycle_speed",
+            nonnegative(limit_cycle_speed, "limit_cycle_speed", "rad / s", "limit-cycle speed"),
+        )
         s(self, "name", optional_name(name, "wheel"))
         if self.min_torque >= self.max_torque:
             raise AttitudeValueError(
@@ -290,11 +306,14 @@ def wheel_record(w: ReactionWheel) -> np.ndarray:
         if beta is not None:
             x = lc / beta
             f = (
-                math.sqrt(2.0 * math.e) / math.sqrt(2.0)
-                * (w.static_friction - w.coulomb_friction) * math.exp(-0.5 * x * x) * x
+                math.sqrt(2.0 * math.e)
+                / math.sqrt(2.0)
+                * (w.static_friction - w.coulomb_friction)
+                * math.exp(-0.5 * x * x)
+                * x
                 + w.coulomb_friction * math.tanh(10.0 * x)
                 + w.viscous_friction * lc
-            )  # fmt: skip
+            )
             r[_ka.W_SLOPE_S] = f / lc
     r[_ka.W_UMAX] = w.max_torque
     r[_ka.W_OMAX] = w.max_speed
