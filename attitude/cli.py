@@ -114,6 +114,7 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
         ("max_rel_G_error", "max |G - G0|/|G0| (conserved)"),
         ("max_rel_Gz_error", "max |Gz - Gz0|/|G0| (conserved)"),
         ("max_rel_energy_variation", "max |H - H0|/|H0| (time-dependent potential: not conserved)"),
+        ("max_rel_energy_work", "max |H - H0|/|H0| (actuators do work: not conserved)"),
     ]
     return [f"{label} = {_fmt_attrs_number(attrs[k])}" for k, label in labels if k in attrs]
 
@@ -489,6 +490,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         try:
             rows, inv = _info_rows(args, ds)
             budget = _torque_budget(ds)
+            wheels = _wheel_lines(ds)
             events = ds.attrs.get("events") or "detector" in ds.dims
             ev = _event_lines(ds) if events else []
         except BadInput:
@@ -499,6 +501,8 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"{k:<11} {v}")
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
         print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if wheels:
+            print("wheels      " + "\n            ".join(wheels))
         if events:
             print("events      " + ("\n            ".join(ev) if ev else "-"))
     finally:
@@ -520,7 +524,8 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         tr = InvariantTracker()
         for c in iter_chunks(ds):
             tr.update(c)
-        a.update(tr.attrs(str(a.get("potential_name", ""))))
+        counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
+        a.update(tr.attrs(str(a.get("potential_name", "")), counts))
     inertia = a.get("inertia")
     rows = [
         ("file", args.file),
@@ -591,6 +596,47 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
             out.append(f"... {t.size - limit} more (variables event_time, event_detector)")
     if a.get("terminal_event"):
         out.append(f"run ended by the terminal event {a['terminal_event']}")
+    return out
+
+
+def _wheel_lines(ds: Any) -> list[str]:
+    """Per reaction wheel: speed range (rpm), largest applied torque, and how often each limit
+    acted (streamed over the file's chunks)."""
+    if "wheel_speed" not in ds.data_vars:
+        return []
+    labels = [str(x) for x in ds["wheel_label"].values]
+    n_w = len(labels)
+    lo = np.full(n_w, np.inf)
+    hi = np.full(n_w, -np.inf)
+    umax = np.zeros(n_w)
+    flags = np.zeros((n_w, 4), dtype=np.int64)
+    n = 0
+    step = 65536
+    for i in range(0, ds.sizes["time"], step):
+        sl = slice(i, i + step)
+        w = np.asarray(ds["wheel_speed"].isel(time=sl).values, dtype=np.float64)
+        u = np.asarray(ds["wheel_torque"].isel(time=sl).values, dtype=np.float64)
+        f = np.asarray(ds["wheel_limit"].isel(time=sl).values).astype(np.int64)
+        lo = np.minimum(lo, w.min(axis=0, initial=np.inf))
+        hi = np.maximum(hi, w.max(axis=0, initial=-np.inf))
+        umax = np.maximum(umax, np.abs(u).max(axis=0, initial=0.0))
+        for b in range(4):
+            flags[:, b] += ((f >> b) & 1).sum(axis=0)
+        n += w.shape[0]
+    rpm = 60.0 / (2.0 * np.pi)
+    names = ("torque", "speed", "power", "dead band")
+    width = max(len(x) for x in labels)
+    unit = ds["wheel_torque"].attrs.get("units", "")
+    out = [f"{'wheel':<{width}}  {'speed min .. max [rpm]':>24}  {'max |u| [' + unit + ']':>13}  "
+           "limits (share of samples)"]  # fmt: skip
+    for k in range(n_w):
+        lim = ", ".join(
+            f"{names[b]} {flags[k, b] / max(n, 1):.1%}" for b in range(4) if flags[k, b]
+        )
+        out.append(
+            f"{labels[k]:<{width}}  {lo[k] * rpm:>11.6g} .. {hi[k] * rpm:<10.6g}  "
+            f"{umax[k]:13.4g}  {lim or 'none'}"
+        )
     return out
 
 

@@ -627,3 +627,122 @@ def test_wheel_limits_and_friction_against_basilisk(name):
         assert e1[0] < 1e-5 and e1[1] < 1e-5
     else:
         assert e16[0] < e1[0] / 10 and e16[1] < e1[1] / 10
+
+
+# --- scenarios --------------------------------------------------------------------------------
+
+SCENARIO = """
+[body]
+inertia = [900.0, 800.0, 600.0]
+inertia_unit = "kg m2"
+[[spacecraft.wheels]]
+axis = [1.0, 0.0, 0.0]
+inertia = 0.0796
+inertia_unit = "kg m2"
+max_torque = 0.2
+max_torque_unit = "N m"
+max_speed = 6000
+max_speed_unit = "cycle/min"
+speed = 100
+speed_unit = "cycle/min"
+coulomb_friction = 0.5
+coulomb_friction_unit = "mN m"
+[[spacecraft.wheels]]
+axis = [0.0, 1.0, 0.0]
+inertia = 0.0796
+inertia_unit = "kg m2"
+[[spacecraft.thrusters]]
+position = [0.0, 0.5, 0.0]
+position_unit = "m"
+direction = [0.0, 0.0, 1.0]
+max_thrust = 1.0
+max_thrust_unit = "N"
+COMMANDS
+[initial_state]
+form = "body_rates"
+q = [1.0, 0.0, 0.0, 0.0]
+omega = [0.001, -0.01, 0.03]
+omega_unit = "rad/s"
+[time]
+start = 0.0
+stop = 60.0
+step = 1.0
+unit = "s"
+"""
+INLINE = """[commands]
+times = [0.0, 10.0, 20.0]
+times_unit = "s"
+wheel_torque = [[100.0, -100.0], [0.0, 50.0], [-100.0, 0.0]]
+wheel_torque_unit = "mN m"
+thrust = [[0.5], [0.0], [0.25]]
+"""
+
+
+def test_scenario_actuators_and_commands_inline_and_from_csv(tmp_path):
+    """[[spacecraft.wheels]], [[spacecraft.thrusters]] and [commands] (inline, and a CSV file
+    beside the scenario) run the same as the library calls."""
+    from astropy import units as u
+
+    from attitude.scenario import load, loads
+
+    sc = loads(SCENARIO.replace("COMMANDS", INLINE))
+    ds = sc.run()
+    w = [
+        ReactionWheel(
+            [1, 0, 0],
+            0.0796,
+            max_torque=0.2,
+            max_speed=6000 * u.cycle / u.min,
+            speed=100 * u.cycle / u.min,
+            coulomb_friction=5e-4,
+        ),
+        ReactionWheel([0, 1, 0], 0.0796),
+    ]
+    craft = Spacecraft(
+        attitude.RigidBody([900.0, 800.0, 600.0], units="kg m2"),
+        w,
+        thrusters=[Thruster([0, 0.5, 0], [0, 0, 1], 1.0)],
+    )
+    sched = CommandSchedule(
+        [0.0, 10.0, 20.0], [[0.1, -0.1], [0.0, 0.05], [-0.1, 0.0]], thrust=[[0.5], [0.0], [0.25]]
+    )
+    ref = attitude.propagate(
+        craft,
+        Q_ID,
+        total_momenta(craft, Q_ID, [0.001, -0.01, 0.03]),
+        np.arange(61.0),
+        commands=sched,
+    )
+    np.testing.assert_array_equal(ds.q.values, ref.q.values)
+    np.testing.assert_array_equal(ds.wheel_speed.values, ref.wheel_speed.values)
+    (tmp_path / "cmd.csv").write_text(
+        "time,wheel_torque_1,wheel_torque_2,thrust_1\n0,0.1,-0.1,0.5\n10,0,0.05,0\n20,-0.1,0,0.25\n"
+    )
+    (tmp_path / "s.toml").write_text(SCENARIO.replace("COMMANDS", '[commands]\nfile = "cmd.csv"'))
+    ds2 = load(tmp_path / "s.toml").run()
+    np.testing.assert_array_equal(ds2.q.values, ref.q.values)
+
+
+@pytest.mark.parametrize(
+    ("change", "key"),
+    [
+        (("max_torque = 0.2", "max_torqe = 0.2"), "spacecraft.wheels[0].max_torqe"),
+        (("max_torque = 0.2", "max_torque = -0.2"), "max_torque"),
+        (("axis = [0.0, 1.0, 0.0]", "axis = [0.0, 0.0, 0.0]"), "spacecraft.wheels[1].axis"),
+        (("thrust = [[0.5], [0.0], [0.25]]", "thrust = [[1.5], [0.0], [0.25]]"), "thrust"),
+        (("times = [0.0, 10.0, 20.0]", "times = [0.0, 30.0, 20.0]"), "times"),
+        (("[[-100.0, 0.0]]", "[[-100.0, 0.0, 1.0]]"), "commands.wheel_torque"),
+    ],
+)
+def test_scenario_actuator_errors_name_the_key(change, key):
+    from attitude.scenario import ScenarioError, loads
+
+    text = SCENARIO.replace("COMMANDS", INLINE)
+    old, new = change
+    if old == "[[-100.0, 0.0]]":
+        text = text.replace("[-100.0, 0.0]]", "[-100.0, 0.0, 1.0]]")
+    else:
+        assert old in text
+        text = text.replace(old, new, 1)
+    with pytest.raises(ScenarioError, match=key.replace("[", r"\[").replace("]", r"\]")):
+        loads(text)

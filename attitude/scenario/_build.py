@@ -23,6 +23,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 
+from . import _actuators
 from ._models import _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
@@ -126,7 +127,19 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     uses_orbit = bool(r.table("events")) or r.table("initial_state").get(
         "frame", "inertial"
     ) not in ("inertial",)
-    potential = _potential(r, pt, kind, orbit, r.table("spacecraft"), uses_orbit)
+    sct = r.table("spacecraft")
+    has_actuators = any(k in sct for k in ("wheels", "magnetorquers", "thrusters"))
+    if has_actuators and "magnetorquers" in sct and orbit is None:
+        raise _fail(
+            "spacecraft.magnetorquers",
+            "magnetorquers act in the geomagnetic field along the orbit: add an [orbit] table",
+        )
+    potential = _potential(
+        r, pt, kind, orbit, sct, uses_orbit or (has_actuators and orbit is not None)
+    )
+    field = str(pt.get("field", "igrf")) if isinstance(pt.get("field", "igrf"), str) else "igrf"
+    craft = _actuators.spacecraft(r, sct, body, orbit, field)
+    schedule = _actuators.commands(r, r.table("commands"), craft, path)
 
     # [initial_state]
     it = r.table("initial_state", required=True)
@@ -140,7 +153,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
             "initial_state.frame",
             f"expected one of {', '.join(_FRAMES[:5])} ('orbital' is rsw), got {frame!r}",
         )
-    q0, Q0 = _initial(r, it, form, frame, body, orbit, float(t[0]))
+    q0, Q0 = _initial(r, it, form, frame, body if craft is None else craft, orbit, float(t[0]))
 
     # [integrator]
     nt = r.table("integrator")
@@ -224,6 +237,8 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         initial_form=f"{form} ({frame} frame)",
         ensemble=ensemble,
         events=events,
+        spacecraft=craft,
+        commands=schedule,
     )
 
 

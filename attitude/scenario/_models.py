@@ -19,6 +19,7 @@ else:  # pragma: no cover - Python 3.10
     pass
 
 
+from ._actuators import ACTUATOR_KEYS
 from ._schema import (
     _FACET_KEYS,
     _INTERNAL,
@@ -288,6 +289,8 @@ def _potential(
     needed = {_SPACECRAFT_KEYS[n] for n in names if n in _SPACECRAFT_KEYS}
     for k in sc:
         base = k[:-5] if k.endswith("_unit") else k
+        if base in ACTUATOR_KEYS:
+            continue
         if base not in needed:
             users = [m for m, key in _SPACECRAFT_KEYS.items() if key == base]
             raise _fail(

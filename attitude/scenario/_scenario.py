@@ -61,6 +61,8 @@ class Scenario:
     extra_attrs: dict[str, Any] = field(default_factory=dict)
     ensemble: Dispersions | None = None  # from an [ensemble] table
     events: list | None = None  # from an [events] table (attitude.events)
+    spacecraft: Any = None  # attitude.Spacecraft of the [spacecraft] actuator tables
+    commands: Any = None  # attitude.CommandSchedule of the [commands] table
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -124,7 +126,7 @@ class Scenario:
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", "initial state projected")
                 ds = propagate(
-                    self.body,
+                    self.body if self.spacecraft is None else self.spacecraft,
                     self.q0,
                     self.Q0,
                     self.t,
@@ -132,6 +134,7 @@ class Scenario:
                     progress=progress,
                     epoch=self.epoch,
                     events=self.events,
+                    commands=self.commands,
                     **kw,
                 )
         except PropagationError as exc:
@@ -172,6 +175,9 @@ class Scenario:
         tracker = InvariantTracker()
         writer = StreamWriter(out)
         per_sample = 8 * (22 + (6 if getattr(self.potential, "orbit", None) else 0))
+        if self.spacecraft is not None:
+            nw, nm, nt = self.spacecraft.counts
+            per_sample += 8 * (6 * nw + 2 * nm + 2 * nt + 9)
         writer._out.check_space(per_sample * len(self.t), f"{len(self.t)} samples")
 
         def sink(ds: xr.Dataset) -> None:
@@ -184,7 +190,7 @@ class Scenario:
                 with warnings.catch_warnings():
                     warnings.filterwarnings("ignore", "initial state projected")
                     last = propagate(
-                        self.body,
+                        self.body if self.spacecraft is None else self.spacecraft,
                         self.q0,
                         self.Q0,
                         self.t,
@@ -195,6 +201,7 @@ class Scenario:
                         on_chunk=sink,
                         epoch=self.epoch,
                         events=self.events,
+                        commands=self.commands,
                         **kw,
                     )
                 status = "event" if last.attrs.get("status") == "event" else "complete"
@@ -208,7 +215,8 @@ class Scenario:
                 raise failure or AttitudeValueError("no samples computed")
             attrs = dict(last.attrs) if last is not None else dict(writer.attrs)
             attrs.update(self.attrs(kw), run_status=status, n_samples=np.int64(writer.n))
-            attrs.update(tracker.attrs(attrs.get("potential_name", "")))
+            counts = None if self.spacecraft is None else self.spacecraft.counts
+            attrs.update(tracker.attrs(attrs.get("potential_name", ""), counts))
             attrs["history"] = self._history(attrs)
             writer.attrs = attrs
             writer.commit()
@@ -247,14 +255,23 @@ class InvariantTracker:
         self.max_dG = max(self.max_dG, float(np.max(dG)))
         self.max_dGz = max(self.max_dGz, float(np.max(np.abs(G[:, 2] - self.G0[2]))))
 
-    def attrs(self, potential_name: str) -> dict[str, Any]:
-        """Diagnostic attrs: constraint errors always, conserved quantities where they are."""
+    def attrs(self, potential_name: str, actuators: Any = None) -> dict[str, Any]:
+        """Diagnostic attrs: constraint errors always, conserved quantities where they are.
+
+        ``actuators``: the (wheels, magnetorquers, thrusters) counts of a spacecraft: its
+        motors and friction change the energy; only its wheels leave G unchanged.
+        """
         a: dict[str, Any] = {
             "max_abs_norm_error": self.max_norm,
             "max_abs_qQ": self.max_qQ,
         }
         scaleE = max(abs(self.E0 or 0.0), np.finfo(float).tiny)
         scaleG = max(float(np.linalg.norm(self.G0)) if self.G0 is not None else 0.0, 1e-300)
+        if actuators is not None and any(actuators):
+            a["max_rel_energy_work"] = self.max_dE / scaleE
+            if potential_name == "torque_free" and not actuators[1] and not actuators[2]:
+                a["max_rel_G_error"] = self.max_dG / scaleG
+            return a
         if potential_name in ("torque_free", "heavy_top"):
             a["max_rel_energy_error"] = self.max_dE / scaleE
         if potential_name == "torque_free":
