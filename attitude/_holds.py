@@ -126,7 +126,7 @@ def run_dop853(
     work, tstate, counters = _rk.new_state(n)
     hs = np.zeros(_kh.HS_SIZE)
     P = (problem.params, sr.fresh_block())
-    ctl = (sr.hold_t, sr.hold_u, hs, np.zeros(sr.hold_u.shape[1]))
+    ctl = (hs, sr.hold_t, sr.hold_u, np.zeros(sr.hold_u.shape[1]))
     entry_point = problem.entry.dop853_spacecraft
 
     def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
@@ -240,7 +240,7 @@ def run_taylor(
     counters = np.zeros(5, dtype=np.int64)
     hs = np.zeros(_kh.HS_SIZE)
     P = (problem.params, sr.fresh_block())
-    ctl = (sr.hold_t, sr.hold_u, hs, np.zeros(sr.hold_u.shape[1]))
+    ctl = (hs, sr.hold_t, sr.hold_u, np.zeros(sr.hold_u.shape[1]))
     kernel = _ktg.taylor_holds_run
 
     def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):

@@ -65,7 +65,7 @@ from attitude._core.formulations import (
     schwab_rhs_with,
 )
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
-from attitude._core.holds import holds_run
+from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
     builtin_n_terms,
     builtin_potential,
@@ -182,7 +182,12 @@ def spacecraft_rhs(t, y, P, dydt):
 
 #: DOP853 through held commands (:func:`attitude._core.holds.holds_run`) on the gyrostat.
 dop853_spacecraft = rebind(
-    holds_run, globals(), "spacecraft", options={"_nrt": REFCOUNT}, RHS="spacecraft_rhs"
+    holds_run,
+    globals(),
+    "spacecraft",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="schedule_boundary",
 )
 
 

@@ -13,9 +13,11 @@ tick (Basilisk integrates one RK4 step per task period).
 
 :func:`holds_run` has the arguments of :func:`attitude._core.rk.dop853_run` with ``P =
 (params, sc)`` (the model's numbers and the spacecraft block) and the command source ``ctl``:
-``(hold_t, hold_u, hs)``, the schedule's start times (K,) and raw commands (K, n_cmd) (hold j on
+``ctl``, a tuple whose first item is ``hs`` (HS_SIZE,), the driver's state between calls, and
+the rest the command source's (:data:`BOUNDARY`); for an open-loop schedule
+``(hs, hold_t, hold_u, zero)``: the start times (K,) and raw commands (K, n_cmd) (hold j on
 [hold_t[j], hold_t[j + 1]), the last one to the end of the run, zero commands before the
-first), and ``hs`` (HS_SIZE,), the driver's state between calls. Output rows of ``y_out`` hold
+first). Output rows of ``y_out`` hold
 the state (n values) then the record of the commands in force at that sample
 (:func:`record`: per wheel the command, the applied torque, the limit flags and the friction
 regime; per magnetorquer the command and the applied dipole; per thruster the command and
@@ -71,6 +73,15 @@ HS_SEG_END = 2
 HS_HOLD_END = 3
 HS_SIZE = 4
 
+#: Statuses of a command source (:data:`BOUNDARY`).
+BOUNDARY_DONE = 0
+BOUNDARY_NEEDS_COMMANDS = 1
+#: Status of :func:`holds_run` when the command source asked Python for commands (the run
+#: continues with the next call, bit for bit).
+NEEDS_COMMANDS = 6
+#: Status when a record buffer of the command source is full (grow it and call again).
+RECORDS_FULL = 7
+
 #: Record columns per wheel, magnetorquer and thruster.
 REC_WHEEL = 4
 REC_MTQ = 2
@@ -108,12 +119,14 @@ def record(sc, row, c0):
 
 
 @jit
-def schedule_boundary(sc, y, t, t_end, hold_t, hold_u, hs, zero):
-    """At a boundary ``t``: start the hold that begins there (or turn thrusters off), and set
-    the end of the new segment. Returns True if the right-hand side changed."""
+def schedule_boundary(P, y, t, t_end, ctl):
+    """The command source of an open-loop schedule (``ctl = (hs, hold_t, hold_u, zero)``): at
+    a boundary ``t``, start the hold that begins there (or turn thrusters off), and set the end
+    of the new segment. Returns BOUNDARY_DONE."""
+    hs, hold_t, hold_u, zero = ctl
+    sc = P[1]
     K = hold_t.shape[0]
     j = int(hs[HS_NEXT])
-    changed = False
     if j < K and hold_t[j] <= t:
         # the last hold starting at or before t (several may share a time: the last wins)
         while j + 1 < K and hold_t[j + 1] <= t:
@@ -122,22 +135,25 @@ def schedule_boundary(sc, y, t, t_end, hold_t, hold_u, hs, zero):
         configure_hold(sc, y, hold_u[j], t, t_next)
         hs[HS_NEXT] = j + 1
         hs[HS_HOLD_END] = t_next
-        changed = True
     elif hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # NaN: before the first hold (zero commands)
         t_next = hold_t[j] if j < K else t_end
         configure_hold(sc, y, zero, t, t_next)
         hs[HS_HOLD_END] = t_next
-        changed = True
-    if thrusters_off_at(sc, t):
-        changed = True
+    thrusters_off_at(sc, t)
     t_hold_end = min(hs[HS_HOLD_END], t_end)
     hs[HS_SEG_END] = next_thruster_off(sc, t, t_hold_end)
-    return changed
+    return BOUNDARY_DONE
 
 
 #: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
 #: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
 RHS = None
+#: The command source ``boundary(P, y, t, t_end, ctl) -> status`` of a copy of
+#: :func:`holds_run`: :func:`schedule_boundary` (open loop), the flight software's tick
+#: (:mod:`attitude._core.fsw`), or a request for commands from Python (BOUNDARY_NEEDS_COMMANDS:
+#: the driver returns, keeping the boundary pending; the caller writes the commands and calls
+#: again).
+BOUNDARY = schedule_boundary
 
 
 @jit
@@ -148,7 +164,7 @@ def holds_run(
     restarting at every hold boundary. Returns ``(status, n_done)`` as
     :func:`attitude._core.rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``).
     """
-    hold_t, hold_u, hs, zero = ctl
+    hs = ctl[0]
     sc = P[1]
     n = y0.shape[0]
     m = t_out.shape[0]
@@ -189,7 +205,13 @@ def holds_run(
             k += 1
         if hs[HS_PENDING] != 0.0:
             t = tstate[0]
-            schedule_boundary(sc, y, t, t_end, hold_t, hold_u, hs, zero)
+            bs = BOUNDARY(P, y, t, t_end, ctl)
+            if bs == BOUNDARY_NEEDS_COMMANDS:
+                tstate[1] = h_abs
+                return NEEDS_COMMANDS, k
+            if bs != BOUNDARY_DONE:
+                tstate[1] = h_abs
+                return RECORDS_FULL, k
             RHS(t, y, P, f)
             counters[1] += 1
             counters[4] = 0

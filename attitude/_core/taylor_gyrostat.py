@@ -55,7 +55,18 @@ from .actuators import (
     WS,
 )
 from .fma import fma as F
-from .holds import HS_HOLD_END, HS_NEXT, HS_PENDING, HS_SEG_END, record, schedule_boundary
+from .holds import (
+    BOUNDARY_DONE,
+    BOUNDARY_NEEDS_COMMANDS,
+    HS_HOLD_END,
+    HS_NEXT,
+    HS_PENDING,
+    HS_SEG_END,
+    NEEDS_COMMANDS,
+    RECORDS_FULL,
+    record,
+    schedule_boundary,
+)
 from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
@@ -454,13 +465,18 @@ def gyrostat_order0(cf, sc, nw):
         cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + W_INVJ], -aw)
 
 
+#: The command source of :func:`taylor_holds_run` (as :data:`attitude._core.holds.BOUNDARY`):
+#: the open-loop schedule here; the flight software's copies rebind it.
+BOUNDARY = schedule_boundary
+
+
 @jit
 def taylor_holds_run(
     P, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps, ctl
 ):
     """The gyrostat's Taylor integration through held commands (the arguments and layouts of
     :func:`attitude._core.holds.holds_run`, with this module's ``work`` and ``tstate``)."""
-    hold_t, hold_u, hs, zero = ctl
+    hs = ctl[0]
     params = P[0]
     sc = P[1]
     nw = int(sc[S_NW])
@@ -498,7 +514,11 @@ def taylor_holds_run(
             record(sc, y_out[k], n)
             k += 1
         if hs[HS_PENDING] != 0.0:
-            schedule_boundary(sc, y, tstate[0], t_end, hold_t, hold_u, hs, zero)
+            bs = BOUNDARY(P, y, tstate[0], t_end, ctl)
+            if bs == BOUNDARY_NEEDS_COMMANDS:
+                return NEEDS_COMMANDS, k
+            if bs != BOUNDARY_DONE:
+                return RECORDS_FULL, k
             hs[HS_PENDING] = 0.0
             continue
         if k == m:
