@@ -47,6 +47,7 @@ class SpacecraftRun:
     hold_u: np.ndarray  # (K, n_cmd) raw commands
     n_state: int  # 8 + n_wheels
     n_rec: int  # record columns after the state in an output row
+    ideal_control: bool = False  # flight software acting through an ideal torque
 
     def fresh_block(self) -> np.ndarray:
         """A copy of the spacecraft block for one run (its held slots are written)."""
@@ -303,9 +304,10 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     dict
         ``diag`` (m, 13) (the columns of :func:`attitude._core.dynamics.diagnostics_with`, with
         the gyrostat's ω and energy), ``torques`` (m, n_terms + 1, 3) (the model's terms and
-        their sum), ``actuators`` (m, 3, 3) (the torques of the wheels on the body, the
-        magnetorquers and the thrusters), ``wheels`` (m, n_wheels, 2) (speed Ω relative to the
-        body, friction torque), ``records`` (m, n_rec).
+        their sum), ``actuators`` (m, 4, 3) (the torques of the wheels on the body, the
+        magnetorquers, the thrusters and the ideal control torque), ``wheels``
+        (m, n_wheels, 2) (speed Ω relative to the body, friction torque), ``records``
+        (m, n_rec).
     """
     from ._core import gyrostat as _kg
 
@@ -317,7 +319,7 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     diag = np.empty((m, 13))
     n_terms = len(problem.potential.terms)
     torques = np.empty((m, n_terms + 1, 3))
-    act = np.empty((m, 3, 3))
+    act = np.empty((m, 4, 3))
     nw = n - 8
     wheels = np.empty((m, nw, 2))
     sc = sr.fresh_block()

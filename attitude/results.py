@@ -678,8 +678,9 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     parts = [tq[:, :-1]]
     total = tq[:, -1].copy()
     names = list(terms)
+    ideal = bool(getattr(run, "ideal_control", False))
     for j, (label, present) in enumerate(
-        (("wheels", nw), ("magnetorquers", nm), ("thrusters", nt))
+        (("wheels", nw), ("magnetorquers", nm), ("thrusters", nt), ("control", ideal))
     ):
         if present:
             parts.append(d["actuators"][:, j : j + 1])

@@ -11,6 +11,8 @@ marked (held): those hold the commands in force, written at every hold boundary 
     sc[S_TAU : +3]                 (held) the thrusters' torque about the centre of mass (N m)
     sc[S_FORCE : +3]               (held) the thrusters' force (N, body axes)
     sc[S_MTQ]                      offset of the magnetic-field block (−1: no magnetorquers)
+    sc[S_IDEAL : +3]               (held) an ideal control torque (N m, body axes): the flight
+                                   software's request on a spacecraft without actuators
     sc[S_WHEELS]...                n_w wheel records of WS numbers (W_* fields)
     then                           n_m magnetorquer records of MS numbers (M_* fields)
     then                           n_t thruster records of TS numbers (T_* fields)
@@ -44,7 +46,8 @@ S_MINV = 3
 S_TAU = 12
 S_FORCE = 15
 S_MTQ = 18
-S_WHEELS = 19
+S_IDEAL = 19
+S_WHEELS = 22
 
 # Wheel record (relative to its start).
 W_AXIS = 0  # a (3), unit, body axes
@@ -193,11 +196,12 @@ def wheel_friction(sc, b, Om):
 
 @jit(inline="always")
 def actuator_torque(sc, q, t):
-    """External torque of the actuators in force (body axes): the thrusters' held torque plus
-    the magnetorquers' m × B_B (Wertz 1978, Sect. 17.2.3), B_B from the field table at t."""
-    t0 = sc[S_TAU]
-    t1 = sc[S_TAU + 1]
-    t2 = sc[S_TAU + 2]
+    """External torque of the actuators in force (body axes): the thrusters' held torque, the
+    ideal control torque, and the magnetorquers' m × B_B (Wertz 1978, Sect. 17.2.3), B_B
+    from the field table at t."""
+    t0 = sc[S_TAU] + sc[S_IDEAL]
+    t1 = sc[S_TAU + 1] + sc[S_IDEAL + 1]
+    t2 = sc[S_TAU + 2] + sc[S_IDEAL + 2]
     o = int(sc[S_MTQ])
     if o >= 0:
         bb = field_body(q, t, sc, o)

@@ -181,3 +181,6 @@ def actuator_diagnostics(t, y, rec, sc, torque_out, wheel_out):
         torque_out[i, 2, 0] = sc[S_TAU]
         torque_out[i, 2, 1] = sc[S_TAU + 1]
         torque_out[i, 2, 2] = sc[S_TAU + 2]
+        torque_out[i, 3, 0] = rec[i, c]
+        torque_out[i, 3, 1] = rec[i, c + 1]
+        torque_out[i, 3, 2] = rec[i, c + 2]

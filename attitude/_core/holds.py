@@ -39,6 +39,7 @@ from orbit._shared_jit import jit
 from .actuators import (
     M_APPLIED,
     M_CMD,
+    S_IDEAL,
     S_NM,
     S_NT,
     S_NW,
@@ -88,16 +89,20 @@ REC_MTQ = 2
 REC_THRUSTER = 2
 
 
+#: Record columns of the ideal control torque (after the actuators').
+REC_IDEAL = 3
+
+
 def record_width(n_w: int, n_m: int, n_t: int) -> int:
     """Number of record columns after the state in an output row."""
-    return REC_WHEEL * n_w + REC_MTQ * n_m + REC_THRUSTER * n_t
+    return REC_WHEEL * n_w + REC_MTQ * n_m + REC_THRUSTER * n_t + REC_IDEAL
 
 
 @jit
 def record(sc, row, c0):
     """The commands in force into ``row[c0:]``: per wheel (command, applied torque, flags,
     Stribeck regime), per magnetorquer (command, applied dipole), per thruster (command,
-    firing 0/1)."""
+    firing 0/1), then the ideal control torque (3)."""
     c = c0
     for k in range(int(sc[S_NW])):
         b = S_WHEELS + k * WS
@@ -116,6 +121,9 @@ def record(sc, row, c0):
         row[c] = sc[b + T_CMD]
         row[c + 1] = sc[b + T_FIRING]
         c += 2
+    row[c] = sc[S_IDEAL]
+    row[c + 1] = sc[S_IDEAL + 1]
+    row[c + 2] = sc[S_IDEAL + 2]
 
 
 @jit
