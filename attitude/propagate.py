@@ -40,7 +40,13 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import Trajectory, add_actuator_variables, add_event_variables, build_dataset
+from .results import (
+    Trajectory,
+    add_actuator_variables,
+    add_event_variables,
+    add_tick_variables,
+    build_dataset,
+)
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
@@ -163,6 +169,7 @@ def propagate(
     events: Any = None,
     output: str = "dataset",
     commands: Any = None,
+    software: Any = None,
 ) -> xr.Dataset | Trajectory:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -244,6 +251,10 @@ def propagate(
     commands : CommandSchedule, optional
         Open-loop actuator commands of a :class:`~attitude.Spacecraft`, held from each time of
         the schedule to the next (the integrator restarts at every one of them).
+    software : FlightSoftware, optional
+        Closed-loop commands: the flight software runs at its own ticks inside the
+        propagation (docs/flight_software.md); a body without actuators takes its torque
+        request as an ideal torque. Its records are on a ``tick`` dimension.
 
     Returns
     -------
@@ -272,6 +283,8 @@ def propagate(
             "(output='dataset')"
         )
     craft = body if isinstance(body, Spacecraft) and body.has_actuators else None
+    if software is not None and craft is None:
+        craft = body if isinstance(body, Spacecraft) else Spacecraft(body)
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
@@ -367,8 +380,10 @@ def propagate(
         from . import _holds
 
         craft.check_orbit(getattr(pot, "orbit", None))
-        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands)
+        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software)
         run_attrs["spacecraft"] = craft.describe()
+        if software is not None:
+            run_attrs["software"] = software.describe()
     problem = Problem(
         body=body,
         potential=pot,
@@ -432,6 +447,8 @@ def propagate(
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
     if evset is not None:
         ds = add_event_variables(ds, evset, result.events, problem.body, result.status)
+    if sc_run is not None and sc_run.program is not None and not streaming:
+        ds = add_tick_variables(ds, sc_run)
     if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop

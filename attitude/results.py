@@ -28,6 +28,7 @@ __all__ = [
     "UnitSystem",
     "add_actuator_variables",
     "add_event_variables",
+    "add_tick_variables",
     "build_dataset",
     "set_time_attrs",
     "time_attrs",
@@ -704,6 +705,111 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         "(model = total; the wheels' torque is internal and not in it)",
     )
     out = out.assign_coords(coords).assign(new)
+    out.attrs = dict(ds.attrs)
+    return out
+
+
+def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
+    """The flight software's records on a ``tick`` dimension (docs/flight_software.md).
+
+    ``tick`` is the time of each recorded tick (a CF time coordinate like ``time``);
+    ``mode`` (CF flags naming the modes), ``reference_q``, ``sigma_error`` (σ_BR, MRP),
+    ``error_angle``, ``rate_error`` (ω − ω_r, body axes), ``torque_request``,
+    ``dipole_request``, and per command (dimension ``command``, labels in ``command_label``)
+    ``command_sent`` (computed at the tick) and ``command_applied`` (in force from the tick:
+    after the delay and, for wheels, their limits).
+    """
+    from ._core import fsw as _kf
+
+    prog = run.program
+    rec = run.ticks if run.ticks is not None else np.zeros((0, prog.rec_width))
+    craft = run.spacecraft
+    u = UnitSystem(craft.body)
+    ncmd = prog.n_cmd
+    wn, mn, tn = craft.names()
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    n_modes = len(prog.mode_names)
+    new = {
+        "mode": var(
+            ("tick",),
+            rec[:, _kf.R_MODE].astype(np.int32),
+            None,
+            "active flight-software mode",
+            flag_values=np.arange(n_modes, dtype=np.int32),
+            flag_meanings=" ".join(prog.mode_names),
+        ),
+        "reference_q": var(
+            ("tick", "component"),
+            rec[:, _kf.R_QREF : _kf.R_QREF + 4],
+            "1",
+            "reference attitude quaternion (guidance), reference to space",
+        ),
+        "sigma_error": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_SIGMA : _kf.R_SIGMA + 3],
+            "1",
+            "attitude error sigma_BR (modified Rodrigues parameters)",
+        ),
+        "error_angle": var(
+            ("tick",), rec[:, _kf.R_ANGLE], "rad", "attitude error angle from the reference"
+        ),
+        "rate_error": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_DOMEGA : _kf.R_DOMEGA + 3],
+            u.rate,
+            "angular velocity error omega - omega_r, body axes",
+        ),
+        "torque_request": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_TORQUE : _kf.R_TORQUE + 3],
+            u.torque,
+            "control torque requested by the control law, body axes",
+        ),
+        "dipole_request": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_DIPOLE : _kf.R_DIPOLE + 3],
+            "A m^2" if u.torque != "1" else "1",
+            "magnetic dipole requested, body axes",
+        ),
+    }
+    coords: dict[str, Any] = {}
+    if ncmd:
+        labels = [*wn, *mn, *tn]
+        units = [u.torque] * len(wn) + ["A m^2"] * len(mn) + ["1"] * len(tn)
+        c0 = _kf.R_CMD
+        new["command_sent"] = var(
+            ("tick", "command"),
+            rec[:, c0 : c0 + ncmd],
+            None,
+            "actuator commands computed at the tick (units in command_units)",
+        )
+        new["command_applied"] = var(
+            ("tick", "command"),
+            rec[:, c0 + ncmd : c0 + 2 * ncmd],
+            None,
+            "actuator commands in force from the tick (after the delay and the wheels' limits)",
+        )
+        coords["command"] = (
+            "command",
+            np.arange(ncmd, dtype=np.int32),
+            {"long_name": "actuator command index", "units": "1"},
+        )
+        coords["command_label"] = ("command", np.array(labels), {"long_name": "actuator command"})
+        coords["command_units"] = (
+            "command",
+            np.array(units),
+            {"long_name": "unit of each actuator command"},
+        )
+    ta = time_attrs(u.time, ds.attrs.get("epoch"))
+    ta = {**ta, "long_name": "time of the flight-software tick"}
+    coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
+    out = ds.assign_coords({k: (d, v, a) for k, (d, v, a) in coords.items()}).assign(new)
     out.attrs = dict(ds.attrs)
     return out
 

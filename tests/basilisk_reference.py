@@ -141,3 +141,105 @@ def mrp_to_quaternion(sigma):
     q0 = (1.0 - s2) / (1.0 + s2)
     qv = 2.0 * s / (1.0 + s2)
     return np.concatenate([q0, qv], axis=-1)
+
+
+def rw_feedback_scenario(
+    dt: float = 0.1, duration: float = 600.0, record_every: int = 1, dyn_dt: float | None = None
+):
+    """Basilisk's ``scenarioAttitudeFeedbackRW`` (balanced wheels, no voltage interface):
+    a 900/800/600 kg m² hub, three Honeywell HR16 wheels (50 N m s) on the body axes at 100,
+    200 and 300 rpm, inertial pointing (``inertial3D``, σ_R0N = 0) with ``attTrackingError``,
+    ``mrpFeedback`` (K = 3.5, P = 30, no integral term) and ``rwMotorTorque`` on the three
+    axes, truth navigation (``simpleNav``), σ_BN(0) = (0.1, 0.2, −0.3), ω(0) = (0.001, −0.01,
+    0.03) rad/s, everything at the task period ``dt`` (0.1 s in the scenario), the hub
+    integrated by RK4 at that period (or, with ``dyn_dt``, the dynamics and the wheels in a
+    task of that period and the flight software in one of period ``dt``: the same closed loop,
+    a finer integration).
+
+    Returns
+    -------
+    dict
+        At every ``record_every``-th tick: ``t``, ``sigma``, ``omega``, ``Omega`` (wheel
+        speeds), ``u`` (the motor torques commanded at the tick), ``Lr`` (the torque request).
+    """
+    from Basilisk.architecture import messaging
+    from Basilisk.fswAlgorithms import attTrackingError, inertial3D, mrpFeedback, rwMotorTorque
+    from Basilisk.simulation import reactionWheelStateEffector, simpleNav, spacecraft
+    from Basilisk.utilities import SimulationBaseClass, simIncludeRW
+
+    sim = SimulationBaseClass.SimBaseClass()
+    proc = sim.CreateNewProcess("p")
+    step = _nanos(dt)
+    dyn = "t" if dyn_dt is None else "d"
+    if dyn_dt is not None:  # the dynamics task first (higher priority)
+        proc.addTask(sim.CreateNewTask("d", _nanos(dyn_dt)), 10)
+    proc.addTask(sim.CreateNewTask("t", step))
+    sc = spacecraft.Spacecraft()
+    sc.ModelTag = "sc"
+    inertia = [900.0, 0.0, 0.0, 0.0, 800.0, 0.0, 0.0, 0.0, 600.0]
+    sc.hub.mHub = 750.0
+    sc.hub.IHubPntBc_B = [[900.0, 0.0, 0.0], [0.0, 800.0, 0.0], [0.0, 0.0, 600.0]]
+    sc.hub.sigma_BNInit = [[0.1], [0.2], [-0.3]]
+    sc.hub.omega_BN_BInit = [[0.001], [-0.01], [0.03]]
+    sim.AddModelToTask(dyn, sc, 1)
+    factory = simIncludeRW.rwFactory()
+    for axis, rpm in (([1, 0, 0], 100.0), ([0, 1, 0], 200.0), ([0, 0, 1], 300.0)):
+        factory.create("Honeywell_HR16", axis, maxMomentum=50.0, Omega=rpm,
+                       RWModel=messaging.BalancedWheels)  # fmt: skip
+    rw = reactionWheelStateEffector.ReactionWheelStateEffector()
+    rw.ModelTag = "rw"
+    factory.addToSpacecraft(rw.ModelTag, rw, sc)
+    sim.AddModelToTask(dyn, rw, 2)
+    nav = simpleNav.SimpleNav()
+    nav.ModelTag = "nav"
+    sim.AddModelToTask("t", nav)
+    ref = inertial3D.inertial3D()
+    ref.ModelTag = "ref"
+    ref.sigma_R0N = [0.0, 0.0, 0.0]
+    sim.AddModelToTask("t", ref)
+    err = attTrackingError.attTrackingError()
+    err.ModelTag = "err"
+    sim.AddModelToTask("t", err)
+    ctl = mrpFeedback.mrpFeedback()
+    ctl.ModelTag = "ctl"
+    ctl.K = 3.5
+    ctl.Ki = -1.0
+    ctl.P = 30.0
+    ctl.integralLimit = 2.0 / ctl.Ki * 0.1
+    sim.AddModelToTask("t", ctl)
+    alloc = rwMotorTorque.rwMotorTorque()
+    alloc.ModelTag = "alloc"
+    alloc.controlAxes_B = [1, 0, 0, 0, 1, 0, 0, 0, 1]
+    sim.AddModelToTask("t", alloc)
+    vc = messaging.VehicleConfigMsg().write(messaging.VehicleConfigMsgPayload(ISCPntB_B=inertia))
+    rw_params = factory.getConfigMessage()
+    nav.scStateInMsg.subscribeTo(sc.scStateOutMsg)
+    err.attNavInMsg.subscribeTo(nav.attOutMsg)
+    err.attRefInMsg.subscribeTo(ref.attRefOutMsg)
+    ctl.guidInMsg.subscribeTo(err.attGuidOutMsg)
+    ctl.vehConfigInMsg.subscribeTo(vc)
+    ctl.rwParamsInMsg.subscribeTo(rw_params)
+    ctl.rwSpeedsInMsg.subscribeTo(rw.rwSpeedOutMsg)
+    alloc.rwParamsInMsg.subscribeTo(rw_params)
+    alloc.vehControlInMsg.subscribeTo(ctl.cmdTorqueOutMsg)
+    rw.rwMotorCmdInMsg.subscribeTo(alloc.rwMotorTorqueOutMsg)
+    every = step * record_every
+    logs = {
+        "state": sc.scStateOutMsg.recorder(every),
+        "speed": rw.rwSpeedOutMsg.recorder(every),
+        "motor": alloc.rwMotorTorqueOutMsg.recorder(every),
+        "lr": ctl.cmdTorqueOutMsg.recorder(every),
+    }
+    for lg in logs.values():
+        sim.AddModelToTask("t", lg)
+    sim.InitializeSimulation()
+    sim.ConfigureStopTime(_nanos(duration))
+    sim.ExecuteSimulation()
+    return {
+        "t": logs["state"].times() * 1e-9,
+        "sigma": np.array(logs["state"].sigma_BN),
+        "omega": np.array(logs["state"].omega_BN_B),
+        "Omega": np.array(logs["speed"].wheelSpeeds)[:, :3],
+        "u": np.array(logs["motor"].motorTorque)[:, :3],
+        "Lr": np.array(logs["lr"].torqueRequestBody),
+    }

@@ -64,6 +64,7 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
+from attitude._core.fsw import fsw_boundary  # noqa: F401 (bound by name)
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
 from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
@@ -188,6 +189,17 @@ dop853_spacecraft = rebind(
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
     BOUNDARY="schedule_boundary",
+)
+
+
+#: The same, the commands from the flight software at its ticks (attitude._core.fsw).
+dop853_spacecraft_fsw = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_fsw",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="fsw_boundary",
 )
 
 

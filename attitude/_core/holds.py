@@ -72,7 +72,8 @@ HS_NEXT = 0
 HS_PENDING = 1
 HS_SEG_END = 2
 HS_HOLD_END = 3
-HS_SIZE = 4
+HS_READY = 4  # the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)
+HS_SIZE = 5
 
 #: Statuses of a command source (:data:`BOUNDARY`).
 BOUNDARY_DONE = 0

@@ -1,0 +1,624 @@
+"""Compiled flight software: guidance, control laws, allocation and modes at a task rate.
+
+The flight software of :class:`attitude.FlightSoftware` runs at ticks t_k = t₀ + k·period
+inside the integrator's loop (:mod:`attitude._core.holds`): at each tick :func:`fsw_tick`
+reads the measurements (the true state, or the sensors and estimator of
+:mod:`attitude._core.sensors`), evaluates the active mode's guidance (a reference frame of
+:mod:`attitude._core.frames`, or an eigen-axis slew onto one), its control law and allocation,
+and returns actuator commands; :func:`fsw_boundary` holds them until the next tick (zero-order
+hold; ``delay`` whole ticks later if the software has a latency).
+
+Everything is data, as the torque models are: the program ``fw`` (float64: header, modes,
+frames, allocation matrices) and the state ``fs`` (the laws' memory: integral term, previous
+field, slew start, mode, delayed commands). Layouts: the constants below.
+
+Control laws (body-axis torque request L_r or dipole request):
+
+* MRP feedback — Basilisk's ``mrpFeedback`` (Schaub & Junkins, *Analytical Mechanics of Space
+  Systems*, 4th ed., Sect. 8.4): L_r = −[K σ + P δω + P K_I z − (ω_r + K_I z) × (I ω + Σ h_s a)
+  + I (ω × ω_r − ω̇_r)], with z = ∫K σ dt + I δω (integral term only when K_I > 0, each
+  component limited);
+* quaternion feedback (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., Sect. 7.3):
+  L_r = −K q_e − C δω + ω × (I ω + Σ h_s a) − I (ω × ω_r − ω̇_r);
+* rate damping: L_r = −K_d δω;
+* B-dot (Stickler & Alfriend 1976): m = −k Ḃ_B, Ḃ_B from the measured field at this tick and
+  the last;
+* momentum dumping with magnetorquers (the cross-product law, Camillo & Markley 1980):
+  m = k (B × (h_w − h_ref)) / |B|², beside a wheel law.
+
+Allocation: wheel motor torques u = −G⁺ L_r (G = [a_1 ... a_n], the minimum-norm
+pseudo-inverse, Basilisk's ``rwMotorTorque``) plus a null-space term −k N J (Ω − Ω_ref)
+(N = 1 − G⁺G) that manages the wheel speeds without a body torque; a torque request on
+magnetorquers alone, m = B × L_r / |B|²; dipoles to rods through the pseudo-inverse of their
+axes; without actuators the request is an ideal body torque.
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit._shared_jit import jit, rebind
+from orbit._state_kernels import orbit_state
+
+from .actuators import (
+    S_IDEAL,
+    S_MTQ,
+    S_NM,
+    S_NW,
+    S_WHEELS,
+    W_J,
+    W_U,
+    WS,
+    configure_hold,
+    next_thruster_off,
+    state_rate,
+    thrusters_off_at,
+    wheel_speed,
+)
+from .environment import field_body
+from .frames import frame_eval
+from .holds import (
+    BOUNDARY_DONE,
+    BOUNDARY_NEEDS_COMMANDS,
+    HS_HOLD_END,
+    HS_READY,
+    HS_SEG_END,
+    RECORDS_FULL,
+)
+from .quat import conj_mul, cross, mul, rotate, rotate_inverse
+
+# --- the program fw: header ---------------------------------------------------------------------
+FW_PERIOD = 0
+FW_T0 = 1  # time of the first tick
+FW_DELAY = 2  # whole ticks between a command's computation and its application
+FW_NMODES = 3
+FW_NCMD = 4  # raw commands: n_w + n_m + n_t
+FW_MODES = 5  # offset of the table of mode offsets
+FW_IDEAL = 6  # 1: the request is an ideal body torque (no actuators)
+FW_INERTIA = 7  # the software's inertia model (9, row-major)
+FW_FIELD = 16  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
+FW_RECORD_EVERY = 17  # record every k-th tick
+FW_NAPINV = 18  # offset of the magnetorquers' pseudo-inverse (n_m × 3; 0: none)
+FW_GPINV = 19  # offset of the wheels' pseudo-inverse G⁺ (n_w × 3)
+FW_NULLP = 20  # offset of the null-space projector N (n_w × n_w)
+FW_EXTERNAL = 21  # 1: the commands come from Python at each tick (your own step function)
+FW_ORBIT = 22  # offset of the orbit's kernel data (0: none)
+FW_SUN = 23  # offset of the Sun's table (0: none)
+FW_HEADER = 24
+
+# --- mode blocks (offsets relative to the block) --------------------------------------------------
+MB_COND = 0  # COND_*
+MB_COND_X = 1  # threshold (rad/s, rad or s)
+MB_COND_FRAME = 2  # offset of the condition's frame (pointing)
+MB_COND_AXIS = 3  # body axis (3); zero: the total rotation angle
+MB_GUID = 6  # GUID_*
+MB_GUID_FRAME = 7  # offset of the reference (target) frame
+MB_SLEW_RATE = 8
+MB_SLEW_ACC = 9
+MB_CTRL = 10  # CTRL_*
+MB_K = 11
+MB_P = 12  # 3 × 3
+MB_KI = 21
+MB_ILIM = 22
+MB_LAWTYPE = 23  # MRP feedback: 0 Basilisk's controlLawType 0 (ω_r + K_I z), 1 (ω)
+MB_DUMP = 24  # momentum-dumping gain (1/s; 0: off)
+MB_DUMP_REF = 25  # reference wheel momentum in body axes (3)
+MB_NULL = 28  # null-space gain (1/s; 0: off)
+MB_NULL_SPEEDS = 29  # offset of the reference wheel speeds (n_w; 0: zero)
+MB_SIZE = 32
+
+COND_ALWAYS = 0
+COND_RATE_BELOW = 1
+COND_RATE_ABOVE = 2
+COND_POINTING_WITHIN = 3
+COND_POINTING_BEYOND = 4
+COND_AFTER = 5
+
+GUID_NONE = 0  # no reference: the inertial identity with zero rate
+GUID_FRAME = 1
+GUID_SLEW = 2
+
+CTRL_NONE = 0
+CTRL_MRP = 1
+CTRL_QUATERNION = 2
+CTRL_RATE_DAMPING = 3
+CTRL_BDOT = 4
+
+# --- the state fs -------------------------------------------------------------------------------
+FS_MODE = 0
+FS_TICK = 1
+FS_NEXT = 2  # time of the next tick
+FS_INT = 3  # MRP feedback's ∫ K σ dt (3)
+FS_PRIOR = 6  # time of the last control update (NaN: none yet)
+FS_BPREV = 7  # field measured at the last tick (3)
+FS_BVALID = 10
+FS_SLEW_T0 = 11  # start of the slew
+FS_SLEW_AXIS = 12  # axis of the offset from the target (3, target axes)
+FS_SLEW_ANGLE = 15  # its angle
+FS_ENTERED = 16  # 1 once the active mode has run a tick (0 at its entry)
+FS_QUEUE = 20  # delayed commands: delay rows of n_cmd, a ring indexed by the tick
+FS_HEADER = 20
+
+# --- tick records -------------------------------------------------------------------------------
+R_T = 0
+R_MODE = 1
+R_QREF = 2  # 4
+R_SIGMA = 6  # σ_BR (3)
+R_ANGLE = 9  # error angle
+R_DOMEGA = 10  # ω_BR (3)
+R_TORQUE = 13  # torque request L_r (3)
+R_DIPOLE = 16  # dipole request, body axes (3)
+R_CMD = 19  # commands computed at this tick (n_cmd), then those applied (n_cmd)
+R_HEADER = 19
+
+#: Finite-difference half-step for ω̇ of a frame (s): the frames give q_R and ω_R exactly.
+DOMEGA_STEP = 0.5
+
+
+def record_width(n_cmd: int) -> int:
+    """Columns of a tick record."""
+    return R_HEADER + 2 * n_cmd
+
+
+def state_size(delay: int, n_cmd: int) -> int:
+    """Length of the software state ``fs``."""
+    return FS_HEADER + max(delay, 0) * n_cmd
+
+
+@jit(inline="always")
+def _mv(fw, o, v0, v1, v2):
+    """The 3 × 3 matrix at fw[o:o+9] (row-major) times v."""
+    return (
+        fw[o] * v0 + fw[o + 1] * v1 + fw[o + 2] * v2,
+        fw[o + 3] * v0 + fw[o + 4] * v1 + fw[o + 5] * v2,
+        fw[o + 6] * v0 + fw[o + 7] * v1 + fw[o + 8] * v2,
+    )
+
+
+@jit(inline="always")
+def _short(q):
+    """The quaternion of the shorter rotation (scalar part >= 0)."""
+    if q[0] < 0.0:
+        return (-q[0], -q[1], -q[2], -q[3])
+    return q
+
+
+@jit(inline="always")
+def mrp(q):
+    """Modified Rodrigues parameters of the shorter rotation of ``q`` (|σ| <= 1)."""
+    s = _short(q)
+    d = 1.0 + s[0]
+    return (s[1] / d, s[2] / d, s[3] / d)
+
+
+@jit
+def frame_reference(d, t):
+    """(q_R, ω_R, ω̇_R) of frame data ``d`` at t, rates in reference axes; ω̇_R by a central
+    difference of the exact ω_R (components in the rotating axes: the inertial derivative)."""
+    r = frame_eval(d, t)
+    q = (r[0], r[1], r[2], r[3])
+    w = (r[4], r[5], r[6])
+    h = DOMEGA_STEP
+    a = frame_eval(d, t + h)
+    b = frame_eval(d, t - h)
+    dw = ((a[4] - b[4]) / (2 * h), (a[5] - b[5]) / (2 * h), (a[6] - b[6]) / (2 * h))
+    return q, w, dw
+
+
+@jit
+def slew_profile(theta0, t, wmax, amax):
+    """(θ, θ̇, θ̈) of a rest-to-rest eigen-axis slew of angle θ0 >= 0 started at t = 0 with
+    rate and acceleration limits (trapezoidal rate; triangular when θ0 is small): θ goes from
+    θ0 to 0."""
+    if theta0 <= 0.0:
+        return 0.0, 0.0, 0.0
+    t1 = wmax / amax
+    if amax * t1 * t1 >= theta0:  # triangular
+        t1 = math.sqrt(theta0 / amax)
+        tc = 0.0
+        wpk = amax * t1
+    else:
+        wpk = wmax
+        tc = (theta0 - amax * t1 * t1) / wmax
+    if t <= 0.0:
+        return theta0, 0.0, 0.0
+    if t < t1:
+        return theta0 - 0.5 * amax * t * t, -amax * t, -amax
+    if t < t1 + tc:
+        return theta0 - 0.5 * amax * t1 * t1 - wpk * (t - t1), -wpk, 0.0
+    te = 2 * t1 + tc
+    if t < te:
+        r = te - t
+        return 0.5 * amax * r * r, -amax * r, amax
+    return 0.0, 0.0, 0.0
+
+
+@jit
+def guidance(fw, fs, mb, t, q_meas):
+    """(q_R, ω_R, ω̇_R) of the active mode's guidance at t (rates in reference axes)."""
+    kind = int(fw[mb + MB_GUID])
+    if kind == GUID_NONE:
+        return (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    o = int(fw[mb + MB_GUID_FRAME])
+    qB, wB, dwB = frame_reference(fw[o:], t)
+    if kind == GUID_FRAME:
+        return qB, wB, dwB
+    # slew: q_R = q_B∘exp(θ e/2), e fixed in the target's axes (from the attitude at entry)
+    if fs[FS_ENTERED] == 0.0:
+        off = _short(conj_mul(qB, q_meas))  # rotation from the target to the spacecraft
+        sv = math.sqrt(off[1] * off[1] + off[2] * off[2] + off[3] * off[3])
+        ang = 2.0 * math.atan2(sv, off[0])
+        if sv > 0.0:
+            fs[FS_SLEW_AXIS] = off[1] / sv
+            fs[FS_SLEW_AXIS + 1] = off[2] / sv
+            fs[FS_SLEW_AXIS + 2] = off[3] / sv
+        else:
+            fs[FS_SLEW_AXIS] = 1.0
+            fs[FS_SLEW_AXIS + 1] = 0.0
+            fs[FS_SLEW_AXIS + 2] = 0.0
+        fs[FS_SLEW_ANGLE] = ang
+        fs[FS_SLEW_T0] = t
+    e = (fs[FS_SLEW_AXIS], fs[FS_SLEW_AXIS + 1], fs[FS_SLEW_AXIS + 2])
+    th, thd, thdd = slew_profile(
+        fs[FS_SLEW_ANGLE], t - fs[FS_SLEW_T0], fw[mb + MB_SLEW_RATE], fw[mb + MB_SLEW_ACC]
+    )
+    c = math.cos(0.5 * th)
+    s = math.sin(0.5 * th)
+    o4 = (c, s * e[0], s * e[1], s * e[2])
+    qR = mul(qB, o4)
+    wBr = rotate_inverse(o4, wB)
+    dwBr = rotate_inverse(o4, dwB)
+    we = (thd * e[0], thd * e[1], thd * e[2])
+    x = cross(we, wBr)
+    wR = (wBr[0] + we[0], wBr[1] + we[1], wBr[2] + we[2])
+    dwR = (dwBr[0] - x[0] + thdd * e[0], dwBr[1] - x[1] + thdd * e[1], dwBr[2] - x[2] + thdd * e[2])
+    return qR, wR, dwR
+
+
+@jit
+def condition_holds(fw, mb, t, q, om):
+    """Whether the mode's entry condition holds at t for the attitude q and rate ω."""
+    kind = int(fw[mb + MB_COND])
+    x = fw[mb + MB_COND_X]
+    if kind == COND_ALWAYS:
+        return True
+    if kind == COND_RATE_BELOW or kind == COND_RATE_ABOVE:
+        r = math.sqrt(om[0] * om[0] + om[1] * om[1] + om[2] * om[2])
+        return r < x if kind == COND_RATE_BELOW else r > x
+    if kind == COND_AFTER:
+        return t >= x
+    o = int(fw[mb + MB_COND_FRAME])
+    r = frame_eval(fw[o:], t)
+    e = conj_mul((r[0], r[1], r[2], r[3]), q)  # rotation from the frame to the body
+    a = (fw[mb + MB_COND_AXIS], fw[mb + MB_COND_AXIS + 1], fw[mb + MB_COND_AXIS + 2])
+    if a[0] == 0.0 and a[1] == 0.0 and a[2] == 0.0:
+        sv = math.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
+        ang = 2.0 * math.atan2(sv, abs(e[0]))
+    else:
+        # the angle between the body axis and the same axis of the frame
+        in_frame = rotate(e, a)  # the body axis in the frame's axes
+        c = in_frame[0] * a[0] + in_frame[1] * a[1] + in_frame[2] * a[2]
+        c = min(1.0, max(-1.0, c))
+        ang = math.acos(c)
+    return ang < x if kind == COND_POINTING_WITHIN else ang > x
+
+
+@jit
+def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
+    """One tick of the flight software at t from the state y: the commands to apply into
+    ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``."""
+    nw = int(sc[S_NW])
+    nm = int(sc[S_NM])
+    ncmd = int(fw[FW_NCMD])
+    # measurements: the true state (the sensors and the estimator replace these)
+    q = (y[0], y[1], y[2], y[3])
+    _g, om = state_rate(sc, y)
+    # modes: forward to the next one when its condition holds
+    mode = int(fs[FS_MODE])
+    nmodes = int(fw[FW_NMODES])
+    if mode + 1 < nmodes:
+        nb = int(fw[int(fw[FW_MODES]) + mode + 1])
+        if condition_holds(fw, nb, t, q, om):
+            mode += 1
+            fs[FS_MODE] = mode
+            fs[FS_ENTERED] = 0.0
+            fs[FS_INT] = 0.0
+            fs[FS_INT + 1] = 0.0
+            fs[FS_INT + 2] = 0.0
+            fs[FS_PRIOR] = math.nan
+    mb = int(fw[int(fw[FW_MODES]) + mode])
+    qR, wR_R, dwR_R = guidance(fw, fs, mb, t, q)
+    fs[FS_ENTERED] = 1.0
+    # errors: q_BR = q̃_R∘q, rates of the reference in body axes
+    qBR = conj_mul(qR, q)
+    sig = mrp(qBR)
+    wRN = rotate_inverse(qBR, wR_R)
+    dwRN = rotate_inverse(qBR, dwR_R)
+    dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
+    sq = _short(qBR)
+    ang = 2.0 * math.atan2(math.sqrt(sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]), sq[0])
+    # wheel momentum in body axes Σ J (a·ω + Ω) a = Σ h a (h the state)
+    hw0 = hw1 = hw2 = 0.0
+    for k in range(nw):
+        b = S_WHEELS + k * WS
+        h = y[8 + k]
+        hw0 += h * sc[b]
+        hw1 += h * sc[b + 1]
+        hw2 += h * sc[b + 2]
+    I = FW_INERTIA
+    Iw = _mv(fw, I, om[0], om[1], om[2])
+    H = (Iw[0] + hw0, Iw[1] + hw1, Iw[2] + hw2)
+    # the field, for the magnetic laws
+    fo = int(fw[FW_FIELD])
+    if fo == 0:
+        fo = int(sc[S_MTQ])
+    bb = (0.0, 0.0, 0.0)
+    if fo > 0:
+        bb = field_body(q, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
+    external = fw[FW_EXTERNAL] != 0.0
+    # control law
+    ctrl = CTRL_NONE if external else int(fw[mb + MB_CTRL])
+    L = (0.0, 0.0, 0.0)
+    m = (0.0, 0.0, 0.0)
+    K = fw[mb + MB_K]
+    P = mb + MB_P
+    if ctrl == CTRL_MRP:
+        Ki = fw[mb + MB_KI]
+        z = (0.0, 0.0, 0.0)
+        prior = fs[FS_PRIOR]
+        dt = 0.0 if prior != prior else t - prior
+        fs[FS_PRIOR] = t
+        if Ki > 0.0:
+            lim = fw[mb + MB_ILIM]
+            for i in range(3):
+                v = fs[FS_INT + i] + K * dt * sig[i]
+                if abs(v) > lim:
+                    v *= lim / abs(v)
+                fs[FS_INT + i] = v
+            Idw = _mv(fw, I, dw[0], dw[1], dw[2])
+            z = (fs[FS_INT] + Idw[0], fs[FS_INT + 1] + Idw[1], fs[FS_INT + 2] + Idw[2])
+        Pd = _mv(fw, P, dw[0], dw[1], dw[2])
+        Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
+        PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
+        lr = (K * sig[0] + Pd[0] + PKz[0], K * sig[1] + Pd[1] + PKz[1], K * sig[2] + Pd[2] + PKz[2])
+        if fw[mb + MB_LAWTYPE] == 0.0:
+            v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
+        else:
+            v8 = om
+        c9 = cross(v8, H)
+        lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
+        c10 = cross(om, wRN)
+        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
+        L = (-(lr[0] + ff[0]), -(lr[1] + ff[1]), -(lr[2] + ff[2]))
+    elif ctrl == CTRL_QUATERNION:
+        sgn = 1.0 if qBR[0] >= 0.0 else -1.0
+        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
+        gy = cross(om, H)
+        c10 = cross(om, wRN)
+        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
+        L = (
+            -K * sgn * qBR[1] - Cd[0] + gy[0] - ff[0],
+            -K * sgn * qBR[2] - Cd[1] + gy[1] - ff[1],
+            -K * sgn * qBR[3] - Cd[2] + gy[2] - ff[2],
+        )
+    elif ctrl == CTRL_RATE_DAMPING:
+        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
+        L = (-Cd[0], -Cd[1], -Cd[2])
+    elif ctrl == CTRL_BDOT:
+        if fs[FS_BVALID] != 0.0:
+            per = fw[FW_PERIOD]
+            m = (
+                -K * (bb[0] - fs[FS_BPREV]) / per,
+                -K * (bb[1] - fs[FS_BPREV + 1]) / per,
+                -K * (bb[2] - fs[FS_BPREV + 2]) / per,
+            )
+    fs[FS_BPREV] = bb[0]
+    fs[FS_BPREV + 1] = bb[1]
+    fs[FS_BPREV + 2] = bb[2]
+    fs[FS_BVALID] = 1.0 if fo > 0 else 0.0
+    # momentum dumping (cross-product law) beside the wheels
+    kd = fw[mb + MB_DUMP]
+    b2 = bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2]
+    if kd > 0.0 and b2 > 0.0:
+        r = mb + MB_DUMP_REF
+        dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
+        c = cross(bb, dh)
+        m = (m[0] + kd * c[0] / b2, m[1] + kd * c[1] / b2, m[2] + kd * c[2] / b2)
+    # allocation into the raw commands (your own software wrote them into cmd)
+    out = cmd
+    ideal = (0.0, 0.0, 0.0)
+    if external:
+        if fw[FW_IDEAL] != 0.0:
+            L = (cmd[0], cmd[1], cmd[2])
+            ideal = L
+            for i in range(3):
+                cmd[i] = 0.0
+    elif fw[FW_IDEAL] != 0.0:
+        ideal = L
+    elif nw > 0:
+        for i in range(ncmd):
+            out[i] = 0.0
+        gp = int(fw[FW_GPINV])
+        for k in range(nw):
+            out[k] = -(
+                fw[gp + 3 * k] * L[0] + fw[gp + 3 * k + 1] * L[1] + fw[gp + 3 * k + 2] * L[2]
+            )
+        kn = fw[mb + MB_NULL]
+        if kn > 0.0:
+            npj = int(fw[FW_NULLP])
+            so = int(fw[mb + MB_NULL_SPEEDS])
+            for k in range(nw):
+                acc = 0.0
+                for j in range(nw):
+                    b = S_WHEELS + j * WS
+                    Om = wheel_speed(sc, b, y[8 + j], om)
+                    ref = fw[so + j] if so > 0 else 0.0
+                    acc += fw[npj + nw * k + j] * sc[b + W_J] * (Om - ref)
+                out[k] -= kn * acc
+    else:
+        for i in range(ncmd):
+            out[i] = 0.0
+        if nm > 0 and b2 > 0.0:
+            # a torque request on magnetorquers alone: m = B × L / |B|²
+            c = cross(bb, L)
+            m = (m[0] + c[0] / b2, m[1] + c[1] / b2, m[2] + c[2] / b2)
+    if nm > 0 and not external:
+        ap = int(fw[FW_NAPINV])
+        for j in range(nm):
+            out[nw + j] = (
+                fw[ap + 3 * j] * m[0] + fw[ap + 3 * j + 1] * m[1] + fw[ap + 3 * j + 2] * m[2]
+            )
+    sc[S_IDEAL] = ideal[0]
+    sc[S_IDEAL + 1] = ideal[1]
+    sc[S_IDEAL + 2] = ideal[2]
+    # record what was computed, then the delay
+    rec_row[R_T] = t
+    rec_row[R_MODE] = mode
+    for i in range(4):
+        rec_row[R_QREF + i] = qR[i]
+    for i in range(3):
+        rec_row[R_SIGMA + i] = sig[i]
+        rec_row[R_DOMEGA + i] = dw[i]
+        rec_row[R_TORQUE + i] = L[i]
+        rec_row[R_DIPOLE + i] = m[i]
+    rec_row[R_ANGLE] = ang
+    for i in range(ncmd):
+        rec_row[R_CMD + i] = out[i]
+    delay = int(fw[FW_DELAY])
+    if delay > 0:
+        k = int(fs[FS_TICK])
+        slot = FS_QUEUE + (k % delay) * ncmd
+        for i in range(ncmd):
+            v = fs[slot + i]
+            fs[slot + i] = out[i]
+            out[i] = v if k >= delay else 0.0
+
+
+@jit
+def fsw_boundary(P, y, t, t_end, ctl):
+    """The flight software as the command source of :func:`attitude._core.holds.holds_run`
+    (``ctl = (hs, fw, fs, cmd, rec, rc)``): at a tick, run :func:`fsw_tick` and hold its
+    commands until the next tick; at a thruster's switch-off, turn it off."""
+    hs, fw, fs, cmd, rec, rc = ctl
+    params = P[0]
+    sc = P[1]
+    per = fw[FW_PERIOD]
+    if hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # first call: zero commands until the first tick
+        fs[FS_NEXT] = fw[FW_T0]
+        fs[FS_TICK] = 0.0
+        fs[FS_MODE] = 0.0
+        fs[FS_PRIOR] = math.nan
+        if t < fw[FW_T0]:
+            for i in range(cmd.shape[0]):
+                cmd[i] = 0.0
+            configure_hold(sc, y, cmd, t, fw[FW_T0])
+            sc[S_IDEAL] = 0.0
+            sc[S_IDEAL + 1] = 0.0
+            sc[S_IDEAL + 2] = 0.0
+            hs[HS_HOLD_END] = fw[FW_T0]
+    if t >= fs[FS_NEXT]:
+        if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
+            return BOUNDARY_NEEDS_COMMANDS
+        hs[HS_READY] = 0.0
+        k = int(fs[FS_TICK])
+        every = int(fw[FW_RECORD_EVERY])
+        keep = k % every == 0
+        if keep and rc[0] >= rec.shape[0]:
+            return RECORDS_FULL
+        row = rec[int(rc[0])] if keep else rec[rec.shape[0] - 1]
+        fsw_tick(t, y, params, sc, fw, fs, cmd, row)
+        t_next = fw[FW_T0] + (k + 1) * per
+        configure_hold(sc, y, cmd, t, t_next)
+        # the applied commands of the tick (after the wheels' limits)
+        if keep:
+            ncmd = int(fw[FW_NCMD])
+            nw = int(sc[S_NW])
+            for i in range(ncmd):
+                row[R_CMD + ncmd + i] = cmd[i]
+            for j in range(nw):
+                row[R_CMD + ncmd + j] = sc[S_WHEELS + j * WS + W_U]
+            rc[0] += 1
+        fs[FS_TICK] = k + 1
+        fs[FS_NEXT] = t_next
+        hs[HS_HOLD_END] = t_next
+    thrusters_off_at(sc, t)
+    hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+    return BOUNDARY_DONE
+
+
+#: Layout of the measurement vector of :func:`measure` (then n_w wheel speeds, n_w momenta).
+MEAS_T = 0
+MEAS_Q = 1
+MEAS_OMEGA = 5
+MEAS_QREF = 8
+MEAS_OMEGA_REF = 12
+MEAS_SIGMA = 15
+MEAS_DOMEGA = 18
+MEAS_FIELD = 21
+MEAS_SUN = 24
+MEAS_R = 27
+MEAS_V = 30
+MEAS_WHEELS = 33
+
+
+@jit
+def measure(t, y, params, sc, fw, fs, out):
+    """The measurements your own software sees at t (the truth; NaN where unavailable): the
+    layout MEAS_* above. Runs the active mode's guidance (a slew starts here)."""
+    nw = int(sc[S_NW])
+    q = (y[0], y[1], y[2], y[3])
+    _g, om = state_rate(sc, y)
+    mb = int(fw[int(fw[FW_MODES]) + int(fs[FS_MODE])])
+    qR, wR_R, _dwR_R = guidance(fw, fs, mb, t, q)
+    fs[FS_ENTERED] = 1.0
+    qBR = conj_mul(qR, q)
+    sig = mrp(qBR)
+    wRN = rotate_inverse(qBR, wR_R)
+    out[MEAS_T] = t
+    for i in range(4):
+        out[MEAS_Q + i] = q[i]
+        out[MEAS_QREF + i] = qR[i]
+    for i in range(3):
+        out[MEAS_OMEGA + i] = om[i]
+        out[MEAS_OMEGA_REF + i] = wRN[i]
+        out[MEAS_SIGMA + i] = sig[i]
+        out[MEAS_DOMEGA + i] = om[i] - wRN[i]
+        out[MEAS_FIELD + i] = math.nan
+        out[MEAS_SUN + i] = math.nan
+        out[MEAS_R + i] = math.nan
+        out[MEAS_V + i] = math.nan
+    fo = int(fw[FW_FIELD])
+    if fo > 0:
+        bb = field_body(q, t, fw, fo)
+    elif int(sc[S_MTQ]) > 0:
+        bb = field_body(q, t, sc, int(sc[S_MTQ]))
+    else:
+        bb = (math.nan, math.nan, math.nan)
+    oo = int(fw[FW_ORBIT])
+    if oo > 0:
+        st = orbit_state(fw[oo:], t)
+        for i in range(3):
+            out[MEAS_R + i] = st[i]
+            out[MEAS_V + i] = st[3 + i]
+        so = int(fw[FW_SUN])
+        if so > 0:
+            sun = orbit_state(fw[so:], t)
+            dx = sun[0] - st[0]
+            dy = sun[1] - st[1]
+            dz = sun[2] - st[2]
+            n = math.sqrt(dx * dx + dy * dy + dz * dz)
+            sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
+            for i in range(3):
+                out[MEAS_SUN + i] = sb[i]
+    for i in range(3):
+        out[MEAS_FIELD + i] = bb[i]
+    for k in range(nw):
+        b = S_WHEELS + k * WS
+        out[MEAS_WHEELS + k] = wheel_speed(sc, b, y[8 + k], om)
+        out[MEAS_WHEELS + nw + k] = y[8 + k]
+
+
+from .taylor_gyrostat import taylor_holds_run  # noqa: E402 (the Taylor driver, rebound below)
+
+#: The Taylor integration of the gyrostat with the flight software as its command source.
+taylor_holds_fsw = rebind(taylor_holds_run, globals(), "fsw", BOUNDARY="fsw_boundary")
