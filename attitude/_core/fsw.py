@@ -21,8 +21,8 @@ Control laws (body-axis torque request L_r or dipole request):
 * quaternion feedback (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., Sect. 7.3):
   L_r = −K q_e − C δω + ω × (I ω + Σ h_s a) − I (ω × ω_r − ω̇_r);
 * rate damping: L_r = −K_d δω;
-* B-dot (Stickler & Alfriend 1976): m = −k Ḃ_B, Ḃ_B from the measured field at this tick and
-  the last;
+* B-dot (Stickler & Alfriend 1976): m = −k Ḃ_B, or normalized m = −(k/|B|) ḃ (Avanzini &
+  Giulietti 2012), Ḃ_B from the measured field at this tick and the last;
 * momentum dumping with magnetorquers (the cross-product law, Camillo & Markley 1980):
   m = k (B × (h_w − h_ref)) / |B|², beside a wheel law.
 
@@ -100,7 +100,8 @@ MB_K = 11
 MB_P = 12  # 3 × 3
 MB_KI = 21
 MB_ILIM = 22
-MB_LAWTYPE = 23  # MRP feedback: 0 Basilisk's controlLawType 0 (ω_r + K_I z), 1 (ω)
+MB_LAWTYPE = 23  # MRP feedback: Basilisk's controlLawType 0 (ω_r + K_I z) or 1 (ω); B-dot:
+# 0 m = −k Ḃ, 1 m = −(k/|B|) ḃ
 MB_DUMP = 24  # momentum-dumping gain (1/s; 0: off)
 MB_DUMP_REF = 25  # reference wheel momentum in body axes (3)
 MB_NULL = 28  # null-space gain (1/s; 0: off)
@@ -407,11 +408,19 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     elif ctrl == CTRL_BDOT:
         if fs[FS_BVALID] != 0.0:
             per = fw[FW_PERIOD]
-            m = (
-                -K * (bb[0] - fs[FS_BPREV]) / per,
-                -K * (bb[1] - fs[FS_BPREV + 1]) / per,
-                -K * (bb[2] - fs[FS_BPREV + 2]) / per,
-            )
+            p0, p1, p2 = fs[FS_BPREV], fs[FS_BPREV + 1], fs[FS_BPREV + 2]
+            if fw[mb + MB_LAWTYPE] == 0.0:  # m = −k Ḃ
+                m = (-K * (bb[0] - p0) / per, -K * (bb[1] - p1) / per, -K * (bb[2] - p2) / per)
+            else:  # m = −(k/|B|) ḃ, b = B/|B|
+                nb = math.sqrt(bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2])
+                npv = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+                if nb > 0.0 and npv > 0.0:
+                    c = -K / (nb * per)
+                    m = (
+                        c * (bb[0] / nb - p0 / npv),
+                        c * (bb[1] / nb - p1 / npv),
+                        c * (bb[2] / nb - p2 / npv),
+                    )
     fs[FS_BPREV] = bb[0]
     fs[FS_BPREV + 1] = bb[1]
     fs[FS_BPREV + 2] = bb[2]

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._validation import as_float_array
 from ..errors import AttitudeValueError
-from ._laws import gain
+from ._laws import positive_gain
 
 __all__ = ["WheelAllocation"]
 
@@ -35,7 +35,7 @@ class WheelAllocation:
     null_speeds: np.ndarray | None
 
     def __init__(self, null_gain: Any = 0.0, null_speeds: Any = None):
-        object.__setattr__(self, "null_gain", gain(null_gain, "null_gain", "1 / s",
+        object.__setattr__(self, "null_gain", positive_gain(null_gain, "null_gain", "1 / s",
                                                      allow_zero=True))  # fmt: skip
         sp = None
         if null_speeds is not None:

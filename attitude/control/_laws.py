@@ -18,11 +18,11 @@ __all__ = [
     "MomentumDumping",
     "QuaternionFeedback",
     "RateDamping",
-    "gain",
+    "positive_gain",
 ]
 
 
-def gain(x: Any, name: str, unit: str | None = None, *, allow_zero: bool = False) -> float:
+def positive_gain(x: Any, name: str, unit: str | None = None, *, allow_zero: bool = False) -> float:
     from astropy import units as u
 
     if isinstance(x, u.Quantity):
@@ -106,7 +106,7 @@ class MRPFeedback(ControlLaw):
     def __init__(self, K: Any, P: Any, Ki: Any = None, integral_limit: Any = None,
                  law_type: int = 0):  # fmt: skip
         s = object.__setattr__
-        s(self, "K", gain(K, "K", "N m"))
+        s(self, "K", positive_gain(K, "K", "N m"))
         s(self, "P", _matrix_gain(P, "P"))
         ki = -1.0 if Ki is None else as_scalar(Ki, "Ki")
         if not math.isfinite(ki):
@@ -115,7 +115,7 @@ class MRPFeedback(ControlLaw):
         if integral_limit is None:
             lim = 2.0 / ki * 0.1 if ki > 0 else math.inf
         else:
-            lim = gain(integral_limit, "integral_limit")
+            lim = positive_gain(integral_limit, "integral_limit")
         s(self, "integral_limit", lim)
         if law_type not in (0, 1):
             raise AttitudeValueError(f"law_type: expected 0 or 1, got {law_type!r}")
@@ -151,7 +151,7 @@ class QuaternionFeedback(ControlLaw):
     _kind = 2
 
     def __init__(self, K: Any, C: Any):
-        object.__setattr__(self, "K", gain(K, "K", "N m"))
+        object.__setattr__(self, "K", positive_gain(K, "K", "N m"))
         object.__setattr__(self, "C", _matrix_gain(C, "C"))
 
     def _gains(self):
@@ -186,31 +186,61 @@ class RateDamping(ControlLaw):
 
 @dataclass(frozen=True, init=False)
 class BDot(ControlLaw):
-    """B-dot detumbling (Stickler & Alfriend, *J. Spacecraft* 13, 1976): m = −k Ḃ_B.
+    """B-dot detumbling with magnetorquers.
 
-    Ḃ_B is the change of the measured field in body axes from the last tick to this one over
-    the period; the dipole is clipped to each rod's limit. Avanzini & Giulietti (*J. Guidance*
-    35, 2012) give k = 2 n (1 + sin ξ_m) I_min for the fastest decay (n the orbital rate, ξ_m
-    the inclination of the orbit to the geomagnetic equator).
+    ``normalized=False``: m = −k Ḃ_B (Stickler & Alfriend, *J. Spacecraft* 13, 1976);
+    ``normalized=True``: m = −(k/|B|) ḃ, b = B/|B| the field's direction in body axes
+    (Avanzini & Giulietti, "Magnetic detumbling of a rigid spacecraft", *J. Guidance* 35,
+    2012, whose optimal gain :meth:`optimal_gain` is k = 2 n (1 + sin ξ_m) I_min). The
+    derivatives are the change of the measured field from the last tick to this one over the
+    period; the dipole is clipped to each rod's limit (nothing at the first tick of the mode).
 
     Parameters
     ----------
     gain : float
-        k (A m² per T/s, i.e. A m² s T⁻¹).
+        k: A m² s T⁻¹ for m = −k Ḃ; N m s for the normalized law.
+    normalized : bool
+        Which of the two laws.
     """
 
     gain: float
+    normalized: bool
     _kind = 4
     needs = "dipole"
 
-    def __init__(self, gain: Any):
-        object.__setattr__(self, "gain", gain(gain, "gain"))
+    def __init__(self, gain: Any, normalized: bool = False):
+        object.__setattr__(self, "gain", positive_gain(gain, "gain"))
+        if not isinstance(normalized, (bool, np.bool_)):
+            raise AttitudeTypeError("normalized: expected True or False")
+        object.__setattr__(self, "normalized", bool(normalized))
+
+    @staticmethod
+    def optimal_gain(orbit: Any, inertia: Any) -> float:
+        """Avanzini & Giulietti's gain of the normalized law, k = 2 n (1 + sin ξ_m) I_min
+        (N m s): n the orbit's mean motion, ξ_m its inclination to the geomagnetic equator
+        (the inclination plus or minus the dipole's tilt, the larger of the two: 9.6° for
+        IGRF-14 at 2025), I_min the smallest principal moment."""
+        if not hasattr(orbit, "to_state"):
+            raise AttitudeTypeError("orbit: expected an orbit of the orbit package")
+        lo = orbit.time_span[0]
+        t0 = lo if math.isfinite(lo) else 0.0
+        r, v = (np.asarray(x, dtype=np.float64).reshape(3) for x in orbit.to_state(t0))
+        mu = float(orbit.mu)
+        h = np.cross(r, v)
+        inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
+        a = 1.0 / (2.0 / np.linalg.norm(r) - float(v @ v) / mu)  # vis-viva (osculating, km)
+        n = math.sqrt(mu / a**3)
+        tilt = math.radians(9.6)
+        xi = max(abs(math.sin(inc + tilt)), abs(math.sin(inc - tilt)))
+        inertia = np.asarray(getattr(inertia, "inertia", inertia), dtype=np.float64)
+        return 2.0 * n * (1.0 + xi) * float(np.min(inertia))
 
     def _gains(self):
-        return self.gain, np.zeros((3, 3)), 0.0, 0.0, 0.0
+        return self.gain, np.zeros((3, 3)), 0.0, 0.0, 1.0 if self.normalized else 0.0
 
     def __repr__(self) -> str:
-        return f"BDot(gain={self.gain!r})"
+        tail = ", normalized=True" if self.normalized else ""
+        return f"BDot(gain={self.gain!r}{tail})"
 
 
 @dataclass(frozen=True, init=False)
@@ -231,7 +261,7 @@ class MomentumDumping:
     reference: np.ndarray
 
     def __init__(self, gain: Any, reference: Any = None):
-        object.__setattr__(self, "gain", gain(gain, "gain", "1 / s"))
+        object.__setattr__(self, "gain", positive_gain(gain, "gain", "1 / s"))
         r = np.zeros(3) if reference is None else as_float_array(reference, "reference",
                                                                  unit="kg m2 / s")  # fmt: skip
         if r.shape != (3,):
