@@ -82,8 +82,8 @@ def _axis_run(period, K, P, theta0, t_end, I3=10.0):
 
 def test_fast_pd_control_matches_the_second_order_response():
     """σ = tan(θ/4) ≈ θ/4: I θ̈ + P θ̇ + (K/4) θ = 0, ω_n = √(K/(4I)), ζ = P/(2√(IK/4)). At a
+    tick 1/5000 of the natural period (the hold lags by half a tick: ω_n T/2 = 6e-4) the
     response, its frequency and its overshoot match to 1e-3 (small angle: θ0 = 1e-3 rad)."""
-    to 1e-3 (small angle: θ0 = 1e-3 rad)."""
     I3, K, P = 10.0, 4.0, 1.2
     wn = math.sqrt(K / (4 * I3))
     zeta = P / (2 * math.sqrt(I3 * K / 4))
