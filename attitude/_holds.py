@@ -170,7 +170,7 @@ class _Source:
         if prog is None:
             self.ctl = (self.hs, run.hold_t, run.hold_u, np.zeros(run.hold_u.shape[1]))
             return
-        self.fs = np.zeros(prog.fs_size)
+        self.fs = prog.fresh_state()
         self.cmd = np.zeros(max(prog.n_cmd, 3))
         self.rec = np.full((TICK_BUFFER, prog.rec_width), np.nan)
         self.rc = np.zeros(1, dtype=np.int64)

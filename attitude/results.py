@@ -806,11 +806,115 @@ def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
             np.array(units),
             {"long_name": "unit of each actuator command"},
         )
+    if prog.sensors or prog.estimator is not None:
+        new.update(_sensor_variables(rec[:, _kf.R_CMD + 2 * ncmd :], prog, u, var, coords))
     ta = time_attrs(u.time, ds.attrs.get("epoch"))
     ta = {**ta, "long_name": "time of the flight-software tick"}
     coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
     out = ds.assign_coords({k: (d, v, a) for k, (d, v, a) in coords.items()}).assign(new)
     out.attrs = dict(ds.attrs)
+    if prog.sensors:
+        out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
+    return out
+
+
+def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords: dict) -> dict:
+    """The sensors' measurements and the estimator's estimate at the ticks."""
+    from ._core import fsw as _kf
+    from ._core import sensors as _ks
+
+    kinds = {x.kind for x in prog.sensors}
+    out: dict[str, Any] = {}
+    if "gyro" in kinds:
+        out["gyro_rate"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_OMEGA : _ks.Z_OMEGA + 3],
+            u.rate,
+            "gyro measurement (body axes)",
+        )
+    if "star_tracker" in kinds:
+        out["star_tracker_q"] = var(
+            ("tick", "component"),
+            r[:, _ks.Z_Q : _ks.Z_Q + 4],
+            "1",
+            "star tracker attitude quaternion, body to space",
+        )
+        out["star_tracker_status"] = var(
+            ("tick",),
+            r[:, _ks.Z_ST_FLAG].astype(np.int8),
+            None,
+            "star tracker measurement status",
+            flag_values=np.array([0, 1, 2, 3], dtype=np.int8),
+            flag_meanings="valid no_update sun_exclusion earth_exclusion",
+        )
+    if "magnetometer" in kinds:
+        out["magnetometer"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_B : _ks.Z_B + 3],
+            "T",
+            "magnetometer measurement (body axes)",
+        )
+    if "sun_sensor" in kinds:
+        out["sun_direction"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_SUN : _ks.Z_SUN + 3],
+            "1",
+            "Sun direction from the coarse Sun sensor (body axes; NaN: not enough heads lit)",
+        )
+    if kinds & {"sun_sensor", "star_tracker"}:
+        out["sunlight"] = var(
+            ("tick",), r[:, _ks.Z_ECLIPSE], "1", "fraction of the solar disk visible (0: umbra)"
+        )
+    if prog.estimator is not None:
+        e = r[:, _ks.Z_SIZE :]
+        out["estimate_q"] = var(
+            ("tick", "component"),
+            e[:, _kf.RS_Q : _kf.RS_Q + 4],
+            "1",
+            "estimated attitude quaternion (MEKF), body to space",
+        )
+        out["bias_estimate"] = var(
+            ("tick", "axis"),
+            e[:, _kf.RS_B : _kf.RS_B + 3],
+            u.rate,
+            "estimated gyro bias (body axes)",
+        )
+        out["estimation_sigma"] = var(
+            ("tick", "error_state"),
+            e[:, _kf.RS_SIGMA : _kf.RS_SIGMA + 6],
+            None,
+            "1-sigma of the error states (sqrt of the MEKF covariance"
+            " diagonal; units in error_state_units)",
+        )
+        out["estimation_error"] = var(
+            ("tick", "error_state"),
+            e[:, _kf.RS_ERR : _kf.RS_ERR + 6],
+            None,
+            "estimation error: the truth is the estimate "
+            "rotated by the first three (rad, body axes); the "
+            "true bias minus the estimate (last three)",
+        )
+        out["nees"] = var(
+            ("tick",),
+            e[:, _kf.RS_NEES],
+            "1",
+            "normalised estimation error squared (6 degrees of freedom)",
+        )
+        coords["error_state"] = (
+            "error_state",
+            np.arange(6, dtype=np.int32),
+            {"long_name": "MEKF error state index", "units": "1"},
+        )
+        coords["error_state_label"] = (
+            "error_state",
+            np.array(["attitude_x", "attitude_y", "attitude_z", "bias_x", "bias_y", "bias_z"]),
+            {"long_name": "MEKF error state"},
+        )
+        coords["error_state_units"] = (
+            "error_state",
+            np.array(["rad"] * 3 + [u.rate] * 3),
+            {"long_name": "unit of each error state"},
+        )
     return out
 
 

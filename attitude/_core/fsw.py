@@ -65,7 +65,39 @@ from .holds import (
     HS_SEG_END,
     RECORDS_FULL,
 )
+from .mekf import (
+    E_B,
+    E_INIT,
+    E_P,
+    E_Q,
+    EP_INIT,
+    EP_MAG,
+    EP_Q0,
+    EP_SUN,
+    estimation_error,
+    mekf_init,
+    mekf_propagate,
+    mekf_update_quaternion,
+    mekf_update_vector,
+)
 from .quat import conj_mul, cross, mul, rotate, rotate_inverse
+from .rng import RNG_SIZE
+from .sensors import (
+    G_B0,
+    G_STATE,
+    SN_GYRO,
+    Z_B,
+    Z_GYRO_OK,
+    Z_MAG_OK,
+    Z_OMEGA,
+    Z_Q,
+    Z_SIZE,
+    Z_ST_OK,
+    Z_SUN,
+    Z_SUN_OK,
+    measure_sensors,
+    sun_and_earth,
+)
 
 # --- the program fw: header ---------------------------------------------------------------------
 FW_PERIOD = 0
@@ -84,7 +116,12 @@ FW_NULLP = 20  # offset of the null-space projector N (n_w × n_w)
 FW_EXTERNAL = 21  # 1: the commands come from Python at each tick (your own step function)
 FW_ORBIT = 22  # offset of the orbit's kernel data (0: none)
 FW_SUN = 23  # offset of the Sun's table (0: none)
-FW_HEADER = 24
+FW_SENSORS = 24  # offset of the sensor program (attitude._core.sensors; 0: the truth)
+FW_EST = 25  # offset of the MEKF's record (attitude._core.mekf EP_*; 0: no estimator)
+FW_SS = 26  # offset in fs of the sensors' state
+FW_ES = 27  # offset in fs of the filter's state
+FW_Z = 28  # offset in fs of the measurement vector (Z_SIZE) and the Sun heads' scratch
+FW_HEADER = 32
 
 # --- mode blocks (offsets relative to the block) --------------------------------------------------
 MB_COND = 0  # COND_*
@@ -151,18 +188,26 @@ R_TORQUE = 13  # torque request L_r (3)
 R_DIPOLE = 16  # dipole request, body axes (3)
 R_CMD = 19  # commands computed at this tick (n_cmd), then those applied (n_cmd)
 R_HEADER = 19
+#: With sensors, after the commands: the measurements (Z_SIZE), then the estimate q̂ (4),
+#: β̂ (3), the 1-σ of the six error states, the estimation errors δθ, δβ (6) and the NEES.
+RS_Q = 0
+RS_B = 4
+RS_SIGMA = 7
+RS_ERR = 13
+RS_NEES = 19
+RS_SIZE = 20
 
 #: Finite-difference half-step for ω̇ of a frame (s): the frames give q_R and ω_R exactly.
 DOMEGA_STEP = 0.5
 
 
-def record_width(n_cmd: int) -> int:
+def record_width(n_cmd: int, sensors: bool = False) -> int:
     """Columns of a tick record."""
-    return R_HEADER + 2 * n_cmd
+    return R_HEADER + 2 * n_cmd + ((Z_SIZE + RS_SIZE) if sensors else 0)
 
 
 def state_size(delay: int, n_cmd: int) -> int:
-    """Length of the software state ``fs``."""
+    """Length of the software state ``fs`` before the sensors' and the filter's."""
     return FS_HEADER + max(delay, 0) * n_cmd
 
 
@@ -304,6 +349,62 @@ def condition_holds(fw, mb, t, q, om):
     return ang < x if kind == COND_POINTING_WITHIN else ang > x
 
 
+#: Filter state slots kept in fs beside the filter's own (the gyro rate of the last tick).
+ES_OMEGA_PREV = 160  # after attitude._core.mekf.E_SIZE
+ES_LAST_Q = 163  # the last valid star tracker quaternion (without a filter)
+ES_HAS_Q = 167
+ES_SIZE = 168
+
+
+@jit
+def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
+    """The sensors' measurements and the estimate at this tick: (q, ω, B) the software uses.
+
+    Without sensors the truth; with sensors but no estimator the last valid star tracker
+    quaternion and the gyro's rate; with the MEKF its estimate (propagated over the period with
+    this tick's gyro rate, the mean over that interval, then updated). Writes the tick's sensor
+    and estimator record at ``rec_at`` of ``rec_row`` (if ``rec_at`` >= 0).""" so =
+    int(fw[FW_SENSORS]) if so == 0: return q, om, bb sn = fw[so:] ss = fs[int(fw[FW_SS]) :] zo =
+    int(fw[FW_Z]) z = fs[zo : zo + Z_SIZE] scratch = fs[zo + Z_SIZE :] tick = int(fs[FS_TICK])
+    dt = fw[FW_PERIOD] measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch) qu = q wu =
+    om bu = bb if z[Z_GYRO_OK] != 0.0: wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2]) if
+    z[Z_MAG_OK] != 0.0: bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2]) eo = int(fw[FW_EST]) es =
+    fs[int(fw[FW_ES]) :] if eo == 0: if z[Z_ST_OK] != 0.0: for i in range(4): es[ES_LAST_Q + i]
+    = z[Z_Q + i] es[ES_HAS_Q] = 1.0 if es[ES_HAS_Q] != 0.0: qu = (es[ES_LAST_Q], es[ES_LAST_Q +
+    1], es[ES_LAST_Q + 2], es[ES_LAST_Q + 3]) else: ep = fw[eo:] if es[E_INIT] == 0.0: if
+    ep[EP_INIT] != 0.0: mekf_init(es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 +
+    3]), ep[13:16])  # fmt: skip elif z[Z_ST_OK] != 0.0: mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1],
+    z[Z_Q + 2], z[Z_Q + 3]), ep[13:16]) if es[E_INIT] != 0.0 and ep[EP_INIT] == 0.0: pass  # the
+    first measurement is the estimate: no update with it elif es[E_INIT] != 0.0: _updates(es,
+    ep, z, q, bb, sn, t) else: # the gyro's rate of this tick is the mean over the interval just
+    ended for i in range(3): es[ES_OMEGA_PREV + i] = wu[i] mekf_propagate(es, ep,
+    es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt) _updates(es, ep, z, q, bb, sn, t) if es[E_INIT]
+    != 0.0: qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]) wu = (wu[0] - es[E_B], wu[1] -
+    es[E_B + 1], wu[2] - es[E_B + 2]) if rec_at >= 0: for i in range(Z_SIZE): rec_row[rec_at +
+    i] = z[i] r = rec_at + Z_SIZE for i in range(RS_SIZE): rec_row[r + i] = math.nan if eo != 0
+    and es[E_INIT] != 0.0: for i in range(4): rec_row[r + RS_Q + i] = es[E_Q + i] for i in
+    range(3): rec_row[r + RS_B + i] = es[E_B + i] for i in range(6): rec_row[r + RS_SIGMA + i] =
+    math.sqrt(max(es[E_P + 7 * i], 0.0)) g = int(sn[SN_GYRO]) gs = int(sn[g + G_STATE]) +
+    RNG_SIZE bt = ( sn[g + G_B0] + ss[gs], sn[g + G_B0 + 1] + ss[gs + 1], sn[g + G_B0 + 2] +
+    ss[gs + 2], ) e, nees = estimation_error(es, q, bt) for i in range(6): rec_row[r + RS_ERR +
+    i] = e[i] rec_row[r + RS_NEES] = nees return qu, wu, bu
+
+
+@jit
+def _updates(es, ep, z, q, bb, sn, t):
+    """The filter's updates with the valid measurements of the tick (q, bb: the truth, for
+    the reference vectors in space the filter knows: the field model, the Sun's ephemeris)."""
+    if z[Z_ST_OK] != 0.0:
+        mekf_update_quaternion(es, ep, z[Z_Q : Z_Q + 4])
+    if ep[EP_MAG] > 0.0 and z[Z_MAG_OK] != 0.0:
+        r = rotate(q, bb)  # the field model in space (the IGRF tables)
+        mekf_update_vector(es, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
+    if ep[EP_SUN] > 0.0 and z[Z_SUN_OK] != 0.0:
+        _, s, _ = sun_and_earth(sn, t)  # the Sun's direction in space (its ephemeris)
+        mekf_update_vector(es, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
+                           ep[EP_SUN])  # fmt: skip
+
+
 @jit
 def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     """One tick of the flight software at t from the state y: the commands to apply into
@@ -311,9 +412,16 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     nw = int(sc[S_NW])
     nm = int(sc[S_NM])
     ncmd = int(fw[FW_NCMD])
-    # measurements: the true state (the sensors and the estimator replace these)
-    q = (y[0], y[1], y[2], y[3])
-    _g, om = state_rate(sc, y)
+    # the truth, then what the software measures or estimates of it
+    qt = (y[0], y[1], y[2], y[3])
+    _g, omt = state_rate(sc, y)
+    fo = int(fw[FW_FIELD])
+    if fo == 0:
+        fo = int(sc[S_MTQ])
+    bbt = (0.0, 0.0, 0.0)
+    if fo > 0:
+        bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
+    q, om, bb = sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, R_CMD + 2 * ncmd)
     # modes: forward to the next one when its condition holds
     mode = int(fs[FS_MODE])
     nmodes = int(fw[FW_NMODES])
@@ -349,13 +457,6 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     I = FW_INERTIA
     Iw = _mv(fw, I, om[0], om[1], om[2])
     H = (Iw[0] + hw0, Iw[1] + hw1, Iw[2] + hw2)
-    # the field, for the magnetic laws
-    fo = int(fw[FW_FIELD])
-    if fo == 0:
-        fo = int(sc[S_MTQ])
-    bb = (0.0, 0.0, 0.0)
-    if fo > 0:
-        bb = field_body(q, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
     external = fw[FW_EXTERNAL] != 0.0
     # control law
     ctrl = CTRL_NONE if external else int(fw[mb + MB_CTRL])

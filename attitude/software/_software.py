@@ -11,6 +11,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._core import fsw as _kf
+from .._core import sensors as _ks
 from .._validation import as_float_array, as_int, as_scalar
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
 from ..errors import AttitudeTypeError, AttitudeValueError
@@ -280,6 +281,17 @@ class Program:
     mode_names: list[str] = field(default_factory=list)
     ideal: bool = False
     frames: dict = field(default_factory=dict)
+    ss0: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the sensors' initial state
+    sensors: tuple = ()
+    estimator: Any = None
+
+    def fresh_state(self) -> np.ndarray:
+        """The software state ``fs`` at the start of a run (the sensors' streams seeded)."""
+        fs = np.zeros(self.fs_size)
+        if self.ss0.size:
+            at = int(self.fw[_kf.FW_SS])
+            fs[at : at + self.ss0.size] = self.ss0
+        return fs
 
 
 def _frame_data(frame: Any, start: float, stop: float) -> np.ndarray:
@@ -399,13 +411,66 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
                 "software: the magnetic laws read the geomagnetic field along the orbit; give "
                 "Spacecraft(..., orbit=...)"
             )
+    fs_size = _kf.state_size(software.delay, ncmd)
+    ss0 = np.zeros(0)
+    sensors = software.sensors or ()
+    if sensors or software.estimator is not None:
+        from ..sensors._models import SunSensor, sensor_program
+
+        sn, ss0 = sensor_program(sensors, software.period, craft, t0, t_end)
+        at = fw.size
+        fw = np.concatenate([fw, sn])
+        fw[_kf.FW_SENSORS] = at
+        fw[_kf.FW_SS] = fs_size
+        fs_size += ss0.size
+        fw[_kf.FW_ES] = fs_size
+        fs_size += _kf.ES_SIZE
+        fw[_kf.FW_Z] = fs_size
+        heads = max((x.normals.shape[0] for x in sensors if isinstance(x, SunSensor)), default=0)
+        fs_size += _ks.Z_SIZE + heads
+        if software.estimator is not None:
+            from ..estimation import MEKF
+
+            if not isinstance(software.estimator, MEKF):
+                raise AttitudeTypeError(
+                    f"estimator: expected an attitude.estimation.MEKF, got "
+                    f"{type(software.estimator).__name__}"
+                )
+            ep = software.estimator.record(sensors)
+            fw[_kf.FW_EST] = fw.size
+            fw = np.concatenate([fw, ep])
+    needs_field = any(
+        (_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
+        or _control(m.control)[1] is not None
+        for _, m in software.modes
+    ) or any(getattr(x, "kind", "") == "magnetometer" for x in sensors)
+    if needs_field and not nm and craft.orbit is not None:
+        from ..potentials import MagneticDipole
+
+        fm = MagneticDipole(craft.orbit, [0.0, 0.0, 0.0], craft.field)
+        span = np.array([t0, t_end])
+        fm.prepare(span)
+        fw[_kf.FW_FIELD] = fw.size
+        fw = np.concatenate([fw, fm._kernel_params(span)])
+    if craft.orbit is not None:
+        fw[_kf.FW_ORBIT] = fw.size
+        fw = np.concatenate([fw, np.asarray(craft.orbit.kernel_data(), dtype=np.float64)])
+        if getattr(craft.orbit, "epoch", None) is not None:
+            from orbit import sun as _sun
+
+            fw[_kf.FW_SUN] = fw.size
+            table = _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
+            fw = np.concatenate([fw, table])
     fw = np.ascontiguousarray(fw)
     return Program(
         fw=fw,
-        fs_size=_kf.state_size(software.delay, ncmd),
+        fs_size=fs_size,
         n_cmd=ncmd,
-        rec_width=_kf.record_width(ncmd),
+        rec_width=_kf.record_width(ncmd, bool(sensors) or software.estimator is not None),
         python_step=software.python_step,
         mode_names=software.mode_names,
         ideal=ideal,
+        ss0=ss0,
+        sensors=tuple(sensors),
+        estimator=software.estimator,
     )
