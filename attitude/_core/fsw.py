@@ -361,33 +361,81 @@ def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
     """The sensors' measurements and the estimate at this tick: (q, ω, B) the software uses.
 
     Without sensors the truth; with sensors but no estimator the last valid star tracker
-    quaternion and the gyro's rate; with the MEKF its estimate (propagated over the period with
-    this tick's gyro rate, the mean over that interval, then updated). Writes the tick's sensor
-    and estimator record at ``rec_at`` of ``rec_row`` (if ``rec_at`` >= 0).""" so =
-    int(fw[FW_SENSORS]) if so == 0: return q, om, bb sn = fw[so:] ss = fs[int(fw[FW_SS]) :] zo =
-    int(fw[FW_Z]) z = fs[zo : zo + Z_SIZE] scratch = fs[zo + Z_SIZE :] tick = int(fs[FS_TICK])
-    dt = fw[FW_PERIOD] measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch) qu = q wu =
-    om bu = bb if z[Z_GYRO_OK] != 0.0: wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2]) if
-    z[Z_MAG_OK] != 0.0: bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2]) eo = int(fw[FW_EST]) es =
-    fs[int(fw[FW_ES]) :] if eo == 0: if z[Z_ST_OK] != 0.0: for i in range(4): es[ES_LAST_Q + i]
-    = z[Z_Q + i] es[ES_HAS_Q] = 1.0 if es[ES_HAS_Q] != 0.0: qu = (es[ES_LAST_Q], es[ES_LAST_Q +
-    1], es[ES_LAST_Q + 2], es[ES_LAST_Q + 3]) else: ep = fw[eo:] if es[E_INIT] == 0.0: if
-    ep[EP_INIT] != 0.0: mekf_init(es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 +
-    3]), ep[13:16])  # fmt: skip elif z[Z_ST_OK] != 0.0: mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1],
-    z[Z_Q + 2], z[Z_Q + 3]), ep[13:16]) if es[E_INIT] != 0.0 and ep[EP_INIT] == 0.0: pass  # the
-    first measurement is the estimate: no update with it elif es[E_INIT] != 0.0: _updates(es,
-    ep, z, q, bb, sn, t) else: # the gyro's rate of this tick is the mean over the interval just
-    ended for i in range(3): es[ES_OMEGA_PREV + i] = wu[i] mekf_propagate(es, ep,
-    es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt) _updates(es, ep, z, q, bb, sn, t) if es[E_INIT]
-    != 0.0: qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]) wu = (wu[0] - es[E_B], wu[1] -
-    es[E_B + 1], wu[2] - es[E_B + 2]) if rec_at >= 0: for i in range(Z_SIZE): rec_row[rec_at +
-    i] = z[i] r = rec_at + Z_SIZE for i in range(RS_SIZE): rec_row[r + i] = math.nan if eo != 0
-    and es[E_INIT] != 0.0: for i in range(4): rec_row[r + RS_Q + i] = es[E_Q + i] for i in
-    range(3): rec_row[r + RS_B + i] = es[E_B + i] for i in range(6): rec_row[r + RS_SIGMA + i] =
-    math.sqrt(max(es[E_P + 7 * i], 0.0)) g = int(sn[SN_GYRO]) gs = int(sn[g + G_STATE]) +
-    RNG_SIZE bt = ( sn[g + G_B0] + ss[gs], sn[g + G_B0 + 1] + ss[gs + 1], sn[g + G_B0 + 2] +
-    ss[gs + 2], ) e, nees = estimation_error(es, q, bt) for i in range(6): rec_row[r + RS_ERR +
-    i] = e[i] rec_row[r + RS_NEES] = nees return qu, wu, bu
+    quaternion and the gyro's rate; with the MEKF its estimate (propagated over the period
+    with this tick's gyro rate, the mean over that interval, then updated). Writes the tick's
+    sensor and estimator record at ``rec_at`` of ``rec_row`` (if ``rec_at`` >= 0)."""
+    so = int(fw[FW_SENSORS])
+    if so == 0:
+        return q, om, bb
+    sn = fw[so:]
+    ss = fs[int(fw[FW_SS]) :]
+    zo = int(fw[FW_Z])
+    z = fs[zo : zo + Z_SIZE]
+    scratch = fs[zo + Z_SIZE :]
+    tick = int(fs[FS_TICK])
+    dt = fw[FW_PERIOD]
+    measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch)
+    qu = q
+    wu = om
+    bu = bb
+    if z[Z_GYRO_OK] != 0.0:
+        wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2])
+    if z[Z_MAG_OK] != 0.0:
+        bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2])
+    eo = int(fw[FW_EST])
+    es = fs[int(fw[FW_ES]) :]
+    if eo == 0:
+        if z[Z_ST_OK] != 0.0:
+            for i in range(4):
+                es[ES_LAST_Q + i] = z[Z_Q + i]
+            es[ES_HAS_Q] = 1.0
+        if es[ES_HAS_Q] != 0.0:
+            qu = (es[ES_LAST_Q], es[ES_LAST_Q + 1], es[ES_LAST_Q + 2], es[ES_LAST_Q + 3])
+    else:
+        ep = fw[eo:]
+        if es[E_INIT] == 0.0:
+            if ep[EP_INIT] != 0.0:
+                mekf_init(
+                    es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 + 3]), ep[13:16]
+                )
+                _updates(es, ep, z, q, bb, sn, t)
+            elif z[Z_ST_OK] != 0.0:
+                # the first measurement is the estimate: no update with it
+                mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1], z[Z_Q + 2], z[Z_Q + 3]), ep[13:16])
+        else:
+            # the gyro's rate of this tick is the mean over the interval just ended
+            for i in range(3):
+                es[ES_OMEGA_PREV + i] = wu[i]
+            mekf_propagate(es, ep, es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt)
+            _updates(es, ep, z, q, bb, sn, t)
+        if es[E_INIT] != 0.0:
+            qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
+            wu = (wu[0] - es[E_B], wu[1] - es[E_B + 1], wu[2] - es[E_B + 2])
+    if rec_at >= 0:
+        for i in range(Z_SIZE):
+            rec_row[rec_at + i] = z[i]
+        r = rec_at + Z_SIZE
+        for i in range(RS_SIZE):
+            rec_row[r + i] = math.nan
+        if eo != 0 and es[E_INIT] != 0.0:
+            for i in range(4):
+                rec_row[r + RS_Q + i] = es[E_Q + i]
+            for i in range(3):
+                rec_row[r + RS_B + i] = es[E_B + i]
+            for i in range(6):
+                rec_row[r + RS_SIGMA + i] = math.sqrt(max(es[E_P + 7 * i], 0.0))
+            g = int(sn[SN_GYRO])
+            gs = int(sn[g + G_STATE]) + RNG_SIZE
+            bt = (
+                sn[g + G_B0] + ss[gs],
+                sn[g + G_B0 + 1] + ss[gs + 1],
+                sn[g + G_B0 + 2] + ss[gs + 2],
+            )
+            e, nees = estimation_error(es, q, bt)
+            for i in range(6):
+                rec_row[r + RS_ERR + i] = e[i]
+            rec_row[r + RS_NEES] = nees
+    return qu, wu, bu
 
 
 @jit
