@@ -102,7 +102,7 @@ def test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters(period
     ds = _record([g], period, n * period)
     y = ds.gyro_rate.values[1:, 0]  # the first tick has no interval behind it
     taus = period * np.array([1, 3, 10, 30, 100, 300, 1000])
-    t2, ad, ade, _ = allantools.oadev(y, rate=1.0 / period, data_type="freq", taus=taus)
+    t2, ad, _ade, _ = allantools.oadev(y, rate=1.0 / period, data_type="freq", taus=taus)
     model = np.sqrt(g.allan_variance(t2))
     m = np.rint(t2 / period)
     # our own overlapping estimator agrees with allantools
