@@ -447,8 +447,8 @@ def propagate(
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
     if evset is not None:
         ds = add_event_variables(ds, evset, result.events, problem.body, result.status)
-    if sc_run is not None and sc_run.program is not None and not streaming:
-        ds = add_tick_variables(ds, sc_run)
+    if sc_run is not None and sc_run.program is not None:
+        ds = add_tick_variables(ds, sc_run)  # (streamed: on the last sample's Dataset)
     if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop

@@ -23,7 +23,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 
-from . import _actuators
+from . import _actuators, _software
 from ._models import _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
@@ -89,7 +89,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
             hint = f"; did you mean [{close[0]}]?" if close else ""
             raise _fail(k, f"unknown table or key{hint} (tables: {', '.join(_TABLES)})")
     for name in _TABLES:
-        if name != "events":
+        if name not in ("events", "software"):
             r.check_keys(name, r.table(name))
 
     # [scenario]
@@ -124,9 +124,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
                 "an orbit needs a body with units: give body.inertia_unit (e.g. 'kg m2')",
             )
         orbit, epoch = _orbit(r, ot, t, epoch, path)
-    uses_orbit = bool(r.table("events")) or r.table("initial_state").get(
-        "frame", "inertial"
-    ) not in ("inertial",)
+    uses_orbit = (
+        bool(r.table("events"))
+        or bool(r.table("software"))
+        or r.table("initial_state").get("frame", "inertial") not in ("inertial",)
+    )
     sct = r.table("spacecraft")
     has_actuators = any(k in sct for k in ("wheels", "magnetorquers", "thrusters"))
     if has_actuators and "magnetorquers" in sct and orbit is None:
@@ -140,6 +142,12 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     field = str(pt.get("field", "igrf")) if isinstance(pt.get("field", "igrf"), str) else "igrf"
     craft = _actuators.spacecraft(r, sct, body, orbit, field)
     schedule = _actuators.commands(r, r.table("commands"), craft, path)
+    swt = r.table("software")
+    if swt and craft is None:
+        from ..spacecraft import Spacecraft
+
+        craft = Spacecraft(body, orbit=orbit, field=field)
+    fsw = _software.software(r, swt, craft, body, orbit)
 
     # [initial_state]
     it = r.table("initial_state", required=True)
@@ -239,6 +247,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         events=events,
         spacecraft=craft,
         commands=schedule,
+        software=fsw,
     )
 
 

@@ -63,6 +63,7 @@ class Scenario:
     events: list | None = None  # from an [events] table (attitude.events)
     spacecraft: Any = None  # attitude.Spacecraft of the [spacecraft] actuator tables
     commands: Any = None  # attitude.CommandSchedule of the [commands] table
+    software: Any = None  # attitude.FlightSoftware of the [software] table
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -135,6 +136,7 @@ class Scenario:
                     epoch=self.epoch,
                     events=self.events,
                     commands=self.commands,
+                    software=self.software,
                     **kw,
                 )
         except PropagationError as exc:
@@ -202,10 +204,11 @@ class Scenario:
                         epoch=self.epoch,
                         events=self.events,
                         commands=self.commands,
+                        software=self.software,
                         **kw,
                     )
                 status = "event" if last.attrs.get("status") == "event" else "complete"
-                if self.events is not None:
+                if self.events is not None or self.software is not None:
                     writer.add_static(last)
             except PropagationError as exc:
                 failure = exc

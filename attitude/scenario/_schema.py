@@ -109,6 +109,8 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "thrusters": None,
         "center_of_mass": "position",
     },
+    # the flight software (attitude.FlightSoftware; keys in scenario/_software.py)
+    "software": {},
     # open-loop actuator commands held from each time to the next (attitude.CommandSchedule)
     "commands": {
         "times": "time",
