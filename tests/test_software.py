@@ -351,3 +351,27 @@ def test_bad_software_is_refused_before_any_work():
             software=FlightSoftware(1.0),
             commands=attitude.CommandSchedule([0.0], np.zeros((1, 4))),
         )
+
+
+def test_momentum_dumping_unloads_the_wheels_at_its_gain():
+    """Inertial pointing in a constant field (space axes): B_B is constant, the attitude loop
+    holds the body, and the cross-product law's torque −k Δh⊥ takes the wheel momentum
+    perpendicular to B out at the rate k, exp(−k t), leaving the parallel part."""
+    from attitude.control import MomentumDumping
+
+    body = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
+    rods = [Magnetorquer(np.eye(3)[k], 1000.0) for k in range(3)]  # never saturated here
+    craft = attitude.Spacecraft(body, pyramid(0.02, speeds=[150.0, 50.0, 100.0, 0.0]), rods,
+                                field=[2e-5, -1e-5, 3e-5])  # fmt: skip
+    Q0 = C.momenta_from_angular_velocity([1.0, 0, 0, 0], [0.0, 0.0, 0.0], craft)
+    k = 1e-3
+    fsw = FlightSoftware(0.5, frames.inertial(), (MRPFeedback(1.0, 10.0), MomentumDumping(k)))
+    t = np.linspace(0.0, 3000.0, 31)
+    ds = attitude.propagate(craft, [1.0, 0, 0, 0], Q0, t, software=fsw, rtol=1e-12)
+    hw = ds.wheel_momentum.values @ craft.wheel_axes  # body axes
+    b = np.array([2e-5, -1e-5, 3e-5]) / np.linalg.norm([2e-5, -1e-5, 3e-5])
+    par = hw @ b
+    perp = np.linalg.norm(hw - np.outer(par, b), axis=1)
+    np.testing.assert_allclose(par, par[0], rtol=1e-3)
+    np.testing.assert_allclose(perp, perp[0] * np.exp(-k * t), rtol=0.01)
+    assert perp[-1] < 0.1 * perp[0]

@@ -24,7 +24,8 @@ Control laws (body-axis torque request L_r or dipole request):
 * B-dot (Stickler & Alfriend 1976): m = −k Ḃ_B, or normalized m = −(k/|B|) ḃ (Avanzini &
   Giulietti 2012), Ḃ_B from the measured field at this tick and the last;
 * momentum dumping with magnetorquers (the cross-product law, Camillo & Markley 1980):
-  m = k (B × (h_w − h_ref)) / |B|², beside a wheel law.
+  m = k ((h_w − h_ref) × B) / |B|², whose torque m × B = −k (h_w − h_ref)⊥B unloads the
+  wheels, beside a wheel law.
 
 Allocation: wheel motor torques u = −G⁺ L_r (G = [a_1 ... a_n], the minimum-norm
 pseudo-inverse, Basilisk's ``rwMotorTorque``) plus a null-space term −k N J (Ω − Ω_ref)
@@ -240,14 +241,23 @@ def mrp(q):
 @jit
 def frame_reference(d, t):
     """(q_R, ω_R, ω̇_R) of frame data ``d`` at t, rates in reference axes; ω̇_R by a central
-    difference of the exact ω_R (components in the rotating axes: the inertial derivative)."""
+    difference of the exact ω_R (components in the rotating axes: the inertial derivative),
+    one-sided at the ends of a tabulated orbit."""
     r = frame_eval(d, t)
     q = (r[0], r[1], r[2], r[3])
     w = (r[4], r[5], r[6])
     h = DOMEGA_STEP
     a = frame_eval(d, t + h)
     b = frame_eval(d, t - h)
-    dw = ((a[4] - b[4]) / (2 * h), (a[5] - b[5]) / (2 * h), (a[6] - b[6]) / (2 * h))
+    if a[4] != a[4]:  # past the end of a tabulated orbit: the backward difference
+        a = r
+        s = h
+    elif b[4] != b[4]:  # before its start: the forward difference
+        b = r
+        s = h
+    else:
+        s = 2.0 * h
+    dw = ((a[4] - b[4]) / s, (a[5] - b[5]) / s, (a[6] - b[6]) / s)
     return q, w, dw
 
 
@@ -580,7 +590,7 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     if kd > 0.0 and b2 > 0.0:
         r = mb + MB_DUMP_REF
         dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
-        c = cross(bb, dh)
+        c = cross(dh, bb)  # m = k (Δh × B)/|B|²: the torque m × B = −k Δh⊥ unloads the wheels
         m = (m[0] + kd * c[0] / b2, m[1] + kd * c[1] / b2, m[2] + kd * c[2] / b2)
     # allocation into the raw commands (your own software wrote them into cmd)
     out = cmd

@@ -246,8 +246,9 @@ class BDot(ControlLaw):
 @dataclass(frozen=True, init=False)
 class MomentumDumping:
     """Wheel momentum dumping with magnetorquers, the cross-product law (Camillo & Markley,
-    AIAA 80-1773, 1980): m = k B × (h_w − h_ref) / |B|², whose torque m × B = −k (h_w − h_ref)
-    perpendicular to B. Beside a wheel law, which absorbs the magnetic torque.
+    AIAA 80-1773, 1980): m = k (h_w − h_ref) × B / |B|², whose torque m × B = −k (h_w − h_ref)
+    perpendicular to B. Beside a wheel law, which holds the attitude: the magnetic torque then
+    takes the momentum out of the wheels.
 
     Parameters
     ----------

@@ -406,7 +406,7 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
     fw[modes_at : modes_at + len(offsets)] = offsets
     if any((_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
            or _control(m.control)[1] is not None for _, m in software.modes):  # fmt: skip
-        if craft.orbit is None:
+        if craft.orbit is None and isinstance(craft.field, str):
             raise AttitudeValueError(
                 "software: the magnetic laws read the geomagnetic field along the orbit; give "
                 "Spacecraft(..., orbit=...)"
