@@ -218,7 +218,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         epoch=epoch,
         object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),
         object_id=r.string(sc, "object_id", "scenario", "UNKNOWN"),
-        inertial_frame=r.string(sc, "inertial_frame", "scenario", "EME2000"),
+        inertial_frame=r.string(sc, "inertial_frame", "scenario", None),
         source=text,
         path=path,
         initial_form=f"{form} ({frame} frame)",

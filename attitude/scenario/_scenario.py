@@ -54,7 +54,7 @@ class Scenario:
     epoch: str | None = None
     object_name: str = "UNKNOWN"
     object_id: str = "UNKNOWN"
-    inertial_frame: str = "EME2000"
+    inertial_frame: str | None = None  # AEM REF_FRAME_A; None: by the run (aem.write_aem)
     source: str = ""
     path: Path | None = None
     initial_form: str = "canonical"
@@ -89,8 +89,9 @@ class Scenario:
             "initial_state_form": self.initial_form,
             "object_name": self.object_name,
             "object_id": self.object_id,
-            "inertial_frame": self.inertial_frame,
         }
+        if self.inertial_frame:
+            a["inertial_frame"] = self.inertial_frame
         if self.epoch:
             a["epoch"] = self.epoch
         if kw and kw.get("max_step", math.inf) != math.inf:
