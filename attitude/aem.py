@@ -739,7 +739,7 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         fa if fa.upper().startswith("SC_BODY") and not fb.upper().startswith("SC_BODY") else fb
     )
     attrs = {
-        "Conventions": "CF-1.10",
+        "Conventions": "CF-1.11",
         "title": f"CCSDS AEM {p.name}",
         "source": f"CCSDS AEM version {vers}, originator {header.get('ORIGINATOR', '-')}",
         "history": f"read by attitude {__version__} (attitude.aem.read) from {p}",

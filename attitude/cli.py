@@ -560,10 +560,13 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     out = [str(x).strip() for x in str(a.get("events", "")).split(" | ") if str(x).strip()]
     if "detector_label" not in ds.variables:
         return out
+    from .results import time_unit, time_values
+
     labels = [str(x) for x in ds["detector_label"].values]
-    unit = ds["time"].attrs.get("units", "")
+    unit = time_unit(ds["time"])
+    unit = "" if unit in ("1", "") else unit
     if "event_first_time" in ds and "member" in ds["event_first_time"].dims:  # ensemble
-        first = np.asarray(ds["event_first_time"].values, dtype=np.float64)
+        first = time_values(ds, "event_first_time")
         n = first.shape[0]
         for j, name in enumerate(labels):
             col = first[:, j]
@@ -581,7 +584,7 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
         counts = np.asarray(ds["detector_count"].values)
         out.append(", ".join(f"{name}: {int(c)}" for name, c in zip(labels, counts, strict=True)))
     if "event_time" in ds:
-        t = np.asarray(ds["event_time"].values, dtype=np.float64)
+        t = time_values(ds, "event_time")
         which = np.asarray(ds["event_detector"].values)
         sign = np.asarray(ds["event_direction"].values)
         for i in range(min(t.size, limit)):

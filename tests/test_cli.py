@@ -73,7 +73,7 @@ def test_run_shipped_scenario(name, tmp_path):
         assert r.stderr == ""
     with netCDF4.Dataset(out) as nc:
         g = {k: nc.getncattr(k) for k in nc.ncattrs()}
-        assert g["Conventions"] == "CF-1.10"
+        assert g["Conventions"] == "CF-1.11"
         for k in ("title", "history", "source", "scenario", "method", "potential", "run_status"):
             assert isinstance(g[k], str) and g[k], k
         assert g["scenario"] == name and g["run_status"] == "complete"
@@ -239,7 +239,7 @@ def test_info_plot_export(tmp_path, capsys, monkeypatch):
     assert main(["export", "k.nc", "--ccsds-aem", "k.aem"]) == 0
     lines = (tmp_path / "k.aem").read_text(encoding="latin-1").splitlines()
     _, meta, data = check_aem_v2(lines)
-    assert meta["REF_FRAME_A"] == "EME2000" and meta["REF_FRAME_B"] == "SC_BODY_1"
+    assert meta["REF_FRAME_A"] == "GCRF" and meta["REF_FRAME_B"] == "SC_BODY_1"
     assert meta["CENTER_NAME"] == "EARTH" and meta["TIME_SYSTEM"] == "UTC"
     with netCDF4.Dataset(tmp_path / "k.nc") as nc:
         t = nc.variables["time"][:].data
@@ -257,7 +257,7 @@ def test_info_plot_export(tmp_path, capsys, monkeypatch):
     aem = ndm.Aem.from_file(str(tmp_path / "k.aem"))
     assert aem.version == "2.0"
     seg = aem.segments[0]
-    assert seg.metadata.ref_frame_a == "EME2000" and seg.metadata.attitude_type == "QUATERNION"
+    assert seg.metadata.ref_frame_a == "GCRF" and seg.metadata.attitude_type == "QUATERNION"
     np.testing.assert_array_equal(np.asarray(seg.data.attitude_states_numpy), vals)
 
 

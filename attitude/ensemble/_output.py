@@ -127,7 +127,10 @@ class _Assembler:
             **{k: v.variable for k, v in tm.coords.items()},
         }
         if self.events is not None:
-            tu = tm["time"].attrs.get("units", "1")
+            from ..results import instant_attrs, time_unit
+
+            # an instant on the time axis, encoded as `time` (docs/results.md)
+            when = instant_attrs(time_unit(tm["time"]), self.attrs.get("epoch"))
             data_vars["event_count"] = xr.Variable(
                 ("member", "detector"),
                 arr(out["event_count"], np.int64),
@@ -136,7 +139,7 @@ class _Assembler:
             data_vars["event_first_time"] = xr.Variable(
                 ("member", "detector"),
                 arr(out["event_first"]),
-                {"units": tu, "long_name": "time of the first occurrence (NaN: none)"},
+                {**when, "long_name": "time of the first occurrence (NaN: none)"},
             )
             n = len(self.events.labels)
             coords["detector"] = (
