@@ -22,6 +22,7 @@ from . import canonical, errors, events, exact, formulations, frames, potentials
 from ._version import __version__
 from .body import RigidBody
 from .ensemble import (
+    disperse,
     event_time_percentiles,
     pointing_error_percentiles,
     propagate_ensemble,
@@ -76,6 +77,7 @@ __all__ = [
     "__version__",
     "box_wing",
     "canonical",
+    "disperse",
     "errors",
     "event_time_percentiles",
     "events",

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_float_array, as_quaternion, as_rate, as_vector
-from .body import RigidBody
+from .body import inertia_rows
 from .errors import AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
 
@@ -42,12 +42,9 @@ __all__ = [
 EULER_SINGULAR_TOL = 1e-9
 
 
-def _body(inertia: Any) -> RigidBody:
-    return inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
-
-
 def _inertia(inertia: Any) -> np.ndarray:
-    return _body(inertia).inertia
+    """Principal moments (3,) of one body or (N, 3) of N bodies (ensemble members)."""
+    return inertia_rows(inertia)[0]
 
 
 def _pure(v: np.ndarray) -> np.ndarray:
@@ -84,17 +81,18 @@ def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarra
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
         (``deg/s``, ``rpm``...) for a body with units (converted to rad/s).
-    inertia : RigidBody, array_like or Quantity, shape (3,)
-        Principal moments of inertia.
+    inertia : RigidBody, array_like or Quantity, shape (3,) or (N, 3)
+        Principal moments of inertia: one body, or one row per ensemble member (as
+        ``propagate_ensemble`` takes them; a sequence of N RigidBody too). Rows broadcast
+        against ``q`` and ``omega``.
 
     Returns
     -------
     Q : ndarray, shape (..., 4)
         In kg m² s⁻¹ for a body with units.
     """
-    body = _body(inertia)
-    inert = body.inertia
-    omega = as_rate(omega, "omega", dimensional=not body.is_dimensionless)
+    inert, units = inertia_rows(inertia)
+    omega = as_rate(omega, "omega", dimensional=units is not None)
     return momenta_from_body_angular_momentum(q, omega * inert)
 
 
@@ -131,7 +129,7 @@ def space_angular_momentum(q: Any, Q: Any) -> np.ndarray:
 
 
 def angular_velocity(q: Any, Q: Any, inertia: Any) -> np.ndarray:
-    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q).
+    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q) (``inertia`` (3,) or (N, 3)).
 
     Returns
     -------
@@ -144,6 +142,7 @@ def kinetic_energy(q: Any, Q: Any, inertia: Any) -> np.ndarray:
     """Rotational kinetic energy T = ⅛ (I⁻¹⊗q̃∘Q)·(q̃∘Q) (Arribas et al. eq. 6).
 
     The scalar part of q̃∘Q (= q·Q, zero on the constraint manifold) is left out, i.e. I0 → ∞.
+    ``inertia``: (3,) or (N, 3), as :func:`momenta_from_angular_velocity`.
 
     Returns
     -------
