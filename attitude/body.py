@@ -152,7 +152,9 @@ class RigidBody:
         return hash((tuple(self.inertia.tolist()), self.units))
 
 
-def inertia_rows(inertia: Any, name: str = "inertia") -> tuple[np.ndarray, str | None]:
+def inertia_rows(
+    inertia: Any, name: str = "inertia", row: str = "row"
+) -> tuple[np.ndarray, str | None]:
     """The principal moments of one body, shape (3,), or of many, shape (N, 3) (one row per
     ensemble member), checked as :class:`RigidBody` checks one (positive, triangle
     inequalities), vectorised.
@@ -162,8 +164,8 @@ def inertia_rows(inertia: Any, name: str = "inertia") -> tuple[np.ndarray, str |
     inertia : RigidBody, sequence of RigidBody, array_like or Quantity, shape (3,) or (N, 3)
         Plain numbers are dimensionless (as :class:`RigidBody`); a Quantity is converted to
         kg m² (SI).
-    name : str
-        The parameter's name, for messages.
+    name, row : str
+        The parameter's name and what a row is (``"member"``), for messages.
 
     Returns
     -------
@@ -200,14 +202,14 @@ def inertia_rows(inertia: Any, name: str = "inertia") -> tuple[np.ndarray, str |
     if np.any(bad):
         i = int(np.argmax(bad))
         raise AttitudeValueError(
-            f"{name}: row {i}: principal moments must be positive, got {arr[i].tolist()}"
+            f"{name}: {row} {i}: principal moments must be positive, got {arr[i].tolist()}"
         )
     for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
         bad = arr[:, a] + arr[:, b] < arr[:, c] * (1.0 - _TRIANGLE_RTOL)
         if np.any(bad):
             i = int(np.argmax(bad))
             raise AttitudeValueError(
-                f"{name}: row {i}: {arr[i].tolist()} violates the triangle inequality "
+                f"{name}: {row} {i}: {arr[i].tolist()} violates the triangle inequality "
                 f"I{a + 1} + I{b + 1} >= I{c + 1}; no rigid body has these moments (dispersed "
                 "inertia: attitude.ensemble.disperse truncates the errors so that every member "
                 "is a rigid body)"

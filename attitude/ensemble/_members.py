@@ -194,7 +194,7 @@ def _member_states(
 
 def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
     """Inertia (3,) shared or (N, 3) per member, and the unit label of the bodies."""
-    arr, unit = inertia_rows(body, "body")  # each row checked as a RigidBody
+    arr, unit = inertia_rows(body, "body", "member")  # each row checked as a RigidBody
     if arr.ndim == 2 and arr.shape[0] != n:
         raise AttitudeValueError(
             f"body: {arr.shape[0]} rows of inertia for {n} members (the rows of q0/Q0); give "
