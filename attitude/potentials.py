@@ -412,8 +412,7 @@ class CustomPotential(Potential):
                 "potential: must be a numba-compilable function U(q, t) -> float that also "
                 "accepts a complex q (complex-step differentiation): use arithmetic and numpy "
                 "functions (np.sqrt, np.cos), or give the torque directly with CustomTorque. "
-                f"Compiling it with a complex q failed: {type(exc).__name__}: "
-                f"{str(exc).splitlines()[0] if str(exc) else ''}"
+                f"Compiling it with a complex q failed: {_user_kernels.compile_failure(exc)}"
             ) from None
 
     def _user_terms(self) -> tuple:
@@ -481,8 +480,8 @@ class CustomTorque(Potential):
         except Exception as exc:
             raise AttitudeTypeError(
                 f"torque: must be a numba-compilable function {form} returning the three "
-                f"body-frame torque components; calling it failed: {type(exc).__name__}: "
-                f"{str(exc).splitlines()[0] if str(exc) else ''}"
+                "body-frame torque components; calling it failed: "
+                + _user_kernels.compile_failure(exc)
             ) from None
 
     def _user_terms(self) -> tuple:
