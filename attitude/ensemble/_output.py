@@ -195,9 +195,12 @@ class _Assembler:
             return
         d = out["diag"] if ok.all() else out["diag"][ok]
         mx = np.nanmax  # members ended by a terminal event have NaN samples after it
+        normQ = np.maximum(2.0 * np.linalg.norm(d[:, :, 6:9], axis=-1), np.finfo(float).tiny)
         upd = {
             "max_abs_norm_error": float(mx(np.abs(d[:, :, 10]))),
             "max_abs_qQ": float(mx(np.abs(d[:, :, 11]))),
+            # relative to |Q| = 2 |G| (|q| = 1): q.Q is in the momenta's units
+            "max_rel_qQ": float(mx(np.abs(d[:, :, 11]) / normQ)),
         }
         # Conserved quantities per member (as scenario.InvariantTracker, maximised over members).
         E = d[:, :, 9]
