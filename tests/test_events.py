@@ -380,7 +380,7 @@ def test_ensemble_event_percentiles_on_the_shipped_scenario(tmp_path):
     from attitude.ensemble import run_scenario
 
     sc = scenario.load(ROOT / "scenarios/ensemble_paper_keplerian.toml")
-    assert [e.name for e in sc.events] == ["drift_20deg", "eclipse_entry"]
+    assert [e.name for e in sc.events] == ["drift_20deg", "eclipse_entry", "eclipse_exit"]
     sc.t = sc.t[:21]  # 0 .. 1165.7 s
     a = io.read(run_scenario(sc, tmp_path / "a.nc", chunk_size=1000)["path"])
     b = io.read(run_scenario(sc, tmp_path / "b.nc", chunk_size=97)["path"])
@@ -408,6 +408,36 @@ def test_ensemble_event_percentiles_on_the_shipped_scenario(tmp_path):
     np.testing.assert_allclose(
         single["detector_first_time"].values, a["event_first_time"].values[i], rtol=0, atol=1e-9
     )
+
+
+def test_shipped_ensemble_scenario_enters_and_leaves_the_shadow(tmp_path):
+    """The eclipse events of scenarios/ensemble_paper_keplerian.toml occur, in every member at
+    the same time (the orbit is shared), outside the Earth, at the roots of the conical shadow
+    function computed from astropy's Sun directly."""
+    from scipy.optimize import brentq
+
+    from attitude import scenario
+    from attitude.ensemble import run_scenario
+    from orbit.sun import shadow_function, sun_position
+
+    sc = scenario.load(ROOT / "scenarios/ensemble_paper_keplerian.toml")
+    sc.ensemble.size = 16
+    ds = io.read(run_scenario(sc, tmp_path / "e.nc")["path"])
+    labels = list(ds.detector_label.values)
+    first = ds.event_first_time.values
+    assert np.all(ds.event_count.values[:, 1:] == 1)
+    o = sc.potential.orbit
+
+    def margin(t):  # the penumbra boundary function, positive in light
+        return float(shadow_function(o.position(t), sun_position(o.epoch, t), margins=True)[1])
+
+    for name, (a, b) in (("eclipse_entry", (1500.0, 1800.0)), ("eclipse_exit", (4000.0, 4400.0))):
+        j = labels.index(name)
+        # located on each member's own steps: the same time to the root finder's tolerance
+        np.testing.assert_allclose(first[:, j], first[0, j], rtol=0, atol=1e-6)
+        root = brentq(margin, a, b, xtol=1e-9)
+        assert abs(first[0, j] - root) < 1e-3  # s (the event tables sample the Sun hourly)
+        assert float(o.radius(root)) > 7000.0  # km: well outside the Earth
 
 
 def test_event_kernels_run_with_jit_disabled(tmp_path):
