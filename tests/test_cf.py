@@ -125,7 +125,7 @@ def test_compliance_checker_no_errors_on_ensemble_file(tmp_path):
     run_scenario(sc, path)
     assert cf_errors(path, tmp_path) == []
     with netCDF4.Dataset(path) as nc:  # the ensemble file carries the run's epoch as CF time
-        assert nc.variables["time"].units == "seconds since 2000-01-01 11:58:55.816000"
+        assert nc.variables["time"].units == "seconds since 2000-05-15 12:00:00.000000"
         assert nc.variables["inertia"].coordinates == "axis_label"
     back = xr.open_dataset(path)  # CF decoding: datetimes, label coordinates
     assert np.issubdtype(back.time.dtype, np.datetime64)

@@ -296,6 +296,18 @@ def test_oem_with_sgp4_velocities_warns_and_interpolates_positions_only(tmp_path
     np.testing.assert_array_equal(e_pos.node_states[:, :3], e_file.node_states[:, :3])
 
 
+def test_oem_with_exact_velocities_on_a_coarse_table_does_not_warn(tmp_path):
+    """A 60 s table of an e = 0.2 orbit: dr/dt of the positions is the less accurate near
+    periapsis; the file's exact velocities are not blamed (no OemVelocityWarning)."""
+    import warnings
+
+    kep = KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12, epoch="2024-03-20T12:00:00")
+    path = EphemerisOrbit.from_orbit(kep, 0.0, kep.period, 60.0).to_oem(tmp_path / "k.oem")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", orbit.errors.OemVelocityWarning)
+        EphemerisOrbit.from_oem(path)
+
+
 # ---------------------------------------------------------------------------------------------
 # Interpolation accuracy and order.
 def hermite_bound(n_rate, radius, h):

@@ -455,25 +455,15 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
 
 
 def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
-    """A reference frame of attitude.frames named in a scenario."""
+    """A reference frame of attitude.frames named in a scenario (:func:`frames.by_name`)."""
     from .. import frames as F
 
-    if name == "inertial":
-        return F.inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
-    if orbit is None:
+    if name != "inertial" and orbit is None:
         raise _fail(key, f"frame {name!r} needs an [orbit] table")
-    makers = {
-        "orbital": F.rsw,
-        "rsw": F.rsw,
-        "lvlh": F.lvlh,
-        "vnc": F.vnc,
-        "nadir": F.nadir,
-        "sun_pointing": F.sun_pointing,
-    }
-    if name not in makers:
+    if name != "inertial" and name not in F.NAMED:
         raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
-        return makers[name](orbit)
+        return F.by_name(name, orbit, q)
     except ValueError as exc:
         raise _fail(key, str(exc)) from None
 
