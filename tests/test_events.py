@@ -328,7 +328,7 @@ def test_scenario_events_run_to_file_and_info(tmp_path, capsys):
     from attitude.cli import main
 
     sc = scenario.load(ROOT / "scenarios/lvlh_pointing_events.toml")
-    assert [e.name for e in sc.events] == ["yaw_6deg", "shadow_in", "shadow_out"]
+    assert [e.name for e in sc.events] == ["error_4deg", "shadow_in", "shadow_out"]
     # frame = "lvlh": the body starts 5° (yaw) off LVLH, turning with it
     fr = frames.lvlh(sc.potential.orbit)
     offset = np.array([0.9990482215818578, 0.0, 0.0, 0.043619387365336])
@@ -342,20 +342,26 @@ def test_scenario_events_run_to_file_and_info(tmp_path, capsys):
     info = sc.run_to_file(tmp_path / "ev.nc")
     back = io.read(info["path"])
     np.testing.assert_array_equal(back["event_time"].values, ds["event_time"].values)
-    assert back["detector_label"].values.tolist() == ["yaw_6deg", "shadow_in", "shadow_out"]
+    assert back["detector_label"].values.tolist() == ["error_4deg", "shadow_in", "shadow_out"]
     assert float(back.time[-1]) == float(ds.time[-1]) == float(ds["event_time"][-1])
     assert main(["info", str(info["path"])]) == 0
     out = capsys.readouterr().out
     assert "events" in out and "shadow_out (rising)" in out and "terminal event" in out
+    # the 5° libration about LVLH passes 4° (falling), when the angle says so
+    k = list(back["event_detector"].values).index(0)
+    t4 = float(back["event_time"][k])
+    err = ds.attitude.relative_to(fr, degrees=True)["error_angle"]
+    before, after = err.sel(time=t4, method="pad"), err.sel(time=t4, method="backfill")
+    assert back["event_direction"].values[k] == -1 and float(before) > 4.0 > float(after)
 
 
 @pytest.mark.parametrize(
     ("edit", "key"),
     [
         ('type = "eclipse_entry"', "events.shadow_in.type"),
-        ('angle_unit = "deg"\ndirection = "both"', "events.yaw_6deg.angle"),
+        ('angle_unit = "deg"\ndirection = "both"', "events.error_4deg.angle"),
         ("terminal = true", "events.shadow_out.terminal"),
-        ('frame = "lvlh"              # axis', "events.yaw_6deg.frame"),
+        ('frame = "lvlh"              # axis', "events.error_4deg.frame"),
     ],
 )
 def test_event_table_errors_name_the_key(edit, key):

@@ -36,7 +36,7 @@ from ._common import (
     shadow_along,
 )
 from ._ensemble import MAX_ENSEMBLE_TIMES, plot_ensemble
-from ._panels import DEFAULT_PANELS, PANELS, PlotContext, available, register_panel
+from ._panels import DEFAULT_PANELS, PANELS, PlotContext, available, default_panels, register_panel
 from ._paper import draw_paper
 from ._reference import FRAME_NAMES, default_frame, reference
 from ._torques import plot_torque_budget
@@ -148,21 +148,19 @@ def plot_result(
         if name not in PANELS:
             raise AttitudeValueError(f"panels: {name!r}; available: {', '.join(PANELS)}")
     ref = reference(d, t, frame, orbit)
-    if ref is None and names is None and frame is None:
-        ref = None
     ctx = PlotContext(d, t, axis, ref, run_events(ds))
     if names is None:
-        names = [p for p in DEFAULT_PANELS if available(ctx, p)]
+        names = default_panels(ctx)
     missing = [p for p in names if not available(ctx, p)]
     if missing:
         raise AttitudeValueError(
             f"panels: {', '.join(missing)} cannot be drawn for this run (they need a reference "
             "frame or variables it does not have)"
         )
-    if axis.unit:
+    if axis.unit and ("p" in d or orbit is not None):
         from ._reference import orbit_of, scenario_of
 
-        o = orbit if orbit is not None else orbit_of(scenario_of(ds)) if "p" in d else None
+        o = orbit if orbit is not None else orbit_of(scenario_of(ds))
         ctx.shadow = shadow_along(d, t, o)
     fig, axes = plt.subplots(len(names), 1, figsize=(11, 1.2 + 2.35 * len(names)), sharex=True,
                              constrained_layout=True, squeeze=False)  # fmt: skip
@@ -171,13 +169,13 @@ def plot_result(
         PANELS[name](ax, ctx)
         ax.grid(alpha=0.3)
     tv = ctx.t
-    shaded = shade_eclipses(axes, tv, ctx.shadow)
+    shaded = shade_eclipses(axes, ctx.shadow, axis)
     mark_events(axes, ctx.events, axis)
     axes[-1].set_xlabel(axis.text)
     axes[-1].set_xlim(float(np.nanmin(tv)), float(np.nanmax(tv)))
     notes = []
     if shaded:
-        notes.append("grey: Earth's shadow (darker: umbra)")
+        notes.append("grey: the Earth's shadow (light: penumbra, dark: umbra)")
     if ctx.events:
         notes.append("dotted: events")
     sub = f"\n{'; '.join(notes)}" if notes else ""

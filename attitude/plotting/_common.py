@@ -88,8 +88,8 @@ class TimeAxis:
         if not self.epoch:
             return f"t [{self.unit}]"
         e = str(self.epoch).rstrip("Z").replace("T", " ")
-        if "." in e and set(e.split(".")[1]) <= {"0"}:
-            e = e.split(".")[0]
+        if "." in e:
+            e = e.rstrip("0").rstrip(".")
         return f"t [{self.unit}] since {e} UTC"
 
 
@@ -154,54 +154,79 @@ def mark_events(axes: list, events: list[Event], axis: TimeAxis, *, names: bool 
 # Eclipses
 
 
-def shadow_along(ds: xr.Dataset, t_seconds: np.ndarray, orbit: Any = None) -> np.ndarray | None:
-    """The visible fraction of the Sun ν (1 light, 0 umbra) at the run's times, or None.
+#: Most points at which the shadow is evaluated (a dense grid when the orbit is at hand).
+SHADOW_POINTS = 20_000
+#: Finest spacing of that grid [s].
+SHADOW_STEP = 2.0
 
-    The satellite's position comes from ``orbit`` when given, else from the run's own orbit
-    variables (``r`` and the orbital frame ``p``: r̂ is p's x axis); the Sun from astropy
-    (:mod:`orbit.sun`); it needs the run's epoch.
+
+def shadow_along(
+    ds: xr.Dataset, t_seconds: np.ndarray, orbit: Any = None
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The visible fraction of the Sun ν (1 light, 0 umbra) along the run: (times [s], ν), or
+    None.
+
+    With ``orbit`` the satellite's position is evaluated on a grid of up to
+    :data:`SHADOW_POINTS` times (every :data:`SHADOW_STEP` s at most), so the shadow's edges
+    are where they are, not at the output samples; without, from the run's own orbit
+    variables at its samples (``r`` and the orbital frame ``p``: r̂ is p's x axis). The Sun
+    comes from astropy (:mod:`orbit.sun`) and needs the run's epoch. NaN inside the Earth.
     """
     epoch = ds.attrs.get("epoch")
-    if not epoch:
+    if not epoch or t_seconds.size < 2:
         return None
     from orbit.sun import shadow_function, sun_position
 
     try:
         if orbit is not None:
-            r = np.asarray(orbit.position(t_seconds), dtype=np.float64)
+            span = float(t_seconds[-1] - t_seconds[0])
+            n = int(min(SHADOW_POINTS, max(t_seconds.size, span / SHADOW_STEP + 1)))
+            tt = np.linspace(float(t_seconds[0]), float(t_seconds[-1]), n)
+            r = np.asarray(orbit.position(tt), dtype=np.float64)
         elif "r" in ds and "p" in ds:
             from ..quaternion import rotate
 
+            tt = np.asarray(t_seconds, dtype=np.float64)
             p = np.asarray(ds["p"].values, dtype=np.float64)
             radius = np.asarray(ds["r"].values, dtype=np.float64)
             r = radius[:, None] * rotate(p, np.array([1.0, 0.0, 0.0]))
         else:
             return None
-        step = 600.0  # the Sun moves 0.25 deg in 10 min: interpolated between samples
-        grid = np.arange(t_seconds[0], t_seconds[-1] + step, step)
+        step = 600.0  # the Sun moves 0.25 deg in 10 min: interpolated between those
+        grid = np.arange(tt[0], tt[-1] + step, step)
         sun = sun_position(str(epoch).rstrip("Z"), grid)
-        s = np.stack([np.interp(t_seconds, grid, sun[:, k]) for k in range(3)], axis=-1)
+        s = np.stack([np.interp(tt, grid, sun[:, k]) for k in range(3)], axis=-1)
         nu = np.asarray(shadow_function(r, s), dtype=np.float64)
     except (ValueError, TypeError):  # no date astropy can use, positions outside a table
         return None
-    return np.where(np.linalg.norm(r, axis=-1) < 6378.137, np.nan, nu)
+    return tt, np.where(np.linalg.norm(r, axis=-1) < 6378.137, np.nan, nu)
 
 
-def shade_eclipses(axes: list, t: np.ndarray, nu: np.ndarray | None) -> bool:
-    """Grey bars where the satellite is in the Earth's shadow (darker in the umbra) on every
-    panel; True when there is some shadow."""
-    if nu is None or not np.any(nu < 1.0):
+#: Shading of the penumbra and the umbra (grey level alphas).
+PENUMBRA_ALPHA, UMBRA_ALPHA = 0.10, 0.22
+
+
+def shade_eclipses(axes: list, shadow: Any, axis: TimeAxis) -> bool:
+    """Grey bars where the satellite is in the Earth's shadow (penumbra light, umbra darker)
+    on every panel, edges half-way between the grid points; True when there is some."""
+    if shadow is None:
         return False
-    for lo_, hi_, level in ((0.0, 1.0, 0.12), (-1.0, 1e-9, 0.14)):  # penumbra+umbra, umbra
-        inside = (nu > lo_) & (nu < hi_) if lo_ >= 0 else nu <= hi_
-        if not np.any(inside):
+    tt, nu = shadow
+    state = np.where(nu >= 1.0, 0, np.where(nu > 0.0, 1, 2))
+    state = np.where(np.isnan(nu), 0, state)
+    if not np.any(state):
+        return False
+    t = axis.values(tt)
+    mid = np.concatenate([[t[0]], 0.5 * (t[1:] + t[:-1]), [t[-1]]])
+    change = np.flatnonzero(np.diff(state)) + 1
+    starts = np.concatenate([[0], change])
+    stops = np.concatenate([change, [state.size]])
+    for a, b in zip(starts, stops, strict=True):
+        if state[a] == 0:
             continue
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], inside.astype(np.int8), [0]])))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            t0 = t[a - 1] if a > 0 else t[a]  # the interval between the samples around it
-            t1 = t[b] if b < t.size else t[b - 1]
-            for ax in axes:
-                ax.axvspan(t0, t1, color="0.2", alpha=level, lw=0, zorder=0)
+        alpha = PENUMBRA_ALPHA if state[a] == 1 else UMBRA_ALPHA
+        for ax in axes:
+            ax.axvspan(mid[a], mid[b], color="0.15", alpha=alpha, lw=0, zorder=0)
     return True
 
 
@@ -214,3 +239,29 @@ def break_at_wraps(t: np.ndarray, angle_deg: np.ndarray, jump: float = 180.0):
         return t, a
     cut = np.flatnonzero(np.abs(np.diff(a)) > jump) + 1
     return np.insert(t, cut, np.nan), np.insert(a, cut, np.nan)
+
+
+#: Above this many plotted samples a fast-oscillating series is drawn as its envelope.
+ENVELOPE_SAMPLES = 2000
+#: Windows of the envelope (about one per pixel column of a README-sized figure).
+ENVELOPE_WINDOWS = 700
+
+
+def series(ax: Any, t: np.ndarray, y: np.ndarray, **kw: Any) -> None:
+    """A line, or for a long run whose values swing within the width of a pixel column (a
+    fast nutation over a day) the band between their minimum and maximum over windows of
+    the run, lighter, so three of them stay readable where lines would fill the panel."""
+    n = y.size
+    if n > ENVELOPE_SAMPLES:
+        w = n // ENVELOPE_WINDOWS
+        m = (n // w) * w
+        blocks = y[:m].reshape(-1, w)
+        lo, hi = np.nanmin(blocks, axis=1), np.nanmax(blocks, axis=1)
+        rng = float(np.nanmax(y) - np.nanmin(y))
+        if rng > 0 and float(np.median(hi - lo)) > 0.05 * rng:
+            tb = t[:m].reshape(-1, w).mean(axis=1)
+            color = kw.get("color")
+            ax.fill_between(tb, lo, hi, color=color, alpha=0.3, lw=0,
+                            label=f"{kw.get('label', '')} (range)")  # fmt: skip
+            return
+    ax.plot(t, y, **kw)

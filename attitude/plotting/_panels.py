@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ._common import Event, TimeAxis, break_at_wraps, label
+from ._common import Event, TimeAxis, break_at_wraps, label, series
 from ._reference import Reference
 
 _AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green")
@@ -39,8 +39,8 @@ class PlotContext:
         The reference frame's attitude at those times.
     events : list of Event
         The run's events (seconds).
-    shadow : ndarray or None
-        The visible fraction of the Sun at those times (None: no orbit or no epoch).
+    shadow : (ndarray, ndarray) or None
+        Times [s] and the visible fraction of the Sun there (None: no orbit or no epoch).
     """
 
     ds: xr.Dataset
@@ -48,7 +48,7 @@ class PlotContext:
     axis: TimeAxis
     reference: Reference | None = None
     events: list[Event] = field(default_factory=list)
-    shadow: np.ndarray | None = None
+    shadow: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def t(self) -> np.ndarray:
@@ -98,16 +98,18 @@ class PlotContext:
         f = u.Unit(units).to("deg/s", equivalencies=u.dimensionless_angles())
         return float(f), "deg/s"
 
-    @property
+    @cached_property
     def tumbling(self) -> bool:
-        """Whether the attitude turns by more than 30° between plotted samples on average:
-        lines through such samples are meaningless, the angle panels draw points instead."""
+        """Whether the body does not hold the reference attitude: a median pointing error
+        above 60°, or the attitude turning by more than 30° between plotted samples (lines
+        through those are meaningless). The angle panels then draw points, and the default
+        panels leave roll/pitch/yaw out for the energy and the torques."""
         if self.t_seconds.size < 3 or self.error_quaternion is None:
             return False
         from ..quaternion import angle_between
 
         steps = angle_between(self.error_quaternion[1:], self.error_quaternion[:-1])
-        return bool(np.median(np.degrees(steps)) > 30.0)
+        return bool(np.median(np.degrees(steps)) > 30.0 or np.median(self.error_angle_deg) > 60.0)
 
 
 #: A panel function draws on ``ax`` from the figure's context.
@@ -150,8 +152,10 @@ def available(ctx: PlotContext, name: str) -> bool:
     return True
 
 
-def _legend(ax: Any, ncol: int = 4, loc: str = "upper right") -> None:
-    ax.legend(loc=loc, fontsize=8, ncol=ncol, framealpha=0.85, handlelength=1.6)
+def _legend(ax: Any, ncol: int = 1, loc: str = "upper left") -> None:
+    """The legend outside the panel, at its right: it never hides a curve."""
+    ax.legend(loc=loc, bbox_to_anchor=(1.005, 1.0), fontsize=8, ncol=ncol, framealpha=0.9,
+              handlelength=1.6, borderaxespad=0.0)  # fmt: skip
 
 
 @register_panel("pointing", needs=("reference",))
@@ -161,7 +165,8 @@ def pointing(ax: Any, ctx: PlotContext) -> None:
     style = {"marker": ".", "ms": 1.5, "ls": "none"} if ctx.tumbling else {"lw": 1.3}
     ax.plot(ctx.t, err, color="k", label="error angle", **style)
     ax.set_ylabel("pointing error [deg]")
-    ax.set_title(f"attitude relative to the {ctx.reference.name}", fontsize=10, loc="left")
+    note = " (not held: tumbling)" if ctx.tumbling else ""
+    ax.set_title(f"attitude relative to {ctx.reference.name}{note}", fontsize=10, loc="left")
     top = float(np.nanmax(err)) if err.size else 1.0
     ax.set_ylim(0.0, min(180.0, top * 1.1 + 1e-9) if top < 170 else 180.0)
     if top >= 170:
@@ -172,19 +177,20 @@ def pointing(ax: Any, ctx: PlotContext) -> None:
 def angles(ax: Any, ctx: PlotContext) -> None:
     """Roll, pitch, yaw of the body in the reference frame (3-2-1, about body x, y, z)."""
     rpy = ctx.roll_pitch_yaw_deg
-    for k, (name, color) in enumerate(zip(("roll", "pitch", "yaw"), _AXIS_COLORS, strict=True)):
+    names = ("roll (x)", "pitch (y)", "yaw (z)")
+    for k, (name, color) in enumerate(zip(names, _AXIS_COLORS, strict=True)):
         if ctx.tumbling:
             ax.plot(ctx.t, rpy[:, k], ".", ms=1.2, color=color, label=name)
         else:
             tt, a = break_at_wraps(ctx.t, rpy[:, k])
             ax.plot(tt, a, lw=1.2, color=color, label=name)
-    ax.set_ylabel("roll, pitch, yaw [deg]")
+    ax.set_ylabel("3-2-1 angles [deg]")
     span = float(np.nanmax(np.abs(rpy))) if rpy.size else 1.0
     if span > 100:
         ax.set_ylim(-180, 180)
         ax.set_yticks([-180, -90, 0, 90, 180])
     ax.axhline(0.0, color="0.5", lw=0.6)
-    _legend(ax, ncol=3)
+    _legend(ax)
 
 
 @register_panel("rates", needs=("omega",))
@@ -193,12 +199,15 @@ def rates(ax: Any, ctx: PlotContext) -> None:
     measure)."""
     f, unit = ctx.rate_scale
     w = np.asarray(ctx.ds["omega"].values, dtype=np.float64) * f
+    # |ω| wide and light under the components: a component that is |ω| shows on it
+    norm = np.linalg.norm(w, axis=1)
+    series(ax, ctx.t, norm, lw=4.5, color="0.6", alpha=0.55, label="|ω|",
+           solid_capstyle="butt", zorder=1.8)  # fmt: skip
     for k, c in enumerate("xyz"):
-        ax.plot(ctx.t, w[:, k], lw=1.0, color=_AXIS_COLORS[k], label=f"ω{c}")
-    ax.plot(ctx.t, np.linalg.norm(w, axis=1), lw=1.6, color="k", label="|ω|")
+        series(ax, ctx.t, w[:, k], lw=1.1, color=_AXIS_COLORS[k], label=f"ω{c}", zorder=2)
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_ylabel(f"ω, body axes [{unit}]")
-    _legend(ax, ncol=4)
+    _legend(ax)
 
 
 @register_panel("rates_relative", needs=("omega", "reference"))
@@ -218,7 +227,7 @@ def rates_relative(ax: Any, ctx: PlotContext) -> None:
         ax.plot(ctx.t, w[:, k], lw=1.0, color=_AXIS_COLORS[k], label=f"ω_BR {c}")
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_ylabel(f"ω rel. frame [{unit}]")
-    _legend(ax, ncol=3)
+    _legend(ax)
 
 
 @register_panel("energy", needs=("energy",))
@@ -230,22 +239,22 @@ def energy(ax: Any, ctx: PlotContext) -> None:
     U = np.asarray(ds["potential_energy"].values, dtype=np.float64)
     T = H - U
     unit = label(str(ds["energy"].attrs.get("units", "")))
-    ax.plot(ctx.t, H, color="k", lw=2.2, label="H = T + U")
-    ax.plot(ctx.t, T, color="tab:purple", lw=1.1, ls=(0, (4, 2)), label="T (kinetic)")
+    series(ax, ctx.t, H, color="k", lw=2.2, label="H = T + U")
+    series(ax, ctx.t, T, color="tab:purple", lw=1.1, ls=(0, (4, 2)), label="T (kinetic)")
     small = np.nanmax(np.abs(U)) < 0.05 * max(np.nanmax(np.abs(T)), np.finfo(float).tiny)
     if small and np.any(U != 0):
         bx = ax.twinx()
-        bx.plot(ctx.t, U, color="tab:gray", lw=1.0, label="U (right axis)")
+        series(bx, ctx.t, U, color="tab:gray", lw=1.0, label="U (right axis)")
         bx.set_ylabel(f"U{unit}", color="tab:gray")
         bx.tick_params(axis="y", colors="tab:gray", labelsize=8)
         bx.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         lines = ax.get_lines() + bx.get_lines()
         ax.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8,
-                  ncol=3, framealpha=0.85)  # fmt: skip
+                  framealpha=0.85)  # fmt: skip
     else:
         if np.any(U != 0):
-            ax.plot(ctx.t, U, color="tab:gray", lw=1.0, label="U")
-        _legend(ax, ncol=3)
+            series(ax, ctx.t, U, color="tab:gray", lw=1.0, label="U")
+        ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
     ax.set_ylabel(f"energy{unit}")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
 
@@ -271,9 +280,21 @@ def torque(ax: Any, ctx: PlotContext) -> None:
         ax.plot(ctx.t, np.maximum(mag[:, j], floor), color=c, lw=1.0, label=name, zorder=2)
     ax.set_yscale("log")
     ax.set_ylabel(f"|τ|{label(str(ds['torque'].attrs.get('units', '')))}")
-    _legend(ax, ncol=3, loc="lower right")
+    _legend(ax)
 
 
 #: The panels of the engineer's figure when none are asked for, in order: those the run has
 #: what they need for.
 DEFAULT_PANELS = ("pointing", "angles", "rates")
+#: ... and for a body that does not hold the reference (:attr:`PlotContext.tumbling`): its
+#: roll/pitch/yaw are noise; its energy and torques say what happens to the tumble.
+TUMBLING_PANELS = ("pointing", "rates", "energy", "torque")
+
+
+def default_panels(ctx: PlotContext) -> list[str]:
+    """The panels drawn when none are asked for."""
+    names = TUMBLING_PANELS if ctx.tumbling else DEFAULT_PANELS
+    out = [p for p in names if available(ctx, p)]
+    if "torque" in out and ctx.ds.sizes.get("model", 0) < 3:  # one term and its total
+        out.remove("torque")
+    return out

@@ -22,7 +22,7 @@ def draw_paper(fig: Any, ctx: PlotContext) -> list:
         for i in range(4):
             ax.plot(t, vals[:, i], color=_COLORS[i], lw=1.1, label=f"{var}{i}")
         ax.set_ylabel(f"{var}{label(str(ds[var].attrs.get('units', '')))}")
-        ax.legend(loc="upper right", fontsize=8, ncol=4, framealpha=0.8)
+        ax.legend(loc="best", fontsize=8, ncol=4, framealpha=0.8)
     axes[0, 0].set_title("Euler parameters q (body to space)")
     axes[0, 1].set_title("conjugate momenta Q")
 
@@ -32,7 +32,7 @@ def draw_paper(fig: Any, ctx: PlotContext) -> list:
         ax.plot(t, w[:, i], color=_COLORS[i], lw=1.1, label=f"ω{c}")
     ax.set_ylabel(f"ω (body axes){label(str(ds['omega'].attrs.get('units', '')))}")
     ax.set_title("angular velocity")
-    ax.legend(loc="upper right", fontsize=8, ncol=3, framealpha=0.8)
+    ax.legend(loc="best", fontsize=8, ncol=3, framealpha=0.8)
 
     ax = axes[1, 1]
     E = np.asarray(ds["energy"].values, dtype=np.float64)

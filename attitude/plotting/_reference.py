@@ -90,12 +90,12 @@ def default_frame(ds: xr.Dataset) -> str | None:
 
 _TITLES = {
     "lvlh": "LVLH",
-    "orbital": "orbital frame (RSW)",
+    "orbital": "the orbital frame (RSW)",
     "rsw": "RSW",
     "vnc": "VNC",
-    "nadir": "nadir frame",
-    "sun_pointing": "Sun-pointing frame",
-    "inertial": "inertial axes",
+    "nadir": "the nadir frame",
+    "sun_pointing": "the Sun-pointing frame",
+    "inertial": "the inertial axes",
 }
 
 

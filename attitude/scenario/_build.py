@@ -184,6 +184,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [output]
     out = r.table("output")
     opath = Path(r.string(out, "path", "output", f"{name}.nc"))
+    layout = r.string(out, "plot_layout", "output", None)
+    if layout is not None and layout not in ("engineer", "paper"):
+        raise _fail(
+            "output.plot_layout", f"expected 'engineer' or 'paper' (attitude plot), got {layout!r}"
+        )
 
     # [ensemble]
     ensemble = None
@@ -224,6 +229,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         initial_form=f"{form} ({frame} frame)",
         ensemble=ensemble,
         events=events,
+        extra_attrs={"plot_layout": layout} if layout else {},
     )
 
 
