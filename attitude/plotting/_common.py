@@ -241,27 +241,63 @@ def break_at_wraps(t: np.ndarray, angle_deg: np.ndarray, jump: float = 180.0):
     return np.insert(t, cut, np.nan), np.insert(a, cut, np.nan)
 
 
-#: Above this many plotted samples a fast-oscillating series is drawn as its envelope.
+#: Above this many plotted samples a fast-oscillating series is drawn by windows.
 ENVELOPE_SAMPLES = 2000
-#: Windows of the envelope (about one per pixel column of a README-sized figure).
-ENVELOPE_WINDOWS = 700
+#: Windows of a long run (about one per pixel column of a README-sized figure).
+ENVELOPE_WINDOWS = 600
 
 
-def series(ax: Any, t: np.ndarray, y: np.ndarray, **kw: Any) -> None:
-    """A line, or for a long run whose values swing within the width of a pixel column (a
-    fast nutation over a day) the band between their minimum and maximum over windows of
-    the run, lighter, so three of them stay readable where lines would fill the panel."""
+def windows(
+    t: np.ndarray, y: np.ndarray, force: bool = False
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """(window times, values (windows, w)) of a long run that oscillates faster than a window
+    (a pixel column) shows: a median of two or more turning points per window (a nutation over
+    a day), else None. ``force``: the windows of any long run."""
     n = y.size
-    if n > ENVELOPE_SAMPLES:
-        w = n // ENVELOPE_WINDOWS
-        m = (n // w) * w
-        blocks = y[:m].reshape(-1, w)
-        lo, hi = np.nanmin(blocks, axis=1), np.nanmax(blocks, axis=1)
-        rng = float(np.nanmax(y) - np.nanmin(y))
-        if rng > 0 and float(np.median(hi - lo)) > 0.05 * rng:
-            tb = t[:m].reshape(-1, w).mean(axis=1)
-            color = kw.get("color")
-            ax.fill_between(tb, lo, hi, color=color, alpha=0.3, lw=0,
-                            label=f"{kw.get('label', '')} (range)")  # fmt: skip
-            return
-    ax.plot(t, y, **kw)
+    if n <= ENVELOPE_SAMPLES:
+        return None
+    w = n // ENVELOPE_WINDOWS
+    m = (n // w) * w
+    blocks = y[:m].reshape(-1, w)
+    if not force:
+        d = np.diff(y[:m])
+        turns = np.zeros(m)
+        turns[1:-1] = (d[1:] * d[:-1]) < 0
+        if float(np.median(turns.reshape(-1, w).sum(axis=1))) < 2:
+            return None
+    return t[:m].reshape(-1, w).mean(axis=1), blocks
+
+
+def series(
+    ax: Any, t: np.ndarray, y: np.ndarray, style: str = "band", force: bool = False, **kw: Any
+) -> str:
+    """A line; for a long run that oscillates faster than a pixel column (:func:`windows`), per
+    window: ``"band"`` the range (light) and the mean, ``"amplitude"`` the largest |y|,
+    ``"mean"`` the mean, ``"rms"`` the RMS. Returns what was drawn (``"line"`` or the style)."""
+    win = windows(t, y, force)
+    if win is None:
+        ax.plot(t, y, **kw)
+        return "line"
+    tb, blocks = win
+    lab = kw.pop("label", None)
+    if style == "band":
+        ax.fill_between(tb, np.nanmin(blocks, axis=1), np.nanmax(blocks, axis=1),
+                        color=kw.get("color"), alpha=0.2, lw=0)  # fmt: skip
+        ax.plot(tb, np.nanmean(blocks, axis=1), label=lab, **kw)
+    elif style == "amplitude":
+        ax.plot(tb, np.nanmax(np.abs(blocks), axis=1), label=f"max {lab}", **kw)
+    elif style == "rms":
+        ax.plot(tb, np.sqrt(np.nanmean(blocks**2, axis=1)), label=f"RMS {lab}", **kw)
+    else:
+        ax.plot(tb, np.nanmean(blocks, axis=1), label=f"mean {lab}", **kw)
+    return style
+
+
+def window_text(t_seconds: np.ndarray, axis: TimeAxis) -> str:
+    """The length of the windows :func:`series` uses on this run, for a legend title."""
+    n = t_seconds.size
+    w = max(1, n // ENVELOPE_WINDOWS)
+    span = float(t_seconds[min(w, n - 1)] - t_seconds[0])
+    if not axis.unit:
+        return f"{w} samples"
+    return f"{span / 60:.2g} min" if span >= 60 else f"{span:.2g} s"

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ._common import Event, TimeAxis, break_at_wraps, label, series
+from ._common import Event, TimeAxis, break_at_wraps, label, series, window_text, windows
 from ._reference import Reference
 
 _AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green")
@@ -201,13 +201,19 @@ def rates(ax: Any, ctx: PlotContext) -> None:
     w = np.asarray(ctx.ds["omega"].values, dtype=np.float64) * f
     # |ω| wide and light under the components: a component that is |ω| shows on it
     norm = np.linalg.norm(w, axis=1)
-    series(ax, ctx.t, norm, lw=4.5, color="0.6", alpha=0.55, label="|ω|",
-           solid_capstyle="butt", zorder=1.8)  # fmt: skip
-    for k, c in enumerate("xyz"):
-        series(ax, ctx.t, w[:, k], lw=1.1, color=_AXIS_COLORS[k], label=f"ω{c}", zorder=2)
+    drawn = set()
+    drawn.add(series(ax, ctx.t, norm, "band", lw=4.5, color="0.6", alpha=0.55, label="|ω|",
+                     solid_capstyle="butt", zorder=1.8))  # fmt: skip
+    fast = any(windows(ctx.t, w[:, k]) is not None for k in range(3))
+    for k, c in enumerate("xyz"):  # a fast tumble: each axis's amplitude per window
+        name = f"|ω{c}|" if fast else f"ω{c}"
+        drawn.add(series(ax, ctx.t, w[:, k], "amplitude", fast, lw=1.1, color=_AXIS_COLORS[k],
+                         label=name, zorder=2))  # fmt: skip
     ax.axhline(0.0, color="0.5", lw=0.6)
     ax.set_ylabel(f"ω, body axes [{unit}]")
     _legend(ax)
+    if "amplitude" in drawn:
+        ax.get_legend().set_title(f"per {window_text(ctx.t_seconds, ctx.axis)}", prop={"size": 8})
 
 
 @register_panel("rates_relative", needs=("omega", "reference"))
@@ -239,12 +245,12 @@ def energy(ax: Any, ctx: PlotContext) -> None:
     U = np.asarray(ds["potential_energy"].values, dtype=np.float64)
     T = H - U
     unit = label(str(ds["energy"].attrs.get("units", "")))
-    series(ax, ctx.t, H, color="k", lw=2.2, label="H = T + U")
-    series(ax, ctx.t, T, color="tab:purple", lw=1.1, ls=(0, (4, 2)), label="T (kinetic)")
+    series(ax, ctx.t, H, "band", color="k", lw=2.2, label="H = T + U")
+    series(ax, ctx.t, T, "mean", color="tab:purple", lw=1.1, ls=(0, (4, 2)), label="T (kinetic)")
     small = np.nanmax(np.abs(U)) < 0.05 * max(np.nanmax(np.abs(T)), np.finfo(float).tiny)
     if small and np.any(U != 0):
         bx = ax.twinx()
-        series(bx, ctx.t, U, color="tab:gray", lw=1.0, label="U (right axis)")
+        series(bx, ctx.t, U, "band", color="tab:gray", lw=1.0, label="U (right axis)")
         bx.set_ylabel(f"U{unit}", color="tab:gray")
         bx.tick_params(axis="y", colors="tab:gray", labelsize=8)
         bx.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
@@ -253,7 +259,7 @@ def energy(ax: Any, ctx: PlotContext) -> None:
                   framealpha=0.85)  # fmt: skip
     else:
         if np.any(U != 0):
-            series(ax, ctx.t, U, color="tab:gray", lw=1.0, label="U")
+            series(ax, ctx.t, U, "band", color="tab:gray", lw=1.0, label="U")
         ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
     ax.set_ylabel(f"energy{unit}")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
@@ -271,13 +277,14 @@ def torque(ax: Any, ctx: PlotContext) -> None:
     positive = mag[mag > 0]
     floor = float(positive.min()) if positive.size else 1e-30
     for j, name in enumerate(names):
+        y = np.maximum(mag[:, j], floor)
         if name == "total":
             if len(names) > 2:
-                ax.plot(ctx.t, np.maximum(mag[:, j], floor), color="0.6", lw=4.0, alpha=0.45,
-                        label="total", zorder=1)  # fmt: skip
+                series(ax, ctx.t, y, "rms", color="0.6", lw=4.0, alpha=0.45, label="total",
+                       zorder=1)  # fmt: skip
             continue
         c = MODEL_COLORS.get(name) or next(cycle, "k")
-        ax.plot(ctx.t, np.maximum(mag[:, j], floor), color=c, lw=1.0, label=name, zorder=2)
+        series(ax, ctx.t, y, "rms", color=c, lw=1.0, label=name, zorder=2)
     ax.set_yscale("log")
     ax.set_ylabel(f"|τ|{label(str(ds['torque'].attrs.get('units', '')))}")
     _legend(ax)
