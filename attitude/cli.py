@@ -670,6 +670,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from matplotlib.figure import Figure
 
     from ._files import OutputFile
+    from .errors import AttitudeError
     from .plotting import plot_ensemble, plot_result, plot_torque_budget
 
     default = Path(args.file).with_suffix(".png")
@@ -696,7 +697,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
             elif "member" in ds.dims:  # percentile bands over the members
                 fig = plot_ensemble(ds)
             else:
-                fig = plot_result(ds)
+                panels = None
+                if args.panels:
+                    panels = [p.strip() for p in args.panels.split(",") if p.strip()]
+                fig = plot_result(ds, layout=args.layout, frame=args.frame, panels=panels)
+        except AttitudeError as exc:  # --frame, --panels, --layout that do not fit the run
+            raise BadInput(f"plot: {exc}") from None
         except _READ_ERRORS as exc:
             raise _unreadable(args.file, exc) from None
     finally:
@@ -898,8 +904,11 @@ def build_parser() -> argparse.ArgumentParser:
         "plot",
         help="plot a result file",
         description=(
-            "q and Q against time as in the paper's Figs. 1-3 (left q, right Q), plus angular "
-            "velocity and energy."
+            "A run with an orbit or a reference frame: pointing error and roll/pitch/yaw "
+            "against the frame, body rates in deg/s, the Earth's shadow and the events on a "
+            "time axis in s, min, h or days. The paper's layout (q left, Q right, angular "
+            "velocity and energy: Figs. 1-3) with --layout paper (the paper's scenarios ask "
+            "for it). Ensembles: percentile bands over the members."
         ),
     )
     pl.add_argument("file", metavar="OUT.nc")
@@ -909,6 +918,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--torques",
         action="store_true",
         help="the torque budget instead: |torque| per model against time, max and RMS",
+    )
+    pl.add_argument(
+        "--layout",
+        choices=("auto", "engineer", "paper"),
+        default="auto",
+        help="engineer (pointing, angles, rates...) or paper (q, Q, omega, energy); default: "
+        "the scenario's plot_layout, else engineer for a run with an orbit",
+    )
+    pl.add_argument(
+        "--frame",
+        choices=("inertial", "orbital", "rsw", "lvlh", "vnc", "nadir", "sun_pointing", "none"),
+        help="reference frame of the pointing error and the angles (default: the scenario's: "
+        "its initial state's frame, else its pointing event's, else lvlh on an orbit)",
+    )
+    pl.add_argument(
+        "--panels",
+        metavar="P1,P2,...",
+        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, "
+        "torque",
     )
     pl.set_defaults(func=cmd_plot)
 

@@ -100,16 +100,19 @@ class PlotContext:
 
     @cached_property
     def tumbling(self) -> bool:
-        """Whether the body does not hold the reference attitude: a median pointing error
-        above 60°, or the attitude turning by more than 30° between plotted samples (lines
-        through those are meaningless). The angle panels then draw points, and the default
-        panels leave roll/pitch/yaw out for the energy and the torques."""
+        """Whether the body turns relative to the reference instead of holding an attitude
+        in it (even one far from it): a tenth of the samples more than 90° from the first
+        attitude relative to the frame, or more than 30° turned between plotted samples
+        (lines through those are meaningless). The angle panels then draw points, and the
+        default panels leave roll/pitch/yaw out for the energy and the torques."""
         if self.t_seconds.size < 3 or self.error_quaternion is None:
             return False
         from ..quaternion import angle_between
 
-        steps = angle_between(self.error_quaternion[1:], self.error_quaternion[:-1])
-        return bool(np.median(np.degrees(steps)) > 30.0 or np.median(self.error_angle_deg) > 60.0)
+        e = self.error_quaternion
+        steps = np.degrees(angle_between(e[1:], e[:-1]))
+        spread = np.degrees(angle_between(e, e[0]))
+        return bool(np.median(steps) > 30.0 or np.percentile(spread, 90) > 90.0)
 
 
 #: A panel function draws on ``ax`` from the figure's context.
@@ -255,12 +258,13 @@ def energy(ax: Any, ctx: PlotContext) -> None:
         bx.tick_params(axis="y", colors="tab:gray", labelsize=8)
         bx.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
         lines = ax.get_lines() + bx.get_lines()
-        ax.legend(lines, [ln.get_label() for ln in lines], loc="upper right", fontsize=8,
-                  framealpha=0.85)  # fmt: skip
+        ax.legend(lines, [ln.get_label() for ln in lines], loc="upper left",
+                  bbox_to_anchor=(1.07, 1.0), fontsize=8, framealpha=0.9,
+                  borderaxespad=0.0)  # fmt: skip
     else:
         if np.any(U != 0):
             series(ax, ctx.t, U, "band", color="tab:gray", lw=1.0, label="U")
-        ax.legend(loc="upper right", fontsize=8, framealpha=0.85)
+        _legend(ax)
     ax.set_ylabel(f"energy{unit}")
     ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
 
