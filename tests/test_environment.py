@@ -787,6 +787,7 @@ def test_facet_validation():
     assert np.allclose(box[7].normal, [-1, 0, 0])
 
 
+@pytest.mark.filterwarnings("ignore::orbit.timescales.IERSRangeWarning")  # dates beyond IERS
 def test_environment_models_reject_bad_input(sso):
     f = [Facet(0.01, [1, 0, 0], [0.1, 0, 0])]
     undated = orbit.KeplerOrbit(7000.0, 0.001, 1.7, 0.0, 0.0)
