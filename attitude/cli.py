@@ -935,8 +935,7 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument(
         "--panels",
         metavar="P1,P2,...",
-        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, "
-        "torque",
+        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, torque",
     )
     pl.set_defaults(func=cmd_plot)
 

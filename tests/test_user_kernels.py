@@ -278,7 +278,7 @@ def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
             np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
 
 
-BAD_MODULE = '''
+BAD_MODULE = """
 import numpy as np
 
 
@@ -294,7 +294,7 @@ def U(q, t):
 
 def g(t, q, omega):
     return undefined_name
-'''
+"""
 
 
 def test_typing_errors_in_user_functions_show_the_offending_line(tmp_path):
