@@ -33,6 +33,7 @@ from ._version import __version__
 from .actuators import CommandSchedule, Magnetorquer, ReactionWheel, Thruster
 from .body import RigidBody
 from .ensemble import (
+    disperse,
     event_time_percentiles,
     pointing_error_percentiles,
     propagate_ensemble,
@@ -94,6 +95,7 @@ __all__ = [
     "actuators",
     "box_wing",
     "canonical",
+    "disperse",
     "errors",
     "event_time_percentiles",
     "events",

@@ -41,7 +41,44 @@ from orbit._shared_jit import JIT_DISABLED, sources_fingerprint, user_cache_dir
 
 from ._core import entry_points as _builtin_entry_points
 
-__all__ = ["entry_points", "model_key"]
+__all__ = ["compile_failure", "entry_points", "model_key"]
+
+
+def compile_failure(exc: BaseException) -> str:
+    """Why calling (and so compiling) a user's function failed, with the offending line.
+
+    numba's typing errors start with "Failed in nopython mode pipeline (step: ...)"; the
+    reason, the construct and the user's file and line come after it. The result is one line
+    (the reason, the construct, ``at FILE line N: <source>``), then numba's whole message.
+    """
+    import re
+
+    text = str(exc)
+    lines = text.splitlines()
+    if not lines:
+        return type(exc).__name__
+    if not lines[0].startswith("Failed in "):
+        return f"{type(exc).__name__}: {lines[0]}"
+    body = [ln.strip() for ln in lines[1:]]
+    reason = next((ln for ln in body if ln), "")
+    if reason.endswith("found for signature:"):
+        sig = next((ln[3:].strip() for ln in body if ln.startswith(">>>")), "")
+        reason = reason.replace(" found for signature:", "") + (f" for {sig}" if sig else "")
+        reason = re.sub(r"Function\(<built-in function (\w+)>\)", r"\1", reason)
+    where = ""
+    m = re.search(r"During: .* at (.+) \((\d+)\)", text)
+    path, line = (m.group(1), m.group(2)) if m else (None, None)
+    block = re.search(r'File "([^"]+)", line (\d+):\n((?:.*\n)*?)\s*\^', text)
+    if block:
+        path = path or block.group(1)
+        line = line or block.group(2)
+        src = [x for x in block.group(3).splitlines() if x.strip()]
+        if src:
+            where = f" at {path} line {line}: {src[-1].strip()}"
+    elif path:
+        where = f" at {path} line {line}"
+    return f"numba could not compile it: {reason}{where}\n\nnumba's message:\n{text}"
+
 
 _BEGIN = "# --- model: begin (replaced in user modules) ---"
 _END = "# --- model: end ---"

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_float_array, as_quaternion, as_rate, as_vector
-from .body import RigidBody
+from .body import inertia_rows
 from .errors import AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
 
@@ -42,12 +42,9 @@ __all__ = [
 EULER_SINGULAR_TOL = 1e-9
 
 
-def _body(inertia: Any) -> RigidBody:
-    return inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
-
-
 def _inertia(inertia: Any) -> np.ndarray:
-    return _body(inertia).inertia
+    """Principal moments (3,) of one body or (N, 3) of N bodies (ensemble members)."""
+    return inertia_rows(inertia)[0]
 
 
 def _pure(v: np.ndarray) -> np.ndarray:
@@ -86,9 +83,11 @@ def momenta_from_angular_velocity(
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
         (``deg/s``, ``cycle/min``...) for a body with units (converted to rad/s).
-    inertia : RigidBody, Spacecraft, array_like or Quantity, shape (3,)
-        Principal moments of inertia, or a :class:`~attitude.Spacecraft`: with wheels g is
-        the total momentum I ω + Σ J_k Ω_k a_k of body and wheels.
+    inertia : RigidBody, Spacecraft, array_like or Quantity, shape (3,) or (N, 3)
+        Principal moments of inertia: one body, or one row per ensemble member (as
+        ``propagate_ensemble`` takes them; a sequence of N RigidBody too), rows broadcast
+        against ``q`` and ``omega``; or a :class:`~attitude.Spacecraft`: with wheels g is the
+        total momentum I ω + Σ J_k Ω_k a_k of body and wheels.
     wheel_speeds : array_like or Quantity, shape (..., n_wheels), optional
         A spacecraft's wheel speeds Ω_k relative to the body (rad/s; default: the wheels'
         initial speeds).
@@ -119,9 +118,8 @@ def momenta_from_angular_velocity(
         raise AttitudeValueError(
             "wheel_speeds: only a Spacecraft has wheels; give inertia=Spacecraft(...)"
         )
-    body = _body(inertia)
-    inert = body.inertia
-    omega = as_rate(omega, "omega", dimensional=not body.is_dimensionless)
+    inert, units = inertia_rows(inertia)
+    omega = as_rate(omega, "omega", dimensional=units is not None)
     return momenta_from_body_angular_momentum(q, omega * inert)
 
 
@@ -158,7 +156,7 @@ def space_angular_momentum(q: Any, Q: Any) -> np.ndarray:
 
 
 def angular_velocity(q: Any, Q: Any, inertia: Any, wheel_speeds: Any = None) -> np.ndarray:
-    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q).
+    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q) (``inertia`` (3,) or (N, 3)).
 
     For a :class:`~attitude.Spacecraft` with wheels, ω = I⁻¹ (g − Σ J_k Ω_k a_k) with the
     wheel speeds Ω_k relative to the body (``wheel_speeds``, default the wheels' initial
@@ -180,6 +178,7 @@ def kinetic_energy(q: Any, Q: Any, inertia: Any) -> np.ndarray:
     """Rotational kinetic energy T = ⅛ (I⁻¹⊗q̃∘Q)·(q̃∘Q) (Arribas et al. eq. 6).
 
     The scalar part of q̃∘Q (= q·Q, zero on the constraint manifold) is left out, i.e. I0 → ∞.
+    ``inertia``: (3,) or (N, 3), as :func:`momenta_from_angular_velocity`.
 
     Returns
     -------

@@ -52,8 +52,10 @@ from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
+    "NAMED",
     "Frame",
     "aligned",
+    "by_name",
     "inertial",
     "initial_state",
     "lvlh",
@@ -531,6 +533,39 @@ def aligned(orbit: Any, primary: tuple[Any, Any], secondary: tuple[Any, Any], **
 # ---------------------------------------------------------------------------------------------
 # initial states
 # ---------------------------------------------------------------------------------------------
+
+
+#: The frames that :func:`by_name` builds on an orbit (scenario files, ``attitude plot --frame``):
+#: name -> (maker, description). ``orbital`` is ``rsw``.
+NAMED = {
+    "orbital": "rsw",
+    "rsw": "rsw",
+    "lvlh": "lvlh",
+    "vnc": "vnc",
+    "nadir": "nadir",
+    "sun_pointing": "sun_pointing",
+}
+
+
+def by_name(name: str, orbit: Any, q: Any = None) -> Frame:
+    """A frame by its name: ``"inertial"`` (``q``, default the identity: the space axes), or
+    one of :data:`NAMED` on ``orbit`` (``"orbital"`` is :func:`rsw`), with its defaults.
+
+    Raises
+    ------
+    AttitudeValueError
+        An unknown name, or a frame on an orbit without one.
+    """
+    if name == "inertial":
+        return inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
+    if name not in NAMED:
+        raise AttitudeValueError(
+            f"frame: expected inertial or one of {', '.join(NAMED)} ('orbital' is rsw), got "
+            f"{name!r}"
+        )
+    if orbit is None:
+        raise AttitudeValueError(f"frame: {name!r} is a frame on an orbit; this run has none")
+    return globals()[NAMED[name]](orbit)
 
 
 def initial_state(

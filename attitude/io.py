@@ -24,11 +24,12 @@ stored as int8 0/1 and ``None`` is dropped (netCDF has neither); anything else i
 
 CF
 --
-Files follow CF-1.10 (``compliance-checker --test=cf:1.10`` reports no errors, tests/test_cf.py):
-the attrs of ``time`` follow the global attr ``epoch`` when the file is committed
-(:func:`attitude.results.time_attrs`: ``seconds since <epoch>`` with an epoch), and data
-variables name their auxiliary label coordinates (``component_label``, ``axis_label``) in a
-``coordinates`` attr, which :func:`read` turns back into coordinates.
+Files follow CF-1.11 (``compliance-checker --test=cf:1.11`` reports no errors, tests/test_cf.py):
+the attrs of ``time`` (and of the event times, encoded alike) follow the global attr ``epoch``
+when the file is committed (:func:`attitude.results.time_attrs`: ``seconds since <epoch>``
+with an epoch), and data variables name their auxiliary label coordinates
+(``component_label``, ``axis_label``) in a ``coordinates`` attr, which :func:`read` turns
+back into coordinates.
 """
 
 from __future__ import annotations
@@ -99,8 +100,9 @@ def _variable_attrs(ds: xr.Dataset, name: str) -> dict[str, Any]:
 
 
 def _sync_time_attrs(nc: Any, attrs: Mapping[str, Any]) -> None:
-    """Rewrite the attrs of the file's ``time`` variable to follow the global ``epoch``."""
-    from .results import time_attrs
+    """Rewrite the attrs of the file's ``time`` variable, and the encoding of the instant
+    variables (event times), to follow the global ``epoch``."""
+    from .results import INSTANT_VARIABLES, instant_attrs, time_attrs
 
     if "time" not in nc.variables:
         return
@@ -113,6 +115,9 @@ def _sync_time_attrs(nc: Any, attrs: Mapping[str, Any]) -> None:
         if k in names:
             v.delncattr(k)
     _set_attrs(v, time_attrs(plain, attrs.get("epoch")))
+    for name in INSTANT_VARIABLES:
+        if name in nc.variables:
+            _set_attrs(nc.variables[name], instant_attrs(plain, attrs.get("epoch")))
 
 
 _SCRATCH: list[Any] = []

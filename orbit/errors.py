@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "OemVelocityWarning",
     "OrbitError",
     "OrbitTypeError",
     "OrbitValueError",
@@ -30,3 +31,9 @@ class OrbitWarning(UserWarning):
 class PerigeeInsideEarthWarning(OrbitWarning):
     """An Earth orbit (mu = Earth's GM) whose perigee radius a (1 − e) is below the Earth's
     equatorial radius: the satellite would pass through the Earth."""
+
+
+class OemVelocityWarning(OrbitWarning):
+    """An OEM whose velocities are not the time derivative of its positions: interpolating
+    with them moves the positions between states (``from_oem(velocities="positions")``
+    interpolates the positions only)."""

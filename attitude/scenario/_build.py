@@ -205,6 +205,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [output]
     out = r.table("output")
     opath = Path(r.string(out, "path", "output", f"{name}.nc"))
+    layout = r.string(out, "plot_layout", "output", None)
+    if layout is not None and layout not in ("engineer", "paper"):
+        raise _fail(
+            "output.plot_layout", f"expected 'engineer' or 'paper' (attitude plot), got {layout!r}"
+        )
 
     # [ensemble]
     ensemble = None
@@ -239,7 +244,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         epoch=epoch,
         object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),
         object_id=r.string(sc, "object_id", "scenario", "UNKNOWN"),
-        inertial_frame=r.string(sc, "inertial_frame", "scenario", "EME2000"),
+        inertial_frame=r.string(sc, "inertial_frame", "scenario", None),
         source=text,
         path=path,
         initial_form=f"{form} ({frame} frame)",
@@ -248,6 +253,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         spacecraft=craft,
         commands=schedule,
         software=fsw,
+        extra_attrs={"plot_layout": layout} if layout else {},
     )
 
 
@@ -479,25 +485,15 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
 
 
 def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
-    """A reference frame of attitude.frames named in a scenario."""
+    """A reference frame of attitude.frames named in a scenario (:func:`frames.by_name`)."""
     from .. import frames as F
 
-    if name == "inertial":
-        return F.inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
-    if orbit is None:
+    if name != "inertial" and orbit is None:
         raise _fail(key, f"frame {name!r} needs an [orbit] table")
-    makers = {
-        "orbital": F.rsw,
-        "rsw": F.rsw,
-        "lvlh": F.lvlh,
-        "vnc": F.vnc,
-        "nadir": F.nadir,
-        "sun_pointing": F.sun_pointing,
-    }
-    if name not in makers:
+    if name != "inertial" and name not in F.NAMED:
         raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
-        return makers[name](orbit)
+        return F.by_name(name, orbit, q)
     except ValueError as exc:
         raise _fail(key, str(exc)) from None
 

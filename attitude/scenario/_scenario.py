@@ -54,7 +54,7 @@ class Scenario:
     epoch: str | None = None
     object_name: str = "UNKNOWN"
     object_id: str = "UNKNOWN"
-    inertial_frame: str = "EME2000"
+    inertial_frame: str | None = None  # AEM REF_FRAME_A; None: by the run (aem.write_aem)
     source: str = ""
     path: Path | None = None
     initial_form: str = "canonical"
@@ -92,8 +92,9 @@ class Scenario:
             "initial_state_form": self.initial_form,
             "object_name": self.object_name,
             "object_id": self.object_id,
-            "inertial_frame": self.inertial_frame,
         }
+        if self.inertial_frame:
+            a["inertial_frame"] = self.inertial_frame
         if self.epoch:
             a["epoch"] = self.epoch
         if kw and kw.get("max_step", math.inf) != math.inf:
@@ -228,7 +229,8 @@ class Scenario:
             raise
         if failure is not None:
             raise failure
-        return {"path": out, **attrs}
+        # the span actually computed: a terminal event ends the run at its own time
+        return {"path": out, "time_span": (tracker.t_first, tracker.t_last), **attrs}
 
 
 class InvariantTracker:
@@ -237,6 +239,8 @@ class InvariantTracker:
     def __init__(self):
         self.max_norm = 0.0
         self.max_qQ = 0.0
+        self.max_rel_qQ = 0.0
+        self.t_first = self.t_last = math.nan
         self.E0: float | None = None
         self.G0: np.ndarray | None = None
         self.max_dE = 0.0
@@ -247,7 +251,16 @@ class InvariantTracker:
         if ds.sizes["time"] == 0:
             return
         self.max_norm = max(self.max_norm, float(np.max(np.abs(ds["norm_error"].values))))
-        self.max_qQ = max(self.max_qQ, float(np.max(np.abs(ds["qQ"].values))))
+        qQ = np.abs(ds["qQ"].values)
+        self.max_qQ = max(self.max_qQ, float(np.max(qQ)))
+        # q.Q relative to |Q| (q.Q is in the momenta's units: 3.7e-6 kg m^2/s of |Q| = 2e6)
+        normQ = np.linalg.norm(ds["Q"].values, axis=-1)
+        rel = np.divide(qQ, normQ, out=np.zeros_like(qQ), where=normQ > 0)
+        self.max_rel_qQ = max(self.max_rel_qQ, float(np.max(rel)))
+        t = ds["time"].values
+        if math.isnan(self.t_first):
+            self.t_first = float(t[0])
+        self.t_last = float(t[-1])
         E = ds["energy"].values
         G = ds["G"].values
         if self.E0 is None:
@@ -267,6 +280,7 @@ class InvariantTracker:
         a: dict[str, Any] = {
             "max_abs_norm_error": self.max_norm,
             "max_abs_qQ": self.max_qQ,
+            "max_rel_qQ": self.max_rel_qQ,
         }
         scaleE = max(abs(self.E0 or 0.0), np.finfo(float).tiny)
         scaleG = max(float(np.linalg.norm(self.G0)) if self.G0 is not None else 0.0, 1e-300)

@@ -146,7 +146,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "order": None,
         "formulation": None,
     },
-    "output": {"path": None},
+    "output": {"path": None, "plot_layout": None},
     # [events.<name>] subtables (attitude.events, docs/events.md; keys in _EVENT_KEYS)
     "events": {},
     # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)
