@@ -58,6 +58,11 @@ def _tmp_path(path: Path) -> Path:
     return tmp_path_for(path)
 
 
+#: Dimensions stored unlimited besides ``time``: the flight software's ``tick`` (a second time
+#: axis, which CF §2.4 then leaves right of its components as it does ``time``'s).
+UNLIMITED = ("tick",)
+
+
 def _attr_value(name: str, value: Any) -> Any:
     """An attr value netCDF4 can store (see the module docstring)."""
     if isinstance(value, (bool, np.bool_)):
@@ -79,6 +84,8 @@ def _attr_value(name: str, value: Any) -> Any:
         except (ValueError, TypeError):
             arr = np.asarray(None)
         if arr.ndim == 1 and arr.size and arr.dtype.kind in "iuf":
+            if name in ("flag_values", "flag_masks") and arr.dtype.kind in "iu":
+                return arr  # CF §3.5: the type of the flagged variable
             return arr.astype(np.int64 if arr.dtype.kind in "iu" else np.float64)
     return str(value)
 
@@ -245,7 +252,7 @@ class StreamWriter:
         nc.createDimension("time", None)
         for dim, size in ds.sizes.items():
             if dim != "time":
-                nc.createDimension(dim, size)
+                nc.createDimension(dim, None if dim in UNLIMITED else size)
         comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
         # Dimension coordinates first (the time coordinate grows with the data).
         for name in ds.coords:
@@ -280,7 +287,7 @@ class StreamWriter:
         nc = self._nc
         for dim, size in zip(var.dims, var.shape, strict=True):
             if dim not in nc.dimensions:
-                nc.createDimension(dim, size)
+                nc.createDimension(dim, None if dim in UNLIMITED else size)
         if var.dtype.kind in "UO":
             v = nc.createVariable(name, str, var.dims)
             if var.size:

@@ -40,6 +40,9 @@ SHORT = {
     "sso_tle_gravity_gradient": 0.02,  # hours
     "cubesat_environment": 0.01,  # hours
     "lvlh_pointing_events": 6000.0,  # its events occur (the last one ends the run)
+    "rw_inertial_pointing": 5.0,
+    "cubesat_bdot": 0.01,  # hours
+    "nadir_wheels_dumping": 0.01,  # hours
 }
 
 

@@ -39,6 +39,9 @@ SHORT = {
     "sso_tle_gravity_gradient": 0.05,
     "lvlh_pointing_events": 1800.0,
     "cubesat_environment": 0.01,
+    "rw_inertial_pointing": 30.0,
+    "cubesat_bdot": 0.02,
+    "nadir_wheels_dumping": 0.02,
 }
 
 

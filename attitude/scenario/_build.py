@@ -24,7 +24,7 @@ else:  # pragma: no cover - Python 3.10
 
 
 from . import _actuators, _software
-from ._models import _model_names, _orbit, _potential
+from ._models import _frame, _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
     _EVENT_KEYS,
@@ -482,20 +482,6 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
         ref = _frame(frame, orbit, f"{where}.frame")
         return initial_state(body, ref, t0, offset=q, rates=omega)
     return q, C.momenta_from_angular_velocity(q, omega, body)
-
-
-def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
-    """A reference frame of attitude.frames named in a scenario (:func:`frames.by_name`)."""
-    from .. import frames as F
-
-    if name != "inertial" and orbit is None:
-        raise _fail(key, f"frame {name!r} needs an [orbit] table")
-    if name != "inertial" and name not in F.NAMED:
-        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
-    try:
-        return F.by_name(name, orbit, q)
-    except ValueError as exc:
-        raise _fail(key, str(exc)) from None
 
 
 def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:

@@ -108,7 +108,7 @@ def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool)
         RateBelow,
         Slew,
     )
-    from ._build import _frame
+    from ._models import _frame
 
     _check(t, MODE_KEYS, where)
     cond = None
