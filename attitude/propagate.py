@@ -353,6 +353,7 @@ def propagate(
         entry=_entry_points(pot, evset),
         events=evset,
     )
+    _check_initial_state(problem)
     _check_work(problem, method, max_step, max_steps)
     options = dict(
         rtol=rtol,
@@ -375,9 +376,20 @@ def propagate(
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
             def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
-                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first, t_last=t_last))
+                part, n_ok = _diagnosed(problem, y, chunk_attrs, first=first, t_last=t_last)
+                if n_ok is not None:  # the diagnostics overflowed: hand out the rows before
+                    if n_ok:
+                        on_chunk(part.isel(time=slice(0, n_ok)))
+                    raise _DiagnosticsOverflow(first + n_ok, float(problem.t[first + n_ok]))
+                on_chunk(part)
 
-            result = runner(problem, **options, on_chunk=emit)
+            try:
+                result = runner(problem, **options, on_chunk=emit)
+            except _DiagnosticsOverflow as exc:
+                result = RunResult(
+                    np.empty((0, 8)), _rk.NONFINITE, _OVERFLOW_MESSAGE, first=exc.n,
+                    t_stop=exc.t,
+                )  # fmt: skip
         elif form is None:
             result = runner(problem, **options)
         else:
@@ -399,8 +411,16 @@ def propagate(
     }
     if arrays:
         ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:], attrs)
+    elif streaming and result.status == _rk.NONFINITE and result.message == _OVERFLOW_MESSAGE:
+        ds = finish_dataset(problem, result.y, attrs, first=result.first)
     else:
-        ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        ds, n_ok = _diagnosed(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        if n_ok is not None:  # a finite state whose energy or rates overflow: fail there
+            ds = ds.isel(time=slice(0, n_ok))
+            result = RunResult(
+                result.y[:n_ok], _rk.NONFINITE, _OVERFLOW_MESSAGE, result.stats,
+                first=result.first, t_stop=float(tt[result.first + n_ok]), events=result.events,
+            )  # fmt: skip
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
@@ -479,6 +499,61 @@ def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
         out["orbit"] = orbit.describe()
         out["orbit_frame"] = str(getattr(orbit, "frame", ""))
     return out
+
+
+#: The failure of a run whose states are finite but whose energy, rates or torques overflow.
+_OVERFLOW_MESSAGE = (
+    "the energy, body rates or torque overflowed double precision (the state itself is finite)"
+)
+
+
+class _DiagnosticsOverflow(Exception):
+    """Raised from a streamed run's chunk handler: the diagnostics of sample ``n`` (at ``t``)
+    are not finite."""
+
+    def __init__(self, n: int, t: float):
+        super().__init__(n, t)
+        self.n, self.t = n, t
+
+
+def _check_initial_state(problem: Problem) -> None:
+    """Refuse an initial state whose rates, energy or torque are not finite (before any work:
+    |Q0| ≈ 1e160 is a finite number whose kinetic energy overflows double precision)."""
+    y = problem.y0[None, :]
+    t = np.ascontiguousarray(problem.t[:1], dtype=np.float64)
+    diag = np.empty((1, 13))
+    problem.entry.diagnostics(t, y, problem.params, diag)
+    if not np.isfinite(diag[0, :12]).all():
+        raise AttitudeValueError(
+            f"Q0: the body rates or kinetic energy of this initial state overflow double "
+            f"precision (largest |Q0| component {float(np.max(np.abs(problem.y0[4:]))):.3g}, "
+            f"inertia {problem.body.inertia.tolist()}); no run can represent it"
+        )
+    torques = np.empty((1, len(problem.potential.terms) + 1, 3))
+    problem.entry.term_torques(t, y, problem.params, torques)
+    if not (np.isfinite(diag[0, 12]) and np.isfinite(torques).all()):
+        raise AttitudeValueError(
+            f"potential: the torque or potential energy of {problem.potential.name} is not "
+            f"finite (or overflows double precision) at the initial state, t = {float(t[0])!r}; "
+            "check the model's parameters"
+        )
+
+
+def _diagnosed(
+    problem: Problem,
+    y: np.ndarray,
+    attrs: dict[str, Any],
+    first: int = 0,
+    t_last: float | None = None,
+) -> tuple[xr.Dataset, int | None]:
+    """:func:`finish_dataset`, and the number of leading samples whose diagnostics and torques
+    are finite when a later one's are not (None: all are)."""
+    ds = finish_dataset(problem, y, attrs, first, t_last)
+    ok = np.isfinite(ds["energy"].values) & np.isfinite(ds["omega"].values).all(axis=-1)
+    ok &= np.isfinite(ds["torque"].values).all(axis=(-2, -1))
+    if ok.all():
+        return ds, None
+    return ds, int(np.argmin(ok))
 
 
 def finish_dataset(
