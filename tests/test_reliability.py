@@ -7,6 +7,7 @@ fuzz suites of the same campaign are in tests/test_fuzz.py (``pytest -m slow``).
 from __future__ import annotations
 
 import gc
+import json
 import os
 import shutil
 import signal
@@ -885,3 +886,133 @@ def test_an_error_after_a_swallowed_interrupt_is_reported_as_the_interrupt(monke
     assert "interrupted" in err
     assert "RuntimeError" not in err and "Traceback" not in err and "ignored" not in err
     assert sys.unraisablehook is hook  # restored after the command
+
+
+# ------------------------------------------------------------------------------------------------
+# issue 23: runs that can never hang
+# ------------------------------------------------------------------------------------------------
+
+_NONFINITE = ROOT / "tests" / "_nonfinite.py"
+#: Seconds the child of one integrator may take (its cases take 1-3 s with the numba cache
+#: warm; compiling the entry points in a cold cache takes up to a minute).
+HANG_DEADLINE = 240.0
+
+
+def _run_cases(integrator: str) -> dict[str, str]:
+    """The outcomes of ``tests/_nonfinite.py integrator``, killed at HANG_DEADLINE: a case that
+    does not return fails the test, naming the case (it does not hang the suite)."""
+    proc = subprocess.Popen(
+        [sys.executable, str(_NONFINITE), integrator], env=ENV, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        out, err = proc.communicate(timeout=HANG_DEADLINE)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        started = [json.loads(ln) for ln in out.splitlines() if ln.startswith("{")]
+        last = [d["start"] for d in started if "start" in d][-1:] or ["(setup)"]
+        pytest.fail(f"{integrator}: case {last[0]!r} still running after {HANG_DEADLINE:g} s")
+    assert proc.returncode == 0, err[-2000:]
+    rows = [json.loads(ln) for ln in out.splitlines() if ln.startswith("{")]
+    return {d["case"]: d["outcome"] for d in rows if "case" in d}
+
+
+@pytest.mark.parametrize(
+    "integrator",
+    [
+        "dop853", "taylor", "exact", "splitting", "nosquish", "scipy:DOP853", "scipy:RK23",
+        "scipy:Radau", "scipy:BDF", "scipy:LSODA", "euler_angles", "schwab", "euler_equations",
+        "dop853 events", "splitting events", "ensemble dop853", "ensemble taylor",
+        "ensemble events",
+    ],
+)  # fmt: skip
+def test_nonfinite_inputs_end_cleanly(integrator):
+    # was: the DOP853 rejection loop spun forever on the NaN step size of a non-finite first
+    # derivative (|Q0| = 1e160, drag below the surface; ensembles too), ignoring Ctrl-C and
+    # SIGTERM; scipy's RK loops likewise, LSODA repeated steps of size 0, Radau raised a raw
+    # ValueError; the splittings ran on a NaN state to the next output time.
+    outcomes = _run_cases(integrator)
+    assert outcomes, "no case ran"
+    for case, outcome in outcomes.items():
+        if case.startswith("kernel:"):
+            # the compiled loop called directly: NONFINITE (1) on a NaN or inf anywhere; a
+            # finite state of 1e160 may also run (propagate refuses it before any work)
+            allowed = {"status 1"} | ({"status 0"} if "overflows" in case else set())
+        elif case in ("nan momenta", "inf attitude", "energy overflows"):
+            allowed = {"refused"}
+        elif integrator.startswith("ensemble"):
+            allowed = {"failed"}  # the bad members fail, the others finish
+        else:
+            allowed = {"refused", "failed", "ok"}  # never NaN results, never a raw error
+        assert outcome in allowed, (integrator, case, outcome)
+
+
+def test_drag_below_the_surface_is_refused_before_any_work():
+    # was: the paper's orbit (perigee 778 km inside the Earth) with drag: NRLMSIS gives 0
+    # there, log(0) a raw numpy warning, NaN tables, and the run never returned
+    o = KeplerOrbit(7000.0, 0.2, 0.5236, 0.7854, 0.2618, epoch="2000-01-01T11:58:55.816")
+    body = attitude.RigidBody([4e8, 5e8, 6e8], units="kg m2")
+    drag = attitude.AerodynamicDrag(o, attitude.box_wing([1.0, 1.0, 2.0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(AttitudeValueError, match=r"orbit: .*below the Earth's surface"):
+            propagate(body, Q_UNIT, [0, 8e5, 0, 0], [0.0, 600.0], potential=drag)
+        with pytest.raises(AttitudeValueError, match="below the Earth's surface"):
+            attitude.propagate_ensemble(
+                body, np.tile(Q_UNIT, (2, 1)), [0, 8e5, 0, 0], [0.0, 600.0], potential=drag
+            )
+
+
+def test_drag_scenario_below_the_surface_exits_2(tmp_path, capsys):
+    # the issue's case: the shipped scenario with drag added, one facet
+    text = (SCEN / "paper_keplerian.toml").read_text()
+    old = 'kind = "gravity_gradient"'
+    assert old in text
+    text = text.replace(old, 'models = ["gravity_gradient", "aerodynamic_drag"]')
+    text += (
+        '\n[[spacecraft.facets]]\narea = 1.0\narea_unit = "m2"\nnormal = [1.0, 0.0, 0.0]\n'
+        'center = [0.1, 0.0, 0.0]\ncenter_unit = "m"\n'
+    )
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    assert main(["run", str(p), "-o", str(tmp_path / "s.nc"), "-q"]) == 2
+    assert "below the Earth's surface" in capsys.readouterr().err
+
+
+def test_splitting_events_and_taylor_ensembles_return_at_their_step_budget(monkeypatch):
+    # was: the splittings with events ran their whole span in one compiled call, the Taylor
+    # ensemble a chunk's members to their ends (58 s uninterruptible for 2 fast members)
+    from attitude import splitting as _sp
+    from attitude.ensemble import _chunks
+    from attitude.events import RateExceeds
+
+    t = np.linspace(0.0, 20.0, 3)
+    Q0 = _Q([0.3, 2.0, 0.1])
+    pot = HeavyTop(0.5, [0.0, 0.0, 1.0])
+    dense = propagate(I_PAPER, Q_UNIT, Q0, np.linspace(0.0, 20.0, 401), potential=pot)
+    w = np.linalg.norm(dense.omega.values, axis=-1)
+    ev = RateExceeds(0.5 * (w.min() + w.max()), direction="both")
+    kw = dict(potential=pot, method="splitting", dt=0.01, events=[ev])
+    ref = propagate(I_PAPER, Q_UNIT, Q0, t, **kw)
+    q0s = np.tile(Q_UNIT, (9, 1))
+    Q0s = Q0 * np.linspace(1.0, 1.5, 9)[:, None]
+    ens = attitude.propagate_ensemble(I_PAPER, q0s, Q0s, t, pot, method="taylor")
+    checks = []
+    assert _sp._interrupt is _chunks._interrupt  # (Ctrl-C is checked between compiled calls)
+    monkeypatch.setattr(_sp._interrupt, "check", lambda: checks.append(1))
+    monkeypatch.setattr(_methods, "STEP_BUDGET", 50)
+    monkeypatch.setattr(_chunks, "ENSEMBLE_STEP_BUDGET", 8)
+    monkeypatch.setattr(_chunks, "MIN_MEMBER_BUDGET", 2)
+    got = propagate(I_PAPER, Q_UNIT, Q0, t, **kw)
+    assert len(checks) >= 2000 // 50  # 2000 steps
+    assert np.array_equal(got.q.values, ref.q.values)
+    assert np.array_equal(got.event_time.values, ref.event_time.values)
+    assert got.event_time.size >= 2
+    checks.clear()
+    ens2 = attitude.propagate_ensemble(I_PAPER, q0s, Q0s, t, pot, method="taylor")
+    # ~1000 member steps in batches of 4 lanes, a few batch steps a call
+    assert int(ens.member_n_steps.values.sum()) > 1000
+    assert len(checks) >= 1000 // (4 * 8)
+    for v in ("q", "Q", "member_n_steps", "member_status"):
+        assert np.array_equal(ens[v].values, ens2[v].values), v

@@ -680,7 +680,13 @@ def composition_events_run(
                 composition_step(torque, params, kinds, coefs, toffs, state, ts, h, counters)
                 counters[0] += 1
                 if not math.isfinite(
-                    state[0] + state[1] + state[2] + state[3] + state[4] + state[5] + state[6]
+                    state[0]
+                    + state[1]
+                    + state[2]
+                    + state[3]
+                    + state[4]
+                    + state[5]
+                    + state[6]
                     + state[7]
                 ):  # once per step, as composition_run
                     return NONFINITE, k
