@@ -398,11 +398,13 @@ class Aligned(Frame):
             from astropy.time import TimeDelta
 
             from orbit.frames import itrs_to_gcrs
+            from orbit.timescales import check_dates
 
             ep = self.orbit.epoch
             x = self.target_itrs
 
             def positions(t: np.ndarray) -> np.ndarray:
+                check_dates(ep, t, "t")
                 return itrs_to_gcrs(ep + TimeDelta(t, format="sec"), x, "t")
 
             out.append(_tables.tabulate(positions, start, stop, TARGET_STEP))

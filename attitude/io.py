@@ -478,7 +478,7 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
             mask_and_scale=False,
             decode_coords=False,
         )
-    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError, AttributeError) as exc:
         raise AttitudeFileError(f"{p}: not a netCDF4 file ({exc})") from None
     try:
         # CF auxiliary coordinates (named in the data variables' "coordinates" attrs) back to
@@ -498,7 +498,7 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
         if load:
             with ds:
                 ds = ds.load()
-    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError, AttributeError) as exc:
         ds.close()
         raise file_error(exc, p, "read") from None
     return ds

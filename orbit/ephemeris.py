@@ -39,12 +39,11 @@ from .base import OrbitBase
 from .errors import OrbitTypeError, OrbitValueError
 from .kepler import _as_array
 from .keplerorbit import _scalar, earth_mu
+from .tables import MAX_NODES  # (1e7 nodes are 560 MB of floats)
 from .timescales import as_epoch, format_epoch, offline_iers
 
 __all__ = ["EphemerisOrbit", "check_tle"]
 
-#: Largest table accepted (nodes): 1e7 nodes are 560 MB of floats.
-MAX_NODES = 10_000_000
 #: Step [s] of the central differences giving a TLE table's velocities (truncation
 #: δ⁴/30 |r⁽⁵⁾| ~ 5e-12 km/s in LEO; SGP4's 1e-12 rad Kepler tolerance noise / δ ~ 4e-9 km/s;
 #: measured: interpolated positions within 8e-9 km of SGP4 at off-grid times, δ = 1 to 4 s).
@@ -141,6 +140,31 @@ def _oem_time(s: str, scale: str) -> str:
     if m:
         return f"{m.group(1)}:{m.group(2)}:{m.group(3).replace('Z', '')}"
     return s.strip().rstrip("Z")
+
+
+def _oem_path(path: Any) -> Path:
+    """The OEM file to read: a str, bytes or path-like naming an existing file."""
+    if isinstance(path, (bool, int, float)) or path is None:
+        raise OrbitTypeError(
+            f"path: expected a file name (str or pathlib.Path), got {type(path).__name__} {path!r}"
+        )
+    try:
+        name = os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise OrbitTypeError(
+            f"path: expected a file name (str or pathlib.Path), got {type(path).__name__}"
+        ) from None
+    if not name or "\x00" in name:
+        raise OrbitValueError(f"path: {name!r} is not a file name (empty, or a NUL byte)")
+    p = Path(name)
+    try:
+        ok = p.is_file()
+    except OSError as exc:  # a name too long, a loop of links...
+        shown = name if len(name) <= 80 else name[:60] + "..."
+        raise OrbitValueError(f"path: cannot read {shown!r}: {exc.strerror or exc}") from None
+    if not ok:
+        raise OrbitValueError(f"path: no such OEM file: {p}")
+    return p
 
 
 class EphemerisOrbit(OrbitBase):
@@ -467,9 +491,7 @@ class EphemerisOrbit(OrbitBase):
             ) from None
         from astropy.time import Time
 
-        p = Path(path)
-        if not p.is_file():
-            raise OrbitValueError(f"path: no such OEM file: {p}")
+        p = _oem_path(path)
         try:
             msg = ccsds_ndm.Oem.from_file(str(p))
         except Exception as exc:  # the reader's own exception classes

@@ -8,7 +8,6 @@ import os
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -16,7 +15,7 @@ import xarray as xr
 
 from .._validation import as_float_array, as_int, as_positive, as_times
 from ..body import RigidBody
-from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
+from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
 from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
@@ -353,14 +352,22 @@ def propagate_ensemble(
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
 
-    out_path = None if path is None else Path(path)
-    if out_path is not None:
+    out_path = None
+    if path is not None:
         from .._files import OutputFile
 
         # checked before any work: type, a directory or device, room on the disk
-        OutputFile(path, "path").check_space(
+        target = OutputFile(path, "path")
+        if target.through:
+            raise AttitudeFileError(
+                f"path: {target.path} is a pipe or a device; an ensemble's result is opened "
+                "from the file it was written to (members are read lazily from it), so it "
+                "needs a regular file: write there and copy it"
+            )
+        target.check_space(
             float(n) * tt.shape[0] * (8 + _N_DIAG) * 8, f"{n} members x {tt.shape[0]} samples"
         )
+        out_path = target.path
 
     owned = False
     if lazy:
@@ -704,7 +711,9 @@ def run_scenario(
                 f"or 'taylor' only; remove {key} from the [integrator] table of an [ensemble] "
                 f"scenario"
             )
-    out = Path(path) if path is not None else sc.output
+    from .._files import OutputFile
+
+    out = OutputFile(path, "path").path if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
     pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)
