@@ -25,6 +25,7 @@ dimensionless run needs ``time_unit_seconds=``.
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,10 @@ ATTITUDE_TYPES = ("QUATERNION", "QUATERNION/ANGVEL")
 
 #: Data lines formatted per block (bounded memory for long histories).
 BLOCK = 50_000
+
+
+#: Control characters (C0, DEL, C1): never in a KVN header or metadata value.
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
 
 
 def _kvn(key: str, value: Any) -> str:
@@ -104,6 +109,11 @@ def _check_arguments(ds, version, epoch, interpolation, **names) -> None:
     for key, v in names.items():
         if v is not None and not isinstance(v, str):
             raise AttitudeTypeError(f"{key}: expected a string, got {type(v).__name__}")
+        if v is not None and _CONTROL.search(v):
+            raise AttitudeValueError(
+                f"{key}: {v!r} holds a control character (a line break would end the KVN line "
+                "and start another: the file would not be an AEM)"
+            )
     if interpolation is not None and not (
         isinstance(interpolation, (tuple, list))
         and len(interpolation) == 2
@@ -282,6 +292,12 @@ def write_aem(
         meta.append(_kvn("INTERPOLATION_METHOD", interpolation[0]))
         meta.append(_kvn("INTERPOLATION_DEGREE", min(int(interpolation[1]), n - 1)))
     meta += ["META_STOP", "", "DATA_START"]
+    for line in head + meta:  # values from the Dataset's attrs too (a scenario's names)
+        if _CONTROL.search(line):
+            raise AttitudeValueError(
+                f"ds: the AEM header line {line.split('=')[0].strip()!r} would hold a control "
+                f"character ({line!r}), from the Dataset's attrs; give the value as a parameter"
+            )
 
     with target.writing() as tmp:
         with open(tmp, "w", encoding="latin-1", errors="replace", newline="\n") as fh:
@@ -383,6 +399,50 @@ def _segments(lines: list[str], where: str) -> tuple[dict[str, str], list[tuple[
     if state == "data":
         raise AttitudeValueError(f"{where}: DATA_STOP missing (truncated file?)")
     return header, segs
+
+
+def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any, scale: str):
+    """What :func:`read` refuses in a segment besides its layout: a NaN, inf or overflowing
+    value (``nan``, ``inf``, ``1e999``), QUATERNION_TYPE in a version-2 file (its data lines
+    are scalar last), and START_TIME / STOP_TIME that are not times or do not bound the data
+    (they are the span the data lines cover: within the largest interval between epochs)."""
+    bad = ~np.isfinite(vals)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise AttitudeValueError(
+            f"{where}: data line {row + 1}, value {col + 1} is not a finite number "
+            f"({vals[row, col]!r})"
+        )
+    if major == "2" and "QUATERNION_TYPE" in meta:
+        raise AttitudeValueError(
+            f"{where}: QUATERNION_TYPE is a version 1 keyword; a version 2 AEM's data lines are "
+            "always scalar last (remove it, or write CCSDS_AEM_VERS = 1.0)"
+        )
+    n = len(tt)
+    gap = float(np.max(np.abs(np.diff((tt - tt[0]).to_value("s"))))) if n > 1 else 0.0
+    for key, i in (("START_TIME", 0), ("STOP_TIME", n - 1)):
+        if key not in meta:
+            continue
+        try:
+            edge = _parse_epochs([meta[key]], scale)[0]
+            off = float((edge - tt[i]).to_value("s"))
+        except ValueError:
+            raise AttitudeValueError(
+                f"{where}: {key} = {meta[key]!r} is not a CCSDS epoch (YYYY-MM-DDThh:mm:ss or "
+                "YYYY-DDDThh:mm:ss)"
+            ) from None
+        if not abs(off) <= max(1e-3, gap):
+            raise AttitudeValueError(
+                f"{where}: {key} = {meta[key]} is {abs(off):.6g} s from the "
+                f"{'first' if i == 0 else 'last'} data epoch {_epoch_text(tt[i])}: it must "
+                "bound the span the data lines cover"
+            )
+
+
+def _epoch_text(t: Any) -> str:
+    t = t.copy()
+    t.precision = 3
+    return str(t.isot)
 
 
 def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Dataset:
@@ -489,6 +549,7 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
             tt = _parse_epochs([d[0] for d in data], scale)
         except ValueError as exc:
             raise AttitudeValueError(f"{where}: bad epoch ({exc})") from None
+        _check_segment(where, major, meta, vals, tt, scale)
         if ts == "GPS":
             tt = tt - TimeDelta(19.0, format="sec")
         times.append(tt.utc)

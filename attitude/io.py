@@ -468,6 +468,8 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
     AttitudeFileError
         No such file, a directory, not a netCDF4 file, or a truncated or corrupt one.
     """
+    if not isinstance(load, (bool, np.bool_)):
+        raise AttitudeTypeError(f"load: expected True or False, got {load!r}")
     p = input_path(path, "path")
     try:
         ds = xr.open_dataset(

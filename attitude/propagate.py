@@ -33,7 +33,7 @@ import xarray as xr
 
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
-from ._validation import as_float_array, as_int, as_positive, as_times
+from ._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
 from .canonical import _project
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
@@ -281,12 +281,8 @@ def propagate(
         Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
     )
     tt = as_times(t, "t", lazy=True)
-    rtol = as_positive(rtol, "rtol")
+    rtol = as_rtol(rtol, "rtol")
     atol = as_positive(atol, "atol")
-    if rtol < 1e-15:
-        raise AttitudeValueError(
-            f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
-        )
     if atol < ATOL_MIN:
         raise AttitudeValueError(
             f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "

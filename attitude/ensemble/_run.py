@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._validation import as_float_array, as_int, as_positive, as_times
+from .._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
@@ -269,12 +269,8 @@ def propagate_ensemble(
             f"attitude.propagate"
         )
     tt = as_times(t, "t")
-    rtol = as_positive(rtol, "rtol")
+    rtol = as_rtol(rtol, "rtol")
     atol = as_positive(atol, "atol")
-    if rtol < 1e-15:
-        raise AttitudeValueError(
-            f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
-        )
     if atol < ATOL_MIN:
         raise AttitudeValueError(
             f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "

@@ -27,6 +27,7 @@ from ._models import _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
     _EVENT_KEYS,
+    _EVENT_TYPE_KEYS,
     _EVENT_TYPES,
     _EXAMPLE,
     _FORMS,
@@ -502,6 +503,13 @@ def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:
         typ = r.string(et, "type", where)
         if typ not in _EVENT_TYPES:
             raise _fail(f"{where}.type", f"expected one of {', '.join(_EVENT_TYPES)}, got {typ!r}")
+        own = {"type", "terminal", "samples", *_EVENT_TYPE_KEYS[typ]}
+        for k in et:
+            if k.removesuffix("_unit") not in own:
+                raise _fail(
+                    f"{where}.{k}",
+                    f"a {typ} event does not read {k!r} (its keys: {', '.join(sorted(own))})",
+                )
         kw: dict[str, Any] = {"name": name}
         if "terminal" in et:
             if not isinstance(et["terminal"], bool):
