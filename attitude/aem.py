@@ -406,6 +406,8 @@ def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any
     value (``nan``, ``inf``, ``1e999``), QUATERNION_TYPE in a version-2 file (its data lines
     are scalar last), and START_TIME / STOP_TIME that are not times or do not bound the data
     (they are the span the data lines cover: within the largest interval between epochs)."""
+    from orbit.timescales import quiet_erfa
+
     bad = ~np.isfinite(vals)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
@@ -424,8 +426,9 @@ def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any
         if key not in meta:
             continue
         try:
-            edge = _parse_epochs([meta[key]], scale)[0]
-            off = float((edge - tt[i]).to_value("s"))
+            with quiet_erfa():  # (a date before 1960: ERFA's "dubious year")
+                edge = _parse_epochs([meta[key]], scale)[0]
+                off = float((edge - tt[i]).to_value("s"))
         except ValueError:
             raise AttitudeValueError(
                 f"{where}: {key} = {meta[key]!r} is not a CCSDS epoch (YYYY-MM-DDThh:mm:ss or "

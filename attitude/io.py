@@ -326,8 +326,9 @@ class StreamWriter:
             self.abort()
             raise
         except (OSError, RuntimeError) as exc:
+            err = file_error(exc, self._out.target)  # a full disk: before the abort frees it
             self.abort()
-            raise file_error(exc, self._out.target) from None
+            raise err from None
         except BaseException:
             self.abort()
             raise

@@ -8,6 +8,8 @@ import re
 import signal
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import netCDF4
@@ -201,17 +203,33 @@ def test_interrupted_run_leaves_old_file_or_none(sig, tmp_path):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
     )  # fmt: skip
-    # Event, not a clock: the progress line is drawn after a chunk of samples has been appended
-    # to the temporary file, so once it reports n > 0 samples the run is streaming.
-    seen = b""
-    while not any(int(n) > 0 for n in re.findall(rb"(\d+)/\d+ samples", seen)):
-        part = os.read(proc.stderr.fileno(), 4096)
-        assert part, (proc.wait(), seen)  # the run ended before it streamed anything
-        seen += part
-    assert list(tmp_path.glob(".out.nc.*.tmp"))
+    # Events, not a clock: stderr is drained by a thread (the progress line must not block on
+    # a full pipe), and the test waits, with a deadline, for the condition it checks: the
+    # progress line reports n > 0 samples (may come before the first chunk reaches the disk),
+    # then the temporary file exists (on a loaded machine, some time after).
+    chunks: list[bytes] = []
+    reader = threading.Thread(
+        target=lambda: chunks.extend(iter(lambda: os.read(proc.stderr.fileno(), 4096), b"")),
+        daemon=True,
+    )
+    reader.start()
+    deadline = time.monotonic() + 300.0
+
+    def wait_for(condition, what):
+        while not condition():
+            assert proc.poll() is None, (what, proc.returncode, b"".join(chunks)[-2000:])
+            assert time.monotonic() < deadline, (f"no {what} after 300 s", b"".join(chunks))
+            time.sleep(0.01)
+
+    wait_for(
+        lambda: any(int(n) > 0 for n in re.findall(rb"(\d+)/\d+ samples", b"".join(chunks))),
+        "progress",
+    )
+    wait_for(lambda: list(tmp_path.glob(".out.nc.*.tmp")), "temporary file")
     proc.send_signal(sig)
-    _, rest = proc.communicate(timeout=300)  # a guard against a hang only
-    err = (seen + rest).decode()
+    proc.wait(timeout=300)  # a guard against a hang only
+    reader.join(timeout=60)  # the rest of stderr, to its end
+    err = b"".join(chunks).decode()
     if sig == signal.SIGKILL:
         assert not out.exists()  # a temporary file may remain, never a partial final file
     else:

@@ -78,7 +78,31 @@ def loads(text: str, *, name: str = "scenario", path: Path | None = None) -> Sce
     except ScenarioError:
         raise
     except AttitudeError as exc:  # a constructor rejected a value: still bad input
-        raise ScenarioError(str(exc)) from None
+        raise ScenarioError(_scenario_key(str(exc))) from None
+
+
+#: The scenario keys of the parameters the constructors name in their errors (``inertia: ...``
+#: from RigidBody is ``body.inertia`` in a scenario).
+_PARAMETER_KEYS = {
+    "inertia": "body.inertia",
+    "weight": "potential.weight",
+    "center_of_mass": "potential.center_of_mass",
+    "field": "potential.field",
+    "density": "potential.density",
+    "f107": "potential.f107",
+    "f107a": "potential.f107a",
+    "ap": "potential.ap",
+    "eclipse": "potential.eclipse",
+    "step": "potential.step",
+    "dipole": "spacecraft.dipole",
+    "tensor": "spacecraft.eddy_tensor",
+}
+
+
+def _scenario_key(message: str) -> str:
+    """A constructor's error with the parameter it names replaced by the scenario's key."""
+    name, sep, rest = message.partition(": ")
+    return f"{_PARAMETER_KEYS[name]}: {rest}" if sep and name in _PARAMETER_KEYS else message
 
 
 def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None) -> Scenario:
