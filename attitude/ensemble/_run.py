@@ -262,7 +262,7 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if method not in ENSEMBLE_METHODS:
+    if not isinstance(method, str) or method not in ENSEMBLE_METHODS:
         raise AttitudeValueError(
             f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
             f"compiled parallel loops), got {method!r}; for other methods loop over "
