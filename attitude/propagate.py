@@ -372,7 +372,7 @@ def propagate(
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
             def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
-                part, n_ok = _diagnosed(problem, y, chunk_attrs, first=first, t_last=t_last)
+                part, n_ok = _finish(problem, y, chunk_attrs, first=first, t_last=t_last)
                 if n_ok is not None:  # the diagnostics overflowed: hand out the rows before
                     if n_ok:
                         on_chunk(part.isel(time=slice(0, n_ok)))
@@ -410,7 +410,7 @@ def propagate(
     elif streaming and result.status == _rk.NONFINITE and result.message == _OVERFLOW_MESSAGE:
         ds = finish_dataset(problem, result.y, attrs, first=result.first)
     else:
-        ds, n_ok = _diagnosed(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        ds, n_ok = _finish(problem, result.y, attrs, first=result.first, t_last=result.t_event)
         if n_ok is not None:  # a finite state whose energy or rates overflow: fail there
             ds = ds.isel(time=slice(0, n_ok))
             result = RunResult(
@@ -513,43 +513,23 @@ class _DiagnosticsOverflow(Exception):
 
 
 def _check_initial_state(problem: Problem) -> None:
-    """Refuse an initial state whose rates, energy or torque are not finite (before any work:
-    |Q0| ≈ 1e160 is a finite number whose kinetic energy overflows double precision)."""
-    y = problem.y0[None, :]
-    t = np.ascontiguousarray(problem.t[:1], dtype=np.float64)
-    diag = np.empty((1, 13))
-    problem.entry.diagnostics(t, y, problem.params, diag)
-    if not np.isfinite(diag[0, :12]).all():
+    """Refuse an initial state whose body rates or kinetic energy overflow, before any work
+    (|Q0| ≈ 1e160 is a finite number; its energy is not). Plain floats: a few µs.
+
+    (A torque that is not finite at t0 ends the run at t0 with a PropagationError.)"""
+    q0, q1, q2, q3, p0, p1, p2, p3 = problem.y0.tolist()
+    i1, i2, i3 = problem.params[:3].tolist()
+    # g = ½ vec(q̃∘Q), ω = g / I, T = ½ g·ω (attitude._core.dynamics.diagnostics_row)
+    g1 = 0.5 * (q0 * p1 - q1 * p0 - q2 * p3 + q3 * p2)
+    g2 = 0.5 * (q0 * p2 + q1 * p3 - q2 * p0 - q3 * p1)
+    g3 = 0.5 * (q0 * p3 - q1 * p2 + q2 * p1 - q3 * p0)
+    w1, w2, w3 = g1 / i1, g2 / i2, g3 / i3
+    if not math.isfinite(g1 * w1 + g2 * w2 + g3 * w3 + w1 * w1 + w2 * w2 + w3 * w3):
         raise AttitudeValueError(
             f"Q0: the body rates or kinetic energy of this initial state overflow double "
-            f"precision (largest |Q0| component {float(np.max(np.abs(problem.y0[4:]))):.3g}, "
+            f"precision (largest |Q0| component {max(abs(p0), abs(p1), abs(p2), abs(p3)):.3g}, "
             f"inertia {problem.body.inertia.tolist()}); no run can represent it"
         )
-    torques = np.empty((1, len(problem.potential.terms) + 1, 3))
-    problem.entry.term_torques(t, y, problem.params, torques)
-    if not (np.isfinite(diag[0, 12]) and np.isfinite(torques).all()):
-        raise AttitudeValueError(
-            f"potential: the torque or potential energy of {problem.potential.name} is not "
-            f"finite (or overflows double precision) at the initial state, t = {float(t[0])!r}; "
-            "check the model's parameters"
-        )
-
-
-def _diagnosed(
-    problem: Problem,
-    y: np.ndarray,
-    attrs: dict[str, Any],
-    first: int = 0,
-    t_last: float | None = None,
-) -> tuple[xr.Dataset, int | None]:
-    """:func:`finish_dataset`, and the number of leading samples whose diagnostics and torques
-    are finite when a later one's are not (None: all are)."""
-    ds = finish_dataset(problem, y, attrs, first, t_last)
-    ok = np.isfinite(ds["energy"].values) & np.isfinite(ds["omega"].values).all(axis=-1)
-    ok &= np.isfinite(ds["torque"].values).all(axis=(-2, -1))
-    if ok.all():
-        return ds, None
-    return ds, int(np.argmin(ok))
 
 
 def finish_dataset(
@@ -561,6 +541,18 @@ def finish_dataset(
 ) -> xr.Dataset:
     """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``
     (the last one at ``t_last`` instead when given: the state at a terminal event)."""
+    return _finish(problem, y, attrs, first, t_last)[0]
+
+
+def _finish(
+    problem: Problem,
+    y: np.ndarray,
+    attrs: dict[str, Any],
+    first: int = 0,
+    t_last: float | None = None,
+) -> tuple[xr.Dataset, int | None]:
+    """:func:`finish_dataset`, and the number of leading samples whose diagnostics and torques
+    are finite when a later one's are not (None: all are)."""
     n = y.shape[0]
     t = problem.t[first : first + n]
     if t_last is not None and n:
@@ -573,6 +565,11 @@ def finish_dataset(
         j = min(n, i + SAMPLE_BUDGET)
         problem.entry.diagnostics(t[i:j], y[i:j], problem.params, diag[i:j])
         problem.entry.term_torques(t[i:j], y[i:j], problem.params, torques[i:j])
+    n_ok = None
+    if not (np.isfinite(diag).all() and np.isfinite(torques).all()):
+        ok = np.isfinite(diag).all(axis=1) & np.isfinite(torques).all(axis=(1, 2))
+        n_ok = int(np.argmin(ok))
     if not problem.potential.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    return build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)
+    ds = build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)
+    return ds, n_ok

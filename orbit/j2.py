@@ -92,7 +92,8 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
     Raises
     ------
     OrbitValueError
-        The element checks of :class:`KeplerOrbit`, e >= 1, j2 outside [0, MAX_J2 = 0.1] or not finite, radius <= 0.
+        The element checks of :class:`KeplerOrbit`, e >= 1, j2 outside [0, MAX_J2 = 0.1] or
+        not finite, radius <= 0.
     """
 
     def __init__(
