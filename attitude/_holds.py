@@ -276,6 +276,27 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
     return res
 
 
+def _compiled_step_failure(src: _Source, problem: Problem) -> str:
+    """Why a compiled step's commands cannot be applied (the reason left in ``hs`` by
+    :func:`attitude._core.fsw.step_boundary_with`)."""
+    from ._core import fsw as _kf
+
+    tick = int(src.fs[_kf.FS_TICK])
+    t = float(src.fs[_kf.FS_NEXT])
+    where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
+    n = int(src.hs[_kh.HS_FAIL_N])
+    nw, nm, nt = problem.spacecraft.spacecraft.counts
+    want = nw + nm + nt
+    if src.hs[_kh.HS_FAIL] == _kf.STEP_WRONG_LENGTH:
+        what = (
+            "the body torque (3,)"
+            if want == 0
+            else f"{want} raw commands (wheels, dipoles, thrust)"
+        )
+        return f"{where} returned {n} values; expected {what}"
+    return f"{where} returned a non-finite command (entry {n})"
+
+
 def _run(
     problem: Problem,
     kernel: Callable,
@@ -333,6 +354,10 @@ def _run(
         if on_chunk is not None and k:
             on_chunk(done, y_chunk[:k])
         done += k
+        if status == _kh.STEP_FAILED:
+            failure = _compiled_step_failure(src, problem)
+            status = _rk.NONFINITE
+            break
         if status in (_kh.NEEDS_COMMANDS, _kh.RECORDS_FULL):
             try:
                 src.handle(status, work[y_row], float(tstate[0]), P[1])
@@ -354,7 +379,9 @@ def _run(
         del st["n_holds"]
         st["n_ticks"] = int(src.fs[_kf.FS_TICK])
     msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
-    if failure is not None:
+    if isinstance(failure, str):
+        msg = failure
+    elif failure is not None:
         msg = (
             f"your step function raised at tick {failure.tick} (t = {failure.t!r} s): "
             f"{type(failure.exc).__name__}: {failure.exc}"
@@ -422,7 +449,6 @@ def run_taylor(
 ) -> RunResult:
     """``method="taylor"`` for a spacecraft: the gyrostat's Taylor series, restarted at every
     hold boundary, the order chosen for each hold (:mod:`attitude._core.taylor_gyrostat`)."""
-    from ._core import fsw as _kf
     from ._core import taylor as _kt
     from ._core import taylor_gyrostat as _ktg
 
@@ -432,7 +458,7 @@ def run_taylor(
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
     tstate = np.zeros(_ktg.TS_SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
-    kernel = _ktg.taylor_holds_run if sr.program is None else _kf.taylor_holds_fsw
+    kernel = _ktg.taylor_holds_run if sr.program is None else problem.entry.taylor_spacecraft_fsw
 
     def stats():
         return {

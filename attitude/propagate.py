@@ -390,7 +390,7 @@ def propagate(
         params=pot._params(body.inertia),
         y0=y0,
         t=tt,
-        entry=_entry_points(pot, evset),
+        entry=_entry_points(pot, evset, sc_run),
         events=evset,
         spacecraft=sc_run,
     )
@@ -496,13 +496,16 @@ def _spacecraft_runner(
     return _holds.run_dop853
 
 
-def _entry_points(pot: Potential, evset: Any) -> Any:
-    """The compiled entry points of the model and of the user's event functions."""
-    if evset is None or not evset.user_functions:
+def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
+    """The compiled entry points of the model, of the user's event functions and of the user's
+    compiled flight-software step."""
+    user_events = () if evset is None else tuple(evset.user_functions)
+    step = None if sc_run is None or sc_run.program is None else sc_run.program.compiled_step
+    if not user_events and step is None:
         return pot._entry_points()
     from . import _user_kernels
 
-    return _user_kernels.entry_points(pot._user_terms(), evset.user_functions)
+    return _user_kernels.entry_points(pot._user_terms(), user_events, step=step)
 
 
 #: Methods that locate events (inside their compiled loops).
