@@ -458,7 +458,8 @@ def run_taylor(
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
     tstate = np.zeros(_ktg.TS_SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
-    kernel = _ktg.taylor_holds_run if sr.program is None else problem.entry.taylor_spacecraft_fsw
+    entry = problem.entry
+    kernel = entry.taylor_spacecraft if sr.program is None else entry.taylor_spacecraft_fsw
 
     def stats():
         return {

@@ -205,7 +205,18 @@ dop853_spacecraft_fsw = rebind(
 
 #: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
 #: software as its command source (in a user module: with the user's compiled step).
-taylor_spacecraft_fsw = rebind(taylor_holds_run, globals(), "fsw", BOUNDARY="fsw_boundary")
+taylor_spacecraft_fsw = rebind(
+    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary"
+)
+
+#: The same under an open-loop schedule.
+taylor_spacecraft = rebind(
+    taylor_holds_run,
+    globals(),
+    "spacecraft",
+    options={"_nrt": REFCOUNT},
+    BOUNDARY="schedule_boundary",
+)
 
 
 @jit(_nrt=REFCOUNT)

@@ -59,7 +59,7 @@ from .actuators import (
     wheel_speed,
 )
 from .environment import field_body
-from .frames import frame_eval
+from .frames import F_TYPE, FRAME_INERTIAL, frame_eval
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
@@ -255,6 +255,8 @@ def frame_reference(d, t):
     r = frame_eval(d, t)
     q = (r[0], r[1], r[2], r[3])
     w = (r[4], r[5], r[6])
+    if int(d[F_TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
+        return q, w, (0.0, 0.0, 0.0)
     h = DOMEGA_STEP
     a = frame_eval(d, t + h)
     b = frame_eval(d, t - h)
