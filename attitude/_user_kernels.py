@@ -133,7 +133,7 @@ def _step_block() -> list[str]:
     return [
         "",
         "",
-        "from attitude._core.fsw import step_boundary_with  # noqa: E402",
+        "from attitude._core.fsw_step import step_boundary_with  # noqa: E402",
         "",
         "USER_STEP = None",
         "",
@@ -362,7 +362,7 @@ def entry_points(
         order (``KIND_USER`` blocks of the event data name them by number).
     step : numba function, optional
         The user's compiled flight-software ``step(t, m) -> commands``
-        (:func:`attitude._core.fsw.step_boundary_with`).
+        (:func:`attitude._core.fsw_step.step_boundary_with`).
 
     Returns
     -------

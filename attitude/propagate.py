@@ -33,6 +33,7 @@ import xarray as xr
 
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
+from ._spacecraft_results import add_actuator_variables, add_tick_variables
 from ._validation import as_float_array, as_int, as_positive, as_times
 from .body import RigidBody
 from .canonical import _project
@@ -40,13 +41,7 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import (
-    Trajectory,
-    add_actuator_variables,
-    add_event_variables,
-    add_tick_variables,
-    build_dataset,
-)
+from .results import Trajectory, add_event_variables, build_dataset
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor

@@ -12,6 +12,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .._core import fsw as _kf
+from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
 from .._validation import as_float_array, as_int, as_scalar
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
@@ -144,18 +145,18 @@ class MeasurementIndex(IntEnum):
     orbit: field, Sun, r, v). numba reads the members as constants.
     """
 
-    T = _kf.MEAS_T
-    Q = _kf.MEAS_Q  # 4
-    OMEGA = _kf.MEAS_OMEGA
-    Q_REF = _kf.MEAS_QREF  # 4
-    OMEGA_REF = _kf.MEAS_OMEGA_REF
-    SIGMA_ERROR = _kf.MEAS_SIGMA
-    OMEGA_ERROR = _kf.MEAS_DOMEGA
-    FIELD = _kf.MEAS_FIELD
-    SUN = _kf.MEAS_SUN
-    R = _kf.MEAS_R
-    V = _kf.MEAS_V
-    WHEEL_SPEEDS = _kf.MEAS_WHEELS
+    T = _kstep.MEAS_T
+    Q = _kstep.MEAS_Q  # 4
+    OMEGA = _kstep.MEAS_OMEGA
+    Q_REF = _kstep.MEAS_QREF  # 4
+    OMEGA_REF = _kstep.MEAS_OMEGA_REF
+    SIGMA_ERROR = _kstep.MEAS_SIGMA
+    OMEGA_ERROR = _kstep.MEAS_DOMEGA
+    FIELD = _kstep.MEAS_FIELD
+    SUN = _kstep.MEAS_SUN
+    R = _kstep.MEAS_R
+    V = _kstep.MEAS_V
+    WHEEL_SPEEDS = _kstep.MEAS_WHEELS
 
 
 class FlightSoftware:
