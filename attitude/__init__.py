@@ -25,10 +25,22 @@ from . import _interrupt
 _interrupt.guard_command_start()
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
-from . import canonical, errors, events, exact, formulations, frames, potentials, quaternion
+from . import (
+    actuators,
+    canonical,
+    errors,
+    events,
+    exact,
+    formulations,
+    frames,
+    potentials,
+    quaternion,
+)
 from ._version import __version__
+from .actuators import CommandSchedule, Magnetorquer, ReactionWheel, Thruster
 from .body import RigidBody
 from .ensemble import (
+    disperse,
     event_time_percentiles,
     pointing_error_percentiles,
     propagate_ensemble,
@@ -58,6 +70,7 @@ from .potentials import (
 )
 from .propagate import propagate
 from .results import Trajectory
+from .spacecraft import Spacecraft
 
 del _accessor
 
@@ -66,6 +79,7 @@ __all__ = [
     "AttitudeError",
     "AttitudeTypeError",
     "AttitudeValueError",
+    "CommandSchedule",
     "CustomPotential",
     "CustomTorque",
     "EddyCurrentDamping",
@@ -73,16 +87,22 @@ __all__ = [
     "GravityGradient",
     "HeavyTop",
     "MagneticDipole",
+    "Magnetorquer",
     "Potential",
     "PropagationError",
+    "ReactionWheel",
     "RigidBody",
     "SingularityError",
     "SolarRadiation",
+    "Spacecraft",
+    "Thruster",
     "TorqueFree",
     "Trajectory",
     "__version__",
+    "actuators",
     "box_wing",
     "canonical",
+    "disperse",
     "errors",
     "event_time_percentiles",
     "events",

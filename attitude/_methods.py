@@ -72,6 +72,7 @@ class Problem:
     t: np.ndarray  # (m,) output times; t[0] is the initial epoch
     entry: Any  # the model's compiled entry points (attitude._core.entry_points or a user copy)
     events: Any = None  # attitude.events.EventSet, or None
+    spacecraft: Any = None  # attitude._holds.SpacecraftRun of a spacecraft with actuators
 
     @property
     def rhs(self) -> Callable:

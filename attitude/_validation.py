@@ -197,9 +197,10 @@ def as_vector(x: Any, name: str = "v", *, unit: Any = None) -> np.ndarray:
 def as_rate(x: Any, name: str, *, dimensional: bool, trailing: int | None = 3) -> np.ndarray:
     """Angular rates as a float array in rad/s (``dimensional``) or rad per time unit.
 
-    A Quantity in any angular-rate unit (``deg/s``, ``rpm``, ``rad/min``...) is converted to
-    rad/s for a body with units; for a dimensionless body (no time unit) only a Quantity in an
-    angle unit is accepted (taken per time unit). Plain numbers are rad per time unit.
+    A Quantity in any angular-rate unit (``deg/s``, ``cycle/min`` for rpm, ``rad/min``...) is
+    converted to rad/s for a body with units; for a dimensionless body (no time unit) only a
+    Quantity in an angle unit is accepted (taken per time unit). Plain numbers are rad per
+    time unit.
     """
     from astropy import units as u
 

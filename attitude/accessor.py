@@ -17,7 +17,7 @@ import xarray as xr
 
 from . import quaternion as _qt
 from .errors import AttitudeValueError
-from .results import time_unit, time_values
+from .results import INSTANT_VARIABLES, time_unit, time_values
 
 __all__ = ["AttitudeAccessor"]
 
@@ -56,8 +56,8 @@ class AttitudeAccessor:
                 f"name: no variable {name!r} in this Dataset; it has "
                 + ", ".join(sorted(map(str, ds.variables)))
             )
-        if name == "time":
-            return time_values(ds) * _unit(time_unit(ds["time"]))
+        if name == "time" or name in INSTANT_VARIABLES:  # seconds since the epoch
+            return time_values(ds, name) * _unit(time_unit(ds[name]))
         units = ds[name].attrs.get("units")
         if units is None:
             raise AttitudeValueError(f"name: variable {name!r} has no units attr")

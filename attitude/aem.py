@@ -26,12 +26,14 @@ from __future__ import annotations
 
 import os
 import re
+from decimal import ROUND_FLOOR, ROUND_HALF_EVEN, Decimal
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from . import quaternion as qt
 from ._files import OutputFile, file_error, input_path
 from ._validation import as_positive
 from ._version import __version__
@@ -87,7 +89,35 @@ def _abs_times(ds: xr.Dataset, epoch: Any, time_unit_seconds: float | None) -> t
         t0 = e if isinstance(e, Time) else Time(str(e).rstrip("Z"), scale="utc")
     except ValueError:
         raise AttitudeValueError(f"epoch: {e!r} is not an ISO 8601 UTC time") from None
-    return t0.utc, scale
+    return _epoch_parts(e, t0.utc), scale
+
+
+#: REF_FRAME_A names of the GCRS axes (the ICRF's axes; the GCRF is the ICRF at the geocentre).
+_GCRS_NAMES = ("GCRF", "ICRF")
+
+
+def _frame_a(ds: xr.Dataset, ref_frame_a: str | None) -> tuple[str, Any]:
+    """REF_FRAME_A and the rotation to apply to q (None, or the frame bias quaternion).
+
+    A run with an orbit with an epoch is relative to the GCRS (``orbit_frame``): it is labelled
+    GCRF by default, and EME2000 when asked for (argument or the run's ``inertial_frame``),
+    rotated by the frame bias; another label would not be true and is refused. A run without
+    one has an abstract inertial frame: the label is the one given (default EME2000).
+    """
+    a = ds.attrs
+    gcrs = str(a.get("orbit_frame", "")).upper() == "GCRS"
+    frame_a = ref_frame_a or str(a.get("inertial_frame") or ("GCRF" if gcrs else "EME2000"))
+    if not gcrs or frame_a.upper() in _GCRS_NAMES:
+        return frame_a, None
+    if frame_a.upper() != "EME2000":
+        raise AttitudeValueError(
+            f"ref_frame_a: {frame_a!r}: this run's attitude is relative to the GCRS (its "
+            "orbit's frame); an AEM can label it GCRF (or ICRF), or EME2000 (rotated by the "
+            "frame bias)"
+        )
+    from orbit.frames import frame_bias
+
+    return frame_a, qt.from_matrix(frame_bias())
 
 
 def _check_arguments(ds, version, epoch, interpolation, **names) -> None:
@@ -128,9 +158,52 @@ def _check_arguments(ds, version, epoch, interpolation, **names) -> None:
         )
 
 
-def _iso(times: Any) -> np.ndarray:
-    times.precision = 6
-    return np.asarray(times.isot)
+# -- epochs --------------------------------------------------------------------------------------
+# An epoch is written as whole UTC seconds (astropy: leap seconds, "23:59:60") and a decimal
+# fraction computed exactly (decimal.Decimal of epoch fraction + the float64 time): with enough
+# digits the reader gets the time back bit for bit, with as few as 6 when that is enough.
+
+#: Fewest and most decimals of the seconds of a data line's epoch.
+_MIN_DIGITS, _MAX_DIGITS = 6, 24
+_ISO = re.compile(r"^(\d{4}-\d{2}-\d{2})[T ](\d{2}:\d{2}:\d{2})(?:\.(\d+))?Z?$")
+
+
+def _epoch_parts(e: Any, t0: Any) -> tuple[Any, Decimal]:
+    """The epoch as (whole UTC seconds, astropy Time; decimal fraction of a second), the
+    fraction with the digits the epoch was given with (a Time: ``format_epoch``'s)."""
+    from astropy.time import Time
+
+    from orbit.timescales import format_epoch
+
+    text = e if isinstance(e, str) and _ISO.match(e.strip()) else format_epoch(t0)
+    m = _ISO.match(text.strip())
+    whole = Time(f"{m.group(1)}T{m.group(2)}", scale="utc")
+    return whole, Decimal("0." + m.group(3)) if m.group(3) else Decimal(0)
+
+
+def _stamps(whole: Any, frac: Decimal, t: np.ndarray) -> list[str]:
+    """CCSDS epochs of epoch + t (SI seconds): the fewest decimals (at least 6) with which
+    :func:`read` gives each t back exactly (the reader counts from the first epoch, so with
+    a first sample at t = 0 the round trip is bit for bit)."""
+    from astropy.time import TimeDelta
+
+    k = np.empty(t.size)
+    fracs = []
+    for i, x in enumerate(t.tolist()):
+        total = frac + Decimal(x)  # exact
+        whole_s = total.to_integral_value(rounding=ROUND_FLOOR)
+        f = total - whole_s
+        for digits in range(_MIN_DIGITS, _MAX_DIGITS + 1):
+            fd = f.quantize(Decimal(1).scaleb(-digits), rounding=ROUND_HALF_EVEN)
+            if float(whole_s + fd - frac) == x:
+                break
+        if fd >= 1:  # rounded up to the next second
+            whole_s, fd = whole_s + 1, fd - 1
+        k[i] = float(whole_s)
+        fracs.append(f"{fd:.{max(digits, _MIN_DIGITS)}f}"[1:])  # ".ffffff"
+    times = whole + TimeDelta(k, format="sec")
+    times.precision = 0
+    return [w + f for w, f in zip(np.atleast_1d(times.isot).tolist(), fracs, strict=True)]
 
 
 def write_aem(
@@ -167,7 +240,9 @@ def write_aem(
     center_name : str, optional
         Default ``EARTH`` for a run with an orbit, else omitted.
     ref_frame_a : str, optional
-        The inertial frame; default the run's ``inertial_frame`` attr, else ``EME2000``.
+        The inertial frame; default the run's ``inertial_frame`` attr, else ``GCRF`` for a run
+        whose orbit frame is the GCRS, else ``EME2000``. A GCRS run written as ``EME2000`` is
+        rotated by the IAU 2006 frame bias (23 mas); other labels of a GCRS run are refused.
     ref_frame_b : str
         The body frame (principal axes), default ``SC_BODY_1``.
     originator, message_id : str
@@ -208,8 +283,6 @@ def write_aem(
         raise AttitudeValueError("ds: not a propagation result (needs variables time and q)")
     target = OutputFile(path, "path")  # checked before any work; atomic, devices written through
     t0, scale = _abs_times(ds, epoch, time_unit_seconds)
-    from astropy.time import TimeDelta
-
     n = ds.sizes["time"]
     if n < 1:
         raise AttitudeValueError("ds: no samples")
@@ -231,9 +304,9 @@ def write_aem(
 
             deg_per_s = float(u.Unit(rate).to("deg/s", equivalencies=u.dimensionless_angles()))
 
-    def stamp(x: np.ndarray) -> np.ndarray:
+    def stamp(x: np.ndarray) -> list[str]:
         try:
-            return _iso(t0 + TimeDelta(x, format="sec"))
+            return _stamps(*t0, x)
         except (ValueError, OverflowError) as exc:  # erfa: "unacceptable date"
             raise AttitudeValueError(
                 f"time: the sample times (epoch + t x {scale:g} s) are outside the dates a "
@@ -247,7 +320,7 @@ def write_aem(
     a = ds.attrs
     name = object_name or str(a.get("object_name") or "UNKNOWN")
     oid = object_id or str(a.get("object_id") or "UNKNOWN")
-    frame_a = ref_frame_a or str(a.get("inertial_frame") or "EME2000")
+    frame_a, bias = _frame_a(ds, ref_frame_a)
     center = center_name or ("EARTH" if "r" in ds else None)
 
     head = [_kvn("CCSDS_AEM_VERS", f"{version}.0")]
@@ -264,6 +337,11 @@ def write_aem(
         f"COMMENT Quaternion from {frame_a} to {ref_frame_b} (body principal axes): it rotates "
         f"the {frame_a} axes onto the body axes, X_B = M_BA X_A"
     )
+    if bias is not None:
+        meta.append(
+            "COMMENT The run's inertial frame is the GCRS; its attitude is rotated to EME2000 "
+            "by the IAU 2006 frame bias (ERFA bp06, 23 mas)"
+        )
     if angvel:
         meta.append(
             "COMMENT Data lines: EPOCH Q1 Q2 Q3 QC (vector part first, scalar QC last) "
@@ -305,6 +383,8 @@ def write_aem(
             for i in range(0, n, BLOCK):
                 sl = slice(i, i + BLOCK)
                 q = np.asarray(ds["q"].isel(time=sl).values, dtype=np.float64)
+                if bias is not None:  # x_EME2000 = B x_GCRS: the body -> EME2000 quaternion
+                    q = qt.multiply(bias, q)
                 epochs = stamp(tt[sl])
                 # 17 significant digits: every float64 quaternion component round-trips.
                 if deg_per_s is None:
@@ -346,13 +426,26 @@ _NVALUES = {
 }
 
 
-def _parse_epochs(stamps: list[str], scale: str) -> Any:
-    """CCSDS epochs (``YYYY-MM-DDThh:mm:ss[.d]`` or day of year ``YYYY-DDDThh:mm:ss[.d]``)."""
-    from astropy.time import Time
+#: Time systems whose epochs an integer number of SI seconds apart have whole seconds apart
+#: (the fractions of a second are then subtracted exactly, in decimal).
+_SI_SCALES = ("UTC", "TAI", "TT", "GPS")
 
-    iso, yday = [], []
+
+def _parse_epochs(stamps: list[str], system: str) -> tuple[Any, list[Decimal]]:
+    """CCSDS epochs (``YYYY-MM-DDThh:mm:ss[.d]`` or day of year ``YYYY-DDDThh:mm:ss[.d]``) in
+    a time system, as (whole seconds: astropy Time in UTC, decimal fractions of a second).
+
+    GPS time is TAI − 19 s: an epoch labelled in GPS is the instant labelled 19 s later in TAI.
+    """
+    from astropy.time import Time, TimeDelta
+
+    iso, yday, fracs = [], [], []
     for s in stamps:
         s = s.strip().rstrip("Z")
+        s, dot, digits = s.partition(".")
+        if dot and not digits.isdigit():
+            raise ValueError(f"{s}.{digits}: the fraction of a second is not a number")
+        fracs.append(Decimal("0." + digits) if dot else Decimal(0))
         date, _, rest = s.partition("T")
         parts = date.split("-")
         if len(parts) == 2:  # day of year
@@ -361,9 +454,41 @@ def _parse_epochs(stamps: list[str], scale: str) -> Any:
             iso.append(s)
     if iso and yday:
         raise ValueError("calendar and day-of-year epochs mixed in one segment")
+    scale = _SCALES.get(system, "tai")
     if yday:
-        return Time(yday, format="yday", scale=scale)
-    return Time(iso, format="isot", scale=scale)
+        whole = Time(yday, format="yday", scale=scale)
+    else:
+        whole = Time(iso, format="isot", scale=scale)
+    if system == "GPS":
+        whole = whole + TimeDelta(19.0, format="sec")
+    return whole.utc, fracs
+
+
+def _seconds_since_first(times: list[tuple[Any, list[Decimal]]], systems: set[str]) -> Any:
+    """SI seconds since the first epoch (leap seconds included) and that epoch (UTC, ISO with
+    a Z), from the segments' (whole seconds, fractions): the nearest float64 of the exact
+    decimal difference, so the epochs :func:`write_aem` writes give its times back bit for bit.
+    """
+    from astropy.time import TimeDelta
+
+    whole = times[0][0] if len(times) == 1 else np.concatenate([w for w, _ in times])
+    fracs = [f for _, fs in times for f in fs]
+    diff = (whole - whole[0]).to_value("s")
+    if systems <= set(_SI_SCALES):  # whole seconds apart: exact integers
+        diff = np.round(diff)
+    f0 = fracs[0]
+    rel = np.array([float(Decimal(d) + f - f0) for d, f in zip(diff.tolist(), fracs, strict=True)])
+    if systems <= set(_SI_SCALES):
+        first = whole[0].copy()
+        first.precision = 0
+        digits = f"{f0:f}"[2:] if f0 else ""
+        digits = digits.ljust(6 if len(digits) <= 6 else max(9, len(digits)), "0")
+        epoch = f"{first.isot}.{digits}Z"
+    else:
+        from orbit.timescales import format_epoch
+
+        epoch = format_epoch(whole[0] + TimeDelta(float(f0), format="sec"))
+    return rel, epoch
 
 
 def _segments(lines: list[str], where: str) -> tuple[dict[str, str], list[tuple[dict, list]]]:
@@ -401,12 +526,21 @@ def _segments(lines: list[str], where: str) -> tuple[dict[str, str], list[tuple[
     return header, segs
 
 
-def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any, scale: str):
+def _check_segment(
+    where: str, major: str, meta: dict, vals: np.ndarray, parsed: tuple, system: str
+) -> None:
     """What :func:`read` refuses in a segment besides its layout: a NaN, inf or overflowing
     value (``nan``, ``inf``, ``1e999``), QUATERNION_TYPE in a version-2 file (its data lines
     are scalar last), and START_TIME / STOP_TIME that are not times or do not bound the data
-    (they are the span the data lines cover: within the largest interval between epochs)."""
+    (they are the span the data lines cover: within the largest interval between epochs).
+    ``parsed``: the data epochs as :func:`_parse_epochs` gives them, in ``system``."""
+    from astropy.time import TimeDelta
+
     from orbit.timescales import quiet_erfa
+
+    def instants(p):
+        whole, fracs = p
+        return whole + TimeDelta(np.array([float(f) for f in fracs]), format="sec")
 
     bad = ~np.isfinite(vals)
     if bad.any():
@@ -420,6 +554,7 @@ def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any
             f"{where}: QUATERNION_TYPE is a version 1 keyword; a version 2 AEM's data lines are "
             "always scalar last (remove it, or write CCSDS_AEM_VERS = 1.0)"
         )
+    tt = instants(parsed)
     n = len(tt)
     gap = float(np.max(np.abs(np.diff((tt - tt[0]).to_value("s"))))) if n > 1 else 0.0
     for key, i in (("START_TIME", 0), ("STOP_TIME", n - 1)):
@@ -427,7 +562,7 @@ def _check_segment(where: str, major: str, meta: dict, vals: np.ndarray, tt: Any
             continue
         try:
             with quiet_erfa():  # (a date before 1960: ERFA's "dubious year")
-                edge = _parse_epochs([meta[key]], scale)[0]
+                edge = instants(_parse_epochs([meta[key]], system))[0]
                 off = float((edge - tt[i]).to_value("s"))
         except ValueError:
             raise AttitudeValueError(
@@ -448,8 +583,49 @@ def _epoch_text(t: Any) -> str:
     return str(t.isot)
 
 
+#: Element names of an XML AEM's data entry, in the order of a KVN data line: the quaternion
+#: (scalar last; first when the metadata say QUATERNION_TYPE = FIRST), then the rates or the
+#: quaternion's derivative (CCSDS 505.0-B-3: quaternionEphemeris, quaternionAngVel,
+#: quaternionDerivative; v1 quaternionState, quaternionEulerRate).
+_XML_QUATERNION = ("Q1", "Q2", "Q3", "QC")
+_XML_RATES = (("ANGVEL_X", "ANGVEL_Y", "ANGVEL_Z"), ("X_RATE", "Y_RATE", "Z_RATE"))
+
+
+def _xml_segments(raw: bytes, where: str) -> tuple[dict[str, str], list[tuple[dict, list]]]:
+    """An XML AEM as :func:`_segments` reads a KVN one: the header (with CCSDS_AEM_VERS from
+    the root's version) and per segment the metadata and data lines ``[EPOCH, values...]``."""
+    from orbit.ccsds import leaves, read_xml
+
+    try:
+        msg = read_xml(raw, where)
+    except ValueError as exc:
+        raise AttitudeValueError(str(exc)) from None
+    if msg.kind != "AEM":
+        raise AttitudeValueError(f"{where}: an XML {msg.kind} message, not an AEM")
+    header = {"CCSDS_AEM_VERS": msg.version, **msg.header}
+    segs = []
+    for k, (meta, entries) in enumerate(msg.segments):
+        first = meta.get("QUATERNION_TYPE", "LAST").upper() == "FIRST"
+        order = ("QC", "Q1", "Q2", "Q3") if first else _XML_QUATERNION
+        lines = []
+        for j, entry in enumerate(entries):
+            values = {name: text for name, text, _ in leaves(entry)}
+            try:
+                line = [values["EPOCH"]] + [values[c] for c in order]
+            except KeyError as exc:
+                raise AttitudeValueError(
+                    f"{where}: segment {k + 1}, attitude state {j + 1} has no {exc.args[0]}"
+                ) from None
+            for names in _XML_RATES:
+                line += [values[c] for c in names if c in values]
+            line += [values[c + "_DOT"] for c in order if c + "_DOT" in values]
+            lines.append(line)
+        segs.append((meta, lines))
+    return header, segs
+
+
 def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Dataset:
-    """Read a CCSDS AEM (KVN, version 1 or 2) into a Dataset of the result schema.
+    """Read a CCSDS AEM (KVN or XML, version 1 or 2) into a Dataset of the result schema.
 
     Parameters
     ----------
@@ -475,9 +651,7 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         Not an AEM, an attitude type other than the quaternion ones, inconsistent segments,
         or a time system astropy does not know.
     """
-    from astropy.time import TimeDelta
 
-    from . import quaternion as qt
     from .results import index_coords, time_attrs
 
     p = input_path(path, "path")  # type, NUL bytes, a directory: errors naming the path
@@ -486,10 +660,15 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
             f"body_frame: expected a frame name (str) or None, got {type(body_frame).__name__}"
         )
     try:
-        text = p.read_text(encoding="latin-1")
+        raw = p.read_bytes()
     except OSError as exc:
         raise file_error(exc, p, "read") from None
-    header, segs = _segments(text.splitlines(), str(p))
+    from orbit.ccsds import is_xml
+
+    if is_xml(raw):  # NDM/XML (Orekit writes it): the same header and segments as KVN
+        header, segs = _xml_segments(raw, str(p))
+    else:
+        header, segs = _segments(raw.decode("latin-1").splitlines(), str(p))
     vers = header.get("CCSDS_AEM_VERS")
     if vers is None:
         raise AttitudeValueError(f"{p}: not a CCSDS AEM (no CCSDS_AEM_VERS header line)")
@@ -500,6 +679,7 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         raise AttitudeValueError(f"{p}: no data segment (META_START ... DATA_STOP)")
 
     times, qs, ws = [], [], []
+    systems: set[str] = set()
     first = segs[0][0]
     kinds = set()
     for i, (meta, data) in enumerate(segs):
@@ -547,15 +727,13 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
             vals = np.array([[float(x) for x in d[1:]] for d in data], dtype=np.float64)
         except ValueError as exc:
             raise AttitudeValueError(f"{where}: a data value is not a number ({exc})") from None
-        scale = _SCALES.get(ts, "tai")
         try:
-            tt = _parse_epochs([d[0] for d in data], scale)
+            parsed = _parse_epochs([d[0] for d in data], ts)
         except ValueError as exc:
             raise AttitudeValueError(f"{where}: bad epoch ({exc})") from None
-        _check_segment(where, major, meta, vals, tt, scale)
-        if ts == "GPS":
-            tt = tt - TimeDelta(19.0, format="sec")
-        times.append(tt.utc)
+        _check_segment(where, major, meta, vals, parsed, ts)
+        times.append(parsed)
+        systems.add(ts)
         # The quaternion "from A to B" (annex F) as scalar first.
         if qtype == "FIRST":
             q = vals[:, 0:4].copy()
@@ -605,20 +783,14 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         raise AttitudeValueError(f"{p}: segments mix types with and without rates")
     if not qs:
         raise AttitudeValueError(f"{p}: no data lines")
-    t_all = times[0] if len(times) == 1 else np.concatenate(times)  # astropy Time
+    rel, epoch = _seconds_since_first(times, systems)
     q_all = np.concatenate(qs)
     w_all = np.concatenate(ws) if ws else None
-    t0 = t_all[0]
-    # SI seconds since the first epoch (leap seconds included), to the nanosecond: the epochs
-    # are decimal, so the nearest float64 of a whole number of nanoseconds
-    rel = np.round((t_all - t0).to_value("s"), 9)
     keep = np.ones(rel.shape, bool)
     keep[1:] = rel[1:] != rel[:-1]  # a boundary sample repeated by the next segment
     if np.any(rel[1:][keep[1:]] < rel[:-1][keep[1:]]):
         raise AttitudeValueError(f"{p}: epochs must increase through the file")
     rel, q_all = rel[keep], q_all[keep]
-    t0.precision = 6
-    epoch = t0.utc.isot + "Z"
     coords = {"time": ("time", rel, time_attrs("s", epoch)), **index_coords()}
     data_vars = {
         "q": (
@@ -641,7 +813,7 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         fa if fa.upper().startswith("SC_BODY") and not fb.upper().startswith("SC_BODY") else fb
     )
     attrs = {
-        "Conventions": "CF-1.10",
+        "Conventions": "CF-1.11",
         "title": f"CCSDS AEM {p.name}",
         "source": f"CCSDS AEM version {vers}, originator {header.get('ORIGINATOR', '-')}",
         "history": f"read by attitude {__version__} (attitude.aem.read) from {p}",

@@ -15,7 +15,7 @@ import numpy as np
 from ._validation import as_float_array
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["SI_INERTIA", "RigidBody"]
+__all__ = ["SI_INERTIA", "RigidBody", "inertia_rows"]
 
 #: The unit of the inertia of a body with units (and the ``units`` label it carries): SI, in a
 #: spelling that astropy, UDUNITS (cf_units) and pint's default registry all parse.
@@ -150,3 +150,68 @@ class RigidBody:
 
     def __hash__(self) -> int:
         return hash((tuple(self.inertia.tolist()), self.units))
+
+
+def inertia_rows(
+    inertia: Any, name: str = "inertia", row: str = "row"
+) -> tuple[np.ndarray, str | None]:
+    """The principal moments of one body, shape (3,), or of many, shape (N, 3) (one row per
+    ensemble member), checked as :class:`RigidBody` checks one (positive, triangle
+    inequalities), vectorised.
+
+    Parameters
+    ----------
+    inertia : RigidBody, sequence of RigidBody, array_like or Quantity, shape (3,) or (N, 3)
+        Plain numbers are dimensionless (as :class:`RigidBody`); a Quantity is converted to
+        kg m² (SI).
+    name, row : str
+        The parameter's name and what a row is (``"member"``), for messages.
+
+    Returns
+    -------
+    moments : ndarray, shape (3,) or (N, 3)
+    units : str or None
+        :data:`SI_INERTIA`, or None for dimensionless bodies.
+    """
+    if isinstance(inertia, RigidBody):
+        return inertia.inertia, inertia.units
+    if isinstance(inertia, (list, tuple)) and inertia and isinstance(inertia[0], RigidBody):
+        if not all(isinstance(b, RigidBody) for b in inertia):
+            raise AttitudeTypeError(f"{name}: a sequence mixing RigidBody and other objects")
+        units = {b.units for b in inertia}
+        if len(units) > 1:
+            raise AttitudeValueError(
+                f"{name}: the bodies mix unit systems {sorted(map(str, units))}; give them all "
+                "in one (e.g. all as astropy Quantities in kg m2)"
+            )
+        return np.stack([b.inertia for b in inertia]), inertia[0].units
+    from astropy import units as u
+
+    is_quantity = isinstance(inertia, u.Quantity)
+    arr = as_float_array(inertia, name, unit=SI_INERTIA if is_quantity else None)
+    units = SI_INERTIA if is_quantity else None
+    if arr.shape == (3,):
+        return RigidBody(arr * u.Unit(SI_INERTIA) if is_quantity else arr).inertia, units
+    if arr.ndim != 2 or arr.shape[1] != 3:
+        raise AttitudeValueError(
+            f"{name}: expected the three principal moments (3,) of one body, or one row of "
+            f"principal moments per member (N, 3), got shape {arr.shape}; for a full tensor "
+            "use RigidBody.from_tensor(J)"
+        )
+    bad = ~np.all(arr > 0, axis=1)
+    if np.any(bad):
+        i = int(np.argmax(bad))
+        raise AttitudeValueError(
+            f"{name}: {row} {i}: principal moments must be positive, got {arr[i].tolist()}"
+        )
+    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        bad = arr[:, a] + arr[:, b] < arr[:, c] * (1.0 - _TRIANGLE_RTOL)
+        if np.any(bad):
+            i = int(np.argmax(bad))
+            raise AttitudeValueError(
+                f"{name}: {row} {i}: {arr[i].tolist()} violates the triangle inequality "
+                f"I{a + 1} + I{b + 1} >= I{c + 1}; no rigid body has these moments (dispersed "
+                "inertia: attitude.ensemble.disperse truncates the errors so that every member "
+                "is a rigid body)"
+            )
+    return arr, units

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from ._validation import as_float_array, as_quaternion, as_rate, as_vector
-from .body import RigidBody
+from .body import inertia_rows
 from .errors import AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
 
@@ -42,12 +42,9 @@ __all__ = [
 EULER_SINGULAR_TOL = 1e-9
 
 
-def _body(inertia: Any) -> RigidBody:
-    return inertia if isinstance(inertia, RigidBody) else RigidBody(inertia)
-
-
 def _inertia(inertia: Any) -> np.ndarray:
-    return _body(inertia).inertia
+    """Principal moments (3,) of one body or (N, 3) of N bodies (ensemble members)."""
+    return inertia_rows(inertia)[0]
 
 
 def _pure(v: np.ndarray) -> np.ndarray:
@@ -74,7 +71,9 @@ def momenta_from_body_angular_momentum(q: Any, g: Any) -> np.ndarray:
     return 2.0 * multiply(q, _pure(g))
 
 
-def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarray:
+def momenta_from_angular_velocity(
+    q: Any, omega: Any, inertia: Any, wheel_speeds: Any = None
+) -> np.ndarray:
     """Conjugate momenta from the body angular velocity: Q = 2 q∘(0, I ω).
 
     Parameters
@@ -83,18 +82,44 @@ def momenta_from_angular_velocity(q: Any, omega: Any, inertia: Any) -> np.ndarra
         Unit quaternion (body → space).
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
-        (``deg/s``, ``rpm``...) for a body with units (converted to rad/s).
-    inertia : RigidBody, array_like or Quantity, shape (3,)
-        Principal moments of inertia.
+        (``deg/s``, ``cycle/min``...) for a body with units (converted to rad/s).
+    inertia : RigidBody, Spacecraft, array_like or Quantity, shape (3,) or (N, 3)
+        Principal moments of inertia: one body, or one row per ensemble member (as
+        ``propagate_ensemble`` takes them; a sequence of N RigidBody too), rows broadcast
+        against ``q`` and ``omega``; or a :class:`~attitude.Spacecraft`: with wheels g is the
+        total momentum I ω + Σ J_k Ω_k a_k of body and wheels.
+    wheel_speeds : array_like or Quantity, shape (..., n_wheels), optional
+        A spacecraft's wheel speeds Ω_k relative to the body (rad/s; default: the wheels'
+        initial speeds).
 
     Returns
     -------
     Q : ndarray, shape (..., 4)
         In kg m² s⁻¹ for a body with units.
     """
-    body = _body(inertia)
-    inert = body.inertia
-    omega = as_rate(omega, "omega", dimensional=not body.is_dimensionless)
+    if hasattr(inertia, "body_momentum"):  # a Spacecraft (with its wheels)
+        craft = inertia
+        omega = as_rate(omega, "omega", dimensional=not craft.body.is_dimensionless)
+        speeds = None
+        if wheel_speeds is not None:
+            speeds = as_rate(
+                wheel_speeds,
+                "wheel_speeds",
+                dimensional=not craft.body.is_dimensionless,
+                trailing=None,
+            )
+            if speeds.shape[-1:] != (len(craft.wheels),):
+                raise AttitudeValueError(
+                    f"wheel_speeds: expected {len(craft.wheels)} wheel speeds in the last "
+                    f"dimension, got shape {speeds.shape}"
+                )
+        return momenta_from_body_angular_momentum(q, craft.body_momentum(omega, speeds))
+    if wheel_speeds is not None:
+        raise AttitudeValueError(
+            "wheel_speeds: only a Spacecraft has wheels; give inertia=Spacecraft(...)"
+        )
+    inert, units = inertia_rows(inertia)
+    omega = as_rate(omega, "omega", dimensional=units is not None)
     return momenta_from_body_angular_momentum(q, omega * inert)
 
 
@@ -130,13 +155,22 @@ def space_angular_momentum(q: Any, Q: Any) -> np.ndarray:
     return 0.5 * multiply(Q, conjugate(q))[..., 1:]
 
 
-def angular_velocity(q: Any, Q: Any, inertia: Any) -> np.ndarray:
-    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q).
+def angular_velocity(q: Any, Q: Any, inertia: Any, wheel_speeds: Any = None) -> np.ndarray:
+    """Body angular velocity ω = I⁻¹ g, g = ½ vec(q̃∘Q) (``inertia`` (3,) or (N, 3)).
+
+    For a :class:`~attitude.Spacecraft` with wheels, ω = I⁻¹ (g − Σ J_k Ω_k a_k) with the
+    wheel speeds Ω_k relative to the body (``wheel_speeds``, default the wheels' initial
+    speeds).
 
     Returns
     -------
     omega : ndarray, shape (..., 3)
     """
+    if hasattr(inertia, "rate_from_momentum"):
+        speeds = None
+        if wheel_speeds is not None:
+            speeds = as_rate(wheel_speeds, "wheel_speeds", dimensional=True, trailing=None)
+        return inertia.rate_from_momentum(body_angular_momentum(q, Q), speeds)
     return body_angular_momentum(q, Q) / _inertia(inertia)
 
 
@@ -144,6 +178,7 @@ def kinetic_energy(q: Any, Q: Any, inertia: Any) -> np.ndarray:
     """Rotational kinetic energy T = ⅛ (I⁻¹⊗q̃∘Q)·(q̃∘Q) (Arribas et al. eq. 6).
 
     The scalar part of q̃∘Q (= q·Q, zero on the constraint manifold) is left out, i.e. I0 → ∞.
+    ``inertia``: (3,) or (N, 3), as :func:`momenta_from_angular_velocity`.
 
     Returns
     -------

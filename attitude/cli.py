@@ -107,15 +107,49 @@ def _fmt_attrs_number(x: Any) -> str:
 
 
 def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
+    # q.Q relative to |Q| (q.Q alone is in the momenta's units); files written before the
+    # relative maximum existed show the absolute one
+    qQ = ("max_rel_qQ", "max |q.Q| / |Q|") if "max_rel_qQ" in attrs else ("max_abs_qQ", "max |q.Q|")
     labels = [
         ("max_abs_norm_error", "max | |q| - 1 |"),
-        ("max_abs_qQ", "max |q.Q|"),
+        qQ,
         ("max_rel_energy_error", "max |H - H0|/|H0| (conserved)"),
         ("max_rel_G_error", "max |G - G0|/|G0| (conserved)"),
         ("max_rel_Gz_error", "max |Gz - Gz0|/|G0| (conserved)"),
         ("max_rel_energy_variation", "max |H - H0|/|H0| (time-dependent potential: not conserved)"),
+        ("max_rel_energy_work", "max |H - H0|/|H0| (actuators do work: not conserved)"),
     ]
     return [f"{label} = {_fmt_attrs_number(attrs[k])}" for k, label in labels if k in attrs]
+
+
+def _process_age() -> float | None:
+    """Seconds since this process started (Linux: /proc), else None."""
+    try:
+        with open("/proc/self/stat") as fh:
+            fields = fh.read().rsplit(")", 1)[1].split()
+        with open("/proc/uptime") as fh:
+            uptime = float(fh.read().split()[0])
+        return uptime - int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22: starttime
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
+
+
+#: When the command started: the process's start (interpreter and imports included) where the
+#: system says, else the import of this module.
+_T_IMPORT = time.monotonic()
+
+
+def _elapsed() -> float:
+    """Seconds since the command started (the process, else the import of the CLI)."""
+    age = _process_age()
+    return age if age is not None else time.monotonic() - _T_IMPORT
+
+
+def _timing(startup: float) -> str:
+    """'in 5.62 s (0.71 s of it start-up: ...)', measured from the command's start."""
+    total = _elapsed()
+    start = min(startup, total)
+    return f"in {total:.2f} s ({start:.2f} s of it start-up: Python, imports, scenario)"
 
 
 def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str:
@@ -126,7 +160,9 @@ def _span(attrs: dict[str, Any], t0: float, t1: float, n: int, unit: str) -> str
     return s
 
 
-def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
+def _ensemble_summary(
+    sc: Any, info: dict[str, Any], wall: float, startup: float = 0.0
+) -> list[str]:
     """The ``attitude run`` summary of an ensemble run."""
     p = Path(info["path"])
     size = p.stat().st_size / 1e6 if p.exists() else 0.0
@@ -151,7 +187,7 @@ def _ensemble_summary(sc: Any, info: dict[str, Any], wall: float) -> list[str]:
     )
     if info.get("events"):
         lines.append(f"events      {info['events']} (attitude info for the percentiles)")
-    lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
+    lines.append(f"output      {p} ({size:.2f} MB) {_timing(startup)}")
     return lines
 
 
@@ -190,6 +226,7 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
     mode = getattr(args, "progress", "auto")
     tty = bool(getattr(sys.stderr, "isatty", lambda: False)())
     show = mode == "always" or (mode == "auto" and tty and not getattr(args, "quiet", False))
+    startup = _elapsed()
     t0 = time.monotonic()
     chunks = [0]
 
@@ -251,7 +288,7 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
                 raise BadInput(opt + msg[len(key) :]) from None
         raise
     if not getattr(args, "quiet", False):
-        print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0)))
+        print("\n".join(_ensemble_summary(sc, info, time.monotonic() - t0, startup)))
 
 
 def _output_path(given: str | None, default: Path) -> Path:
@@ -367,7 +404,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if args.scheduler:
         raise BadInput("--scheduler: only for scenarios with an [ensemble] table")
     progress = Progress(args.progress)
-    t_start = time.monotonic()
+    startup = _elapsed()
     wall_start = time.time()
     from .errors import PropagationError
 
@@ -389,9 +426,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     args._written = out
-    wall = time.monotonic() - t_start
     if not args.quiet:
-        _summary(sc, info, wall, file=sys.stderr if args._to_stdout else sys.stdout)
+        _summary(sc, info, startup, file=sys.stderr if args._to_stdout else sys.stdout)
     return EXIT_OK
 
 
@@ -422,7 +458,7 @@ def _statistics(a: dict[str, Any]) -> str:
     return ", ".join(parts) or "-"
 
 
-def _summary(sc: Any, a: dict[str, Any], wall: float, file: Any = None) -> None:
+def _summary(sc: Any, a: dict[str, Any], startup: float, file: Any = None) -> None:
     p = Path(a["path"])
     try:
         size = os.path.getsize(p) / 1e6 if p.is_file() else 0.0
@@ -430,9 +466,11 @@ def _summary(sc: Any, a: dict[str, Any], wall: float, file: Any = None) -> None:
         size = 0.0
     unit = "s" if not sc.body.is_dimensionless else "1"
     n = int(a.get("n_samples", len(sc.t)))
+    # the span computed (a terminal event ends the run at its own time, not on the grid)
+    t0, t1 = a.get("time_span", (float(sc.t[0]), float(sc.t[n - 1])))
     lines = [
         f"scenario    {a.get('scenario')}: {a.get('title', '')}",
-        f"time span   {_span(a, float(sc.t[0]), float(sc.t[n - 1]), n, unit)}",
+        f"time span   {_span(a, t0, t1, n, unit)}",
         f"method      {a.get('method')}, {_numerics(a)}: {_statistics(a)}",
     ]
     if float(a.get("initial_projection", 0.0)) > 0:
@@ -446,7 +484,7 @@ def _summary(sc: Any, a: dict[str, Any], wall: float, file: Any = None) -> None:
         lines.append("events      " + "\n            ".join(str(a["events"]).split(" | ")))
         if a.get("terminal_event"):
             lines.append(f"            run ended by {a['terminal_event']}")
-    lines.append(f"output      {p} ({size:.2f} MB) in {wall:.2f} s")
+    lines.append(f"output      {p} ({size:.2f} MB) {_timing(startup)}")
     print("\n".join(lines), file=file)
 
 
@@ -489,6 +527,7 @@ def cmd_info(args: argparse.Namespace) -> int:
         try:
             rows, inv = _info_rows(args, ds)
             budget = _torque_budget(ds)
+            wheels = _wheel_lines(ds)
             events = ds.attrs.get("events") or "detector" in ds.dims
             ev = _event_lines(ds) if events else []
         except BadInput:
@@ -499,6 +538,8 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"{k:<11} {v}")
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
         print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if wheels:
+            print("wheels      " + "\n            ".join(wheels))
         if events:
             print("events      " + ("\n            ".join(ev) if ev else "-"))
     finally:
@@ -520,7 +561,8 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         tr = InvariantTracker()
         for c in iter_chunks(ds):
             tr.update(c)
-        a.update(tr.attrs(str(a.get("potential_name", ""))))
+        counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
+        a.update(tr.attrs(str(a.get("potential_name", "")), counts))
     inertia = a.get("inertia")
     rows = [
         ("file", args.file),
@@ -560,10 +602,13 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     out = [str(x).strip() for x in str(a.get("events", "")).split(" | ") if str(x).strip()]
     if "detector_label" not in ds.variables:
         return out
+    from .results import time_unit, time_values
+
     labels = [str(x) for x in ds["detector_label"].values]
-    unit = ds["time"].attrs.get("units", "")
+    unit = time_unit(ds["time"])
+    unit = "" if unit in ("1", "") else unit
     if "event_first_time" in ds and "member" in ds["event_first_time"].dims:  # ensemble
-        first = np.asarray(ds["event_first_time"].values, dtype=np.float64)
+        first = time_values(ds, "event_first_time")
         n = first.shape[0]
         for j, name in enumerate(labels):
             col = first[:, j]
@@ -581,7 +626,7 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
         counts = np.asarray(ds["detector_count"].values)
         out.append(", ".join(f"{name}: {int(c)}" for name, c in zip(labels, counts, strict=True)))
     if "event_time" in ds:
-        t = np.asarray(ds["event_time"].values, dtype=np.float64)
+        t = time_values(ds, "event_time")
         which = np.asarray(ds["event_detector"].values)
         sign = np.asarray(ds["event_direction"].values)
         for i in range(min(t.size, limit)):
@@ -591,6 +636,47 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
             out.append(f"... {t.size - limit} more (variables event_time, event_detector)")
     if a.get("terminal_event"):
         out.append(f"run ended by the terminal event {a['terminal_event']}")
+    return out
+
+
+def _wheel_lines(ds: Any) -> list[str]:
+    """Per reaction wheel: speed range (rpm), largest applied torque, and how often each limit
+    acted (streamed over the file's chunks)."""
+    if "wheel_speed" not in ds.data_vars:
+        return []
+    labels = [str(x) for x in ds["wheel_label"].values]
+    n_w = len(labels)
+    lo = np.full(n_w, np.inf)
+    hi = np.full(n_w, -np.inf)
+    umax = np.zeros(n_w)
+    flags = np.zeros((n_w, 4), dtype=np.int64)
+    n = 0
+    step = 65536
+    for i in range(0, ds.sizes["time"], step):
+        sl = slice(i, i + step)
+        w = np.asarray(ds["wheel_speed"].isel(time=sl).values, dtype=np.float64)
+        u = np.asarray(ds["wheel_torque"].isel(time=sl).values, dtype=np.float64)
+        f = np.asarray(ds["wheel_limit"].isel(time=sl).values).astype(np.int64)
+        lo = np.minimum(lo, w.min(axis=0, initial=np.inf))
+        hi = np.maximum(hi, w.max(axis=0, initial=-np.inf))
+        umax = np.maximum(umax, np.abs(u).max(axis=0, initial=0.0))
+        for b in range(4):
+            flags[:, b] += ((f >> b) & 1).sum(axis=0)
+        n += w.shape[0]
+    rpm = 60.0 / (2.0 * np.pi)
+    names = ("torque", "speed", "power", "dead band")
+    width = max(len(x) for x in labels)
+    unit = ds["wheel_torque"].attrs.get("units", "")
+    out = [f"{'wheel':<{width}}  {'speed min .. max [rpm]':>24}  {'max |u| [' + unit + ']':>13}  "
+           "limits (share of samples)"]  # fmt: skip
+    for k in range(n_w):
+        lim = ", ".join(
+            f"{names[b]} {flags[k, b] / max(n, 1):.1%}" for b in range(4) if flags[k, b]
+        )
+        out.append(
+            f"{labels[k]:<{width}}  {lo[k] * rpm:>11.6g} .. {hi[k] * rpm:<10.6g}  "
+            f"{umax[k]:13.4g}  {lim or 'none'}"
+        )
     return out
 
 
@@ -630,6 +716,7 @@ def cmd_plot(args: argparse.Namespace) -> int:
     from matplotlib.figure import Figure
 
     from ._files import OutputFile
+    from .errors import AttitudeError
     from .plotting import plot_ensemble, plot_result, plot_torque_budget
 
     default = Path(args.file).with_suffix(".png")
@@ -656,7 +743,12 @@ def cmd_plot(args: argparse.Namespace) -> int:
             elif "member" in ds.dims:  # percentile bands over the members
                 fig = plot_ensemble(ds)
             else:
-                fig = plot_result(ds)
+                panels = None
+                if args.panels:
+                    panels = [p.strip() for p in args.panels.split(",") if p.strip()]
+                fig = plot_result(ds, layout=args.layout, frame=args.frame, panels=panels)
+        except AttitudeError as exc:  # --frame, --panels, --layout that do not fit the run
+            raise BadInput(f"plot: {exc}") from None
         except _READ_ERRORS as exc:
             raise _unreadable(args.file, exc) from None
     finally:
@@ -858,8 +950,11 @@ def build_parser() -> argparse.ArgumentParser:
         "plot",
         help="plot a result file",
         description=(
-            "q and Q against time as in the paper's Figs. 1-3 (left q, right Q), plus angular "
-            "velocity and energy."
+            "A run with an orbit or a reference frame: pointing error and roll/pitch/yaw "
+            "against the frame, body rates in deg/s, the Earth's shadow and the events on a "
+            "time axis in s, min, h or days. The paper's layout (q left, Q right, angular "
+            "velocity and energy: Figs. 1-3) with --layout paper (the paper's scenarios ask "
+            "for it). Ensembles: percentile bands over the members."
         ),
     )
     pl.add_argument("file", metavar="OUT.nc")
@@ -869,6 +964,24 @@ def build_parser() -> argparse.ArgumentParser:
         "--torques",
         action="store_true",
         help="the torque budget instead: |torque| per model against time, max and RMS",
+    )
+    pl.add_argument(
+        "--layout",
+        choices=("auto", "engineer", "paper"),
+        default="auto",
+        help="engineer (pointing, angles, rates...) or paper (q, Q, omega, energy); default: "
+        "the scenario's plot_layout, else engineer for a run with an orbit",
+    )
+    pl.add_argument(
+        "--frame",
+        choices=("inertial", "orbital", "rsw", "lvlh", "vnc", "nadir", "sun_pointing", "none"),
+        help="reference frame of the pointing error and the angles (default: the scenario's: "
+        "its initial state's frame, else its pointing event's, else lvlh on an orbit)",
+    )
+    pl.add_argument(
+        "--panels",
+        metavar="P1,P2,...",
+        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, torque",
     )
     pl.set_defaults(func=cmd_plot)
 

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ._core import events as _ke
+from ._user_kernels import compile_failure
 from ._validation import as_scalar
 from .errors import AttitudeTypeError, AttitudeValueError
 from .frames import Frame, as_axis
@@ -187,8 +188,7 @@ class Custom(Event):
         except Exception as exc:
             raise AttitudeTypeError(
                 f"g: must be a numba-compilable function g(t, q, omega) returning a number; "
-                f"calling it failed: {type(exc).__name__}: "
-                f"{str(exc).splitlines()[0] if str(exc) else ''}"
+                f"calling it failed: {compile_failure(exc)}"
             ) from None
         if math.isnan(v):
             raise AttitudeValueError("g: returned NaN at t = 0, q = identity, omega = 0")

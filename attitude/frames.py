@@ -52,8 +52,10 @@ from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
+    "NAMED",
     "Frame",
     "aligned",
+    "by_name",
     "inertial",
     "initial_state",
     "lvlh",
@@ -546,6 +548,39 @@ def aligned(orbit: Any, primary: tuple[Any, Any], secondary: tuple[Any, Any], **
 # ---------------------------------------------------------------------------------------------
 
 
+#: The frames that :func:`by_name` builds on an orbit (scenario files, ``attitude plot --frame``):
+#: name -> (maker, description). ``orbital`` is ``rsw``.
+NAMED = {
+    "orbital": "rsw",
+    "rsw": "rsw",
+    "lvlh": "lvlh",
+    "vnc": "vnc",
+    "nadir": "nadir",
+    "sun_pointing": "sun_pointing",
+}
+
+
+def by_name(name: str, orbit: Any, q: Any = None) -> Frame:
+    """A frame by its name: ``"inertial"`` (``q``, default the identity: the space axes), or
+    one of :data:`NAMED` on ``orbit`` (``"orbital"`` is :func:`rsw`), with its defaults.
+
+    Raises
+    ------
+    AttitudeValueError
+        An unknown name, or a frame on an orbit without one.
+    """
+    if name == "inertial":
+        return inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
+    if name not in NAMED:
+        raise AttitudeValueError(
+            f"frame: expected inertial or one of {', '.join(NAMED)} ('orbital' is rsw), got "
+            f"{name!r}"
+        )
+    if orbit is None:
+        raise AttitudeValueError(f"frame: {name!r} is a frame on an orbit; this run has none")
+    return globals()[NAMED[name]](orbit)
+
+
 def initial_state(
     body: Any, frame: Frame, t0: Any = 0.0, offset: Any = None, rates: Any = None
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -557,8 +592,9 @@ def initial_state(
 
     Parameters
     ----------
-    body : RigidBody or array_like, shape (3,)
-        The body (principal moments).
+    body : RigidBody, Spacecraft or array_like, shape (3,)
+        The body (principal moments); a spacecraft's wheels keep their initial speeds
+        relative to the body (Q0 holds the total momentum of body and wheels).
     frame : Frame
         From :mod:`attitude.frames` (``lvlh(orbit)``, ...).
     t0 : float or Quantity
@@ -583,7 +619,9 @@ def initial_state(
             f"frame: expected a reference frame from attitude.frames (lvlh(orbit), ...), got "
             f"{type(frame).__name__}"
         )
-    b = body if isinstance(body, RigidBody) else RigidBody(body)
+    from .spacecraft import Spacecraft
+
+    b = body if isinstance(body, (RigidBody, Spacecraft)) else RigidBody(body)
     t = as_scalar(t0, "t0", unit="s")
     qR, wR = frame._evaluate(np.array([t]), interpreted=True)
     qR, wR = qR[0], wR[0]

@@ -24,11 +24,12 @@ stored as int8 0/1 and ``None`` is dropped (netCDF has neither); anything else i
 
 CF
 --
-Files follow CF-1.10 (``compliance-checker --test=cf:1.10`` reports no errors, tests/test_cf.py):
-the attrs of ``time`` follow the global attr ``epoch`` when the file is committed
-(:func:`attitude.results.time_attrs`: ``seconds since <epoch>`` with an epoch), and data
-variables name their auxiliary label coordinates (``component_label``, ``axis_label``) in a
-``coordinates`` attr, which :func:`read` turns back into coordinates.
+Files follow CF-1.11 (``compliance-checker --test=cf:1.11`` reports no errors, tests/test_cf.py):
+the attrs of ``time`` (and of the event times, encoded alike) follow the global attr ``epoch``
+when the file is committed (:func:`attitude.results.time_attrs`: ``seconds since <epoch>``
+with an epoch), and data variables name their auxiliary label coordinates
+(``component_label``, ``axis_label``) in a ``coordinates`` attr, which :func:`read` turns
+back into coordinates.
 """
 
 from __future__ import annotations
@@ -57,6 +58,11 @@ def _tmp_path(path: Path) -> Path:
     return tmp_path_for(path)
 
 
+#: Dimensions stored unlimited besides ``time``: the flight software's ``tick`` (a second time
+#: axis, which CF §2.4 then leaves right of its components as it does ``time``'s).
+UNLIMITED = ("tick",)
+
+
 def _attr_value(name: str, value: Any) -> Any:
     """An attr value netCDF4 can store (see the module docstring)."""
     if isinstance(value, (bool, np.bool_)):
@@ -78,6 +84,8 @@ def _attr_value(name: str, value: Any) -> Any:
         except (ValueError, TypeError):
             arr = np.asarray(None)
         if arr.ndim == 1 and arr.size and arr.dtype.kind in "iuf":
+            if name in ("flag_values", "flag_masks") and arr.dtype.kind in "iu":
+                return arr  # CF §3.5: the type of the flagged variable
             return arr.astype(np.int64 if arr.dtype.kind in "iu" else np.float64)
     return str(value)
 
@@ -99,8 +107,9 @@ def _variable_attrs(ds: xr.Dataset, name: str) -> dict[str, Any]:
 
 
 def _sync_time_attrs(nc: Any, attrs: Mapping[str, Any]) -> None:
-    """Rewrite the attrs of the file's ``time`` variable to follow the global ``epoch``."""
-    from .results import time_attrs
+    """Rewrite the attrs of the file's ``time`` variable, and the encoding of the instant
+    variables (event times), to follow the global ``epoch``."""
+    from .results import INSTANT_VARIABLES, instant_attrs, time_attrs
 
     if "time" not in nc.variables:
         return
@@ -113,6 +122,9 @@ def _sync_time_attrs(nc: Any, attrs: Mapping[str, Any]) -> None:
         if k in names:
             v.delncattr(k)
     _set_attrs(v, time_attrs(plain, attrs.get("epoch")))
+    for name in INSTANT_VARIABLES:
+        if name in nc.variables:
+            _set_attrs(nc.variables[name], instant_attrs(plain, attrs.get("epoch")))
 
 
 _SCRATCH: list[Any] = []
@@ -240,7 +252,7 @@ class StreamWriter:
         nc.createDimension("time", None)
         for dim, size in ds.sizes.items():
             if dim != "time":
-                nc.createDimension(dim, size)
+                nc.createDimension(dim, None if dim in UNLIMITED else size)
         comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
         # Dimension coordinates first (the time coordinate grows with the data).
         for name in ds.coords:
@@ -275,7 +287,7 @@ class StreamWriter:
         nc = self._nc
         for dim, size in zip(var.dims, var.shape, strict=True):
             if dim not in nc.dimensions:
-                nc.createDimension(dim, size)
+                nc.createDimension(dim, None if dim in UNLIMITED else size)
         if var.dtype.kind in "UO":
             v = nc.createVariable(name, str, var.dims)
             if var.size:

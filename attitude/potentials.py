@@ -412,8 +412,7 @@ class CustomPotential(Potential):
                 "potential: must be a numba-compilable function U(q, t) -> float that also "
                 "accepts a complex q (complex-step differentiation): use arithmetic and numpy "
                 "functions (np.sqrt, np.cos), or give the torque directly with CustomTorque. "
-                f"Compiling it with a complex q failed: {type(exc).__name__}: "
-                f"{str(exc).splitlines()[0] if str(exc) else ''}"
+                f"Compiling it with a complex q failed: {_user_kernels.compile_failure(exc)}"
             ) from None
 
     def _user_terms(self) -> tuple:
@@ -481,8 +480,8 @@ class CustomTorque(Potential):
         except Exception as exc:
             raise AttitudeTypeError(
                 f"torque: must be a numba-compilable function {form} returning the three "
-                f"body-frame torque components; calling it failed: {type(exc).__name__}: "
-                f"{str(exc).splitlines()[0] if str(exc) else ''}"
+                "body-frame torque components; calling it failed: "
+                + _user_kernels.compile_failure(exc)
             ) from None
 
     def _user_terms(self) -> tuple:
@@ -844,14 +843,24 @@ class MagneticDipole(_EnvironmentModel):
 
 
 class EddyCurrentDamping(_EnvironmentModel):
-    """Eddy-current torque on a spinning conducting body: τ = (M (ω × B)) × B (body axes).
+    """Eddy-current torque on a conducting body: τ = m × B_B, m = −M dB_B/dt
+    = M (ω × B_B − q̃∘Ḃ_S∘q) (body axes; (M (ω × B)) × B in a field fixed in space).
 
     The tensor model of Ortiz Gómez & Walker (2015), "Eddy currents applied to de-tumbling of
     space debris: analysis and validation of approximate proposed methods", Acta Astronautica
-    114, 34–53: the currents induced in the conductor by its rotation in the field B give a
-    magnetic moment M (ω × B), whose torque in B damps the rotation perpendicular to B and
-    leaves the spin about B alone: ω·τ = −(ω × B)·M (ω × B) <= 0, τ ⊥ B. This is what de-spins
-    defunct satellites and spent stages over months (Praly et al. 2012).
+    114, 34–53: the currents induced in the conductor give a magnetic moment M (ω × B) when
+    the body rotates in a field B fixed in space, whose torque in B damps the rotation
+    perpendicular to B and leaves the spin about B alone: ω·τ = −(ω × B)·M (ω × B) <= 0,
+    τ ⊥ B. The moment answers the change of the field seen from the body (Faraday's law in
+    the low-frequency limit, the assumption of the tensor model), and along an orbit the field
+    also changes in space: dB_B/dt = −ω × B_B + q̃∘Ḃ_S∘q, with Ḃ_S the rate of the field along
+    the orbit (up to ~4e-3 rad/s of rotation in LEO: 2–4 % of a 5 °/s tumble, all of it for a
+    body slowed to a few times the orbital rate). Praly et al. (2012), "Study on the eddy
+    current damping of the spin dynamics of space debris from the Ariane launcher upper
+    stages", Acta Astronautica 76, 145–153, model the induction of a conductor orbiting
+    through the geomagnetic field. Ḃ_S is tabulated with B: the derivative of the degree-8
+    polynomial through the 9 nearest nodes (:func:`orbit.ephemeris.position_derivative`).
+    This is what de-spins defunct satellites and spent stages over months (Praly et al. 2012).
 
     Parameters
     ----------
@@ -919,14 +928,23 @@ class EddyCurrentDamping(_EnvironmentModel):
         return [0.0, *self.tensor.ravel()]
 
     def _constant_table(self) -> np.ndarray | None:
-        return None if self._const is None else _env.constant_table(self._const)
+        if self._const is None:
+            return None
+        return _env.constant_table(np.concatenate([self._const, np.zeros(3)]))
 
     def _table(self, g: Any) -> np.ndarray:
-        return _env.table(g, _env.magnetic_field_gcrs(g, self.field))
+        from orbit.ephemeris import position_derivative
+
+        b = _env.magnetic_field_gcrs(g, self.field)
+        return _env.table(g, np.hstack([b, position_derivative(g.t, b)]))
 
     def magnetic_field(self, t: Any) -> np.ndarray:
         """The field the torque uses [T], space-frame components, shape t.shape + (3,)."""
-        return self._table_values(t)[1]
+        return self._table_values(t)[1][..., :3]
+
+    def magnetic_field_rate(self, t: Any) -> np.ndarray:
+        """Its rate of change along the orbit, dB/dt [T/s], space-frame components."""
+        return self._table_values(t)[1][..., 3:6]
 
     def __repr__(self) -> str:
         f = self.field if self._const is None else self._const.tolist()

@@ -33,6 +33,7 @@ import xarray as xr
 
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
+from ._spacecraft_results import add_actuator_variables, add_tick_variables
 from ._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
 from .canonical import _project
@@ -41,6 +42,7 @@ from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
 from .results import Trajectory, add_event_variables, build_dataset
+from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
 
@@ -110,6 +112,8 @@ def _lookup_method(method: str) -> tuple[Callable[..., RunResult], dict[str, Any
 def _as_body(body: Any) -> RigidBody:
     if isinstance(body, RigidBody):
         return body
+    if isinstance(body, Spacecraft):
+        return body.body
     return RigidBody(body)
 
 
@@ -159,6 +163,8 @@ def propagate(
     epoch: Any = None,
     events: Any = None,
     output: str = "dataset",
+    commands: Any = None,
+    software: Any = None,
 ) -> xr.Dataset | Trajectory:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -167,8 +173,10 @@ def propagate(
 
     Parameters
     ----------
-    body : RigidBody or array_like, shape (3,)
-        The body (principal moments of inertia).
+    body : RigidBody, Spacecraft or array_like, shape (3,)
+        The body (principal moments of inertia), or a :class:`~attitude.Spacecraft` with
+        actuators: with reaction wheels a gyrostat, whose state adds the wheels' axial momenta
+        (docs/actuators.md).
     q0 : array_like, shape (4,)
         Initial attitude quaternion (body → space, scalar first).
     Q0 : array_like, shape (4,)
@@ -235,6 +243,13 @@ def propagate(
         :class:`~attitude.results.Trajectory` ``(t, q, Q, stats)`` of plain arrays, without
         diagnostics, torques or a Dataset (for loops and optimisers calling ``propagate`` many
         times: about half the overhead of a short call); not with ``events`` or ``on_chunk``.
+    commands : CommandSchedule, optional
+        Open-loop actuator commands of a :class:`~attitude.Spacecraft`, held from each time of
+        the schedule to the next (the integrator restarts at every one of them).
+    software : FlightSoftware, optional
+        Closed-loop commands: the flight software runs at its own ticks inside the
+        propagation (docs/flight_software.md); a body without actuators takes its torque
+        request as an ideal torque. Its records are on a ``tick`` dimension.
 
     Returns
     -------
@@ -262,9 +277,19 @@ def propagate(
             "output: 'arrays' returns the states only; events and on_chunk need the Dataset "
             "(output='dataset')"
         )
+    craft = body if isinstance(body, Spacecraft) and body.has_actuators else None
+    if software is not None and craft is None:
+        craft = body if isinstance(body, Spacecraft) else Spacecraft(body)
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
     runner, extra = _lookup_method(method)
+    if craft is not None:
+        runner = _spacecraft_runner(craft, method, formulation, events, output, pot)
+    elif commands is not None:
+        raise AttitudeValueError(
+            "commands: a CommandSchedule drives the actuators of an attitude.Spacecraft; this "
+            "body has none (give Spacecraft(body, wheels=..., magnetorquers=..., thrusters=...))"
+        )
     form = None
     if not isinstance(formulation, (str, Formulation)):
         raise AttitudeTypeError(
@@ -340,14 +365,25 @@ def propagate(
             f"initial state projected onto |q| = 1, q·Q = 0 (correction {correction:.2g})",
             stacklevel=2,
         )
+    y0 = np.concatenate([q0p, Q0p])
+    sc_run = None
+    if craft is not None:
+        from . import _holds
+
+        craft.check_orbit(getattr(pot, "orbit", None))
+        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software)
+        run_attrs["spacecraft"] = craft.describe()
+        if software is not None:
+            run_attrs["software"] = software.describe()
     problem = Problem(
         body=body,
         potential=pot,
         params=pot._params(body.inertia),
-        y0=np.concatenate([q0p, Q0p]),
+        y0=y0,
         t=tt,
-        entry=_entry_points(pot, evset),
+        entry=_entry_points(pot, evset, sc_run),
         events=evset,
+        spacecraft=sc_run,
     )
     _check_initial_state(problem)
     _check_work(problem, method, max_step, max_steps)
@@ -406,7 +442,7 @@ def propagate(
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
     }
     if arrays:
-        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:], attrs)
+        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:8], attrs)
     elif streaming and result.status == _rk.NONFINITE and result.message == _OVERFLOW_MESSAGE:
         ds = finish_dataset(problem, result.y, attrs, first=result.first)
     else:
@@ -422,6 +458,8 @@ def propagate(
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
     if evset is not None:
         ds = add_event_variables(ds, evset, result.events, problem.body, result.status)
+    if sc_run is not None and sc_run.program is not None:
+        ds = add_tick_variables(ds, sc_run)  # (streamed: on the last sample's Dataset)
     if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop
@@ -437,13 +475,48 @@ def propagate(
     return ds
 
 
-def _entry_points(pot: Potential, evset: Any) -> Any:
-    """The compiled entry points of the model and of the user's event functions."""
-    if evset is None or not evset.user_functions:
+def _spacecraft_runner(
+    craft: Spacecraft, method: str, formulation: Any, events: Any, output: str, pot: Potential
+) -> Callable[..., RunResult]:
+    """The runner of a spacecraft with actuators (the methods that integrate the gyrostat)."""
+    from . import _holds
+
+    if formulation != "canonical":
+        raise AttitudeValueError(
+            f"formulation: a spacecraft with actuators is integrated in canonical variables "
+            f"(q, Q, h); got formulation={formulation!r}"
+        )
+    if method not in _holds.SPACECRAFT_METHODS:
+        raise AttitudeValueError(
+            f"method: a spacecraft with actuators (a gyrostat driven by held commands) is "
+            f"integrated by {', '.join(repr(m) for m in _holds.SPACECRAFT_METHODS)}; "
+            f"{method!r} does not model wheels, magnetorquers or thrusters"
+        )
+    if events is not None:
+        raise AttitudeValueError(
+            "events: not located yet for a spacecraft with actuators; run without events"
+        )
+    if output != "dataset":
+        raise AttitudeValueError(
+            "output: a spacecraft with actuators returns the Dataset (its wheel states and "
+            "commands are in it); use output='dataset'"
+        )
+    if method == "taylor":
+        _holds.check_taylor(craft, pot)
+        return _holds.run_taylor
+    return _holds.run_dop853
+
+
+def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
+    """The compiled entry points of the model, of the user's event functions and of the user's
+    compiled flight-software step."""
+    user_events = () if evset is None else tuple(evset.user_functions)
+    step = None if sc_run is None or sc_run.program is None else sc_run.program.compiled_step
+    if not user_events and step is None:
         return pot._entry_points()
     from . import _user_kernels
 
-    return _user_kernels.entry_points(pot._user_terms(), evset.user_functions)
+    return _user_kernels.entry_points(pot._user_terms(), user_events, step=step)
 
 
 #: Methods that locate events (inside their compiled loops).
@@ -517,7 +590,7 @@ def _check_initial_state(problem: Problem) -> None:
     (|Q0| ≈ 1e160 is a finite number; its energy is not). Plain floats: a few µs.
 
     (A torque that is not finite at t0 ends the run at t0 with a PropagationError.)"""
-    q0, q1, q2, q3, p0, p1, p2, p3 = problem.y0.tolist()
+    q0, q1, q2, q3, p0, p1, p2, p3 = problem.y0[:8].tolist()
     i1, i2, i3 = problem.params[:3].tolist()
     # g = ½ vec(q̃∘Q), ω = g / I, T = ½ g·ω (attitude._core.dynamics.diagnostics_row)
     g1 = 0.5 * (q0 * p1 - q1 * p0 - q2 * p3 + q3 * p2)
@@ -558,6 +631,16 @@ def _finish(
     if t_last is not None and n:
         t = t.copy()
         t[-1] = t_last
+    if problem.spacecraft is not None:
+        from . import _holds
+
+        d = _holds.diagnostics(problem, t, y)
+        if not problem.potential.has_potential:
+            attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
+        ds = build_dataset(
+            t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
+        )
+        return add_actuator_variables(ds, problem.spacecraft, y, d), None
     diag = np.empty((n, 13))
     n_terms = len(problem.potential.terms)
     torques = np.empty((n, n_terms + 1, 3))

@@ -1,6 +1,6 @@
 """The propagation result: one xarray Dataset schema for every method and formulation.
 
-See docs/results.md for the schema. It follows CF-1.10: dimension coordinates are numeric
+See docs/results.md for the schema. It follows CF-1.11: dimension coordinates are numeric
 (``component`` 0..3, ``axis`` 0..2, with the letters in the auxiliary label coordinates
 ``component_label`` and ``axis_label``), ``time`` is a CF time coordinate (``seconds since
 <epoch>``) when the run has an epoch, and every unit string is parsed alike by astropy,
@@ -23,11 +23,13 @@ from .body import RigidBody
 __all__ = [
     "AXIS_LABELS",
     "COMPONENT_LABELS",
+    "INSTANT_VARIABLES",
     "SI",
     "Trajectory",
     "UnitSystem",
     "add_event_variables",
     "build_dataset",
+    "instant_attrs",
     "set_time_attrs",
     "time_attrs",
     "time_unit",
@@ -141,9 +143,16 @@ def _cf_reference(epoch: str) -> str | None:
 #: a time coordinate, so a conventional placeholder is used and the attrs say so.
 PLACEHOLDER_REFERENCE = "1970-01-01 00:00:00"
 
+#: Variables that hold instants on the run's time axis (event times): their CF encoding
+#: (``units``, ``calendar``, ``units_metadata``, ``elapsed_time_units``) is ``time``'s, in single
+#: runs and ensembles alike, so CF tools decode them as ``time`` (datetimes with an epoch) and
+#: :func:`attitude.io.read` gives the same numbers (seconds since the epoch).
+INSTANT_VARIABLES = ("event_time", "detector_first_time", "event_first_time")
+_INSTANT_KEYS = ("units", "calendar", "units_metadata", "elapsed_time_units")
+
 
 def time_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
-    """Attrs of the ``time`` coordinate (CF 1.10 sect. 4.4).
+    """Attrs of the ``time`` coordinate (CF 1.11 sect. 4.4).
 
     Parameters
     ----------
@@ -156,7 +165,9 @@ def time_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
     -------
     dict
         ``standard_name = "time"``, ``axis = "T"``, ``calendar = "standard"`` and
-        ``units = "seconds since <epoch>"`` (UTC) with a comment on leap seconds. A run without
+        ``units = "seconds since <epoch>"`` (UTC) with a comment on leap seconds and
+        ``units_metadata = "leap_seconds: utc"`` (CF 1.11 sect. 4.4.3: the numbers count the
+        leap seconds between the epoch and the sample). A run without
         an epoch (or dimensionless) has the placeholder reference
         :data:`PLACEHOLDER_REFERENCE`, which CF requires, and says so in ``long_name`` and
         ``comment``. ``elapsed_time_units`` is the plain unit of the stored numbers (``"s"``,
@@ -168,6 +179,7 @@ def time_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
         return {
             "units": f"seconds since {ref}",
             **a,
+            "units_metadata": "leap_seconds: utc",
             "long_name": "time",
             "elapsed_time_units": "s",
             "comment": _LEAP_SECOND_NOTE,
@@ -196,10 +208,18 @@ def time_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
     return {
         "units": f"seconds since {PLACEHOLDER_REFERENCE}",
         **a,
+        "units_metadata": "leap_seconds: none",  # no dates: no leap seconds apply
         "long_name": long_name,
         "elapsed_time_units": units,
         "comment": note,
     }
+
+
+def instant_attrs(units: str, epoch: str | None = None) -> dict[str, str]:
+    """The CF encoding attrs of a variable of :data:`INSTANT_VARIABLES`: those of ``time``
+    (:func:`time_attrs`) that say how to read the numbers."""
+    a = time_attrs(units, epoch)
+    return {k: a[k] for k in _INSTANT_KEYS}
 
 
 def time_unit(var: Any) -> str:
@@ -216,14 +236,15 @@ def time_unit(var: Any) -> str:
     return units or "1"
 
 
-def time_values(ds: xr.Dataset) -> np.ndarray:
-    """The ``time`` coordinate as float64 in its plain unit (seconds since the epoch, or "1").
+def time_values(ds: xr.Dataset, name: str = "time") -> np.ndarray:
+    """The ``time`` coordinate (or an instant variable, e.g. ``event_time``) as float64 in its
+    plain unit (seconds since the epoch, or "1").
 
     Works on the Datasets of :func:`attitude.io.read` (the stored numbers, bit for bit) and on
     files opened by ``xarray.open_dataset`` with CF decoding (datetime64 converted back to
-    seconds since the reference time of the encoding, to 1 ns).
+    seconds since the reference time of the encoding, to 1 ns; NaT to NaN).
     """
-    t = ds["time"]
+    t = ds[name]
     vals = np.asarray(t.values)
     if not np.issubdtype(vals.dtype, np.datetime64):
         return np.asarray(vals, dtype=np.float64)
@@ -234,11 +255,12 @@ def time_values(ds: xr.Dataset) -> np.ndarray:
         from .errors import AttitudeValueError
 
         raise AttitudeValueError(
-            "time: decoded datetimes without their CF units (open the file with "
+            f"{name}: decoded datetimes without their CF units (open the file with "
             "attitude.io.read, or xarray.open_dataset(..., decode_times=False))"
         )
-    ns = (vals.astype("datetime64[ns]") - ref.astype("datetime64[ns]")).astype(np.int64)
-    return ns.astype(np.float64) * 1e-9
+    v = vals.astype("datetime64[ns]")
+    ns = (v - ref.astype("datetime64[ns]")).astype(np.int64)
+    return np.where(np.isnat(v), np.nan, ns.astype(np.float64) * 1e-9)
 
 
 def set_time_attrs(ds: xr.Dataset) -> xr.Dataset:
@@ -254,6 +276,9 @@ def set_time_attrs(ds: xr.Dataset) -> xr.Dataset:
         for k in ("standard_name", "axis", "calendar", "comment", "elapsed_time_units"):
             var.attrs.pop(k, None)
         var.attrs.update(new)
+        for name in INSTANT_VARIABLES:
+            if name in ds.variables:
+                ds.variables[name].attrs.update(instant_attrs(units, ds.attrs.get("epoch")))
     return ds
 
 
@@ -261,7 +286,7 @@ def index_coords() -> dict[str, Any]:
     """The ``component``/``axis`` coordinates of every result Dataset.
 
     CF coordinate variables are numeric and monotonic: indices, with the letters in the
-    auxiliary label coordinates ``component_label``/``axis_label`` (CF 1.10 sect. 6.1).
+    auxiliary label coordinates ``component_label``/``axis_label`` (CF 1.11 sect. 6.1).
     """
     return {
         "component": (
@@ -380,7 +405,7 @@ def build_dataset(
         **extra_coords,
     }
     base = {
-        "Conventions": "CF-1.10",
+        "Conventions": "CF-1.11",
         "title": "attitude propagation",
         "history": f"{_utc_now()} attitude {__version__}: propagate",
         "source": f"attitude {__version__} (canonical quaternion propagator)",
@@ -469,14 +494,15 @@ def add_event_variables(
     omega = g / np.asarray(body.inertia, dtype=np.float64)
     n = len(evset.labels)
 
-    def var(dims, data, units, long_name, **extra):
-        attrs = {"long_name": long_name, **extra}
+    def var(dims, data, units, long_name, encoding=None):
+        attrs = {"long_name": long_name, **(encoding or {})}
         if units is not None:
             attrs = {"units": units, **attrs}
         return xr.Variable(dims, np.ascontiguousarray(data), attrs)
 
+    when = instant_attrs(u.time, ds.attrs.get("epoch"))  # encoded as `time` (docs/results.md)
     new = {
-        "event_time": var(("event",), records.t, u.time, "time of the event"),
+        "event_time": var(("event",), records.t, None, "time of the event", when),
         "event_detector": var(
             ("event",),
             records.which.astype(np.int64),
@@ -498,7 +524,7 @@ def add_event_variables(
             ("detector",), records.count.astype(np.int64), "1", "occurrences of each event"
         ),
         "detector_first_time": var(
-            ("detector",), records.first, u.time, "time of the first occurrence (NaN: none)"
+            ("detector",), records.first, None, "time of the first occurrence (NaN: none)", when
         ),
     }
     coords = {

@@ -37,18 +37,23 @@ import numpy as np
 
 from . import _state_kernels as _sk
 from .base import OrbitBase
+from .ccsds import is_xml
 from .errors import OrbitTypeError, OrbitValueError, TLEAgeWarning
 from .kepler import _as_array
 from .keplerorbit import _scalar, earth_mu
 from .tables import MAX_NODES  # (1e7 nodes are 560 MB of floats)
 from .timescales import as_epoch, format_epoch, offline_iers
 
-__all__ = ["EphemerisOrbit", "check_tle"]
+__all__ = ["EphemerisOrbit", "check_tle", "position_derivative"]
 
 #: Step [s] of the central differences giving a TLE table's velocities (truncation
 #: δ⁴/30 |r⁽⁵⁾| ~ 5e-12 km/s in LEO; SGP4's 1e-12 rad Kepler tolerance noise / δ ~ 4e-9 km/s;
 #: measured: interpolated positions within 8e-9 km of SGP4 at off-grid times, δ = 1 to 4 s).
 FD_STEP = 2.0
+#: Largest distance [km] between the Hermite tables built on an OEM's velocities and on the
+#: derivative of its positions, at the midpoints between states, before ``from_oem`` warns
+#: (1 mm: the interpolation error of a 60 s LEO table is 1e-8 of that).
+VELOCITY_CHECK = 1e-6
 #: Reference frames of an OEM that are accepted (Earth-centred): EME2000 is rotated to GCRS.
 OEM_FRAMES = ("EME2000", "GCRF", "GCRS", "ICRF")
 #: Time systems of an OEM that are accepted.
@@ -527,8 +532,11 @@ class EphemerisOrbit(OrbitBase):
         return cls(t, rg, vg, epoch=ep, mu=mu, source=src)
 
     @classmethod
-    def from_oem(cls, path: Any, *, epoch: Any = None, mu: Any = None) -> EphemerisOrbit:
-        """Read a CCSDS Orbit Ephemeris Message (KVN or XML) with ``ccsds-ndm-py``.
+    def from_oem(
+        cls, path: Any, *, epoch: Any = None, mu: Any = None, velocities: str = "file"
+    ) -> EphemerisOrbit:
+        """Read a CCSDS Orbit Ephemeris Message: KVN with ``ccsds-ndm-py``, XML with
+        :mod:`orbit.ccsds`.
 
         Parameters
         ----------
@@ -537,6 +545,13 @@ class EphemerisOrbit(OrbitBase):
             Date of t = 0; default the first state's epoch.
         mu : keyword-only, optional
             Default astropy's GM_earth (an OEM carries no GM).
+        velocities : {"file", "positions"}, keyword-only
+            The velocities of the Hermite table: the file's (default), or the derivative of
+            the positions (the degree-8 polynomial through the 9 nearest states,
+            :func:`position_derivative`): positions-only interpolation, for files whose
+            velocities are not the time derivative of their positions (SGP4's own velocities
+            are not). With ``"file"``, an :class:`~orbit.errors.OemVelocityWarning` says so
+            when the two tables differ by more than :data:`VELOCITY_CHECK` between states.
 
         Notes
         -----
@@ -545,7 +560,8 @@ class EphemerisOrbit(OrbitBase):
         ``TIME_SYSTEM`` UTC, TAI, TT, GPS or TDB (converted by astropy, leap seconds
         included). Several segments are joined in time order (a repeated boundary epoch with the
         same state is dropped). The file's ``INTERPOLATION`` keywords are ignored: the table is
-        always interpolated by the degree-7 Hermite polynomial that uses the velocities.
+        always interpolated by the degree-7 Hermite polynomial that uses the velocities
+        (see ``velocities``).
 
         Raises
         ------
@@ -553,50 +569,45 @@ class EphemerisOrbit(OrbitBase):
             Unreadable file, another frame, centre or time system (naming the keyword), times
             not increasing.
         """
-        try:
-            import ccsds_ndm
-        except ImportError:  # pragma: no cover - declared dependency
-            raise OrbitValueError(
-                "path: reading an OEM needs the ccsds-ndm-py package (pip install ccsds-ndm-py)"
-            ) from None
         from astropy.time import Time
 
+        if velocities not in ("file", "positions"):
+            raise OrbitValueError(
+                f"velocities: 'file' or 'positions' (the derivative of the positions), got "
+                f"{velocities!r}"
+            )
         p = _oem_path(path)
         try:
-            msg = ccsds_ndm.Oem.from_file(str(p))
-        except Exception as exc:  # the reader's own exception classes
-            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise OrbitValueError(f"path: {p} is not a readable CCSDS OEM: {first}") from None
+            raw = p.read_bytes()
+        except OSError as exc:
+            raise OrbitValueError(f"path: {p} cannot be read ({exc.strerror or exc})") from None
+        segments = _oem_xml(raw, p) if is_xml(raw) else _oem_kvn(p)
         all_t: list[Any] = []
         all_s: list[np.ndarray] = []
         names = set()
         frames = set()
         systems = set()
-        for k, seg in enumerate(msg.segments):
-            meta = seg.metadata
-            frame = str(meta.ref_frame).strip().upper()
-            system = str(meta.time_system).strip().upper()
-            center = str(meta.center_name).strip().upper()
+        for k, (meta, epochs, states) in enumerate(segments):
+            frame = meta["REF_FRAME"].strip().upper()
+            system = meta["TIME_SYSTEM"].strip().upper()
+            center = meta["CENTER_NAME"].strip().upper()
             where = f"{p.name} segment {k + 1}"
             if center != "EARTH":
                 raise OrbitValueError(
-                    f"CENTER_NAME: {where} is centred on {meta.center_name!r}; only EARTH is "
-                    "supported"
+                    f"CENTER_NAME: {where} is centred on {meta['CENTER_NAME']!r}; only EARTH "
+                    "is supported"
                 )
             if frame not in OEM_FRAMES:
                 raise OrbitValueError(
-                    f"REF_FRAME: {where} is in {meta.ref_frame!r}; supported: "
+                    f"REF_FRAME: {where} is in {meta['REF_FRAME']!r}; supported: "
                     f"{', '.join(OEM_FRAMES)} (convert Earth-fixed or TEME ephemerides to one "
                     "of them first)"
                 )
             if system not in OEM_TIME_SYSTEMS:
                 raise OrbitValueError(
-                    f"TIME_SYSTEM: {where} uses {meta.time_system!r}; supported: "
+                    f"TIME_SYSTEM: {where} uses {meta['TIME_SYSTEM']!r}; supported: "
                     f"{', '.join(OEM_TIME_SYSTEMS)}"
                 )
-            data = seg.data
-            states = np.asarray(data.state_vector_numpy, dtype=np.float64)
-            epochs = list(data.state_vector_epochs)
             if states.ndim != 2 or states.shape[1] < 6 or states.shape[0] != len(epochs):
                 raise OrbitValueError(f"path: {where} has no usable state vectors")
             strings = [_oem_time(e, system) for e in epochs]
@@ -618,7 +629,7 @@ class EphemerisOrbit(OrbitBase):
                 s[:, 3:] = eme2000_to_gcrs(s[:, 3:])
             all_t.append(tt)
             all_s.append(s)
-            names.add(str(meta.object_name))
+            names.add(meta.get("OBJECT_NAME", "UNKNOWN"))
             frames.add(frame)
             systems.add(system)
         if not all_t:
@@ -640,12 +651,45 @@ class EphemerisOrbit(OrbitBase):
         t, st = t[keep], st[keep]
         src = (
             f"OEM {p.name} ({', '.join(sorted(names))}; {', '.join(sorted(frames))}; "
-            f"{', '.join(sorted(systems))}; {t.size} states)"
+            f"{', '.join(sorted(systems))}; {t.size} states"
+            + ("; velocities from the positions)" if velocities == "positions" else ")")
         )
         try:
-            return cls(t, st[:, :3], st[:, 3:], epoch=ep, mu=mu, source=src)
+            out = cls(t, st[:, :3], st[:, 3:], epoch=ep, mu=mu, source=src)
         except OrbitValueError as exc:
             raise OrbitValueError(f"path: {p}: {exc}") from None
+        if t.size < 3:
+            return out
+        v_pos = position_derivative(out.node_times, out.node_states[:, :3])
+        other = cls(t, st[:, :3], v_pos, epoch=ep, mu=mu, source=src)
+        if velocities == "positions":
+            return other
+        # The file's velocities disagree with the positions when they differ from dr/dt by
+        # much more than dr/dt's own error (estimated by the polynomial of two degrees less):
+        # on a coarse table of an eccentric orbit the file's exact velocities are the better.
+        v_low = position_derivative(out.node_times, out.node_states[:, :3], points=7)
+        dv = np.linalg.norm(st[:, 3:] - v_pos, axis=1)
+        own = np.linalg.norm(v_pos - v_low, axis=1)
+        if not np.any(dv > 10.0 * own + 1e-15 * np.linalg.norm(v_pos, axis=1)):
+            return out
+        mid = 0.5 * (t[1:] + t[:-1])
+        gap = np.linalg.norm(out.position(mid) - other.position(mid), axis=1)
+        worst = int(np.argmax(gap))
+        if gap[worst] > VELOCITY_CHECK:
+            import warnings
+
+            from .errors import OemVelocityWarning
+
+            warnings.warn(
+                f"{p.name}: the file's velocities are not the time derivative of its positions "
+                f"(up to {float(np.max(dv)) * 1e3:.3g} m/s apart): interpolating with them "
+                f"moves the positions by up to {gap[worst] * 1e3:.3g} m between states (at "
+                f"t = {mid[worst]:g} s) from the interpolation of the positions alone; pass "
+                "velocities='positions' to interpolate the positions only (docs/orbit.md)",
+                OemVelocityWarning,
+                stacklevel=2,
+            )
+        return out
 
     # -- export -------------------------------------------------------------------------------
     def to_oem(
@@ -707,6 +751,135 @@ class EphemerisOrbit(OrbitBase):
         out = Path(path)
         _atomic_write(out, "\n".join(lines) + "\n")
         return out
+
+
+def position_derivative(t: Any, r: Any, points: int = 9) -> np.ndarray:
+    """dr/dt at the nodes of a table of positions: the derivative of the Lagrange polynomial
+    through the ``points`` nearest nodes (centred; shifted inwards at the ends).
+
+    Parameters
+    ----------
+    t : array_like, shape (n,) [s]
+        Strictly increasing node times (any spacing).
+    r : array_like, shape (n, 3) [km]
+        Positions.
+    points : int
+        Nodes per polynomial (degree ``points - 1``; fewer when the table is shorter).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 3) [km/s]
+
+    Notes
+    -----
+    With L_j the Lagrange basis of the window's nodes t_k and t_c the node itself,
+    L_j'(t_c) = Π_{k≠j,c}(t_c − t_k) / Π_{k≠j}(t_j − t_k) for j ≠ c, and
+    L_c'(t_c) = −Σ_{j≠c} L_j'(t_c) (the weights of a derivative sum to zero). The error on a
+    uniform grid of spacing h is O(h^(points−1) |r^(points)|): 1.6e-11 km/s inside a LEO table
+    at h = 60 s, 1e-9 km/s at its first and last node (tests/test_ephemeris.py).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    r = np.asarray(r, dtype=np.float64)
+    n = t.size
+    m = min(int(points), n)
+    start = np.clip(np.arange(n) - (m - 1) // 2, 0, n - m)
+    c = np.arange(n) - start  # the node's place in its window
+    win = start[:, None] + np.arange(m)  # (n, m)
+    d = t[win] - t[:, None]  # t_k - t_c, zero at k = c
+    rows = np.arange(n)
+    w = np.zeros((n, m))
+    for j in range(m):
+        num, den = np.ones(n), np.ones(n)
+        for k in range(m):
+            if k != j:
+                den *= d[:, j] - d[:, k]
+                num *= np.where(c == k, 1.0, -d[:, k])
+        w[:, j] = np.where(c == j, 0.0, num / den)
+    w[rows, c] = -w.sum(axis=1)  # the weights of a derivative sum to zero
+    out = np.zeros((n, 3))
+    for j in range(m):
+        out += w[:, j, None] * r[win[:, j]]
+    return out
+
+
+def _oem_kvn(p: Path) -> list[tuple[dict[str, str], list[str], np.ndarray]]:
+    """The segments of a KVN OEM, read by ccsds-ndm-py: (metadata, epoch strings, states)."""
+    try:
+        import ccsds_ndm
+    except ImportError:  # pragma: no cover - declared dependency
+        raise OrbitValueError(
+            "path: reading an OEM needs the ccsds-ndm-py package (pip install ccsds-ndm-py)"
+        ) from None
+    try:
+        msg = ccsds_ndm.Oem.from_file(str(p))
+    except Exception as exc:  # the reader's own exception classes
+        first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise OrbitValueError(f"path: {p} is not a readable CCSDS OEM: {first}") from None
+    out = []
+    for seg in msg.segments:
+        m = seg.metadata
+        meta = {
+            "OBJECT_NAME": str(m.object_name),
+            "CENTER_NAME": str(m.center_name),
+            "REF_FRAME": str(m.ref_frame),
+            "TIME_SYSTEM": str(m.time_system),
+        }
+        states = np.asarray(seg.data.state_vector_numpy, dtype=np.float64)
+        out.append((meta, [str(e) for e in seg.data.state_vector_epochs], states))
+    return out
+
+
+#: Units of the state-vector elements of an XML OEM (the only ones CCSDS 502.0-B-3 allows).
+_OEM_XML_UNITS = {"km": ("X", "Y", "Z"), "km/s": ("X_DOT", "Y_DOT", "Z_DOT")}
+
+
+def _oem_xml(raw: bytes, p: Path) -> list[tuple[dict[str, str], list[str], np.ndarray]]:
+    """The segments of an XML OEM (NDM/XML, :mod:`orbit.ccsds`): (metadata, epochs, states)."""
+    from .ccsds import leaves, read_xml
+
+    try:
+        msg = read_xml(raw, p.name)
+    except ValueError as exc:
+        raise OrbitValueError(f"path: {p} is not a readable CCSDS OEM: {exc}") from None
+    if msg.kind != "OEM":
+        raise OrbitValueError(f"path: {p} is an XML {msg.kind} message, not an OEM")
+    unit_of = {k: u for u, keys in _OEM_XML_UNITS.items() for k in keys}
+    out = []
+    for k, (meta, entries) in enumerate(msg.segments):
+        where = f"{p.name} segment {k + 1}"
+        for key in ("CENTER_NAME", "REF_FRAME", "TIME_SYSTEM"):
+            if key not in meta:
+                raise OrbitValueError(f"{key}: {where} has no {key} (a mandatory OEM keyword)")
+        epochs, rows = [], []
+        for j, entry in enumerate(entries):
+            if entry.tag.rsplit("}", 1)[-1] != "stateVector":
+                continue  # covariance and other optional blocks
+            values = {name: (text, attrs) for name, text, attrs in leaves(entry)}
+            try:
+                row = []
+                for key in ("X", "Y", "Z", "X_DOT", "Y_DOT", "Z_DOT"):
+                    text, attrs = values[key]
+                    unit = attrs.get("units", unit_of[key])
+                    if unit != unit_of[key]:
+                        raise OrbitValueError(
+                            f"path: {where} state {j + 1}: {key} in {unit!r}; an OEM gives "
+                            f"{unit_of[key]}"
+                        )
+                    row.append(float(text))
+                epochs.append(values["EPOCH"][0])
+            except KeyError as exc:
+                raise OrbitValueError(
+                    f"path: {where} state {j + 1} has no {exc.args[0]} element"
+                ) from None
+            except ValueError as exc:
+                if isinstance(exc, OrbitValueError):
+                    raise
+                raise OrbitValueError(
+                    f"path: {where} state {j + 1}: a value is not a number ({exc})"
+                ) from None
+            rows.append(row)
+        out.append((meta, epochs, np.array(rows, dtype=np.float64).reshape(-1, 6)))
+    return out
 
 
 def _sec() -> Any:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "OemVelocityWarning",
     "OrbitError",
     "OrbitTypeError",
     "OrbitValueError",
@@ -37,3 +38,9 @@ class TLEAgeWarning(OrbitWarning):
     """A two-line element set used far from its epoch: SGP4's error grows with the time from
     the epoch (about 1-3 km a day in low orbit), so beyond ``orbit.ephemeris.TLE_MAX_AGE`` days
     the positions are rough, and years away they are fiction."""
+
+
+class OemVelocityWarning(OrbitWarning):
+    """An OEM whose velocities are not the time derivative of its positions: interpolating
+    with them moves the positions between states (``from_oem(velocities="positions")``
+    interpolates the positions only)."""

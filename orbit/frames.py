@@ -22,6 +22,7 @@ from .timescales import check_iers_range, offline_iers
 
 __all__ = [
     "eme2000_to_gcrs",
+    "frame_bias",
     "gcrs_to_itrs",
     "gcrs_to_itrs_matrix",
     "geodetic_from_itrs",
@@ -39,6 +40,11 @@ def _frame_bias() -> np.ndarray:
 
     rb, _, _ = erfa.bp06(2451545.0, 0.0)  # B is constant; any date
     return np.array(rb, dtype=np.float64)
+
+
+def frame_bias() -> np.ndarray:
+    """The IAU 2006 frame-bias matrix B, shape (3, 3): x_EME2000 = B x_GCRS (a copy)."""
+    return _frame_bias().copy()
 
 
 def eme2000_to_gcrs(x: np.ndarray) -> np.ndarray:

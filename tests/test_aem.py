@@ -1,5 +1,10 @@
 """CCSDS AEM: QUATERNION/ANGVEL export (v2) checked by ccsds-ndm-py, and reading AEM v1/v2 back.
 
+Also: XML AEMs and the TAI/GPS labels of the same instants, as Orekit writes them (files in
+tests/data/ccsds, written by Orekit from our KVN files: tests/data/ccsds/orekit_convert.py);
+epochs that give the float64 times back bit for bit; the EME2000 label of a GCRS run (the
+frame bias, ERFA directly).
+
 Truth: an independent reader (ccsds-ndm-py) of the files we write; the round trip result →
 AEM → Dataset (quaternions bit for bit, 17 significant digits); the same attitude history
 written by hand in every other layout the standard allows (scalar first, B2A, the body as
@@ -21,6 +26,7 @@ from attitude import quaternion as qt
 from attitude.errors import AttitudeValueError
 
 ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests/data/ccsds"
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +69,7 @@ def test_round_trip_v2_angvel_and_quaternion(tumbling, tmp_path):
         np.testing.assert_array_equal(back.q.values, tumbling.q.values)  # bit for bit
         np.testing.assert_array_equal(back.component_label, tumbling.component_label)
         assert back.attrs["object_name"] == "UPPER_STAGE_RB"
-        assert back.attrs["inertial_frame"] == "EME2000"
+        assert back.attrs["inertial_frame"] == "GCRF"  # the run's orbit is in the GCRS
         assert float(back.attitude.angle_between(tumbling).max()) == 0.0
         if kind == "QUATERNION":
             assert "omega" not in back
@@ -237,9 +243,117 @@ def test_cli_export_angvel(tmp_path, capsys):
                  "--stop", "2", "-q"]) == 0  # fmt: skip
     out = tmp_path / "g.aem"
     args = ["export", str(nc), "--ccsds-aem", str(out), "--aem-type", "QUATERNION/ANGVEL"]
-    assert main(args) == 0
+    assert main(args) == 0  # the scenario's inertial_frame, GCRF: the run's own axes
     back, ds = aem.read(out), io.read(nc)
     np.testing.assert_array_equal(back.q.values, ds.q.values)
     np.testing.assert_allclose(back.omega.values, ds.omega.values, rtol=2e-16)
+    assert main([*args, "--ref-frame-a", "EME2000"]) == 0  # rotated by the frame bias
+    angle = np.degrees(aem.read(out).attitude.angle_between(ds).values) * 3.6e6
+    np.testing.assert_allclose(angle, 23.1, atol=0.1)  # mas
     assert main([*args, "--aem-version", "1"]) == 2
     assert "version 2" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------------------------
+# Files written by Orekit (an independent CCSDS implementation): XML, and TAI/GPS labels.
+@pytest.mark.parametrize("kind", ["q", "angvel"])
+def test_xml_aem_written_by_orekit(kind):
+    ours = aem.read(DATA / f"attitude_{kind}.aem")  # KVN, written by write_aem
+    xml = aem.read(DATA / f"orekit_attitude_{kind}.xml.aem")
+    assert (DATA / f"orekit_attitude_{kind}.xml.aem").read_text().lstrip().startswith("<?xml")
+    assert xml.attrs["aem_version"] == "2.0" and xml.attrs["epoch"] == ours.attrs["epoch"]
+    assert xml.attrs["inertial_frame"] == "GCRF" and xml.attrs["body_frame"] == "SC_BODY_1"
+    np.testing.assert_array_equal(xml.time.values, ours.time.values)
+    # Orekit keeps a read quaternion as a rotation, normalised: ours had |q| - 1 ~ 3e-12
+    q = ours.q.values / np.linalg.norm(ours.q.values, axis=1, keepdims=True)
+    assert np.max(np.abs(np.linalg.norm(ours.q.values, axis=1) - 1)) > 1e-13
+    np.testing.assert_allclose(xml.q.values, q, rtol=0, atol=3e-16)
+    if kind == "angvel":
+        np.testing.assert_allclose(xml.omega.values, ours.omega.values, rtol=1e-15, atol=0)
+    else:
+        assert "omega" not in xml
+
+
+def test_tai_and_gps_labels_of_the_same_instants():
+    """Orekit wrote the same attitude history with TIME_SYSTEM = TAI and = GPS: its epochs
+    are 37 s (TAI - UTC in 2024) and 18 s (GPS = TAI - 19 s) after the UTC ones; read, all
+    three are the same instants."""
+    utc = aem.read(DATA / "attitude_q.aem")
+    first = {}
+    for system in ("tai", "gps"):
+        text = (DATA / f"orekit_attitude_q_{system}.aem").read_text()
+        assert f"TIME_SYSTEM               = {system.upper()}" in text
+        first[system] = next(ln.split()[0] for ln in text.splitlines() if ln.startswith("2024"))
+        back = aem.read(DATA / f"orekit_attitude_q_{system}.aem")
+        assert back.attrs["aem_time_system"] == system.upper()
+        assert back.attrs["epoch"] == utc.attrs["epoch"] == "2024-06-01T00:00:00.000000Z"
+        np.testing.assert_array_equal(back.time.values, utc.time.values)
+        np.testing.assert_allclose(back.q.values, utc.q.values, rtol=0, atol=1e-11)
+    t_utc = Time(utc.attrs["epoch"].rstrip("Z"), scale="utc")
+    assert first["tai"] == "2024-06-01T00:00:37.000" == (t_utc.tai.isot)
+    assert first["gps"] == "2024-06-01T00:00:18.000"  # TAI - 19 s
+
+
+def test_xml_read_errors(tmp_path):
+    with pytest.raises(AttitudeValueError, match="XML OEM message, not an AEM"):
+        aem.read(DATA / "orekit_orbit.xml.oem")
+    p = tmp_path / "bad.aem"
+    p.write_text('<?xml version="1.0"?>\n<aem version="2.0"><header></header><body>')
+    with pytest.raises(AttitudeValueError, match="not well-formed XML"):
+        aem.read(p)
+    text = (DATA / "orekit_attitude_q.xml.aem").read_text()
+    p.write_text(text.replace("<Q3>", "<Q9>", 1).replace("</Q3>", "</Q9>", 1))
+    with pytest.raises(AttitudeValueError, match="attitude state 1 has no Q3"):
+        aem.read(p)
+
+
+# ------------------------------------------------------------------------------------------------
+# Epochs and frames of the export.
+def test_epochs_give_the_float64_times_back_bit_for_bit(tmp_path):
+    """A run ended by a terminal event has a last sample at an arbitrary time (3666.38... s):
+    its epoch is written with the decimals that read back to the same double (not to the
+    microsecond, 0.23 us off), the regular samples with 6."""
+    from decimal import Decimal
+
+    sc = scenario.load(ROOT / "scenarios/lvlh_pointing_events.toml")
+    ds = sc.run()
+    assert ds.attrs["run_status"] == "event"
+    t_end = float(ds.time.values[-1])
+    assert t_end != round(t_end, 6)
+    path = aem.write_aem(ds, tmp_path / "ev.aem")
+    back = aem.read(path)
+    np.testing.assert_array_equal(back.time.values, ds.time.values)
+    assert back.attrs["epoch"] == ds.attrs["epoch"]
+    lines = [ln for ln in path.read_text().splitlines() if ln.startswith("2024-")]
+    assert all(len(ln.split()[0].split(".")[1]) == 6 for ln in lines[:-1])
+    stamp = lines[-1].split()[0]
+    frac = stamp.split(".")[1]
+    assert 6 < len(frac) <= 17
+    # the decimal time of the stamp (epoch 12:00:00 UTC, no leap second) rounds to t_end
+    h, m, sec = stamp.split("T")[1].split(":")
+    elapsed = (int(h) - 12) * 3600 + int(m) * 60 + Decimal(sec)
+    assert float(elapsed) == t_end
+    # and fewer digits would not do
+    assert float(elapsed.quantize(Decimal(1).scaleb(-(len(frac) - 1)))) != t_end
+
+
+def test_gcrs_run_labelled_eme2000_is_rotated_by_the_frame_bias(tumbling, tmp_path):
+    import erfa
+
+    assert tumbling.attrs["orbit_frame"] == "GCRS"
+    path = aem.write_aem(tumbling, tmp_path / "e.aem", ref_frame_a="EME2000")
+    assert "REF_FRAME_A          = EME2000" in path.read_text()
+    back = aem.read(path)
+    rb, _, _ = erfa.bp06(2451545.0, 0.0)  # x_EME2000 = B x_GCRS
+    # attitude matrices: R_EME2000(q') = B R_GCRS(q)
+    np.testing.assert_allclose(
+        qt.to_matrix(back.q.values), rb @ qt.to_matrix(tumbling.q.values), rtol=0, atol=4e-16
+    )
+    angle = np.degrees(back.attitude.angle_between(tumbling).values) * 3.6e6  # mas
+    np.testing.assert_allclose(angle, 23.1, atol=0.1)  # the frame bias's angle
+    with pytest.raises(AttitudeValueError, match="relative to the GCRS"):
+        aem.write_aem(tumbling, tmp_path / "x.aem", ref_frame_a="TOD")
+    # a run without an orbit has an abstract inertial frame: the label is the user's
+    free = tumbling.drop_vars(["r", "f", "p"]).assign_attrs(orbit_frame="inertial")
+    path = aem.write_aem(free, tmp_path / "f.aem", ref_frame_a="TOD")
+    np.testing.assert_array_equal(aem.read(path).q.values, tumbling.q.values)

@@ -1,7 +1,8 @@
-"""CF-1.10 files that CF tools accept, and SI units that every unit library reads alike.
+"""CF-1.11 files that CF tools accept, and SI units that every unit library reads alike.
 
-Truth: the IOOS compliance checker (``compliance-checker --test=cf:1.10``, called as a library)
-on the output of every shipped scenario and on an ensemble file; xarray's and netCDF4's CF time
+Truth: the IOOS compliance checker (``compliance-checker --test=cf:1.11``, called as a library)
+on the output of every shipped scenario and on every kind of ensemble file: no errors, and no
+warning but the two docs/results.md documents; xarray's and netCDF4's CF time
 decoding against astropy's ``epoch + time``; the unit attrs against dimensions derived
 independently (astropy, from the physics: g = I ω, T = ½ I ω², τ = r × F), parsed by astropy,
 UDUNITS (cf_units) and pint's default registry; the same physics from km-based and SI input.
@@ -38,12 +39,24 @@ SHORT = {
     "tumbling_upper_stage": 60.0,
     "sso_tle_gravity_gradient": 0.02,  # hours
     "cubesat_environment": 0.01,  # hours
-    "lvlh_pointing_events": 60.0,
+    "lvlh_pointing_events": 6000.0,  # its events occur (the last one ends the run)
+    "rw_inertial_pointing": 5.0,
+    "cubesat_bdot": 0.01,  # hours
+    "nadir_wheels_dumping": 0.01,  # hours
 }
 
 
-def cf_errors(path: Path, tmp_path: Path) -> list[str]:
-    """The errors (high-priority failures) of ``compliance-checker --test=cf:1.10``."""
+#: The checker's warnings that docs/results.md documents (and why they stay): variable names
+#: that differ only by case (§2.3: the paper's q/Q and the body/space g/G), and, in ensemble
+#: files, dimensions right of T (§2.4: (member, time, component): quaternion and vector
+#: components last, as everywhere in the package; `member`, not `time`, is the unlimited one).
+CASE_PAIRS = {"q", "g", "initial_q", "event_q"}
+ORDER_VARIABLES = {"q", "Q", "omega", "g", "G", "p", "reference_q"}
+
+
+def cf_report(path: Path, tmp_path: Path) -> tuple[list[str], list[str]]:
+    """The errors (high-priority failures) and the warnings (medium and low) of
+    ``compliance-checker --test=cf:1.11``, each as 'section: message'."""
     pytest.importorskip("compliance_checker")
     from compliance_checker.runner import CheckSuite, ComplianceChecker
 
@@ -52,15 +65,40 @@ def cf_errors(path: Path, tmp_path: Path) -> list[str]:
         CheckSuite.load_all_available_checkers()
     out = tmp_path / f"{path.stem}.cf.json"
     ComplianceChecker.run_checker(
-        str(path), ["cf:1.10"], 0, "lenient", output_filename=str(out), output_format="json"
+        str(path), ["cf:1.11"], 0, "strict", output_filename=str(out), output_format="json"
     )
-    report = json.loads(out.read_text())["cf:1.10"]
+    report = json.loads(out.read_text())["cf:1.11"]
     assert report["possible_points"] > 50  # the checker really ran its checks
-    return [
-        f"{r['name']}: {'; '.join(r['msgs'])}"
-        for r in report["high_priorities"]
-        if r["value"][0] < r["value"][1]
-    ]
+
+    def failed(level):
+        return [
+            f"{r['name']}: {m}" for r in report[level] if r["value"][0] < r["value"][1]
+            for m in r["msgs"]
+        ]  # fmt: skip
+
+    return failed("high_priorities"), failed("medium_priorities") + failed("low_priorities")
+
+
+def undocumented(warns: list[str], ensemble: bool) -> list[str]:
+    """The warnings that are not the documented ones."""
+    out = []
+    for w in warns:
+        if w.startswith("§2.3 ") and "Duplicate variables named: " in w:
+            if w.rsplit(": ", 1)[1].strip() in CASE_PAIRS:
+                continue
+        if ensemble and w.startswith("§2.4 ") and "spatio-temporal dimensions" in w:
+            if w.split(": ", 1)[1].split("'s ")[0] in ORDER_VARIABLES:
+                continue
+        out.append(w)
+    return out
+
+
+def cf_errors(path: Path, tmp_path: Path) -> list[str]:
+    """The checker's errors, and its warnings other than the documented ones."""
+    errors, warns = cf_report(path, tmp_path)
+    with netCDF4.Dataset(path) as nc:
+        ensemble = "member" in nc.dimensions
+    return errors + undocumented(warns, ensemble)
 
 
 def run_short(name: str, tmp_path: Path) -> Path:
@@ -90,7 +128,7 @@ def test_compliance_checker_no_errors_on_ensemble_file(tmp_path):
     run_scenario(sc, path)
     assert cf_errors(path, tmp_path) == []
     with netCDF4.Dataset(path) as nc:  # the ensemble file carries the run's epoch as CF time
-        assert nc.variables["time"].units == "seconds since 2000-01-01 11:58:55.816000"
+        assert nc.variables["time"].units == "seconds since 2000-05-15 12:00:00.000000"
         assert nc.variables["inertia"].coordinates == "axis_label"
     back = xr.open_dataset(path)  # CF decoding: datetimes, label coordinates
     assert np.issubdtype(back.time.dtype, np.datetime64)
@@ -134,6 +172,44 @@ def test_compliance_checker_no_errors_on_lazy_ensemble_file(tmp_path):
                             path=path, lazy=True, attrs={"epoch": sc.epoch})  # fmt: skip
     ds.close()
     assert cf_errors(path, tmp_path) == []
+
+
+def test_event_times_are_encoded_as_time_in_single_runs_and_ensembles(tmp_path):
+    """One convention: event_time, detector_first_time (single runs) and event_first_time
+    (ensembles) carry the encoding of `time` (seconds since the epoch): io.read gives the
+    numbers, CF tools decode datetimes, for both kinds of file."""
+    from attitude.ensemble import run_scenario
+
+    path = run_short("lvlh_pointing_events", tmp_path)
+    exact = io.read(path)
+    assert exact.sizes["event"] >= 2
+    keys = ("units", "calendar", "units_metadata", "elapsed_time_units")
+    for name in ("event_time", "detector_first_time"):
+        assert {k: exact[name].attrs[k] for k in keys} == {k: exact.time.attrs[k] for k in keys}
+    assert exact.time.attrs["units_metadata"] == "leap_seconds: utc"
+    # the terminal event is the last sample, bit for bit
+    assert exact.event_time.values[-1] == exact.time.values[-1]
+    dec = xr.open_dataset(path)
+    for name in ("time", "event_time", "detector_first_time"):
+        assert np.issubdtype(dec[name].dtype, np.datetime64), name
+    t_ref = exact.attitude.epoch + exact.attitude.quantity("event_time")
+    got = Time(dec.event_time.values.astype("datetime64[ns]"), scale="utc")
+    assert np.max(np.abs((got - t_ref).to_value("s"))) < 1e-6
+    np.testing.assert_allclose(
+        dec.attitude.quantity("event_time").to_value("s"), exact.event_time.values, atol=1e-9
+    )
+    dec.close()
+    sc = scenario.load(SCEN / "ensemble_paper_keplerian.toml")
+    sc.t = sc.t[:4]
+    sc.ensemble.size = 8
+    ens_path = tmp_path / "ens.nc"
+    run_scenario(sc, ens_path)
+    ens = io.read(ens_path)
+    first = ens.event_first_time
+    assert {k: first.attrs[k] for k in keys} == {k: ens.time.attrs[k] for k in keys}
+    dec = xr.open_dataset(ens_path)
+    assert np.issubdtype(dec.event_first_time.dtype, np.datetime64)
+    dec.close()
 
 
 def test_dataset_in_memory_is_the_file(tmp_path):

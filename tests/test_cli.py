@@ -40,7 +40,11 @@ SHORT = {
     "sso_tle_gravity_gradient": 0.05,
     "lvlh_pointing_events": 1800.0,
     "cubesat_environment": 0.01,
+    "rw_inertial_pointing": 30.0,
+    "cubesat_bdot": 0.02,
+    "nadir_wheels_dumping": 0.02,
 }
+NO_ORBIT = ("paper_torque_free", "paper_heavy_top", "rw_inertial_pointing")  # no epoch, no r
 
 
 def cli(*args, cwd, check=None, timeout=300):
@@ -55,6 +59,26 @@ def cli(*args, cwd, check=None, timeout=300):
     if check is not None:
         assert r.returncode == check, r.stderr + r.stdout
     return r
+
+
+def test_run_summary_of_a_terminal_event_run_and_its_timing(tmp_path):
+    """The span printed is the one computed (a terminal event ends the run between grid
+    times, as `info` says); "in X s" counts from the process's start, start-up included."""
+    out = tmp_path / "ev.nc"
+    t_launch = time.monotonic()
+    r = cli("run", SCEN / "lvlh_pointing_events.toml", "-o", out, cwd=tmp_path, check=0)
+    t_process = time.monotonic() - t_launch
+    with netCDF4.Dataset(out) as nc:
+        t_end = float(nc.variables["time"][-1])
+        assert nc.getncattr("run_status") == "event"
+    assert t_end != 3660.0 and t_end % 60.0 != 0.0  # between two output times
+    assert f"time span   0 .. {t_end:g} s (" in r.stdout
+    info = cli("info", out, cwd=tmp_path, check=0).stdout
+    assert f"time span   0 .. {t_end:g} s (" in info
+    m = re.search(r"MB\) in ([0-9.]+) s \(([0-9.]+) s of it start-up", r.stdout)
+    assert m, r.stdout
+    total, startup = float(m.group(1)), float(m.group(2))
+    assert 0.0 < startup < total <= t_process + 0.05  # within the process's lifetime
 
 
 def test_every_shipped_scenario_is_listed():
@@ -75,19 +99,22 @@ def test_run_shipped_scenario(name, tmp_path):
         assert r.stderr == ""
     with netCDF4.Dataset(out) as nc:
         g = {k: nc.getncattr(k) for k in nc.ncattrs()}
-        assert g["Conventions"] == "CF-1.10"
+        assert g["Conventions"] == "CF-1.11"
         for k in ("title", "history", "source", "scenario", "method", "potential", "run_status"):
             assert isinstance(g[k], str) and g[k], k
         assert g["scenario"] == name and g["run_status"] == "complete"
         assert g["package_version"] == __version__
         assert g["rtol"] > 0 and g["atol"] > 0
         assert len(g["inertia"]) == 3
-        assert "epoch" in g or name in ("paper_torque_free", "paper_heavy_top")
+        assert "epoch" in g or name in NO_ORBIT
         # q.Q has the unit of Q: relative to |Q| (Q ~ 1e6 kg m² s⁻¹ for the paper's satellite)
         Qmax = float(np.max(np.linalg.norm(nc.variables["Q"][:], axis=1)))
         assert g["max_abs_norm_error"] < 1e-9 and g["max_abs_qQ"] < 1e-9 * max(1.0, Qmax)
+        rel = np.abs(nc.variables["qQ"][:]) / np.linalg.norm(nc.variables["Q"][:], axis=1)
+        assert g["max_rel_qQ"] == pytest.approx(float(np.max(rel)), rel=1e-12)
+        assert f"max |q.Q| / |Q| = {g['max_rel_qQ']:.3g}" in r.stdout
         expected = ["q", "Q", "omega", "g", "G", "energy", "potential_energy", "norm_error", "qQ"]
-        orbit = name not in ("paper_torque_free", "paper_heavy_top")
+        orbit = name not in NO_ORBIT
         if orbit:
             expected += ["r", "f", "p"]
         assert set(expected) <= set(nc.variables)
@@ -107,6 +134,8 @@ def test_run_shipped_scenario(name, tmp_path):
             "gg_stabilised_leo": 60.0,
             "sso_tle_gravity_gradient": 3600.0,
             "cubesat_environment": 3600.0,
+            "cubesat_bdot": 3600.0,
+            "nadir_wheels_dumping": 3600.0,
         }.get(name, 1.0)
         assert t[0] == 0.0 and t[-1] <= SHORT[name] * scale
         q = nc.variables["q"][:]
@@ -257,7 +286,7 @@ def test_info_plot_export(tmp_path, capsys, monkeypatch):
     assert main(["export", "k.nc", "--ccsds-aem", "k.aem"]) == 0
     lines = (tmp_path / "k.aem").read_text(encoding="latin-1").splitlines()
     _, meta, data = check_aem_v2(lines)
-    assert meta["REF_FRAME_A"] == "EME2000" and meta["REF_FRAME_B"] == "SC_BODY_1"
+    assert meta["REF_FRAME_A"] == "GCRF" and meta["REF_FRAME_B"] == "SC_BODY_1"
     assert meta["CENTER_NAME"] == "EARTH" and meta["TIME_SYSTEM"] == "UTC"
     with netCDF4.Dataset(tmp_path / "k.nc") as nc:
         t = nc.variables["time"][:].data
@@ -275,7 +304,7 @@ def test_info_plot_export(tmp_path, capsys, monkeypatch):
     aem = ndm.Aem.from_file(str(tmp_path / "k.aem"))
     assert aem.version == "2.0"
     seg = aem.segments[0]
-    assert seg.metadata.ref_frame_a == "EME2000" and seg.metadata.attitude_type == "QUATERNION"
+    assert seg.metadata.ref_frame_a == "GCRF" and seg.metadata.attitude_type == "QUATERNION"
     np.testing.assert_array_equal(np.asarray(seg.data.attitude_states_numpy), vals)
 
 

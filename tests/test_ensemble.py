@@ -750,7 +750,7 @@ def test_shipped_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
     assert main(["run", str(path), "-o", str(out), "--stop", "291.425"]) == 0
     assert "1000 members (seed 2006)" in capsys.readouterr().out
     back = io.read(out)
-    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3, "detector": 2}
+    assert back.sizes == {"member": 1000, "time": 6, "component": 4, "axis": 3, "detector": 3}
     assert back.attrs["run_status"] == "complete"
     # the scenario gives the paper's kg km²; results are in SI (kg m²) since issue 16
     np.testing.assert_allclose(back.attrs["inertia"], [4e8, 5e8, 6e8], rtol=1e-15)

@@ -550,6 +550,7 @@ def test_cli_export_refuses_an_ensemble_or_exports_one_member(tmp_path, capsys):
     capsys.readouterr()
 
 
+@pytest.mark.filterwarnings("ignore:this run needs about:RuntimeWarning")  # on purpose
 def test_streaming_failure_message_names_no_internals(tmp_path, capsys):
     from attitude.cli import main
 

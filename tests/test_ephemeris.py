@@ -2,7 +2,9 @@
 
 References are computed independently: sgp4's ``Satrec.sgp4_array`` and astropy's TEME -> GCRS
 called directly at off-grid times, KeplerOrbit's closed form, the Hermite remainder bound, the
-convergence order under step halving, and files read back by ccsds-ndm-py itself.
+convergence order under step halving, and files read back by ccsds-ndm-py itself; XML OEMs
+written by Orekit (tests/data/ccsds, tests/data/ccsds/orekit_convert.py); an OEM holding SGP4's
+own velocities (not dr/dt of its positions).
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from orbit import _state_kernels as SK
 L1 = "1 28057U 03049A   06177.78615833  .00000060  00000-0  35940-4 0  1836"
 L2 = "2 28057  98.4283 247.6961 0000884  88.1964 271.9322 14.35478080140550"
 START, STOP = "2006-06-27T00:00:00", "2006-06-28T00:00:00"
+DATA = __import__("pathlib").Path(__file__).resolve().parent / "data/ccsds"
 
 
 def tle_checksum(line68: str) -> str:
@@ -200,6 +203,109 @@ def test_oem_bad_files(tmp_path):
     stamps = ["2017-01-01T00:00:00.000", "2016-12-31T23:59:30.000", "2017-01-01T00:00:30.000"]
     with pytest.raises(OrbitValueError, match=r"strictly increasing"):
         EphemerisOrbit.from_oem(_oem(tmp_path, stamps, st))
+
+
+@pytest.mark.parametrize("name", ["orekit_orbit.xml.oem", "orekit_orbit_stream.xml.oem"])
+def test_xml_oem_written_by_orekit(name):
+    """Orekit's XML of our KVN OEM reads to the same table; its streaming writer
+    (EphemerisOemWriter) leaves out <segment>, which ccsds-ndm-py refuses and we read."""
+    text = (DATA / name).read_text()
+    assert text.lstrip().startswith("<?xml") and "<stateVector>" in text
+    assert ("<segment>" in text) == (name == "orekit_orbit.xml.oem")
+    kvn = EphemerisOrbit.from_oem(DATA / "orbit.oem")
+    xml = EphemerisOrbit.from_oem(DATA / name)
+    assert xml.epoch == kvn.epoch and xml.node_times.size == 31
+    np.testing.assert_array_equal(xml.node_times, kvn.node_times)
+    # Orekit prints some doubles one unit in the last place off (its own formatter)
+    np.testing.assert_allclose(xml.node_states, kvn.node_states, rtol=2e-16, atol=0)
+    assert "FLOCK 1C-1; GCRF; UTC; 31 states" in xml.source
+    if name != "orekit_orbit.xml.oem":
+        ndm = pytest.importorskip("ccsds_ndm")
+        with pytest.raises(Exception, match="segment"):
+            ndm.Oem.from_file(str(DATA / name))
+
+
+def test_xml_oem_errors(tmp_path):
+    with pytest.raises(OrbitValueError, match="XML AEM message, not an OEM"):
+        EphemerisOrbit.from_oem(DATA / "orekit_attitude_q.xml.aem")
+    text = (DATA / "orekit_orbit.xml.oem").read_text()
+    p = tmp_path / "m.oem"
+    p.write_text(text.replace("<X>", '<X units="m">', 1))
+    with pytest.raises(OrbitValueError, match=r"state 1: X in 'm'; an OEM gives km"):
+        EphemerisOrbit.from_oem(p)
+    p.write_text(text.replace("<REF_FRAME>GCRF</REF_FRAME>", "<REF_FRAME>ITRF</REF_FRAME>"))
+    with pytest.raises(OrbitValueError, match=r"^REF_FRAME:"):
+        EphemerisOrbit.from_oem(p)
+    p.write_text(text[: len(text) // 2])
+    with pytest.raises(OrbitValueError, match="not well-formed XML"):
+        EphemerisOrbit.from_oem(p)
+    with pytest.raises(OrbitValueError, match="velocities: 'file' or 'positions'"):
+        EphemerisOrbit.from_oem(DATA / "orbit.oem", velocities="dr/dt")
+
+
+def test_position_derivative_against_the_closed_form():
+    from orbit.ephemeris import position_derivative
+
+    kep = KeplerOrbit(7000.0, 0.01, 0.5, 0.1, 0.2)
+    t = np.arange(0.0, 6000.0, 60.0)
+    err = np.linalg.norm(position_derivative(t, kep.position(t)) - kep.velocity(t), axis=1)
+    assert err[6:-6].max() < 3e-11  # km/s, degree 8 centred (1.6e-11)
+    assert err.max() < 3e-9  # the first and last nodes: one-sided windows (1.1e-9)
+    rng = np.random.default_rng(3)  # irregular nodes
+    t = np.concatenate([[0.0], np.sort(rng.uniform(0.0, 6000.0, 150)), [6000.0]])
+    err = np.linalg.norm(position_derivative(t, kep.position(t)) - kep.velocity(t), axis=1)
+    assert err.max() < 1e-8  # gaps up to 2x the mean; worst at the last node (3.2e-9)
+    # exact for a polynomial of degree 8
+    t = np.linspace(-1.0, 2.0, 12)
+    c = rng.normal(size=(9, 3))
+    r = sum(c[k] * t[:, None] ** k for k in range(9))
+    v = sum(k * c[k] * t[:, None] ** (k - 1) for k in range(1, 9))
+    np.testing.assert_allclose(position_derivative(t, r), v, rtol=0, atol=1e-11)
+
+
+def test_oem_with_sgp4_velocities_warns_and_interpolates_positions_only(tmp_path):
+    """SGP4's velocity output is not dr/dt of its positions (docs/orbit.md): an OEM of SGP4
+    states interpolated with its velocities is 0.1-0.4 m off between states; from the
+    positions alone, micrometres (both against sgp4 + astropy called directly)."""
+    import warnings
+
+    from astropy.time import Time, TimeDelta
+
+    from orbit.errors import OemVelocityWarning
+
+    t0 = Time(START, scale="utc")
+    t = np.arange(0.0, 3 * 3600.0 + 1.0, 60.0)
+    times = t0 + TimeDelta(t, format="sec")
+    r, v = sgp4_gcrs_direct(times)
+    times.precision = 9
+    path = _oem(tmp_path, times.isot, np.hstack([r, v]), name="sgp4.oem")
+    with pytest.warns(OemVelocityWarning, match=r"moves the positions by up to (\S+) m") as rec:
+        e_file = EphemerisOrbit.from_oem(path)
+    moved = float(str(rec[0].message).split("by up to ")[1].split(" m")[0])
+    assert 0.05 < moved < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        e_pos = EphemerisOrbit.from_oem(path, velocities="positions")
+    assert "velocities from the positions" in e_pos.source
+    tm = np.linspace(300.0, t[-1] - 300.0, 2001)  # away from the one-sided ends
+    ref = sgp4_gcrs_direct(t0 + TimeDelta(tm, format="sec"))[0]
+    err_file = np.linalg.norm(e_file.position(tm) - ref, axis=1).max()
+    err_pos = np.linalg.norm(e_pos.position(tm) - ref, axis=1).max()
+    assert 0.05e-3 < err_file < 1e-3  # km: 5 cm - 1 m
+    assert err_pos < 1e-7  # km: 0.1 mm
+    np.testing.assert_array_equal(e_pos.node_states[:, :3], e_file.node_states[:, :3])
+
+
+def test_oem_with_exact_velocities_on_a_coarse_table_does_not_warn(tmp_path):
+    """A 60 s table of an e = 0.2 orbit: dr/dt of the positions is the less accurate near
+    periapsis; the file's exact velocities are not blamed (no OemVelocityWarning)."""
+    import warnings
+
+    kep = KeplerOrbit(7000.0, 0.2, np.pi / 6, np.pi / 4, np.pi / 12, epoch="2024-03-20T12:00:00")
+    path = EphemerisOrbit.from_orbit(kep, 0.0, kep.period, 60.0).to_oem(tmp_path / "k.oem")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", orbit.errors.OemVelocityWarning)
+        EphemerisOrbit.from_oem(path)
 
 
 # ---------------------------------------------------------------------------------------------

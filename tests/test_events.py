@@ -328,7 +328,7 @@ def test_scenario_events_run_to_file_and_info(tmp_path, capsys):
     from attitude.cli import main
 
     sc = scenario.load(ROOT / "scenarios/lvlh_pointing_events.toml")
-    assert [e.name for e in sc.events] == ["yaw_6deg", "shadow_in", "shadow_out"]
+    assert [e.name for e in sc.events] == ["error_4deg", "shadow_in", "shadow_out"]
     # frame = "lvlh": the body starts 5° (yaw) off LVLH, turning with it
     fr = frames.lvlh(sc.potential.orbit)
     offset = np.array([0.9990482215818578, 0.0, 0.0, 0.043619387365336])
@@ -342,20 +342,26 @@ def test_scenario_events_run_to_file_and_info(tmp_path, capsys):
     info = sc.run_to_file(tmp_path / "ev.nc")
     back = io.read(info["path"])
     np.testing.assert_array_equal(back["event_time"].values, ds["event_time"].values)
-    assert back["detector_label"].values.tolist() == ["yaw_6deg", "shadow_in", "shadow_out"]
+    assert back["detector_label"].values.tolist() == ["error_4deg", "shadow_in", "shadow_out"]
     assert float(back.time[-1]) == float(ds.time[-1]) == float(ds["event_time"][-1])
     assert main(["info", str(info["path"])]) == 0
     out = capsys.readouterr().out
     assert "events" in out and "shadow_out (rising)" in out and "terminal event" in out
+    # the 5° libration about LVLH passes 4° (falling), when the angle says so
+    k = list(back["event_detector"].values).index(0)
+    t4 = float(back["event_time"][k])
+    err = ds.attitude.relative_to(fr, degrees=True)["error_angle"]
+    before, after = err.sel(time=t4, method="pad"), err.sel(time=t4, method="backfill")
+    assert back["event_direction"].values[k] == -1 and float(before) > 4.0 > float(after)
 
 
 @pytest.mark.parametrize(
     ("edit", "key"),
     [
         ('type = "eclipse_entry"', "events.shadow_in.type"),
-        ('angle_unit = "deg"\ndirection = "both"', "events.yaw_6deg.angle"),
+        ('angle_unit = "deg"\ndirection = "both"', "events.error_4deg.angle"),
         ("terminal = true", "events.shadow_out.terminal"),
-        ('frame = "lvlh"              # axis', "events.yaw_6deg.frame"),
+        ('frame = "lvlh"              # axis', "events.error_4deg.frame"),
     ],
 )
 def test_event_table_errors_name_the_key(edit, key):
@@ -380,7 +386,7 @@ def test_ensemble_event_percentiles_on_the_shipped_scenario(tmp_path):
     from attitude.ensemble import run_scenario
 
     sc = scenario.load(ROOT / "scenarios/ensemble_paper_keplerian.toml")
-    assert [e.name for e in sc.events] == ["drift_20deg", "eclipse_entry"]
+    assert [e.name for e in sc.events] == ["drift_20deg", "eclipse_entry", "eclipse_exit"]
     sc.t = sc.t[:21]  # 0 .. 1165.7 s
     a = io.read(run_scenario(sc, tmp_path / "a.nc", chunk_size=1000)["path"])
     b = io.read(run_scenario(sc, tmp_path / "b.nc", chunk_size=97)["path"])
@@ -408,6 +414,36 @@ def test_ensemble_event_percentiles_on_the_shipped_scenario(tmp_path):
     np.testing.assert_allclose(
         single["detector_first_time"].values, a["event_first_time"].values[i], rtol=0, atol=1e-9
     )
+
+
+def test_shipped_ensemble_scenario_enters_and_leaves_the_shadow(tmp_path):
+    """The eclipse events of scenarios/ensemble_paper_keplerian.toml occur, in every member at
+    the same time (the orbit is shared), outside the Earth, at the roots of the conical shadow
+    function computed from astropy's Sun directly."""
+    from scipy.optimize import brentq
+
+    from attitude import scenario
+    from attitude.ensemble import run_scenario
+    from orbit.sun import shadow_function, sun_position
+
+    sc = scenario.load(ROOT / "scenarios/ensemble_paper_keplerian.toml")
+    sc.ensemble.size = 16
+    ds = io.read(run_scenario(sc, tmp_path / "e.nc")["path"])
+    labels = list(ds.detector_label.values)
+    first = ds.event_first_time.values
+    assert np.all(ds.event_count.values[:, 1:] == 1)
+    o = sc.potential.orbit
+
+    def margin(t):  # the penumbra boundary function, positive in light
+        return float(shadow_function(o.position(t), sun_position(o.epoch, t), margins=True)[1])
+
+    for name, (a, b) in (("eclipse_entry", (1500.0, 1800.0)), ("eclipse_exit", (4000.0, 4400.0))):
+        j = labels.index(name)
+        # located on each member's own steps: the same time to the root finder's tolerance
+        np.testing.assert_allclose(first[:, j], first[0, j], rtol=0, atol=1e-6)
+        root = brentq(margin, a, b, xtol=1e-9)
+        assert abs(first[0, j] - root) < 1e-3  # s (the event tables sample the Sun hourly)
+        assert float(o.radius(root)) > 7000.0  # km: well outside the Earth
 
 
 def test_event_kernels_run_with_jit_disabled(tmp_path):

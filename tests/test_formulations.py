@@ -240,6 +240,7 @@ def test_backward_integration(paper_state):
         assert _attitude_error(ds, ref) < 1e-9
 
 
+@pytest.mark.filterwarnings("ignore:this run needs about:RuntimeWarning")  # on purpose
 @pytest.mark.parametrize("name", OTHERS)
 def test_other_failures_keep_partial_samples(name, paper_state):
     q0, Q0 = paper_state

@@ -56,7 +56,7 @@ def test_file_read_with_netcdf4_directly(heavy, tmp_path):
     path = io.write(heavy, tmp_path / "h.nc")
     with netCDF4.Dataset(path) as nc:
         assert nc.data_model == "NETCDF4"
-        assert nc.getncattr("Conventions") == "CF-1.10"
+        assert nc.getncattr("Conventions") == "CF-1.11"
         for key in ("title", "history", "source", "method", "potential", "package_version"):
             assert isinstance(nc.getncattr(key), str) and nc.getncattr(key)
         np.testing.assert_array_equal(nc.getncattr("inertia"), I_PAPER)

@@ -255,6 +255,7 @@ def test_failure_midway_keeps_samples(paper_state):
     assert info.value.time <= 5.0
 
 
+@pytest.mark.filterwarnings("ignore:this run needs about:RuntimeWarning")  # on purpose
 def test_max_steps_stops_with_partial(paper_state):
     q0, Q0 = paper_state
     t = np.linspace(0.0, 100.0, 11)
@@ -350,6 +351,7 @@ def test_arrays_output_is_the_dataset_bit_for_bit(kw):
     assert tr.stats.get("n_steps") == ds.attrs.get("n_steps")
 
 
+@pytest.mark.filterwarnings("ignore:this run needs about:RuntimeWarning")  # on purpose
 def test_arrays_output_errors_and_partial():
     body = [1.25, 1.0, 0.75]
     Q0 = [0.0, 0.6, 0.4, 0.2]

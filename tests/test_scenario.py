@@ -311,3 +311,36 @@ def test_fixed_step_method_and_formulation_from_the_integrator_table():
     assert ds2.attrs["formulation"] == "euler_equations"
     ref2 = propagate(sc2.body, sc2.q0, sc2.Q0, sc2.t, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(ds2.q.values, ref2.q.values, atol=1e-10)
+
+
+def test_cubesat_scenario_mass_model_facets_and_inertia_agree():
+    """scenarios/cubesat_environment.toml: the mass model its comment gives (a uniform 3.2 kg
+    box, a 0.6 kg battery 10 cm up the long axis, two 0.1 kg panels on the +b1 face) puts the
+    centre of mass where the facets put it (the box's centre at (-0.0025, 0, -0.015) m from it),
+    and its inertia about that centre (parallel-axis terms included) is the scenario's."""
+    from attitude.scenario import tomllib
+
+    text = (ROOT / "scenarios/cubesat_environment.toml").read_text()
+    toml = tomllib.loads(text)
+    centres = np.array([f["center"] for f in toml["spacecraft"]["facets"][:6]])
+    box_centre = centres.mean(axis=0)  # opposite faces of the box
+    np.testing.assert_allclose(box_centre, [-0.0025, 0.0, -0.015], atol=1e-15)
+
+    def box(m, a, b, c):
+        return m / 12 * np.diag([b * b + c * c, a * a + c * c, a * a + b * b])
+
+    parts = [  # (mass, position from the box's centre, own inertia)
+        (3.2, np.zeros(3), box(3.2, 0.1, 0.1, 0.34)),
+        (0.6, np.array([0.0, 0.0, 0.10]), np.zeros((3, 3))),
+        (0.1, np.array([0.05, 0.10, 0.0]), box(0.1, 0.0, 0.1, 0.3)),
+        (0.1, np.array([0.05, -0.10, 0.0]), box(0.1, 0.0, 0.1, 0.3)),
+    ]
+    mass = sum(m for m, _, _ in parts)
+    com = sum(m * r for m, r, _ in parts) / mass
+    np.testing.assert_allclose(com, -box_centre, atol=1e-15)  # 2.5 mm to +b1, 15 mm to +b3
+    tensor = sum(I + m * ((r - com) @ (r - com) * np.eye(3) - np.outer(r - com, r - com))
+                 for m, r, I in parts)  # fmt: skip
+    np.testing.assert_allclose(np.diag(tensor), toml["body"]["inertia"], rtol=2e-4)
+    assert abs(tensor[0, 2] - 1.5e-4) < 1e-8 and tensor[0, 1] == tensor[1, 2] == 0.0
+    tilt = 0.5 * np.degrees(np.arctan2(2 * tensor[0, 2], tensor[0, 0] - tensor[2, 2]))
+    assert f"{tilt:.2f} deg about b2" in text.replace("\n# ", " ")

@@ -276,3 +276,51 @@ def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
     with xr.open_dataset(tmp_path / "first.nc") as a, xr.open_dataset(tmp_path / "second.nc") as b:
         for name in a.variables:
             np.testing.assert_array_equal(a[name].values, b[name].values, err_msg=name)
+
+
+BAD_MODULE = """
+import numpy as np
+
+
+def tau(q, omega, t):
+    scale = q[0] * 2.0
+    x = "a" + scale
+    return np.array([0.0, 0.0, x])
+
+
+def U(q, t):
+    return q.not_an_attribute
+
+
+def g(t, q, omega):
+    return undefined_name
+"""
+
+
+def test_typing_errors_in_user_functions_show_the_offending_line(tmp_path):
+    """numba's 'Failed in nopython mode pipeline' is not the message: the reason, the
+    construct and the user's file and line are (then numba's whole message)."""
+    import importlib.util
+
+    from attitude import events
+    from attitude.errors import AttitudeTypeError
+    from attitude.potentials import CustomPotential, CustomTorque
+
+    path = tmp_path / "bad_model.py"
+    path.write_text(BAD_MODULE)
+    spec = importlib.util.spec_from_file_location("bad_model", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    with pytest.raises(AttitudeTypeError) as err:
+        CustomTorque(mod.tau)
+    first = str(err.value).splitlines()[0]
+    assert "numba could not compile it: No implementation of function add for add(" in first
+    assert f"at {path} line 7: " in first and first.endswith('x = "a" + scale')
+    assert "numba's message:\nFailed in nopython mode pipeline" in str(err.value)
+    with pytest.raises(AttitudeTypeError) as err:
+        CustomPotential(mod.U)
+    first = str(err.value).splitlines()[0]
+    assert "Unknown attribute 'not_an_attribute'" in first and "line 12: " in first
+    with pytest.raises(AttitudeTypeError) as err:
+        events.Custom(mod.g)
+    assert "NameError: name 'undefined_name' is not defined" in str(err.value).splitlines()[0]

@@ -113,3 +113,30 @@ def term_torques_with(term_torque, n_terms, t, y, params, out):
         out[k, n_terms, 0] = s0
         out[k, n_terms, 1] = s1
         out[k, n_terms, 2] = s2
+
+
+@jit_generic
+def term_torques_at_rates_with(term_torque, n_terms, t, y, rates, params, out):
+    """:func:`term_torques_with` at given body angular velocities ``rates`` (m, 3) (a
+    gyrostat's ω is not I⁻¹ g)."""
+    m = y.shape[0]
+    for k in range(m):
+        q = y[k, 0:4]
+        om = (rates[k, 0], rates[k, 1], rates[k, 2])
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for j in range(n_terms):
+            tau = term_torque(j, q, om, t[k], params)
+            out[k, j, 0] = tau[0]
+            out[k, j, 1] = tau[1]
+            out[k, j, 2] = tau[2]
+            if j == 0:
+                s0, s1, s2 = tau[0], tau[1], tau[2]
+            else:
+                s0 += tau[0]
+                s1 += tau[1]
+                s2 += tau[2]
+        out[k, n_terms, 0] = s0
+        out[k, n_terms, 1] = s1
+        out[k, n_terms, 2] = s2

@@ -45,7 +45,12 @@ from __future__ import annotations
 
 import numba
 
-from attitude._core.dynamics import canonical_rhs_with, diagnostics_with, term_torques_with
+from attitude._core.dynamics import (
+    canonical_rhs_with,
+    diagnostics_with,
+    term_torques_at_rates_with,
+    term_torques_with,
+)
 from attitude._core.ensemble import member_run
 from attitude._core.events import (
     builtin_event,
@@ -59,6 +64,9 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
+from attitude._core.fsw import fsw_boundary  # noqa: F401 (bound by name)
+from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
+from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
     builtin_n_terms,
     builtin_potential,
@@ -67,6 +75,7 @@ from attitude._core.potentials import (
 )
 from attitude._core.rk import dop853_run
 from attitude._core.splitting import composition_run
+from attitude._core.taylor_gyrostat import taylor_holds_run
 from orbit._shared_jit import jit, parallel_jit, rebind
 
 # --- model: begin (replaced in user modules) ---
@@ -162,6 +171,66 @@ def composition_events(
         torque, event, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters,
         evd, evs, ev_count, rec_t, rec_k, rec_y,
     )  # fmt: skip
+
+
+# The spacecraft with actuators (attitude.Spacecraft: a gyrostat in (q, Q, h)) --------------------
+
+
+@jit(_nrt=REFCOUNT)
+def spacecraft_rhs(t, y, P, dydt):
+    """The gyrostat's eq. 7 with the model's torque and the actuators' (``P = (params, sc)``)."""
+    spacecraft_rhs_with(torque, t, y, P, dydt)
+
+
+#: DOP853 through held commands (:func:`attitude._core.holds.holds_run`) on the gyrostat.
+dop853_spacecraft = rebind(
+    holds_run,
+    globals(),
+    "spacecraft",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="schedule_boundary",
+)
+
+
+#: The same, the commands from the flight software at its ticks (attitude._core.fsw).
+dop853_spacecraft_fsw = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_fsw",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="fsw_boundary",
+)
+
+#: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
+#: software as its command source (in a user module: with the user's compiled step).
+taylor_spacecraft_fsw = rebind(
+    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary"
+)
+
+#: The same under an open-loop schedule.
+taylor_spacecraft = rebind(
+    taylor_holds_run,
+    globals(),
+    "spacecraft",
+    options={"_nrt": REFCOUNT},
+    BOUNDARY="schedule_boundary",
+)
+
+
+@jit(_nrt=REFCOUNT)
+def spacecraft_diagnostics(t, y, params, sc, out):
+    """Diagnostics of gyrostat states ``y`` (m, 8 + n_w) into ``out`` (m, 13)."""
+    for k in range(y.shape[0]):
+        U = potential(y[k, 0:4], t[k], params)
+        spacecraft_diagnostics_row(y, k, U, params, sc, out)
+
+
+@jit
+def term_torques_at_rates(t, y, rates, params, out):
+    """:func:`term_torques` at given body angular velocities ``rates`` (m, 3)."""
+    term_torques_at_rates_with(term_torque, n_terms(params), t, y, rates, params, out)
 
 
 # Other formulations (attitude.formulations) ----------------------------------------------------

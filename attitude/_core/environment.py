@@ -27,7 +27,8 @@ midnight, is cut there; a time on a boundary belongs to the later segment)::
 Block layouts (``kind`` first, ``tab`` the relative offset of the table):
 
 * magnetic dipole ``[kind, tab, m (3, A m²), table: B (3, T, space axes)]``
-* eddy currents ``[kind, tab, M (9, row-major, body axes, S m⁴), table: B (3, T)]``
+* eddy currents ``[kind, tab, M (9, row-major, body axes, S m⁴), table: B (3, T), dB/dt
+  (3, T/s: the field's rate of change along the orbit, space axes)]``
 * drag ``[kind, tab, ng, density code, bands, nb, facet groups (ng × 9: n̂ (3), a₊ (3), a₋ (3),
   m³), density bands (nb × 3: h0 km, ρ0 kg m⁻³, H km), table: v_rel (3, m/s, space axes),
   then ln ρ (density code 0) or the geodetic height in km (code 1); code 2: √ρ v_rel (3,
@@ -270,10 +271,17 @@ def magnetic_potential(q, t, params, base):
 
 @jit
 def eddy_torque(q, w, t, params, base):
-    # Ortiz Gómez & Walker (2015): τ = (M (ω × B)) × B, all in body axes; M the magnetic
-    # tensor of the conducting body. τ ⊥ B, and ω·τ = −(ω × B)·M (ω × B) ≤ 0 for M ≥ 0.
-    b = field_body(q, t, params, base)
-    u = cross(w, b)
+    # The induced moment opposes the change of the field seen from the body (Faraday, the
+    # low-frequency limit): m = −M dB_B/dt with dB_B/dt = −ω × B_B + q̃∘(dB_S/dt)∘q, and
+    # τ = m × B_B, all in body axes; M the magnetic tensor of the conducting body. For a field
+    # constant in space this is Ortiz Gómez & Walker (2015), τ = (M (ω × B)) × B; along an
+    # orbit dB_S/dt (tabulated) adds the field's own rotation, up to ~4e-3 rad/s in LEO.
+    # τ ⊥ B, and ω·τ = −(ω × B)·M (ω × B) ≤ 0 for M ≥ 0 when dB_S/dt = 0.
+    s, row, wt = table_locate(params, base + int(params[base + B_TAB]), t)
+    b = rotate_inverse(q, table_vec3(params, s, row, wt, 0))
+    bd = rotate_inverse(q, table_vec3(params, s, row, wt, 3))
+    wb = cross(w, b)
+    u = (wb[0] - bd[0], wb[1] - bd[1], wb[2] - bd[2])
     k = base + M_VEC
     mu = (
         params[k] * u[0] + params[k + 1] * u[1] + params[k + 2] * u[2],

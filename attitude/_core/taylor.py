@@ -229,104 +229,117 @@ def taylor_coefficients(cf, p, params, n, c):
         cf[k + 1, 2] = h * F(iI2, a22, F(iI1, a21, iI0 * a20))
         cf[k + 1, 3] = h * F(iI2, a32, F(iI1, a31, iI0 * a30))
         # Torque series τ[k] (and the auxiliary series to order k + 1).
-        t0 = t1 = t2 = 0.0
+        t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
         inv = 1.0 / (k + 1.0)
-        if kind == KIND_HEAVY_TOP:
-            s0 = cf[k, CA]
-            s1 = cf[k, CA + 1]
-            s2 = cf[k, CA + 2]
-            # τ = c × F_B, F_B = −W s
-            t0 = -W * F(cy, s2, -cz * s1)
-            t1 = -W * F(cz, s0, -cx * s2)
-            t2 = -W * F(cx, s1, -cy * s0)
-            b0 = b1 = b2 = 0.0
-            for j in range(k + 1):
-                s0 = cf[j, CA]
-                s1 = cf[j, CA + 1]
-                s2 = cf[j, CA + 2]
-                w0 = cf[k - j, CW]
-                w1 = cf[k - j, CW + 1]
-                w2 = cf[k - j, CW + 2]
-                b0 = F(s1, w2, F(-s2, w1, b0))
-                b1 = F(s2, w0, F(-s0, w2, b1))
-                b2 = F(s0, w1, F(-s1, w0, b2))
-            cf[k + 1, CA] = b0 * inv
-            cf[k + 1, CA + 1] = b1 * inv
-            cf[k + 1, CA + 2] = b2 * inv
-        elif kind == KIND_GRAVITY_GRADIENT:
-            # |r|², r × I r at order k
-            s = 0.0
-            x0 = x1 = x2 = 0.0
-            for j in range(k + 1):
-                r0 = cf[j, CA]
-                r1 = cf[j, CA + 1]
-                r2 = cf[j, CA + 2]
-                u0 = cf[k - j, CA]
-                u1 = cf[k - j, CA + 1]
-                u2 = cf[k - j, CA + 2]
-                s = F(r2, u2, F(r1, u1, F(r0, u0, s)))
-                x0 = F(r1, u2, x0)
-                x1 = F(r2, u0, x1)
-                x2 = F(r0, u1, x2)
-            cf[k, CR2] = s
-            cf[k, CX] = D0 * x0
-            cf[k, CX + 1] = D1 * x1
-            cf[k, CX + 2] = D2 * x2
-            s00 = cf[0, CR2]
-            if k == 0:
-                cf[0, CU3] = 1.0 / (s00 * math.sqrt(s00))
-                cf[0, CU5] = cf[0, CU3] / s00
-            else:
-                # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
-                acc = 0.0
-                for j in range(k):
-                    acc = F((-1.5 * (k - j) - j) * cf[k - j, CR2], cf[j, CU3], acc)
-                cf[k, CU3] = acc / (k * s00)
-                acc = cf[k, CU3]
-                for j in range(1, k + 1):
-                    acc = F(-cf[j, CR2], cf[k - j, CU5], acc)
-                cf[k, CU5] = acc / s00
-            # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
-            b0 = b1 = b2 = 0.0
-            d0 = d1 = d2 = 0.0
-            f0 = f1 = f2 = 0.0
-            for j in range(k + 1):
-                u5 = cf[j, CU5]
-                u3 = cf[j, CU3]
-                w0 = cf[k - j, CW]
-                w1 = cf[k - j, CW + 1]
-                w2 = cf[k - j, CW + 2]
-                r0 = cf[j, CA]
-                r1 = cf[j, CA + 1]
-                r2 = cf[j, CA + 2]
-                v0 = cf[j, CV]
-                v1 = cf[j, CV + 1]
-                v2 = cf[j, CV + 2]
-                t0 = F(u5, cf[k - j, CX], t0)
-                t1 = F(u5, cf[k - j, CX + 1], t1)
-                t2 = F(u5, cf[k - j, CX + 2], t2)
-                b0 = F(r1, w2, F(-r2, w1, b0))
-                b1 = F(r2, w0, F(-r0, w2, b1))
-                b2 = F(r0, w1, F(-r1, w0, b2))
-                d0 = F(v1, w2, F(-v2, w1, d0))
-                d1 = F(v2, w0, F(-v0, w2, d1))
-                d2 = F(v0, w1, F(-v1, w0, d2))
-                f0 = F(u3, cf[k - j, CA], f0)
-                f1 = F(u3, cf[k - j, CA + 1], f1)
-                f2 = F(u3, cf[k - j, CA + 2], f2)
-            t0 *= 3.0 * mu
-            t1 *= 3.0 * mu
-            t2 *= 3.0 * mu
-            cf[k + 1, CA] = (cf[k, CV] + b0) * inv
-            cf[k + 1, CA + 1] = (cf[k, CV + 1] + b1) * inv
-            cf[k + 1, CA + 2] = (cf[k, CV + 2] + b2) * inv
-            cf[k + 1, CV] = F(-mu, f0, d0) * inv
-            cf[k + 1, CV + 1] = F(-mu, f1, d1) * inv
-            cf[k + 1, CV + 2] = F(-mu, f2, d2) * inv
         # Euler's equations: ġ = g × ω + n τ
         cf[k + 1, CG] = F(e0, p12, n * t0) * inv
         cf[k + 1, CG + 1] = F(e1, p20, n * t1) * inv
         cf[k + 1, CG + 2] = F(e2, p01, n * t2) * inv
+
+
+@jit(inline="always")
+def torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2):
+    """The built-in torque's series τ[k] (heavy top, gravity gradient; 0 otherwise), and its
+    auxiliary series to order k + 1, from the rows 0..k of ``cf`` (ω in the CW columns).
+
+    Shared by the rigid body (:func:`taylor_coefficients`) and the gyrostat
+    (:mod:`attitude._core.taylor_gyrostat`): the same operations in the same order.
+    """
+    t0 = t1 = t2 = 0.0
+    inv = 1.0 / (k + 1.0)
+    if kind == KIND_HEAVY_TOP:
+        s0 = cf[k, CA]
+        s1 = cf[k, CA + 1]
+        s2 = cf[k, CA + 2]
+        # τ = c × F_B, F_B = −W s
+        t0 = -W * F(cy, s2, -cz * s1)
+        t1 = -W * F(cz, s0, -cx * s2)
+        t2 = -W * F(cx, s1, -cy * s0)
+        b0 = b1 = b2 = 0.0
+        for j in range(k + 1):
+            s0 = cf[j, CA]
+            s1 = cf[j, CA + 1]
+            s2 = cf[j, CA + 2]
+            w0 = cf[k - j, CW]
+            w1 = cf[k - j, CW + 1]
+            w2 = cf[k - j, CW + 2]
+            b0 = F(s1, w2, F(-s2, w1, b0))
+            b1 = F(s2, w0, F(-s0, w2, b1))
+            b2 = F(s0, w1, F(-s1, w0, b2))
+        cf[k + 1, CA] = b0 * inv
+        cf[k + 1, CA + 1] = b1 * inv
+        cf[k + 1, CA + 2] = b2 * inv
+    elif kind == KIND_GRAVITY_GRADIENT:
+        # |r|², r × I r at order k
+        s = 0.0
+        x0 = x1 = x2 = 0.0
+        for j in range(k + 1):
+            r0 = cf[j, CA]
+            r1 = cf[j, CA + 1]
+            r2 = cf[j, CA + 2]
+            u0 = cf[k - j, CA]
+            u1 = cf[k - j, CA + 1]
+            u2 = cf[k - j, CA + 2]
+            s = F(r2, u2, F(r1, u1, F(r0, u0, s)))
+            x0 = F(r1, u2, x0)
+            x1 = F(r2, u0, x1)
+            x2 = F(r0, u1, x2)
+        cf[k, CR2] = s
+        cf[k, CX] = D0 * x0
+        cf[k, CX + 1] = D1 * x1
+        cf[k, CX + 2] = D2 * x2
+        s00 = cf[0, CR2]
+        if k == 0:
+            cf[0, CU3] = 1.0 / (s00 * math.sqrt(s00))
+            cf[0, CU5] = cf[0, CU3] / s00
+        else:
+            # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
+            acc = 0.0
+            for j in range(k):
+                acc = F((-1.5 * (k - j) - j) * cf[k - j, CR2], cf[j, CU3], acc)
+            cf[k, CU3] = acc / (k * s00)
+            acc = cf[k, CU3]
+            for j in range(1, k + 1):
+                acc = F(-cf[j, CR2], cf[k - j, CU5], acc)
+            cf[k, CU5] = acc / s00
+        # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
+        b0 = b1 = b2 = 0.0
+        d0 = d1 = d2 = 0.0
+        f0 = f1 = f2 = 0.0
+        for j in range(k + 1):
+            u5 = cf[j, CU5]
+            u3 = cf[j, CU3]
+            w0 = cf[k - j, CW]
+            w1 = cf[k - j, CW + 1]
+            w2 = cf[k - j, CW + 2]
+            r0 = cf[j, CA]
+            r1 = cf[j, CA + 1]
+            r2 = cf[j, CA + 2]
+            v0 = cf[j, CV]
+            v1 = cf[j, CV + 1]
+            v2 = cf[j, CV + 2]
+            t0 = F(u5, cf[k - j, CX], t0)
+            t1 = F(u5, cf[k - j, CX + 1], t1)
+            t2 = F(u5, cf[k - j, CX + 2], t2)
+            b0 = F(r1, w2, F(-r2, w1, b0))
+            b1 = F(r2, w0, F(-r0, w2, b1))
+            b2 = F(r0, w1, F(-r1, w0, b2))
+            d0 = F(v1, w2, F(-v2, w1, d0))
+            d1 = F(v2, w0, F(-v0, w2, d1))
+            d2 = F(v0, w1, F(-v1, w0, d2))
+            f0 = F(u3, cf[k - j, CA], f0)
+            f1 = F(u3, cf[k - j, CA + 1], f1)
+            f2 = F(u3, cf[k - j, CA + 2], f2)
+        t0 *= 3.0 * mu
+        t1 *= 3.0 * mu
+        t2 *= 3.0 * mu
+        cf[k + 1, CA] = (cf[k, CV] + b0) * inv
+        cf[k + 1, CA + 1] = (cf[k, CV + 1] + b1) * inv
+        cf[k + 1, CA + 2] = (cf[k, CV + 2] + b2) * inv
+        cf[k + 1, CV] = F(-mu, f0, d0) * inv
+        cf[k + 1, CV + 1] = F(-mu, f1, d1) * inv
+        cf[k + 1, CV + 2] = F(-mu, f2, d2) * inv
+    return t0, t1, t2
 
 
 @jit

@@ -22,7 +22,8 @@ Modules, one concern each:
 ``_plan``                 what is stored (output choices), the time grid, the size estimate
 ``_percentile_store``     statistics-only output: per-member scalars, exact percentiles
 ``replay``                :func:`member_initial_state`, :func:`rerun_member`
-``dispersions``           :class:`Dispersions` (Monte Carlo draws of the ``[ensemble]`` table)
+``dispersions``           :func:`disperse`, :class:`Dispersions` (Monte Carlo draws of the
+                          ``[ensemble]`` table, from Python too)
 ``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
                           :func:`event_time_percentiles`
 ========================  ===================================================================
@@ -34,12 +35,14 @@ The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario
 from __future__ import annotations
 
 from ._run import propagate_ensemble, run_scenario
-from .dispersions import Dispersions
+from .dispersions import Dispersed, Dispersions, disperse
 from .replay import member_initial_state, rerun_member
 from .statistics import event_time_percentiles, pointing_error_percentiles, rate_percentiles
 
 __all__ = [
+    "Dispersed",
     "Dispersions",
+    "disperse",
     "event_time_percentiles",
     "member_initial_state",
     "pointing_error_percentiles",

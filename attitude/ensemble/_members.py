@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_float_array
-from ..body import RigidBody
+from ..body import RigidBody, inertia_rows
 from ..errors import AttitudeTypeError, AttitudeValueError
 from ..potentials import Potential, as_potential
 
@@ -55,16 +55,23 @@ class _Members:
         y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
         return params, y0, inertia, corr
 
-    def nominal_params(self) -> np.ndarray:
-        """The parameter row (P,) of the one body and potential all members share."""
-        if self.params.ndim != 1 or self.inertia.ndim != 1:
+    def nominal_params(self, inertia: np.ndarray | None = None) -> np.ndarray:
+        """The parameter row (P,) of the nominal run: the potential all members share, with
+        the members' shared body or ``inertia`` (the nominal body of dispersed members)."""
+        if self.params.ndim != 1:
             raise AttitudeValueError(
-                "nominal: the members have their own bodies or potentials, so no one nominal "
-                "run exists; give reference= instead (a propagate result of the nominal case on "
+                "nominal: the members have their own potentials, so no one nominal run "
+                "exists; give reference= instead (a propagate result of the nominal case on "
                 "the same times, or quaternions)"
             )
+        if inertia is None and self.inertia.ndim != 1:
+            raise AttitudeValueError(
+                "nominal: the members have their own inertia (dispersed bodies); give the "
+                "nominal body too: nominal=(q0, Q0, body) (attitude.ensemble.disperse returns "
+                "it as .nominal), or reference= (a propagate result of the nominal case)"
+            )
         params = np.array(self.params, dtype=np.float64)
-        params[0:3] = self.inertia
+        params[0:3] = self.inertia if inertia is None else inertia
         return params
 
     def member_vars(self, start: int, stop: int) -> dict[str, tuple]:
@@ -187,53 +194,12 @@ def _member_states(
 
 def _member_inertia(body: Any, n: int) -> tuple[np.ndarray, str | None]:
     """Inertia (3,) shared or (N, 3) per member, and the unit label of the bodies."""
-    if isinstance(body, RigidBody):
-        return body.inertia, body.units
-    if isinstance(body, (list, tuple)) and body and all(isinstance(b, RigidBody) for b in body):
-        units = {b.units for b in body}
-        if len(units) > 1:
-            raise AttitudeValueError(
-                f"body: the per-member bodies mix unit systems {sorted(map(str, units))}; give "
-                "them all in one (e.g. all as astropy Quantities in kg m2)"
-            )
-        arr = np.stack([b.inertia for b in body])
-        unit = body[0].units
-    else:
-        try:
-            from astropy import units as u
-
-            is_q = isinstance(body, u.Quantity)
-        except ImportError:  # pragma: no cover
-            is_q = False
-        arr = as_float_array(body, "body", unit="kg m2" if is_q else None)
-        unit = "kg m^2" if is_q else None  # SI, as RigidBody
-        if arr.shape == (3,):
-            return RigidBody(arr, units=unit).inertia, unit
-    if arr.ndim != 2 or arr.shape[1] != 3:
-        raise AttitudeValueError(
-            f"body: expected a RigidBody, the three principal moments (3,), or one row of "
-            f"moments per member (N, 3), got shape {arr.shape}"
-        )
-    if arr.shape[0] != n:
+    arr, unit = inertia_rows(body, "body", "member")  # each row checked as a RigidBody
+    if arr.ndim == 2 and arr.shape[0] != n:
         raise AttitudeValueError(
             f"body: {arr.shape[0]} rows of inertia for {n} members (the rows of q0/Q0); give "
             "one row per member, or a single body for all"
         )
-    bad = np.any(arr <= 0, axis=1)
-    if np.any(bad):
-        i = int(np.argmax(bad))
-        raise AttitudeValueError(
-            f"body: member {i}: principal moments must be positive, got {arr[i].tolist()}"
-        )
-    tol = 1.0 - 1e-12  # as RigidBody
-    for a, b, c in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
-        bad = arr[:, a] + arr[:, b] < arr[:, c] * tol
-        if np.any(bad):
-            i = int(np.argmax(bad))
-            raise AttitudeValueError(
-                f"body: member {i}: inertia {arr[i].tolist()} violates the triangle inequality "
-                f"I{a + 1} + I{b + 1} >= I{c + 1}; no rigid body has these moments"
-            )
     return arr, unit
 
 

@@ -127,7 +127,10 @@ class _Assembler:
             **{k: v.variable for k, v in tm.coords.items()},
         }
         if self.events is not None:
-            tu = tm["time"].attrs.get("units", "1")
+            from ..results import instant_attrs, time_unit
+
+            # an instant on the time axis, encoded as `time` (docs/results.md)
+            when = instant_attrs(time_unit(tm["time"]), self.attrs.get("epoch"))
             data_vars["event_count"] = xr.Variable(
                 ("member", "detector"),
                 arr(out["event_count"], np.int64),
@@ -136,7 +139,7 @@ class _Assembler:
             data_vars["event_first_time"] = xr.Variable(
                 ("member", "detector"),
                 arr(out["event_first"]),
-                {"units": tu, "long_name": "time of the first occurrence (NaN: none)"},
+                {**when, "long_name": "time of the first occurrence (NaN: none)"},
             )
             n = len(self.events.labels)
             coords["detector"] = (
@@ -192,9 +195,12 @@ class _Assembler:
             return
         d = out["diag"] if ok.all() else out["diag"][ok]
         mx = np.nanmax  # members ended by a terminal event have NaN samples after it
+        normQ = np.maximum(2.0 * np.linalg.norm(d[:, :, 6:9], axis=-1), np.finfo(float).tiny)
         upd = {
             "max_abs_norm_error": float(mx(np.abs(d[:, :, 10]))),
             "max_abs_qQ": float(mx(np.abs(d[:, :, 11]))),
+            # relative to |Q| = 2 |G| (|q| = 1): q.Q is in the momenta's units
+            "max_rel_qQ": float(mx(np.abs(d[:, :, 11]) / normQ)),
         }
         # Conserved quantities per member (as scenario.InvariantTracker, maximised over members).
         E = d[:, :, 9]

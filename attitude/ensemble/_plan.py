@@ -262,9 +262,10 @@ def nominal_reference(setup: Any, params: np.ndarray, nominal: Any, plan: _Plan)
     from ._chunks import _compute_chunk
     from ._members import _project
 
-    if not isinstance(nominal, (tuple, list)) or len(nominal) != 2:
+    if not isinstance(nominal, (tuple, list)) or len(nominal) not in (2, 3):
         raise AttitudeTypeError(
-            "nominal: expected the nominal initial state as a pair (q0, Q0) of (4,) arrays"
+            "nominal: expected the nominal initial state as a pair (q0, Q0) of (4,) arrays, "
+            "or (q0, Q0, body) when the members' bodies differ"
         )
     q0 = as_float_array(nominal[0], "nominal", trailing=4, ndim=1)
     Q0 = as_float_array(nominal[1], "nominal", trailing=4, ndim=1, unit=None)

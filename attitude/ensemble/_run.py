@@ -85,6 +85,26 @@ def _default_chunk(n: int, m: int, threads: int, method: str = "dop853") -> int:
     return max(1, min(want, max(cap, threads)))
 
 
+def _nominal_inertia(nominal: Any, unit: str | None) -> np.ndarray | None:
+    """The nominal body of ``nominal=(q0, Q0, body)`` (None for a pair), in the members'
+    unit system."""
+    if not isinstance(nominal, (tuple, list)) or len(nominal) != 3:
+        return None
+    inertia, nominal_unit = _member_inertia(nominal[2], 1)
+    if inertia.shape != (3,):
+        raise AttitudeValueError(
+            f"nominal: the nominal body is one body (3 principal moments), got shape "
+            f"{inertia.shape}"
+        )
+    if nominal_unit != unit:
+        raise AttitudeValueError(
+            "nominal: the nominal body and the members' bodies are in different unit systems "
+            f"({nominal_unit or 'dimensionless'} and {unit or 'dimensionless'}); give both as "
+            "Quantities (or RigidBody with units), or both as plain numbers"
+        )
+    return inertia
+
+
 def propagate_ensemble(
     bodies_or_body: RigidBody | Any,
     q0: Any,
@@ -209,10 +229,13 @@ def propagate_ensemble(
     percentiles : sequence of float, optional
         ``output="statistics"``: percentiles in [0, 100], default (5, 50, 95, 100) (100 is the
         maximum over members). Exact: ``np.percentile`` over all members at each time.
-    nominal : (q0, Q0), optional
+    nominal : (q0, Q0) or (q0, Q0, body), optional
         The nominal initial state ((4,) each): propagated once by the same compiled loop with
         the members' shared body and potential, its attitude is the reference of the pointing
-        error (stored as ``reference_q``). :func:`run_scenario` uses the scenario's state.
+        error (stored as ``reference_q``). With per-member bodies (dispersed inertia) the
+        nominal body is the third element (RigidBody, or (3,) moments as the members' are
+        given; :func:`disperse` returns the triple as ``.nominal``). :func:`run_scenario` uses
+        the scenario's state.
     reference : Dataset or array_like shape (4,) or (time, 4), optional
         Instead of ``nominal``: the reference attitude, a ``propagate`` result on ``t`` or
         quaternions. ``output="statistics"`` needs one of the two.
@@ -459,7 +482,8 @@ def propagate_ensemble(
     if on_estimate is not None:
         on_estimate(expected)
     if nominal is not None:
-        asm.reference = _plan.nominal_reference(setup, members.nominal_params(), nominal, plan)
+        params = members.nominal_params(_nominal_inertia(nominal, unit))
+        asm.reference = _plan.nominal_reference(setup, params, nominal, plan)
     elif reference is not None:
         asm.reference = _plan.given_reference(reference, plan)
         asm.attrs["pointing_reference"] = "given"

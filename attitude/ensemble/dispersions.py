@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from ._plan import MAX_OUTPUT_SIZE, OUTPUTS
 # ------------------------------------------------------------------------------------------------
 
 DISTRIBUTIONS = ("normal", "uniform")
-__all__ = ["DISTRIBUTIONS", "OUTPUTS", "Dispersions"]
+__all__ = ["DISTRIBUTIONS", "OUTPUTS", "Dispersed", "Dispersions", "disperse"]
 #: Normal inertia errors are truncated at this many standard deviations (so every member is
 #: a rigid body; checked for the worst case before any work).
 INERTIA_TRUNCATION = 3.0
@@ -169,6 +169,157 @@ class Dispersions:
         }
 
 
+class Dispersed(NamedTuple):
+    """Ensemble members drawn by :func:`disperse`, in the arguments of
+    :func:`~attitude.ensemble.propagate_ensemble`::
+
+        d = disperse(body, q0, Q0, 1000, attitude_error=1 * u.deg, inertia_error=0.05)
+        ds = propagate_ensemble(d.inertia, d.q, d.Q, t, potential, nominal=d.nominal)
+
+    Attributes
+    ----------
+    inertia : RigidBody, or Quantity / ndarray, shape (N, 3)
+        The members' principal moments (kg m² for a body with units, plain numbers for a
+        dimensionless one); the nominal body itself when ``inertia_error`` is 0.
+    q : ndarray, shape (N, 4)
+        Initial attitudes, q_i = q0∘exp(δθ_i/2).
+    Q : ndarray, shape (N, 4)
+        Initial momenta, Q_i = 2 q_i∘(0, I_i ω_i) (kg m² s⁻¹ for a body with units).
+    nominal : tuple (q0, Q0, RigidBody)
+        The nominal state (projected onto |q| = 1, q·Q = 0) and body: ``nominal=`` of
+        ``propagate_ensemble`` (the reference of the pointing error).
+    errors : dict of ndarray, shape (N, 3)
+        The errors applied: ``"attitude"`` (δθ, rad, body axes), ``"rate"`` (δω, rad/s or rad
+        per time unit), ``"inertia"`` (ε, relative).
+    """
+
+    inertia: Any
+    q: np.ndarray
+    Q: np.ndarray
+    nominal: tuple
+    errors: dict
+
+
+def disperse(
+    body: Any,
+    q0: Any,
+    Q0: Any,
+    size: int,
+    *,
+    attitude_error: Any = 0.0,
+    rate_error: Any = 0.0,
+    inertia_error: float = 0.0,
+    seed: int = 0,
+    attitude_distribution: str = "normal",
+    rate_distribution: str = "normal",
+    inertia_distribution: str = "normal",
+    start: int = 0,
+) -> Dispersed:
+    """Monte Carlo dispersions about a nominal state and body: the ``[ensemble]`` table of a
+    scenario (docs/ensemble.md), from Python.
+
+    Member ``i`` gets q_i = q0∘exp(δθ_i/2) (δθ_i a small rotation in body axes),
+    ω_i = ω0 + δω_i (ω0 = g0/I the nominal body rate), I_i = I (1 + ε_i) per axis and
+    Q_i = 2 q_i∘(0, I_i ω_i). Each error is normal (the value is the standard deviation) or
+    uniform (the half-width) per axis; **normal inertia errors are truncated at ±3σ**
+    (:data:`INERTIA_TRUNCATION`) and the worst case is checked before drawing, so every member
+    is a rigid body (an untruncated 5 % normal draw puts a thin body's moments across a
+    triangle inequality and aborts the run). The draws of member i are the Philox generator at
+    counter 3i (key from ``SeedSequence(seed)``): the same members as a scenario with the same
+    table and seed, whatever ``size``.
+
+    Parameters
+    ----------
+    body : RigidBody, array_like or Quantity, shape (3,)
+        The nominal body.
+    q0, Q0 : array_like, shape (4,)
+        The nominal initial state (Q0 in kg m² s⁻¹ for a body with units; a Quantity is
+        converted); projected onto |q| = 1, q·Q = 0 first (within 1e-6), as a scenario's.
+    size : int
+        Number of members N.
+    attitude_error : float or Quantity
+        Per body axis (an angle: plain numbers are rad).
+    rate_error : float or Quantity
+        Per body axis (a rate: plain numbers are rad/s, or rad per time unit for a
+        dimensionless body).
+    inertia_error : float
+        Relative, per axis (0.05 for 5 %).
+    seed : int
+        The scenario's ``seed``.
+    attitude_distribution, rate_distribution, inertia_distribution : {"normal", "uniform"}
+    start : int
+        Index of the first member (members start .. start + size − 1: a slice of a larger
+        ensemble).
+
+    Returns
+    -------
+    Dispersed
+        ``inertia``, ``q``, ``Q``, ``nominal`` and ``errors``.
+
+    Raises
+    ------
+    AttitudeValueError
+        Bad values (naming the parameter), or an inertia error whose worst case is not a
+        rigid body (use a smaller error, or a uniform distribution).
+    """
+    from astropy import units as u
+
+    from .._validation import as_float_array, as_int, as_rate
+    from ..body import RigidBody, inertia_rows
+    from ..canonical import project_state
+
+    moments, units = inertia_rows(body, "body")
+    if moments.shape != (3,):
+        raise AttitudeValueError(
+            f"body: the nominal body (3 principal moments), got shape {moments.shape}"
+        )
+    nominal_body = body if isinstance(body, RigidBody) else RigidBody(moments, units)
+    size = as_int(size, "size")
+    start = as_int(start, "start", low=0)
+    seed = as_int(seed, "seed", low=0)
+    q = as_float_array(q0, "q0", trailing=4, ndim=1)
+    Q = as_float_array(Q0, "Q0", trailing=4, ndim=1, unit=None if units is None else "kg m2 / s")
+    qn, Qn, _ = project_state(q, Q)
+    if isinstance(attitude_error, u.Quantity):
+        try:
+            attitude_error = attitude_error.to_value(u.rad)
+        except u.UnitConversionError:
+            raise AttitudeValueError(
+                f"attitude_error: units {attitude_error.unit} are not an angle"
+            ) from None
+    att = float(as_float_array(attitude_error, "attitude_error", ndim=0))
+    rate = float(as_rate(rate_error, "rate_error", dimensional=units is not None, trailing=None))
+    ie = float(as_float_array(inertia_error, "inertia_error", ndim=0))
+    for name, v in (("attitude_error", att), ("rate_error", rate), ("inertia_error", ie)):
+        if not v >= 0:
+            raise AttitudeValueError(f"{name}: must be >= 0 (a standard deviation or half-width)")
+    dists = {
+        "attitude_distribution": attitude_distribution,
+        "rate_distribution": rate_distribution,
+        "inertia_distribution": inertia_distribution,
+    }
+    for key, d in dists.items():
+        if d not in DISTRIBUTIONS:
+            raise AttitudeValueError(
+                f"{key}: expected one of {', '.join(map(repr, DISTRIBUTIONS))}, got {d!r}"
+            )
+    disp = Dispersions(
+        size=start + size, seed=seed, attitude_error=att, rate_error=rate, inertia_error=ie,
+        **dists,
+    )  # fmt: skip
+    disp.check_body(moments, "inertia_error")
+    qs, Qs, inert = disp.sample(qn, Qn, moments, start, start + size)
+    dtheta, domega, eps = disp.draws(start, start + size)
+    if ie == 0:
+        bodies: Any = nominal_body
+    else:
+        bodies = inert * u.Unit(units) if units is not None else inert
+    return Dispersed(
+        bodies, qs, Qs, (qn, Qn, nominal_body),
+        {"attitude": dtheta, "rate": domega, "inertia": eps},
+    )  # fmt: skip
+
+
 class _Sampled:
     """Members drawn chunk by chunk from :class:`Dispersions` (memory: one chunk)."""
 
@@ -232,8 +383,8 @@ class _Sampled:
         )
         return out
 
-    def nominal_params(self) -> np.ndarray:
+    def nominal_params(self, inertia: np.ndarray | None = None) -> np.ndarray:
         """The compiled loop's parameter row (P,) of the nominal body and potential."""
         params = np.array(self.params, dtype=np.float64)
-        params[0:3] = self.inertia0
+        params[0:3] = self.inertia0 if inertia is None else inertia
         return params

@@ -340,7 +340,10 @@ def event_time_percentiles(
     first = _check_ensemble(ds, "event_first_time")
     count = _check_ensemble(ds, "event_count")
     p = _percentiles(percentiles)
-    tf = np.asarray(first.transpose("member", "detector").values, dtype=np.float64)
+    from ..results import time_values
+
+    # seconds since the epoch, also from a file whose times xarray decoded to datetimes
+    tf = time_values(first.transpose("member", "detector").to_dataset(name="t"), "t")
     cnt = np.asarray(count.transpose("member", "detector").values, dtype=np.float64)
     have = np.isfinite(tf)
     q = np.full((p.size, tf.shape[1]), np.nan)
@@ -353,13 +356,17 @@ def event_time_percentiles(
     }
     if "detector_label" in ds.coords:
         coords["detector_label"] = ds["detector_label"].variable
-    units = first.attrs.get("units", "")
+    when = {  # the encoding of `time` (docs/results.md), also after CF decoding
+        k: first.attrs.get(k, first.encoding.get(k))
+        for k in ("units", "calendar", "units_metadata", "elapsed_time_units")
+        if k in first.attrs or k in first.encoding
+    }
     return xr.Dataset(
         {
             "first_time": (
                 ("percentile", "detector"),
                 q,
-                {"units": units, "long_name": "percentiles over members of the first event time"},
+                {**when, "long_name": "percentiles over members of the first event time"},
             ),
             "fraction_with_event": (
                 ("detector",),

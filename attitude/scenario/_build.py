@@ -23,7 +23,8 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 
-from ._models import _model_names, _orbit, _potential
+from . import _actuators, _software
+from ._models import _frame, _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
     _EVENT_KEYS,
@@ -113,7 +114,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
             hint = f"; did you mean [{close[0]}]?" if close else ""
             raise _fail(k, f"unknown table or key{hint} (tables: {', '.join(_TABLES)})")
     for name in _TABLES:
-        if name != "events":
+        if name not in ("events", "software"):
             r.check_keys(name, r.table(name))
 
     # [scenario]
@@ -148,10 +149,30 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
                 "an orbit needs a body with units: give body.inertia_unit (e.g. 'kg m2')",
             )
         orbit, epoch = _orbit(r, ot, t, epoch, path)
-    uses_orbit = bool(r.table("events")) or r.table("initial_state").get(
-        "frame", "inertial"
-    ) not in ("inertial",)
-    potential = _potential(r, pt, kind, orbit, r.table("spacecraft"), uses_orbit)
+    uses_orbit = (
+        bool(r.table("events"))
+        or bool(r.table("software"))
+        or r.table("initial_state").get("frame", "inertial") not in ("inertial",)
+    )
+    sct = r.table("spacecraft")
+    has_actuators = any(k in sct for k in ("wheels", "magnetorquers", "thrusters"))
+    if has_actuators and "magnetorquers" in sct and orbit is None:
+        raise _fail(
+            "spacecraft.magnetorquers",
+            "magnetorquers act in the geomagnetic field along the orbit: add an [orbit] table",
+        )
+    potential = _potential(
+        r, pt, kind, orbit, sct, uses_orbit or (has_actuators and orbit is not None)
+    )
+    field = str(pt.get("field", "igrf")) if isinstance(pt.get("field", "igrf"), str) else "igrf"
+    craft = _actuators.spacecraft(r, sct, body, orbit, field)
+    schedule = _actuators.commands(r, r.table("commands"), craft, path)
+    swt = r.table("software")
+    if swt and craft is None:
+        from ..spacecraft import Spacecraft
+
+        craft = Spacecraft(body, orbit=orbit, field=field)
+    fsw = _software.software(r, swt, craft, body, orbit)
 
     # [initial_state]
     it = r.table("initial_state", required=True)
@@ -165,7 +186,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
             "initial_state.frame",
             f"expected one of {', '.join(_FRAMES[:5])} ('orbital' is rsw), got {frame!r}",
         )
-    q0, Q0 = _initial(r, it, form, frame, body, orbit, float(t[0]))
+    q0, Q0 = _initial(r, it, form, frame, body if craft is None else craft, orbit, float(t[0]))
 
     # [integrator]
     nt = r.table("integrator")
@@ -209,6 +230,11 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [output]
     out = r.table("output")
     opath = Path(r.string(out, "path", "output", f"{name}.nc"))
+    layout = r.string(out, "plot_layout", "output", None)
+    if layout is not None and layout not in ("engineer", "paper"):
+        raise _fail(
+            "output.plot_layout", f"expected 'engineer' or 'paper' (attitude plot), got {layout!r}"
+        )
 
     # [ensemble]
     ensemble = None
@@ -243,12 +269,16 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         epoch=epoch,
         object_name=r.string(sc, "object_name", "scenario", "UNKNOWN"),
         object_id=r.string(sc, "object_id", "scenario", "UNKNOWN"),
-        inertial_frame=r.string(sc, "inertial_frame", "scenario", "EME2000"),
+        inertial_frame=r.string(sc, "inertial_frame", "scenario", None),
         source=text,
         path=path,
         initial_form=f"{form} ({frame} frame)",
         ensemble=ensemble,
         events=events,
+        spacecraft=craft,
+        commands=schedule,
+        software=fsw,
+        extra_attrs={"plot_layout": layout} if layout else {},
     )
 
 
@@ -477,30 +507,6 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
         ref = _frame(frame, orbit, f"{where}.frame")
         return initial_state(body, ref, t0, offset=q, rates=omega)
     return q, C.momenta_from_angular_velocity(q, omega, body)
-
-
-def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
-    """A reference frame of attitude.frames named in a scenario."""
-    from .. import frames as F
-
-    if name == "inertial":
-        return F.inertial((1.0, 0.0, 0.0, 0.0) if q is None else q)
-    if orbit is None:
-        raise _fail(key, f"frame {name!r} needs an [orbit] table")
-    makers = {
-        "orbital": F.rsw,
-        "rsw": F.rsw,
-        "lvlh": F.lvlh,
-        "vnc": F.vnc,
-        "nadir": F.nadir,
-        "sun_pointing": F.sun_pointing,
-    }
-    if name not in makers:
-        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
-    try:
-        return makers[name](orbit)
-    except ValueError as exc:
-        raise _fail(key, str(exc)) from None
 
 
 def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:

@@ -19,8 +19,10 @@ else:  # pragma: no cover - Python 3.10
     pass
 
 
+from ._actuators import ACTUATOR_KEYS
 from ._schema import (
     _FACET_KEYS,
+    _FRAMES,
     _INTERNAL,
     _KINDS,
     _ORBIT_MODELS,
@@ -288,6 +290,8 @@ def _potential(
     needed = {_SPACECRAFT_KEYS[n] for n in names if n in _SPACECRAFT_KEYS}
     for k in sc:
         base = k[:-5] if k.endswith("_unit") else k
+        if base in ACTUATOR_KEYS:
+            continue
         if base not in needed:
             users = [m for m, key in _SPACECRAFT_KEYS.items() if key == base]
             raise _fail(
@@ -344,3 +348,17 @@ def _tensor(r: _Reader, sc: Mapping[str, Any]) -> np.ndarray:
     else:
         m = np.diag(r.array(sc, "eddy_tensor", where, 3))
     return m * scale
+
+
+def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
+    """A reference frame of attitude.frames named in a scenario (:func:`frames.by_name`)."""
+    from .. import frames as F
+
+    if name != "inertial" and orbit is None:
+        raise _fail(key, f"frame {name!r} needs an [orbit] table")
+    if name != "inertial" and name not in F.NAMED:
+        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
+    try:
+        return F.by_name(name, orbit, q)
+    except ValueError as exc:
+        raise _fail(key, str(exc)) from None

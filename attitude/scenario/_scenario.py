@@ -54,13 +54,16 @@ class Scenario:
     epoch: str | None = None
     object_name: str = "UNKNOWN"
     object_id: str = "UNKNOWN"
-    inertial_frame: str = "EME2000"
+    inertial_frame: str | None = None  # AEM REF_FRAME_A; None: by the run (aem.write_aem)
     source: str = ""
     path: Path | None = None
     initial_form: str = "canonical"
     extra_attrs: dict[str, Any] = field(default_factory=dict)
     ensemble: Dispersions | None = None  # from an [ensemble] table
     events: list | None = None  # from an [events] table (attitude.events)
+    spacecraft: Any = None  # attitude.Spacecraft of the [spacecraft] actuator tables
+    commands: Any = None  # attitude.CommandSchedule of the [commands] table
+    software: Any = None  # attitude.FlightSoftware of the [software] table
 
     # -- running ----------------------------------------------------------------------------
     def _kwargs(self, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -89,8 +92,9 @@ class Scenario:
             "initial_state_form": self.initial_form,
             "object_name": self.object_name,
             "object_id": self.object_id,
-            "inertial_frame": self.inertial_frame,
         }
+        if self.inertial_frame:
+            a["inertial_frame"] = self.inertial_frame
         if self.epoch:
             a["epoch"] = self.epoch
         if kw and kw.get("max_step", math.inf) != math.inf:
@@ -124,7 +128,7 @@ class Scenario:
             with warnings.catch_warnings():
                 warnings.filterwarnings("ignore", "initial state projected")
                 ds = propagate(
-                    self.body,
+                    self.body if self.spacecraft is None else self.spacecraft,
                     self.q0,
                     self.Q0,
                     self.t,
@@ -132,6 +136,8 @@ class Scenario:
                     progress=progress,
                     epoch=self.epoch,
                     events=self.events,
+                    commands=self.commands,
+                    software=self.software,
                     **kw,
                 )
         except PropagationError as exc:
@@ -172,6 +178,9 @@ class Scenario:
         tracker = InvariantTracker()
         writer = StreamWriter(out)
         per_sample = 8 * (22 + (6 if getattr(self.potential, "orbit", None) else 0))
+        if self.spacecraft is not None:
+            nw, nm, nt = self.spacecraft.counts
+            per_sample += 8 * (6 * nw + 2 * nm + 2 * nt + 9)
         writer._out.check_space(per_sample * len(self.t), f"{len(self.t)} samples")
 
         def sink(ds: xr.Dataset) -> None:
@@ -184,7 +193,7 @@ class Scenario:
                 with warnings.catch_warnings():
                     warnings.filterwarnings("ignore", "initial state projected")
                     last = propagate(
-                        self.body,
+                        self.body if self.spacecraft is None else self.spacecraft,
                         self.q0,
                         self.Q0,
                         self.t,
@@ -195,10 +204,12 @@ class Scenario:
                         on_chunk=sink,
                         epoch=self.epoch,
                         events=self.events,
+                        commands=self.commands,
+                        software=self.software,
                         **kw,
                     )
                 status = "event" if last.attrs.get("status") == "event" else "complete"
-                if self.events is not None:
+                if self.events is not None or self.software is not None:
                     writer.add_static(last)
             except PropagationError as exc:
                 failure = exc
@@ -208,7 +219,8 @@ class Scenario:
                 raise failure or AttitudeValueError("no samples computed")
             attrs = dict(last.attrs) if last is not None else dict(writer.attrs)
             attrs.update(self.attrs(kw), run_status=status, n_samples=np.int64(writer.n))
-            attrs.update(tracker.attrs(attrs.get("potential_name", "")))
+            counts = None if self.spacecraft is None else self.spacecraft.counts
+            attrs.update(tracker.attrs(attrs.get("potential_name", ""), counts))
             attrs["history"] = self._history(attrs)
             writer.attrs = attrs
             writer.commit()
@@ -217,7 +229,8 @@ class Scenario:
             raise
         if failure is not None:
             raise failure
-        return {"path": out, **attrs}
+        # the span actually computed: a terminal event ends the run at its own time
+        return {"path": out, "time_span": (tracker.t_first, tracker.t_last), **attrs}
 
 
 class InvariantTracker:
@@ -226,6 +239,8 @@ class InvariantTracker:
     def __init__(self):
         self.max_norm = 0.0
         self.max_qQ = 0.0
+        self.max_rel_qQ = 0.0
+        self.t_first = self.t_last = math.nan
         self.E0: float | None = None
         self.G0: np.ndarray | None = None
         self.max_dE = 0.0
@@ -236,7 +251,16 @@ class InvariantTracker:
         if ds.sizes["time"] == 0:
             return
         self.max_norm = max(self.max_norm, float(np.max(np.abs(ds["norm_error"].values))))
-        self.max_qQ = max(self.max_qQ, float(np.max(np.abs(ds["qQ"].values))))
+        qQ = np.abs(ds["qQ"].values)
+        self.max_qQ = max(self.max_qQ, float(np.max(qQ)))
+        # q.Q relative to |Q| (q.Q is in the momenta's units: 3.7e-6 kg m^2/s of |Q| = 2e6)
+        normQ = np.linalg.norm(ds["Q"].values, axis=-1)
+        rel = np.divide(qQ, normQ, out=np.zeros_like(qQ), where=normQ > 0)
+        self.max_rel_qQ = max(self.max_rel_qQ, float(np.max(rel)))
+        t = ds["time"].values
+        if math.isnan(self.t_first):
+            self.t_first = float(t[0])
+        self.t_last = float(t[-1])
         E = ds["energy"].values
         G = ds["G"].values
         if self.E0 is None:
@@ -247,14 +271,24 @@ class InvariantTracker:
         self.max_dG = max(self.max_dG, float(np.max(dG)))
         self.max_dGz = max(self.max_dGz, float(np.max(np.abs(G[:, 2] - self.G0[2]))))
 
-    def attrs(self, potential_name: str) -> dict[str, Any]:
-        """Diagnostic attrs: constraint errors always, conserved quantities where they are."""
+    def attrs(self, potential_name: str, actuators: Any = None) -> dict[str, Any]:
+        """Diagnostic attrs: constraint errors always, conserved quantities where they are.
+
+        ``actuators``: the (wheels, magnetorquers, thrusters) counts of a spacecraft: its
+        motors and friction change the energy; only its wheels leave G unchanged.
+        """
         a: dict[str, Any] = {
             "max_abs_norm_error": self.max_norm,
             "max_abs_qQ": self.max_qQ,
+            "max_rel_qQ": self.max_rel_qQ,
         }
         scaleE = max(abs(self.E0 or 0.0), np.finfo(float).tiny)
         scaleG = max(float(np.linalg.norm(self.G0)) if self.G0 is not None else 0.0, 1e-300)
+        if actuators is not None and any(actuators):
+            a["max_rel_energy_work"] = self.max_dE / scaleE
+            if potential_name == "torque_free" and not actuators[1] and not actuators[2]:
+                a["max_rel_G_error"] = self.max_dG / scaleG
+            return a
         if potential_name in ("torque_free", "heavy_top"):
             a["max_rel_energy_error"] = self.max_dE / scaleE
         if potential_name == "torque_free":

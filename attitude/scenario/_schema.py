@@ -38,6 +38,10 @@ _INTERNAL = {
     "dipole": "A m2",
     "conductance": "S m4",
     "size": "byte",
+    "torque": "N m",
+    "power": "W",
+    "viscous": "N m s",
+    "impulse": "N s",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -53,6 +57,10 @@ _EXAMPLE = {
     "dipole": "'A m2'",
     "conductance": "'S m4' (A m2 per T per T/s)",
     "size": "'GB' or 'MB'",
+    "torque": "'N m' or 'mN m'",
+    "power": "'W'",
+    "viscous": "'N m s'",
+    "impulse": "'N s' or 'mN s'",
 }
 
 # Allowed keys per table (value: quantity kind for "<key>_unit", or None).
@@ -91,7 +99,26 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "step": "time",
     },
     # what the environment models need to know about the spacecraft (docs/scenarios.md)
-    "spacecraft": {"dipole": "dipole", "eddy_tensor": "conductance", "facets": None},
+    # and its actuators (docs/actuators.md; keys of their tables in scenario/_actuators.py)
+    "spacecraft": {
+        "dipole": "dipole",
+        "eddy_tensor": "conductance",
+        "facets": None,
+        "wheels": None,
+        "magnetorquers": None,
+        "thrusters": None,
+        "center_of_mass": "position",
+    },
+    # the flight software (attitude.FlightSoftware; keys in scenario/_software.py)
+    "software": {},
+    # open-loop actuator commands held from each time to the next (attitude.CommandSchedule)
+    "commands": {
+        "times": "time",
+        "wheel_torque": "torque",
+        "dipole": "dipole",
+        "thrust": None,
+        "file": None,
+    },
     "orbit": {
         "type": None,
         "epoch": None,
@@ -119,7 +146,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "order": None,
         "formulation": None,
     },
-    "output": {"path": None},
+    "output": {"path": None, "plot_layout": None},
     # [events.<name>] subtables (attitude.events, docs/events.md; keys in _EVENT_KEYS)
     "events": {},
     # Monte Carlo dispersions (attitude.ensemble.Dispersions, docs/ensemble.md)

@@ -1,0 +1,757 @@
+"""Compiled flight software: guidance, control laws, allocation and modes at a task rate.
+
+The flight software of :class:`attitude.FlightSoftware` runs at ticks t_k = t₀ + k·period
+inside the integrator's loop (:mod:`attitude._core.holds`): at each tick :func:`fsw_tick`
+reads the measurements (the true state, or the sensors and estimator of
+:mod:`attitude._core.sensors`), evaluates the active mode's guidance (a reference frame of
+:mod:`attitude._core.frames`, or an eigen-axis slew onto one), its control law and allocation,
+and returns actuator commands; :func:`fsw_boundary` holds them until the next tick (zero-order
+hold; ``delay`` whole ticks later if the software has a latency).
+
+Everything is data, as the torque models are: the program ``fw`` (float64: header, modes,
+frames, allocation matrices) and the state ``fs`` (the laws' memory: integral term, previous
+field, slew start, mode, delayed commands). Layouts: the constants below.
+
+Control laws (body-axis torque request L_r or dipole request):
+
+* MRP feedback — Basilisk's ``mrpFeedback`` (Schaub & Junkins, *Analytical Mechanics of Space
+  Systems*, 4th ed., Sect. 8.4): L_r = −[K σ + P δω + P K_I z − (ω_r + K_I z) × (I ω + Σ h_s a)
+  + I (ω × ω_r − ω̇_r)], with z = ∫K σ dt + I δω (integral term only when K_I > 0, each
+  component limited);
+* quaternion feedback (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., Sect. 7.3):
+  L_r = −K q_e − C δω + ω × (I ω + Σ h_s a) − I (ω × ω_r − ω̇_r);
+* rate damping: L_r = −K_d δω;
+* B-dot (Stickler & Alfriend 1976): m = −k Ḃ_B, or normalized m = −(k/|B|) ḃ (Avanzini &
+  Giulietti 2012), Ḃ_B from the measured field at this tick and the last;
+* momentum dumping with magnetorquers (the cross-product law, Camillo & Markley 1980):
+  m = k ((h_w − h_ref) × B) / |B|², whose torque m × B = −k (h_w − h_ref)⊥B unloads the
+  wheels, beside a wheel law.
+
+Allocation: wheel motor torques u = −G⁺ L_r (G = [a_1 ... a_n], the minimum-norm
+pseudo-inverse, Basilisk's ``rwMotorTorque``) plus a null-space term −k N J (Ω − Ω_ref)
+(N = 1 − G⁺G) that manages the wheel speeds without a body torque; a torque request on
+magnetorquers alone, m = B × L_r / |B|²; dipoles to rods through the pseudo-inverse of their
+axes; without actuators the request is an ideal body torque.
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit._shared_jit import jit
+
+from .actuators import (
+    S_IDEAL,
+    S_MTQ,
+    S_NM,
+    S_NW,
+    S_WHEELS,
+    W_J,
+    W_U,
+    WS,
+    configure_hold,
+    next_thruster_off,
+    state_rate,
+    thrusters_off_at,
+    wheel_speed,
+)
+from .environment import field_body
+from .frames import F_TYPE, FRAME_INERTIAL, frame_eval
+from .holds import (
+    BOUNDARY_DONE,
+    BOUNDARY_NEEDS_COMMANDS,
+    HS_HOLD_END,
+    HS_READY,
+    HS_SEG_END,
+    RECORDS_FULL,
+)
+from .mekf import (
+    E_B,
+    E_INIT,
+    E_P,
+    E_Q,
+    EP_INIT,
+    EP_MAG,
+    EP_Q0,
+    EP_SUN,
+    estimation_error,
+    mekf_init,
+    mekf_propagate,
+    mekf_update_quaternion,
+    mekf_update_vector,
+)
+from .quat import conj_mul, cross, mul, rotate, rotate_inverse
+from .rng import RNG_SIZE
+from .sensors import (
+    G_B0,
+    G_STATE,
+    SN_GYRO,
+    Z_B,
+    Z_GYRO_OK,
+    Z_MAG_OK,
+    Z_OMEGA,
+    Z_Q,
+    Z_SIZE,
+    Z_ST_OK,
+    Z_SUN,
+    Z_SUN_OK,
+    measure_sensors,
+    sun_and_earth,
+)
+
+# --- the program fw: header ---------------------------------------------------------------------
+FW_PERIOD = 0
+FW_T0 = 1  # time of the first tick
+FW_DELAY = 2  # whole ticks between a command's computation and its application
+FW_NMODES = 3
+FW_NCMD = 4  # raw commands: n_w + n_m + n_t
+FW_MODES = 5  # offset of the table of mode offsets
+FW_IDEAL = 6  # 1: the request is an ideal body torque (no actuators)
+FW_INERTIA = 7  # the software's inertia model (9, row-major)
+FW_FIELD = 16  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
+FW_RECORD_EVERY = 17  # record every k-th tick
+FW_NAPINV = 18  # offset of the magnetorquers' pseudo-inverse (n_m × 3; 0: none)
+FW_GPINV = 19  # offset of the wheels' pseudo-inverse G⁺ (n_w × 3)
+FW_NULLP = 20  # offset of the null-space projector N (n_w × n_w)
+FW_EXTERNAL = 21  # 1: the commands come from Python at each tick (your own step function)
+FW_ORBIT = 22  # offset of the orbit's kernel data (0: none)
+FW_SUN = 23  # offset of the Sun's table (0: none)
+FW_SENSORS = 24  # offset of the sensor program (attitude._core.sensors; 0: the truth)
+FW_EST = 25  # offset of the MEKF's record (attitude._core.mekf EP_*; 0: no estimator)
+FW_SS = 26  # offset in fs of the sensors' state
+FW_ES = 27  # offset in fs of the filter's state
+FW_Z = 28  # offset in fs of the measurement vector (Z_SIZE) and the Sun heads' scratch
+FW_HEADER = 32
+
+# --- mode blocks (offsets relative to the block) --------------------------------------------------
+MB_COND = 0  # COND_*
+MB_COND_X = 1  # threshold (rad/s, rad or s)
+MB_COND_FRAME = 2  # offset of the condition's frame (pointing)
+MB_COND_AXIS = 3  # body axis (3); zero: the total rotation angle
+MB_GUID = 6  # GUID_*
+MB_GUID_FRAME = 7  # offset of the reference (target) frame
+MB_SLEW_RATE = 8
+MB_SLEW_ACC = 9
+MB_CTRL = 10  # CTRL_*
+MB_K = 11
+MB_P = 12  # 3 × 3
+MB_KI = 21
+MB_ILIM = 22
+MB_LAWTYPE = 23  # MRP feedback: Basilisk's controlLawType 0 (ω_r + K_I z) or 1 (ω); B-dot:
+# 0 m = −k Ḃ, 1 m = −(k/|B|) ḃ
+MB_DUMP = 24  # momentum-dumping gain (1/s; 0: off)
+MB_DUMP_REF = 25  # reference wheel momentum in body axes (3)
+MB_NULL = 28  # null-space gain (1/s; 0: off)
+MB_NULL_SPEEDS = 29  # offset of the reference wheel speeds (n_w; 0: zero)
+MB_SIZE = 32
+
+COND_ALWAYS = 0
+COND_RATE_BELOW = 1
+COND_RATE_ABOVE = 2
+COND_POINTING_WITHIN = 3
+COND_POINTING_BEYOND = 4
+COND_AFTER = 5
+
+GUID_NONE = 0  # no reference: the inertial identity with zero rate
+GUID_FRAME = 1
+GUID_SLEW = 2
+
+CTRL_NONE = 0
+CTRL_MRP = 1
+CTRL_QUATERNION = 2
+CTRL_RATE_DAMPING = 3
+CTRL_BDOT = 4
+
+# --- the state fs -------------------------------------------------------------------------------
+FS_MODE = 0
+FS_TICK = 1
+FS_NEXT = 2  # time of the next tick
+FS_INT = 3  # MRP feedback's ∫ K σ dt (3)
+FS_PRIOR = 6  # time of the last control update (NaN: none yet)
+FS_BPREV = 7  # field measured at the last tick (3)
+FS_BVALID = 10
+FS_SLEW_T0 = 11  # start of the slew
+FS_SLEW_AXIS = 12  # axis of the offset from the target (3, target axes)
+FS_SLEW_ANGLE = 15  # its angle
+FS_ENTERED = 16  # 1 once the active mode has run a tick (0 at its entry)
+FS_SENSED = 17  # 1: this tick's measurements were taken (your own step asked for commands)
+FS_SQ = 20  # the attitude the software uses at this tick (4), then its rate (3), its field (3)
+FS_SW = 24
+FS_SB = 27
+FS_QUEUE = 32  # delayed commands: delay rows of n_cmd, a ring indexed by the tick
+FS_HEADER = 32
+
+# --- tick records -------------------------------------------------------------------------------
+R_T = 0
+R_MODE = 1
+R_QREF = 2  # 4
+R_SIGMA = 6  # σ_BR (3)
+R_ANGLE = 9  # error angle
+R_DOMEGA = 10  # ω_BR (3)
+R_TORQUE = 13  # torque request L_r (3)
+R_DIPOLE = 16  # dipole request, body axes (3)
+R_CMD = 19  # commands computed at this tick (n_cmd), then those applied (n_cmd)
+R_HEADER = 19
+#: With sensors, after the commands: the measurements (Z_SIZE), then the estimate q̂ (4),
+#: β̂ (3), the 1-σ of the six error states, the estimation errors δθ, δβ (6) and the NEES.
+RS_Q = 0
+RS_B = 4
+RS_SIGMA = 7
+RS_ERR = 13
+RS_NEES = 19
+RS_SIZE = 20
+
+#: Finite-difference half-step for ω̇ of a frame (s): the frames give q_R and ω_R exactly.
+DOMEGA_STEP = 0.5
+
+
+def record_width(n_cmd: int, sensors: bool = False) -> int:
+    """Columns of a tick record."""
+    return R_HEADER + 2 * n_cmd + ((Z_SIZE + RS_SIZE) if sensors else 0)
+
+
+def state_size(delay: int, n_cmd: int) -> int:
+    """Length of the software state ``fs`` before the sensors' and the filter's."""
+    return FS_HEADER + max(delay, 0) * n_cmd
+
+
+@jit(inline="always")
+def _mv(fw, o, v0, v1, v2):
+    """The 3 × 3 matrix at fw[o:o+9] (row-major) times v."""
+    return (
+        fw[o] * v0 + fw[o + 1] * v1 + fw[o + 2] * v2,
+        fw[o + 3] * v0 + fw[o + 4] * v1 + fw[o + 5] * v2,
+        fw[o + 6] * v0 + fw[o + 7] * v1 + fw[o + 8] * v2,
+    )
+
+
+@jit(inline="always")
+def _short(q):
+    """The quaternion of the shorter rotation (scalar part >= 0)."""
+    if q[0] < 0.0:
+        return (-q[0], -q[1], -q[2], -q[3])
+    return q
+
+
+@jit(inline="always")
+def mrp(q):
+    """Modified Rodrigues parameters of the shorter rotation of ``q`` (|σ| <= 1)."""
+    s = _short(q)
+    d = 1.0 + s[0]
+    return (s[1] / d, s[2] / d, s[3] / d)
+
+
+@jit
+def frame_reference(d, t):
+    """(q_R, ω_R, ω̇_R) of frame data ``d`` at t, rates in reference axes; ω̇_R by a central
+    difference of the exact ω_R (components in the rotating axes: the inertial derivative),
+    one-sided at the ends of a tabulated orbit."""
+    r = frame_eval(d, t)
+    q = (r[0], r[1], r[2], r[3])
+    w = (r[4], r[5], r[6])
+    if int(d[F_TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
+        return q, w, (0.0, 0.0, 0.0)
+    h = DOMEGA_STEP
+    a = frame_eval(d, t + h)
+    b = frame_eval(d, t - h)
+    if a[4] != a[4]:  # past the end of a tabulated orbit: the backward difference
+        a = r
+        s = h
+    elif b[4] != b[4]:  # before its start: the forward difference
+        b = r
+        s = h
+    else:
+        s = 2.0 * h
+    dw = ((a[4] - b[4]) / s, (a[5] - b[5]) / s, (a[6] - b[6]) / s)
+    return q, w, dw
+
+
+@jit
+def slew_profile(theta0, t, wmax, amax):
+    """(θ, θ̇, θ̈) of a rest-to-rest eigen-axis slew of angle θ0 >= 0 started at t = 0 with
+    rate and acceleration limits (trapezoidal rate; triangular when θ0 is small): θ goes from
+    θ0 to 0."""
+    if theta0 <= 0.0:
+        return 0.0, 0.0, 0.0
+    t1 = wmax / amax
+    if amax * t1 * t1 >= theta0:  # triangular
+        t1 = math.sqrt(theta0 / amax)
+        tc = 0.0
+        wpk = amax * t1
+    else:
+        wpk = wmax
+        tc = (theta0 - amax * t1 * t1) / wmax
+    if t <= 0.0:
+        return theta0, 0.0, 0.0
+    if t < t1:
+        return theta0 - 0.5 * amax * t * t, -amax * t, -amax
+    if t < t1 + tc:
+        return theta0 - 0.5 * amax * t1 * t1 - wpk * (t - t1), -wpk, 0.0
+    te = 2 * t1 + tc
+    if t < te:
+        r = te - t
+        return 0.5 * amax * r * r, -amax * r, amax
+    return 0.0, 0.0, 0.0
+
+
+@jit
+def guidance(fw, fs, mb, t, q_meas):
+    """(q_R, ω_R, ω̇_R) of the active mode's guidance at t (rates in reference axes)."""
+    kind = int(fw[mb + MB_GUID])
+    if kind == GUID_NONE:
+        return (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    o = int(fw[mb + MB_GUID_FRAME])
+    qB, wB, dwB = frame_reference(fw[o:], t)
+    if kind == GUID_FRAME:
+        return qB, wB, dwB
+    # slew: q_R = q_B∘exp(θ e/2), e fixed in the target's axes (from the attitude at entry)
+    if fs[FS_ENTERED] == 0.0:
+        off = _short(conj_mul(qB, q_meas))  # rotation from the target to the spacecraft
+        sv = math.sqrt(off[1] * off[1] + off[2] * off[2] + off[3] * off[3])
+        ang = 2.0 * math.atan2(sv, off[0])
+        if sv > 0.0:
+            fs[FS_SLEW_AXIS] = off[1] / sv
+            fs[FS_SLEW_AXIS + 1] = off[2] / sv
+            fs[FS_SLEW_AXIS + 2] = off[3] / sv
+        else:
+            fs[FS_SLEW_AXIS] = 1.0
+            fs[FS_SLEW_AXIS + 1] = 0.0
+            fs[FS_SLEW_AXIS + 2] = 0.0
+        fs[FS_SLEW_ANGLE] = ang
+        fs[FS_SLEW_T0] = t
+    e = (fs[FS_SLEW_AXIS], fs[FS_SLEW_AXIS + 1], fs[FS_SLEW_AXIS + 2])
+    th, thd, thdd = slew_profile(
+        fs[FS_SLEW_ANGLE], t - fs[FS_SLEW_T0], fw[mb + MB_SLEW_RATE], fw[mb + MB_SLEW_ACC]
+    )
+    c = math.cos(0.5 * th)
+    s = math.sin(0.5 * th)
+    o4 = (c, s * e[0], s * e[1], s * e[2])
+    qR = mul(qB, o4)
+    wBr = rotate_inverse(o4, wB)
+    dwBr = rotate_inverse(o4, dwB)
+    we = (thd * e[0], thd * e[1], thd * e[2])
+    x = cross(we, wBr)
+    wR = (wBr[0] + we[0], wBr[1] + we[1], wBr[2] + we[2])
+    dwR = (dwBr[0] - x[0] + thdd * e[0], dwBr[1] - x[1] + thdd * e[1], dwBr[2] - x[2] + thdd * e[2])
+    return qR, wR, dwR
+
+
+@jit
+def condition_holds(fw, mb, t, q, om):
+    """Whether the mode's entry condition holds at t for the attitude q and rate ω."""
+    kind = int(fw[mb + MB_COND])
+    x = fw[mb + MB_COND_X]
+    if kind == COND_ALWAYS:
+        return True
+    if kind == COND_RATE_BELOW or kind == COND_RATE_ABOVE:
+        r = math.sqrt(om[0] * om[0] + om[1] * om[1] + om[2] * om[2])
+        return r < x if kind == COND_RATE_BELOW else r > x
+    if kind == COND_AFTER:
+        return t >= x
+    o = int(fw[mb + MB_COND_FRAME])
+    r = frame_eval(fw[o:], t)
+    e = conj_mul((r[0], r[1], r[2], r[3]), q)  # rotation from the frame to the body
+    a = (fw[mb + MB_COND_AXIS], fw[mb + MB_COND_AXIS + 1], fw[mb + MB_COND_AXIS + 2])
+    if a[0] == 0.0 and a[1] == 0.0 and a[2] == 0.0:
+        sv = math.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
+        ang = 2.0 * math.atan2(sv, abs(e[0]))
+    else:
+        # the angle between the body axis and the same axis of the frame
+        in_frame = rotate(e, a)  # the body axis in the frame's axes
+        c = in_frame[0] * a[0] + in_frame[1] * a[1] + in_frame[2] * a[2]
+        c = min(1.0, max(-1.0, c))
+        ang = math.acos(c)
+    return ang < x if kind == COND_POINTING_WITHIN else ang > x
+
+
+#: Filter state slots kept in fs beside the filter's own (the gyro rate of the last tick).
+ES_OMEGA_PREV = 160  # after attitude._core.mekf.E_SIZE
+ES_LAST_Q = 163  # the last valid star tracker quaternion (without a filter)
+ES_HAS_Q = 167
+ES_SIZE = 168
+
+
+@jit
+def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
+    """The sensors' measurements and the estimate at this tick: (q, ω, B) the software uses.
+
+    Without sensors the truth; with sensors but no estimator the last valid star tracker
+    quaternion and the gyro's rate; with the MEKF its estimate (propagated over the period
+    with this tick's gyro rate, the mean over that interval, then updated). Writes the tick's
+    sensor and estimator record at ``rec_at`` of ``rec_row`` (if ``rec_at`` >= 0)."""
+    so = int(fw[FW_SENSORS])
+    if so == 0:
+        return q, om, bb
+    sn = fw[so:]
+    ss = fs[int(fw[FW_SS]) :]
+    zo = int(fw[FW_Z])
+    z = fs[zo : zo + Z_SIZE]
+    scratch = fs[zo + Z_SIZE :]
+    tick = int(fs[FS_TICK])
+    dt = fw[FW_PERIOD]
+    measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch)
+    qu = q
+    wu = om
+    bu = bb
+    if z[Z_GYRO_OK] != 0.0:
+        wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2])
+    if z[Z_MAG_OK] != 0.0:
+        bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2])
+    eo = int(fw[FW_EST])
+    es = fs[int(fw[FW_ES]) :]
+    if eo == 0:
+        if z[Z_ST_OK] != 0.0:
+            for i in range(4):
+                es[ES_LAST_Q + i] = z[Z_Q + i]
+            es[ES_HAS_Q] = 1.0
+        if es[ES_HAS_Q] != 0.0:
+            qu = (es[ES_LAST_Q], es[ES_LAST_Q + 1], es[ES_LAST_Q + 2], es[ES_LAST_Q + 3])
+    else:
+        ep = fw[eo:]
+        if es[E_INIT] == 0.0:
+            if ep[EP_INIT] != 0.0:
+                mekf_init(
+                    es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 + 3]), ep[13:16]
+                )
+                _updates(es, ep, z, q, bb, sn, t)
+            elif z[Z_ST_OK] != 0.0:
+                # the first measurement is the estimate: no update with it
+                mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1], z[Z_Q + 2], z[Z_Q + 3]), ep[13:16])
+        else:
+            # the gyro's rate of this tick is the mean over the interval just ended
+            for i in range(3):
+                es[ES_OMEGA_PREV + i] = wu[i]
+            mekf_propagate(es, ep, es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt)
+            _updates(es, ep, z, q, bb, sn, t)
+        if es[E_INIT] != 0.0:
+            qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
+            wu = (wu[0] - es[E_B], wu[1] - es[E_B + 1], wu[2] - es[E_B + 2])
+    if rec_at >= 0:
+        for i in range(Z_SIZE):
+            rec_row[rec_at + i] = z[i]
+        r = rec_at + Z_SIZE
+        for i in range(RS_SIZE):
+            rec_row[r + i] = math.nan
+        if eo != 0 and es[E_INIT] != 0.0:
+            for i in range(4):
+                rec_row[r + RS_Q + i] = es[E_Q + i]
+            for i in range(3):
+                rec_row[r + RS_B + i] = es[E_B + i]
+            for i in range(6):
+                rec_row[r + RS_SIGMA + i] = math.sqrt(max(es[E_P + 7 * i], 0.0))
+            g = int(sn[SN_GYRO])
+            gs = int(sn[g + G_STATE]) + RNG_SIZE
+            bt = (
+                sn[g + G_B0] + ss[gs],
+                sn[g + G_B0 + 1] + ss[gs + 1],
+                sn[g + G_B0 + 2] + ss[gs + 2],
+            )
+            e, nees = estimation_error(es, q, bt)
+            for i in range(6):
+                rec_row[r + RS_ERR + i] = e[i]
+            rec_row[r + RS_NEES] = nees
+    return qu, wu, bu
+
+
+@jit
+def _updates(es, ep, z, q, bb, sn, t):
+    """The filter's updates with the valid measurements of the tick (q, bb: the truth, for
+    the reference vectors in space the filter knows: the field model, the Sun's ephemeris)."""
+    if z[Z_ST_OK] != 0.0:
+        mekf_update_quaternion(es, ep, z[Z_Q : Z_Q + 4])
+    if ep[EP_MAG] > 0.0 and z[Z_MAG_OK] != 0.0:
+        r = rotate(q, bb)  # the field model in space (the IGRF tables)
+        mekf_update_vector(es, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
+    if ep[EP_SUN] > 0.0 and z[Z_SUN_OK] != 0.0:
+        _, s, _ = sun_and_earth(sn, t)  # the Sun's direction in space (its ephemeris)
+        mekf_update_vector(es, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
+                           ep[EP_SUN])  # fmt: skip
+
+
+@jit
+def _field_offset(fw, sc):
+    """Offset of the field block the software reads (its own, else the magnetorquers')."""
+    fo = int(fw[FW_FIELD])
+    if fo == 0:
+        fo = int(sc[S_MTQ])
+    return fo
+
+
+@jit
+def _sense(t, y, sc, fw, fs, rec_row):
+    """The truth at t, then what the software measures or estimates of it: (q, ω, B_body);
+    the sensors' and the estimator's record written into ``rec_row``."""
+    qt = (y[0], y[1], y[2], y[3])
+    _g, omt = state_rate(sc, y)
+    fo = _field_offset(fw, sc)
+    bbt = (0.0, 0.0, 0.0)
+    if fo > 0:
+        bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
+    at = R_CMD + 2 * int(fw[FW_NCMD])
+    return sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, at)
+
+
+@jit
+def _sensed(fs):
+    """The (q, ω, B_body) stored by :func:`fsw_boundary` at this tick."""
+    q = (fs[FS_SQ], fs[FS_SQ + 1], fs[FS_SQ + 2], fs[FS_SQ + 3])
+    om = (fs[FS_SW], fs[FS_SW + 1], fs[FS_SW + 2])
+    bb = (fs[FS_SB], fs[FS_SB + 1], fs[FS_SB + 2])
+    return q, om, bb
+
+
+@jit
+def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
+    """One tick of the flight software at t from the state y: the commands to apply into
+    ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``."""
+    nw = int(sc[S_NW])
+    nm = int(sc[S_NM])
+    ncmd = int(fw[FW_NCMD])
+    fo = _field_offset(fw, sc)
+    if fs[FS_SENSED] != 0.0:  # measured when your own step asked for its commands
+        q, om, bb = _sensed(fs)
+        fs[FS_SENSED] = 0.0
+    else:
+        q, om, bb = _sense(t, y, sc, fw, fs, rec_row)
+    # modes: forward to the next one when its condition holds
+    mode = int(fs[FS_MODE])
+    nmodes = int(fw[FW_NMODES])
+    if mode + 1 < nmodes:
+        nb = int(fw[int(fw[FW_MODES]) + mode + 1])
+        if condition_holds(fw, nb, t, q, om):
+            mode += 1
+            fs[FS_MODE] = mode
+            fs[FS_ENTERED] = 0.0
+            fs[FS_INT] = 0.0
+            fs[FS_INT + 1] = 0.0
+            fs[FS_INT + 2] = 0.0
+            fs[FS_PRIOR] = math.nan
+    mb = int(fw[int(fw[FW_MODES]) + mode])
+    qR, wR_R, dwR_R = guidance(fw, fs, mb, t, q)
+    fs[FS_ENTERED] = 1.0
+    # errors: q_BR = q̃_R∘q, rates of the reference in body axes
+    qBR = conj_mul(qR, q)
+    sig = mrp(qBR)
+    wRN = rotate_inverse(qBR, wR_R)
+    dwRN = rotate_inverse(qBR, dwR_R)
+    dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
+    sq = _short(qBR)
+    ang = 2.0 * math.atan2(math.sqrt(sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]), sq[0])
+    # wheel momentum in body axes Σ J (a·ω + Ω) a = Σ h a (h the state)
+    hw0 = hw1 = hw2 = 0.0
+    for k in range(nw):
+        b = S_WHEELS + k * WS
+        h = y[8 + k]
+        hw0 += h * sc[b]
+        hw1 += h * sc[b + 1]
+        hw2 += h * sc[b + 2]
+    I = FW_INERTIA
+    Iw = _mv(fw, I, om[0], om[1], om[2])
+    H = (Iw[0] + hw0, Iw[1] + hw1, Iw[2] + hw2)
+    external = fw[FW_EXTERNAL] != 0.0
+    # control law
+    ctrl = CTRL_NONE if external else int(fw[mb + MB_CTRL])
+    L = (0.0, 0.0, 0.0)
+    m = (0.0, 0.0, 0.0)
+    K = fw[mb + MB_K]
+    P = mb + MB_P
+    if ctrl == CTRL_MRP:
+        Ki = fw[mb + MB_KI]
+        z = (0.0, 0.0, 0.0)
+        prior = fs[FS_PRIOR]
+        dt = 0.0 if prior != prior else t - prior
+        fs[FS_PRIOR] = t
+        if Ki > 0.0:
+            lim = fw[mb + MB_ILIM]
+            for i in range(3):
+                v = fs[FS_INT + i] + K * dt * sig[i]
+                if abs(v) > lim:
+                    v *= lim / abs(v)
+                fs[FS_INT + i] = v
+            Idw = _mv(fw, I, dw[0], dw[1], dw[2])
+            z = (fs[FS_INT] + Idw[0], fs[FS_INT + 1] + Idw[1], fs[FS_INT + 2] + Idw[2])
+        Pd = _mv(fw, P, dw[0], dw[1], dw[2])
+        Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
+        PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
+        lr = (K * sig[0] + Pd[0] + PKz[0], K * sig[1] + Pd[1] + PKz[1], K * sig[2] + Pd[2] + PKz[2])
+        if fw[mb + MB_LAWTYPE] == 0.0:
+            v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
+        else:
+            v8 = om
+        c9 = cross(v8, H)
+        lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
+        c10 = cross(om, wRN)
+        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
+        L = (-(lr[0] + ff[0]), -(lr[1] + ff[1]), -(lr[2] + ff[2]))
+    elif ctrl == CTRL_QUATERNION:
+        sgn = 1.0 if qBR[0] >= 0.0 else -1.0
+        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
+        gy = cross(om, H)
+        c10 = cross(om, wRN)
+        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
+        L = (
+            -K * sgn * qBR[1] - Cd[0] + gy[0] - ff[0],
+            -K * sgn * qBR[2] - Cd[1] + gy[1] - ff[1],
+            -K * sgn * qBR[3] - Cd[2] + gy[2] - ff[2],
+        )
+    elif ctrl == CTRL_RATE_DAMPING:
+        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
+        L = (-Cd[0], -Cd[1], -Cd[2])
+    elif ctrl == CTRL_BDOT:
+        if fs[FS_BVALID] != 0.0:
+            per = fw[FW_PERIOD]
+            p0, p1, p2 = fs[FS_BPREV], fs[FS_BPREV + 1], fs[FS_BPREV + 2]
+            if fw[mb + MB_LAWTYPE] == 0.0:  # m = −k Ḃ
+                m = (-K * (bb[0] - p0) / per, -K * (bb[1] - p1) / per, -K * (bb[2] - p2) / per)
+            else:  # m = −(k/|B|) ḃ, b = B/|B|
+                nb = math.sqrt(bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2])
+                npv = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
+                if nb > 0.0 and npv > 0.0:
+                    c = -K / (nb * per)
+                    m = (
+                        c * (bb[0] / nb - p0 / npv),
+                        c * (bb[1] / nb - p1 / npv),
+                        c * (bb[2] / nb - p2 / npv),
+                    )
+    fs[FS_BPREV] = bb[0]
+    fs[FS_BPREV + 1] = bb[1]
+    fs[FS_BPREV + 2] = bb[2]
+    fs[FS_BVALID] = 1.0 if fo > 0 else 0.0
+    # momentum dumping (cross-product law) beside the wheels
+    kd = fw[mb + MB_DUMP]
+    b2 = bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2]
+    if kd > 0.0 and b2 > 0.0:
+        r = mb + MB_DUMP_REF
+        dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
+        c = cross(dh, bb)  # m = k (Δh × B)/|B|²: the torque m × B = −k Δh⊥ unloads the wheels
+        m = (m[0] + kd * c[0] / b2, m[1] + kd * c[1] / b2, m[2] + kd * c[2] / b2)
+    # allocation into the raw commands (your own software wrote them into cmd)
+    out = cmd
+    ideal = (0.0, 0.0, 0.0)
+    if external:
+        if fw[FW_IDEAL] != 0.0:
+            L = (cmd[0], cmd[1], cmd[2])
+            ideal = L
+            for i in range(3):
+                cmd[i] = 0.0
+    elif fw[FW_IDEAL] != 0.0:
+        ideal = L
+    elif nw > 0:
+        for i in range(ncmd):
+            out[i] = 0.0
+        gp = int(fw[FW_GPINV])
+        for k in range(nw):
+            out[k] = -(
+                fw[gp + 3 * k] * L[0] + fw[gp + 3 * k + 1] * L[1] + fw[gp + 3 * k + 2] * L[2]
+            )
+        kn = fw[mb + MB_NULL]
+        if kn > 0.0:
+            npj = int(fw[FW_NULLP])
+            so = int(fw[mb + MB_NULL_SPEEDS])
+            for k in range(nw):
+                acc = 0.0
+                for j in range(nw):
+                    b = S_WHEELS + j * WS
+                    Om = wheel_speed(sc, b, y[8 + j], om)
+                    ref = fw[so + j] if so > 0 else 0.0
+                    acc += fw[npj + nw * k + j] * sc[b + W_J] * (Om - ref)
+                out[k] -= kn * acc
+    else:
+        for i in range(ncmd):
+            out[i] = 0.0
+        if nm > 0 and b2 > 0.0:
+            # a torque request on magnetorquers alone: m = B × L / |B|²
+            c = cross(bb, L)
+            m = (m[0] + c[0] / b2, m[1] + c[1] / b2, m[2] + c[2] / b2)
+    if nm > 0 and not external:
+        ap = int(fw[FW_NAPINV])
+        for j in range(nm):
+            out[nw + j] = (
+                fw[ap + 3 * j] * m[0] + fw[ap + 3 * j + 1] * m[1] + fw[ap + 3 * j + 2] * m[2]
+            )
+    sc[S_IDEAL] = ideal[0]
+    sc[S_IDEAL + 1] = ideal[1]
+    sc[S_IDEAL + 2] = ideal[2]
+    # record what was computed, then the delay
+    rec_row[R_T] = t
+    rec_row[R_MODE] = mode
+    for i in range(4):
+        rec_row[R_QREF + i] = qR[i]
+    for i in range(3):
+        rec_row[R_SIGMA + i] = sig[i]
+        rec_row[R_DOMEGA + i] = dw[i]
+        rec_row[R_TORQUE + i] = L[i]
+        rec_row[R_DIPOLE + i] = m[i]
+    rec_row[R_ANGLE] = ang
+    for i in range(ncmd):
+        rec_row[R_CMD + i] = out[i]
+    delay = int(fw[FW_DELAY])
+    if delay > 0:
+        k = int(fs[FS_TICK])
+        slot = FS_QUEUE + (k % delay) * ncmd
+        for i in range(ncmd):
+            v = fs[slot + i]
+            fs[slot + i] = out[i]
+            out[i] = v if k >= delay else 0.0
+
+
+@jit
+def fsw_boundary(P, y, t, t_end, ctl):
+    """The flight software as the command source of :func:`attitude._core.holds.holds_run`
+    (``ctl = (hs, fw, fs, cmd, rec, rc)``): at a tick, run :func:`fsw_tick` and hold its
+    commands until the next tick; at a thruster's switch-off, turn it off."""
+    hs, fw, fs, cmd, rec, rc = ctl
+    params = P[0]
+    sc = P[1]
+    per = fw[FW_PERIOD]
+    if hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # first call: zero commands until the first tick
+        fs[FS_NEXT] = fw[FW_T0]
+        fs[FS_TICK] = 0.0
+        fs[FS_MODE] = 0.0
+        fs[FS_PRIOR] = math.nan
+        if t < fw[FW_T0]:
+            for i in range(cmd.shape[0]):
+                cmd[i] = 0.0
+            configure_hold(sc, y, cmd, t, fw[FW_T0])
+            sc[S_IDEAL] = 0.0
+            sc[S_IDEAL + 1] = 0.0
+            sc[S_IDEAL + 2] = 0.0
+            hs[HS_HOLD_END] = fw[FW_T0]
+    if t >= fs[FS_NEXT]:
+        k = int(fs[FS_TICK])
+        every = int(fw[FW_RECORD_EVERY])
+        keep = k % every == 0
+        if keep and rc[0] >= rec.shape[0]:
+            return RECORDS_FULL
+        row = rec[int(rc[0])] if keep else rec[rec.shape[0] - 1]
+        if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
+            # your own step: measure once (its record in this tick's row), then ask for the
+            # commands; measure() hands these measurements to the step
+            if fs[FS_SENSED] == 0.0:
+                q, om, bb = _sense(t, y, sc, fw, fs, row)
+                for i in range(4):
+                    fs[FS_SQ + i] = q[i]
+                for i in range(3):
+                    fs[FS_SW + i] = om[i]
+                    fs[FS_SB + i] = bb[i]
+                fs[FS_SENSED] = 1.0
+            return BOUNDARY_NEEDS_COMMANDS
+        hs[HS_READY] = 0.0
+        fsw_tick(t, y, params, sc, fw, fs, cmd, row)
+        t_next = fw[FW_T0] + (k + 1) * per
+        configure_hold(sc, y, cmd, t, t_next)
+        # the applied commands of the tick (after the wheels' limits)
+        if keep:
+            ncmd = int(fw[FW_NCMD])
+            nw = int(sc[S_NW])
+            for i in range(ncmd):
+                row[R_CMD + ncmd + i] = cmd[i]
+            for j in range(nw):
+                row[R_CMD + ncmd + j] = sc[S_WHEELS + j * WS + W_U]
+            rc[0] += 1
+        fs[FS_TICK] = k + 1
+        fs[FS_NEXT] = t_next
+        hs[HS_HOLD_END] = t_next
+    thrusters_off_at(sc, t)
+    hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+    return BOUNDARY_DONE

@@ -1,0 +1,250 @@
+"""Integration through held commands: the DOP853 driver restarted at every hold boundary.
+
+Actuator commands are held piecewise constant (zero-order hold) from one boundary to the next:
+the times of an open-loop :class:`attitude.CommandSchedule`, or the ticks of the flight
+software. The right-hand side jumps there, so no step may straddle a boundary: every boundary
+is the end of a step, the commands are configured there
+(:func:`attitude._core.actuators.configure_hold`), the derivative is evaluated afresh
+(first-same-as-last does not hold across a jump), and the integration continues with the step
+size the controller had reached (no new starting-step estimate). Thrusters turning off inside a
+hold add boundaries of their own. The continuous dynamics between boundaries keep the method's
+accuracy: this is where a high-order method restarted at each boundary beats one fixed step per
+tick (Basilisk integrates one RK4 step per task period).
+
+:func:`holds_run` has the arguments of :func:`attitude._core.rk.dop853_run` with ``P =
+(params, sc)`` (the model's numbers and the spacecraft block) and the command source ``ctl``:
+``ctl``, a tuple whose first item is ``hs`` (HS_SIZE,), the driver's state between calls, and
+the rest the command source's (:data:`BOUNDARY`); for an open-loop schedule
+``(hs, hold_t, hold_u, zero)``: the start times (K,) and raw commands (K, n_cmd) (hold j on
+[hold_t[j], hold_t[j + 1]), the last one to the end of the run, zero commands before the
+first). Output rows of ``y_out`` hold
+the state (n values) then the record of the commands in force at that sample
+(:func:`record`: per wheel the command, the applied torque, the limit flags and the friction
+regime; per magnetorquer the command and the applied dipole; per thruster the command and
+whether it fires), so a chunked run and a run in one call fill the same rows.
+
+A sample at a boundary time sees the commands that start there (right-continuous, as
+Basilisk's recorder sees the command written at that tick).
+
+Layout of ``hs``: ``[next hold index, boundary pending (0/1), end of the current segment, start
+of the next hold]``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit._shared_jit import jit
+
+from .actuators import (
+    M_APPLIED,
+    M_CMD,
+    S_IDEAL,
+    S_NM,
+    S_NT,
+    S_NW,
+    S_WHEELS,
+    T_CMD,
+    T_FIRING,
+    W_FLAGS,
+    W_STRIBECK,
+    W_U,
+    W_UCMD,
+    WS,
+    configure_hold,
+    magnetorquer_base,
+    next_thruster_off,
+    thruster_base,
+    thrusters_off_at,
+)
+from .rk import (
+    F0,
+    SUCCESS,
+    TOO_MANY_STEPS,
+    Y,
+    _dense_coefficients,
+    _initial_step,
+    _interpolate,
+    dop853_step,
+)
+
+HS_NEXT = 0
+HS_PENDING = 1
+HS_SEG_END = 2
+HS_HOLD_END = 3
+HS_READY = 4  # the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)
+HS_FAIL = 5  # why a command source stopped the run (STEP_FAILED), and a number about it
+HS_FAIL_N = 6
+HS_SIZE = 7
+
+#: Statuses of a command source (:data:`BOUNDARY`).
+BOUNDARY_DONE = 0
+BOUNDARY_NEEDS_COMMANDS = 1
+#: Status of :func:`holds_run` when the command source asked Python for commands (the run
+#: continues with the next call, bit for bit).
+NEEDS_COMMANDS = 6
+#: Status when a record buffer of the command source is full (grow it and call again).
+RECORDS_FULL = 7
+#: Status when your own compiled step function returned commands that cannot be applied
+#: (the reason in ``hs[HS_FAIL]``); the run stops there, its samples kept.
+STEP_FAILED = 8
+
+#: Record columns per wheel, magnetorquer and thruster.
+REC_WHEEL = 4
+REC_MTQ = 2
+REC_THRUSTER = 2
+
+
+#: Record columns of the ideal control torque (after the actuators').
+REC_IDEAL = 3
+
+
+def record_width(n_w: int, n_m: int, n_t: int) -> int:
+    """Number of record columns after the state in an output row."""
+    return REC_WHEEL * n_w + REC_MTQ * n_m + REC_THRUSTER * n_t + REC_IDEAL
+
+
+@jit
+def record(sc, row, c0):
+    """The commands in force into ``row[c0:]``: per wheel (command, applied torque, flags,
+    Stribeck regime), per magnetorquer (command, applied dipole), per thruster (command,
+    firing 0/1), then the ideal control torque (3)."""
+    c = c0
+    for k in range(int(sc[S_NW])):
+        b = S_WHEELS + k * WS
+        row[c] = sc[b + W_UCMD]
+        row[c + 1] = sc[b + W_U]
+        row[c + 2] = sc[b + W_FLAGS]
+        row[c + 3] = sc[b + W_STRIBECK]
+        c += 4
+    for j in range(int(sc[S_NM])):
+        b = magnetorquer_base(sc, j)
+        row[c] = sc[b + M_CMD]
+        row[c + 1] = sc[b + M_APPLIED]
+        c += 2
+    for j in range(int(sc[S_NT])):
+        b = thruster_base(sc, j)
+        row[c] = sc[b + T_CMD]
+        row[c + 1] = sc[b + T_FIRING]
+        c += 2
+    row[c] = sc[S_IDEAL]
+    row[c + 1] = sc[S_IDEAL + 1]
+    row[c + 2] = sc[S_IDEAL + 2]
+
+
+@jit
+def schedule_boundary(P, y, t, t_end, ctl):
+    """The command source of an open-loop schedule (``ctl = (hs, hold_t, hold_u, zero)``): at
+    a boundary ``t``, start the hold that begins there (or turn thrusters off), and set the end
+    of the new segment. Returns BOUNDARY_DONE."""
+    hs, hold_t, hold_u, zero = ctl
+    sc = P[1]
+    K = hold_t.shape[0]
+    j = int(hs[HS_NEXT])
+    if j < K and hold_t[j] <= t:
+        # the last hold starting at or before t (several may share a time: the last wins)
+        while j + 1 < K and hold_t[j + 1] <= t:
+            j += 1
+        t_next = hold_t[j + 1] if j + 1 < K else t_end
+        configure_hold(sc, y, hold_u[j], t, t_next)
+        hs[HS_NEXT] = j + 1
+        hs[HS_HOLD_END] = t_next
+    elif hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # NaN: before the first hold (zero commands)
+        t_next = hold_t[j] if j < K else t_end
+        configure_hold(sc, y, zero, t, t_next)
+        hs[HS_HOLD_END] = t_next
+    thrusters_off_at(sc, t)
+    t_hold_end = min(hs[HS_HOLD_END], t_end)
+    hs[HS_SEG_END] = next_thruster_off(sc, t, t_hold_end)
+    return BOUNDARY_DONE
+
+
+#: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
+#: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
+RHS = None
+#: The command source ``boundary(P, y, t, t_end, ctl) -> status`` of a copy of
+#: :func:`holds_run`: :func:`schedule_boundary` (open loop), the flight software's tick
+#: (:mod:`attitude._core.fsw`), or a request for commands from Python (BOUNDARY_NEEDS_COMMANDS:
+#: the driver returns, keeping the boundary pending; the caller writes the commands and calls
+#: again).
+BOUNDARY = schedule_boundary
+
+
+@jit
+def holds_run(
+    P, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps, ctl
+):
+    """Integrate from the stored state through the output times ``t_out`` (forward in time),
+    restarting at every hold boundary. Returns ``(status, n_done)`` as
+    :func:`attitude._core.rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``).
+    """
+    hs = ctl[0]
+    sc = P[1]
+    n = y0.shape[0]
+    m = t_out.shape[0]
+    y = work[Y]
+    f = work[F0]
+    if counters[3] == 0:
+        for i in range(n):
+            y[i] = y0[i]
+        tstate[0] = t0
+        tstate[1] = 0.0
+        tstate[2] = t0
+        tstate[3] = 0.0
+        hs[HS_NEXT] = 0.0
+        hs[HS_PENDING] = 1.0
+        hs[HS_HOLD_END] = math.nan
+        counters[3] = 1
+        counters[4] = 0
+    k = 0
+    h_abs = tstate[1]
+    while True:
+        # Samples inside the last step (its dense output, with the commands it was taken with)
+        # and at the current time (after a boundary there is configured).
+        while k < m:
+            to = t_out[k]
+            t = tstate[0]
+            if to == t:
+                if hs[HS_PENDING] != 0.0:
+                    break
+                for i in range(n):
+                    y_out[k, i] = y[i]
+            elif counters[0] > 0 and to >= tstate[2] and t > to:
+                if counters[4] == 0:
+                    _dense_coefficients(RHS, P, work, tstate, counters)
+                _interpolate(work, tstate, to, y_out[k])
+            else:
+                break
+            record(sc, y_out[k], n)
+            k += 1
+        if hs[HS_PENDING] != 0.0:
+            t = tstate[0]
+            bs = BOUNDARY(P, y, t, t_end, ctl)
+            if bs == BOUNDARY_NEEDS_COMMANDS:
+                tstate[1] = h_abs
+                return NEEDS_COMMANDS, k
+            if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
+                tstate[1] = h_abs
+                return bs, k
+            RHS(t, y, P, f)
+            counters[1] += 1
+            counters[4] = 0
+            hs[HS_PENDING] = 0.0
+            continue
+        if k == m:
+            tstate[1] = h_abs
+            return SUCCESS, k
+        if h_abs == 0.0:
+            t = tstate[0]
+            h_abs = _initial_step(RHS, P, t, y, f, 1.0, rtol, atol, abs(t_end - t), work, counters)
+        if counters[0] >= max_steps:
+            tstate[1] = h_abs
+            return TOO_MANY_STEPS, k
+        seg_end = hs[HS_SEG_END]
+        status, h_abs = dop853_step(
+            RHS, P, work, tstate, counters, h_abs, 1.0, seg_end, rtol, atol, max_step
+        )
+        if status != SUCCESS:
+            return status, k
+        if tstate[0] == seg_end and seg_end < t_end:
+            hs[HS_PENDING] = 1.0

@@ -1,0 +1,309 @@
+"""Compiled sensor models: gyro, star tracker, magnetometer, coarse Sun sensor.
+
+Each sensor is a record of the sensor program ``sn`` (its parameters) and of the sensor state
+``ss`` (its random stream, :mod:`attitude._core.rng`, and its memory: the gyro's drift). At
+each tick of the flight software :func:`measure_sensors` fills the measurement vector from
+the true state: the models below, their noise drawn from each sensor's own stream (so a run is
+reproducible bit for bit from the seeds, and adding a sensor does not change another's noise).
+
+Gyro (Farrenkopf, "Analytic steady-state accuracy solutions for two common spacecraft attitude
+estimators", J. Guidance 1, 1978; discretised exactly for the tick interval Δt as in Markley &
+Crassidis, *Fundamentals of Spacecraft Attitude Determination and Control*, 2014, eqs.
+6.93–6.94): the rate ω̃ = C ω + b₀ + β + η_v with the drift β̇ = η_u,
+
+    β_{k+1} = β_k + σ_u √Δt N_u,
+    ω̃_{k+1} = C ω̄_{k+1} + b₀ + ½ (β_{k+1} + β_k) + (σ_v²/Δt + σ_u² Δt/12)^{1/2} N_v
+
+(σ_v the angle random walk, rad/√s; σ_u the rate random walk, rad/s^{3/2}; ω̄ the mean true
+rate over the interval, from the rates at its ends): the averaged rate of an integrating
+gyro, whose Allan variance is σ_v²/τ + σ_u² τ/3 at every τ = m Δt. C = (1 + S) M: scale
+factors S (diagonal) and misalignment M; then quantisation and saturation.
+
+Star tracker: q̃ = q∘δq, δq = exp(δθ/2) with δθ = C_bsᵀ (σ_c N₁, σ_c N₂, σ_b N₃) (cross- and
+about-boresight noise in the sensor frame, z along the boresight), at its own update rate,
+flagged invalid while the Sun or the Earth's limb is within its exclusion angles.
+
+Magnetometer: B̃ = B_B + b + σ N (IGRF field in body axes). Coarse Sun sensor: heads with
+normals n_i give I_i = ν max(0, n_i·ŝ) + σ N (ν the unshadowed fraction of the Sun, Montenbruck
+& Gill 2000; dark in eclipse); the Sun direction is their least-squares solution over the
+heads with I_i > 3σ, valid with three independent heads lit.
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit._shared_jit import jit
+from orbit._state_kernels import orbit_state
+from orbit.sun import R_EARTH, R_SUN, conical_shadow
+
+from .quat import mul, rotate, rotate_inverse
+from .rng import RNG_SIZE, normal
+
+# --- program header ----------------------------------------------------------------------------
+SN_GYRO = 0  # offset of the gyro record (0: none)
+SN_ST = 1  # offset of the star tracker record (0: none)
+SN_MAG = 2  # offset of the magnetometer record (0: none)
+SN_SUN = 3  # offset of the Sun sensor record (0: none)
+SN_ORBIT = 4  # offset of the orbit's kernel data (0: none)
+SN_SUNTAB = 5  # offset of the Sun's table (0: none)
+SN_FIELD = 6  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
+SN_HEADER = 8
+
+# gyro record
+G_SV = 0  # σ_v (rad/√s)
+G_SU = 1  # σ_u (rad/s^1.5)
+G_B0 = 2  # constant bias (3)
+G_C = 5  # sensor matrix C (9)
+G_QUANT = 14  # quantisation step (rad/s; 0: none)
+G_SAT = 15  # saturation (rad/s; inf: none)
+G_STATE = 16  # offset of its state in ss: stream, β (3), the true rate at the last tick (3),
+# and a flag saying it is set
+G_SIZE = 17
+
+# star tracker record
+T_SC = 0  # σ cross-boresight (rad)
+T_SB = 1  # σ about the boresight (rad)
+T_CBS = 2  # rows of the sensor frame in body axes (9: x, y, z = boresight)
+T_EVERY = 11  # update every k-th tick
+T_SUN_EXCL = 12  # Sun exclusion half-angle (rad; 0: none)
+T_EARTH_EXCL = 13  # Earth-limb exclusion angle (rad; < 0: none)
+T_STATE = 14  # offset of its state in ss: stream
+T_SIZE = 15
+
+# magnetometer record
+M_SIGMA = 0  # σ (T)
+M_BIAS = 1  # bias (3, T)
+M_STATE = 4  # offset of its stream in ss
+M_SIZE = 5
+
+# Sun sensor record
+S_NHEADS = 0
+S_SIGMA = 1  # σ of each head's current (fraction of the full-Sun current)
+S_STATE = 2  # offset of its stream
+S_NORMALS = 3  # n normals (3 each)
+
+# --- the measurement vector (written at each tick) -----------------------------------------------
+Z_OMEGA = 0  # gyro rate (3)
+Z_GYRO_OK = 3
+Z_Q = 4  # star tracker quaternion (4)
+Z_ST_OK = 8  # 1: a new valid measurement at this tick
+Z_ST_FLAG = 9  # 0 valid, 1 no update this tick, 2 Sun in exclusion, 3 Earth in exclusion
+Z_B = 10  # magnetometer (3)
+Z_MAG_OK = 13
+Z_SUN = 14  # Sun direction estimate (3)
+Z_SUN_OK = 17
+Z_ECLIPSE = 18  # fraction of the Sun visible
+Z_SIZE = 19
+
+
+@jit(inline="always")
+def _mv3(a, o, v0, v1, v2):
+    return (
+        a[o] * v0 + a[o + 1] * v1 + a[o + 2] * v2,
+        a[o + 3] * v0 + a[o + 4] * v1 + a[o + 5] * v2,
+        a[o + 6] * v0 + a[o + 7] * v1 + a[o + 8] * v2,
+    )
+
+
+@jit
+def gyro_measure(sn, g, ss, om, dt, z):
+    """The gyro's rate at this tick into z[Z_OMEGA:]: the mean rate over the last interval
+    (trapezoidal from the true rates at its ends), its drift advanced over ``dt``."""
+    so = int(sn[g + G_STATE])
+    sv = sn[g + G_SV]
+    su = sn[g + G_SU]
+    b = so + RNG_SIZE
+    w_prev = b + 3
+    sd = math.sqrt(sv * sv / dt + su * su * dt / 12.0)
+    sq = su * math.sqrt(dt)
+    # the interval's mean rate (an integrating gyro), from the true rate at both ends
+    if ss[w_prev + 3] == 0.0:
+        a0, a1, a2 = om[0], om[1], om[2]
+    else:
+        a0 = 0.5 * (ss[w_prev] + om[0])
+        a1 = 0.5 * (ss[w_prev + 1] + om[1])
+        a2 = 0.5 * (ss[w_prev + 2] + om[2])
+    ss[w_prev] = om[0]
+    ss[w_prev + 1] = om[1]
+    ss[w_prev + 2] = om[2]
+    ss[w_prev + 3] = 1.0
+    c = _mv3(sn, g + G_C, a0, a1, a2)
+    quant = sn[g + G_QUANT]
+    sat = sn[g + G_SAT]
+    for i in range(3):
+        b_old = ss[b + i]
+        b_new = b_old + sq * normal(ss, so)
+        ss[b + i] = b_new
+        w = c[i] + sn[g + G_B0 + i] + 0.5 * (b_old + b_new) + sd * normal(ss, so)
+        if quant > 0.0:
+            w = quant * math.floor(w / quant + 0.5)
+        if w > sat:
+            w = sat
+        elif w < -sat:
+            w = -sat
+        z[Z_OMEGA + i] = w
+    z[Z_GYRO_OK] = 1.0
+
+
+@jit
+def sun_and_earth(sn, t):
+    """(satellite position (3), unit Sun direction (3), ν) in space axes, from the orbit and
+    the Sun's table of the program (ν = 1 and zero vectors when absent)."""
+    oo = int(sn[SN_ORBIT])
+    so = int(sn[SN_SUNTAB])
+    r = (0.0, 0.0, 0.0)
+    s = (0.0, 0.0, 0.0)
+    nu = 1.0
+    if oo > 0:
+        st = orbit_state(sn[oo:], t)
+        r = (st[0], st[1], st[2])
+        if so > 0:
+            su = orbit_state(sn[so:], t)
+            dx = su[0] - r[0]
+            dy = su[1] - r[1]
+            dz = su[2] - r[2]
+            n = math.sqrt(dx * dx + dy * dy + dz * dz)
+            s = (dx / n, dy / n, dz / n)
+            nu = conical_shadow(r[0], r[1], r[2], su[0], su[1], su[2], R_EARTH, R_SUN)[0]
+    return r, s, nu
+
+
+@jit
+def star_tracker_measure(sn, o, ss, q, tick, r, s, nu, z):
+    """The star tracker's quaternion at this tick (and its validity) into z."""
+    every = int(sn[o + T_EVERY])
+    so = int(sn[o + T_STATE])
+    # noise drawn at every tick of an update, valid or not (the stream does not depend on
+    # the geometry)
+    if tick % every != 0:
+        z[Z_ST_OK] = 0.0
+        z[Z_ST_FLAG] = 1.0
+        return
+    n0 = sn[o + T_SC] * normal(ss, so)
+    n1 = sn[o + T_SC] * normal(ss, so)
+    n2 = sn[o + T_SB] * normal(ss, so)
+    c = T_CBS
+    # δθ in body axes = C_bsᵀ (n0, n1, n2): the rows of C_bs are the sensor axes
+    d0 = sn[o + c] * n0 + sn[o + c + 3] * n1 + sn[o + c + 6] * n2
+    d1 = sn[o + c + 1] * n0 + sn[o + c + 4] * n1 + sn[o + c + 7] * n2
+    d2 = sn[o + c + 2] * n0 + sn[o + c + 5] * n1 + sn[o + c + 8] * n2
+    a = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if a > 0.0:
+        k = math.sin(0.5 * a) / a
+        dq = (math.cos(0.5 * a), k * d0, k * d1, k * d2)
+    else:
+        dq = (1.0, 0.0, 0.0, 0.0)
+    qm = mul(q, dq)
+    if qm[0] < 0.0:
+        qm = (-qm[0], -qm[1], -qm[2], -qm[3])
+    for i in range(4):
+        z[Z_Q + i] = qm[i]
+    flag = 0.0
+    bs = rotate(q, (sn[o + c + 6], sn[o + c + 7], sn[o + c + 8]))  # boresight in space
+    ex = sn[o + T_SUN_EXCL]
+    if ex > 0.0 and nu > 0.0 and (s[0] != 0.0 or s[1] != 0.0 or s[2] != 0.0):
+        cs = bs[0] * s[0] + bs[1] * s[1] + bs[2] * s[2]
+        if cs > math.cos(ex):
+            flag = 2.0
+    ee = sn[o + T_EARTH_EXCL]
+    rn = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    if flag == 0.0 and ee >= 0.0 and rn > 0.0:
+        # the angle from the boresight to the Earth's centre, minus the Earth's half-angle
+        ce = -(bs[0] * r[0] + bs[1] * r[1] + bs[2] * r[2]) / rn
+        ang = math.acos(min(1.0, max(-1.0, ce)))
+        if ang - math.asin(min(1.0, R_EARTH / rn)) < ee:
+            flag = 3.0
+    z[Z_ST_FLAG] = flag
+    z[Z_ST_OK] = 1.0 if flag == 0.0 else 0.0
+
+
+@jit
+def magnetometer_measure(sn, o, ss, bb, z):
+    """The magnetometer's field (T, body axes) into z."""
+    so = int(sn[o + M_STATE])
+    sg = sn[o + M_SIGMA]
+    for i in range(3):
+        z[Z_B + i] = bb[i] + sn[o + M_BIAS + i] + sg * normal(ss, so)
+    z[Z_MAG_OK] = 1.0 if (bb[0] == bb[0]) else 0.0
+
+
+@jit
+def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
+    """The coarse Sun sensor's heads (cosine law, dark in eclipse) and the Sun direction from
+    them (least squares over the lit heads) into z; ``scratch`` holds the currents."""
+    n = int(sn[o + S_NHEADS])
+    so = int(sn[o + S_STATE])
+    sg = sn[o + S_SIGMA]
+    sb = rotate_inverse(q, s)
+    # normal equations Σ n nᵀ x = Σ n I over the heads above 3σ
+    a00 = a01 = a02 = a11 = a12 = a22 = 0.0
+    r0 = r1 = r2 = 0.0
+    lit = 0
+    for i in range(n):
+        b = o + S_NORMALS + 3 * i
+        c = sn[b] * sb[0] + sn[b + 1] * sb[1] + sn[b + 2] * sb[2]
+        cur = nu * max(0.0, c) + sg * normal(ss, so)
+        scratch[i] = cur
+        if cur > 3.0 * sg and cur > 0.0:
+            lit += 1
+            n0, n1, n2 = sn[b], sn[b + 1], sn[b + 2]
+            a00 += n0 * n0
+            a01 += n0 * n1
+            a02 += n0 * n2
+            a11 += n1 * n1
+            a12 += n1 * n2
+            a22 += n2 * n2
+            r0 += n0 * cur
+            r1 += n1 * cur
+            r2 += n2 * cur
+    det = (
+        a00 * (a11 * a22 - a12 * a12)
+        - a01 * (a01 * a22 - a12 * a02)
+        + a02 * (a01 * a12 - a11 * a02)
+    )
+    z[Z_ECLIPSE] = nu
+    if lit >= 3 and abs(det) > 1e-9:
+        x0 = (
+            r0 * (a11 * a22 - a12 * a12) - a01 * (r1 * a22 - a12 * r2) + a02 * (r1 * a12 - a11 * r2)
+        ) / det
+        x1 = (
+            a00 * (r1 * a22 - a12 * r2) - r0 * (a01 * a22 - a12 * a02) + a02 * (a01 * r2 - r1 * a02)
+        ) / det
+        x2 = (
+            a00 * (a11 * r2 - r1 * a12) - a01 * (a01 * r2 - r1 * a02) + r0 * (a01 * a12 - a11 * a02)
+        ) / det
+        m = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        if m > 0.0:
+            z[Z_SUN] = x0 / m
+            z[Z_SUN + 1] = x1 / m
+            z[Z_SUN + 2] = x2 / m
+            z[Z_SUN_OK] = 1.0
+            return
+    z[Z_SUN] = math.nan
+    z[Z_SUN + 1] = math.nan
+    z[Z_SUN + 2] = math.nan
+    z[Z_SUN_OK] = 0.0
+
+
+@jit
+def measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch):
+    """All the sensors of the program at tick ``tick`` (time t, interval ``dt`` since the last
+    tick) from the true attitude q, rate ω and body field bb, into the measurement vector z."""
+    for i in range(Z_SIZE):
+        z[i] = 0.0
+    g = int(sn[SN_GYRO])
+    if g > 0:
+        gyro_measure(sn, g, ss, om, dt, z)
+    r, s, nu = sun_and_earth(sn, t)
+    o = int(sn[SN_ST])
+    if o > 0:
+        star_tracker_measure(sn, o, ss, q, tick, r, s, nu, z)
+    o = int(sn[SN_MAG])
+    if o > 0:
+        magnetometer_measure(sn, o, ss, bb, z)
+    o = int(sn[SN_SUN])
+    if o > 0:
+        sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch)
+    else:
+        z[Z_ECLIPSE] = nu

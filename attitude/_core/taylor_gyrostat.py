@@ -1,0 +1,546 @@
+"""The Taylor method for the spacecraft with actuators (the gyrostat), restarted at every hold.
+
+The gyrostat's equations (:mod:`attitude._core.gyrostat`) stay polynomial for a held command:
+
+    q̇ = ½ q∘(0, ω),   ġ = g × ω + n τ,   ḣ_k = u_k − (c₁ Ω_k + c₀),   ω = M (g − ℓ)
+
+with ℓ = Σ h_k a_k, Ω_k = h_k/J_k − a_k·ω, the wheel friction piecewise affine in Ω
+(Basilisk's Coulomb + viscous law: c₁ = the limit-cycle slope below ω_lc, else c₁ = c_v,
+c₀ = ±f_c), and τ the built-in torque's series (heavy top, gravity gradient:
+:func:`attitude._core.taylor.torque_series`) plus the thrusters' held torque. So their Taylor
+coefficients follow from automatic-differentiation recurrences, as for the rigid body
+(:mod:`attitude._core.taylor`); Q is not expanded but rebuilt from q and g, Q = q∘(c, 2g)/n
+(the relation :mod:`attitude._core.taylor` uses; with |q|² of the q it is rebuilt with, so
+g and q·Q = c carry over from step to step to round-off).
+
+Two additions to Jorba & Zou's scheme:
+
+* **Order from the hold.** Held commands force steps no longer than the time to the next
+  boundary d (0.1 s at a 10 Hz tick, often far below the radius of convergence). The
+  recurrences run order by order and stop at the first order k >= 2 whose last two terms
+  ‖x_{k−1}‖ d^{k−1}, ‖x_k‖ d^k are below 0.1 rtol S_b in every block b (q, g, h; S_b as in
+  Jorba & Zou): the step is then d, at the order it needs (4 to 6 at a 10 Hz tick instead of
+  the 13 of rtol = 1e-10). Otherwise the order reaches p = ⌈−½ ln rtol + 1⌉ and the step is
+  Jorba & Zou's (min with d).
+* **Friction kinks.** The friction law has kinks at Ω = ±ω_lc. Each wheel's piece is fixed at
+  the step's start; if Ω leaves it before the step's end, the step is cut at the crossing
+  (bisection on the step's polynomial of Ω) and the next step starts in the next piece. So a
+  kink is resolved to round-off, not smoothed by a step that straddles it.
+
+Layout: ``work`` (WORK_ROWS, NCOL + 2 n_w): rows 0..p the coefficients (columns of
+:mod:`attitude._core.taylor`, then h_k at CH + k and Ω_k at CH + n_w + k), row Y the state
+(q, Q, h). ``tstate`` (TS_SIZE + n_w,): ``[t, h_last, t_old, p, step factor, p_used, n, c, g (3),
+has g]`` then each wheel's friction piece for the next step (−1: from Ω at its start). The
+steps carry g from one to the next (TS_G) instead of recomputing it from the rebuilt Q.
+"""
+
+from __future__ import annotations
+
+import math
+
+from orbit import _state_kernels as _SK
+from orbit._shared_jit import jit
+
+from .actuators import (
+    S_NW,
+    S_TAU,
+    S_WHEELS,
+    W_AXIS,
+    W_CV,
+    W_FC,
+    W_FRICTION,
+    W_INVJ,
+    W_LC,
+    W_SLOPE_C,
+    W_U,
+    WS,
+)
+from .fma import fma as F
+from .holds import (
+    BOUNDARY_DONE,
+    BOUNDARY_NEEDS_COMMANDS,
+    HS_HOLD_END,
+    HS_NEXT,
+    HS_PENDING,
+    HS_SEG_END,
+    NEEDS_COMMANDS,
+    record,
+    schedule_boundary,
+)
+from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
+from .taylor import (
+    CG,
+    CW,
+    NCOL,
+    Y,
+    _initial_row,
+    order_from_tolerance,
+    set_order,
+    step_end,
+    torque_series,
+)
+
+CH = NCOL  # first wheel momentum column
+TS_P_USED = 5
+TS_N = 6
+TS_C = 7
+TS_G = 8  # g at the end of the last step (3): the next step starts from it
+TS_HAS_G = 11  # 1 once TS_G holds it
+TS_SIZE = 12  # then one friction piece per wheel
+
+PIECE_FREE = -1  # decide from Ω at the step's start
+PIECE_INSIDE = 0  # |Ω| < ω_lc: f = slope Ω
+PIECE_POS = 1  # Ω >= ω_lc: f = f_c + c_v Ω
+PIECE_NEG = 2  # Ω <= −ω_lc: f = −f_c + c_v Ω
+
+#: Fraction of rtol S_b the last two terms must stay below to stop the order early.
+ORDER_MARGIN = 0.1
+#: Lowest order of a step.
+PMIN = 2
+
+
+def work_columns(n_w: int) -> int:
+    """Columns of the work array for ``n_w`` wheels."""
+    return max(NCOL + 2 * n_w, 8 + n_w)
+
+
+@jit(inline="always")
+def _piece_of(om, lc):
+    if om >= lc:
+        return PIECE_POS
+    if om <= -lc:
+        return PIECE_NEG
+    return PIECE_INSIDE
+
+
+@jit(inline="always")
+def _piece_coefficients(sc, b, piece):
+    """(c₁, c₀) of the friction force c₁ Ω + c₀ in a piece (the torque on the wheel is minus
+    it)."""
+    if sc[b + W_FRICTION] == 0.0:
+        return 0.0, 0.0
+    if piece == PIECE_INSIDE:
+        return sc[b + W_SLOPE_C], 0.0
+    if piece == PIECE_POS:
+        return sc[b + W_CV], sc[b + W_FC]
+    return sc[b + W_CV], -sc[b + W_FC]
+
+
+@jit(inline="always")
+def _block3(cf, k, c0):
+    return max(abs(cf[k, c0]), max(abs(cf[k, c0 + 1]), abs(cf[k, c0 + 2])))
+
+
+@jit(inline="always")
+def _block4(cf, k, c0):
+    return max(max(abs(cf[k, c0]), abs(cf[k, c0 + 1])), max(abs(cf[k, c0 + 2]), abs(cf[k, c0 + 3])))
+
+
+@jit(inline="always")
+def _blockh(cf, k, nw):
+    m = 0.0
+    for j in range(nw):
+        a = abs(cf[k, CH + j])
+        if a > m:
+            m = a
+    return m
+
+
+@jit(inline="always")
+def _ratio(s, x, j):
+    if x > 0.0:
+        return (s / x) ** (1.0 / j)
+    return math.inf
+
+
+@jit
+def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
+    """Rows 1.. of the coefficient table from row 0 (q, g, h and the torque's auxiliary
+    series), order by order up to ``p``; stops early at the first order k >= PMIN whose last
+    two terms over the distance ``d`` are below ORDER_MARGIN rtol S_b (blocks q, g, h).
+
+    Returns the order reached (the rows 0..order are filled; ω and Ω also at that order)."""
+    kind = int(params[P_KIND])
+    W = cx = cy = cz = 0.0
+    mu = D0 = D1 = D2 = 0.0
+    if kind == KIND_HEAVY_TOP:
+        W = params[P0]
+        cx = params[P0 + 1]
+        cy = params[P0 + 2]
+        cz = params[P0 + 3]
+    elif kind == KIND_GRAVITY_GRADIENT:
+        mu = params[P0 + _SK.MU]
+        D0 = params[2] - params[1]
+        D1 = params[0] - params[2]
+        D2 = params[1] - params[0]
+    m00 = sc[3]
+    m01 = sc[4]
+    m02 = sc[5]
+    m10 = sc[6]
+    m11 = sc[7]
+    m12 = sc[8]
+    m20 = sc[9]
+    m21 = sc[10]
+    m22 = sc[11]
+    floor = atol / rtol
+    sq = max(_block4(cf, 0, 0), floor)
+    sg = max(_block3(cf, 0, CG), floor)
+    sh = max(_blockh(cf, 0, nw), floor)
+    tol_q = ORDER_MARGIN * rtol * sq
+    tol_g = ORDER_MARGIN * rtol * sg
+    tol_h = ORDER_MARGIN * rtol * sh
+    dk = 1.0  # d^k
+    prev_ok = False
+    CO = CH + nw
+    k = 0
+    while True:
+        # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
+        l0 = l1 = l2 = 0.0
+        for j in range(nw):
+            b = S_WHEELS + j * WS
+            h = cf[k, CH + j]
+            l0 = F(h, sc[b + W_AXIS], l0)
+            l1 = F(h, sc[b + W_AXIS + 1], l1)
+            l2 = F(h, sc[b + W_AXIS + 2], l2)
+        e0 = cf[k, CG] - l0
+        e1 = cf[k, CG + 1] - l1
+        e2 = cf[k, CG + 2] - l2
+        w0 = F(m02, e2, F(m01, e1, m00 * e0))
+        w1 = F(m12, e2, F(m11, e1, m10 * e0))
+        w2 = F(m22, e2, F(m21, e1, m20 * e0))
+        cf[k, CW] = w0
+        cf[k, CW + 1] = w1
+        cf[k, CW + 2] = w2
+        for j in range(nw):
+            b = S_WHEELS + j * WS
+            aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
+            cf[k, CO + j] = F(cf[k, CH + j], sc[b + W_INVJ], -aw)
+        if k == p:
+            return k
+        # Cauchy products over j = 0..k: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
+        b00 = b10 = b20 = b30 = 0.0
+        b01 = b11 = b21 = b31 = 0.0
+        b02 = b12 = b22 = b32 = 0.0
+        p0 = p1 = p2 = 0.0
+        for j in range(k + 1):
+            q0 = cf[j, 0]
+            q1 = cf[j, 1]
+            q2 = cf[j, 2]
+            q3 = cf[j, 3]
+            o0 = cf[k - j, CW]
+            o1 = cf[k - j, CW + 1]
+            o2 = cf[k - j, CW + 2]
+            g0 = cf[j, CG]
+            g1 = cf[j, CG + 1]
+            g2 = cf[j, CG + 2]
+            b00 = F(-q1, o0, b00)
+            b10 = F(q0, o0, b10)
+            b20 = F(q3, o0, b20)
+            b30 = F(-q2, o0, b30)
+            b01 = F(-q2, o1, b01)
+            b11 = F(-q3, o1, b11)
+            b21 = F(q0, o1, b21)
+            b31 = F(q1, o1, b31)
+            b02 = F(-q3, o2, b02)
+            b12 = F(q2, o2, b12)
+            b22 = F(-q1, o2, b22)
+            b32 = F(q0, o2, b32)
+            p0 = F(g1, o2, F(-g2, o1, p0))
+            p1 = F(g2, o0, F(-g0, o2, p1))
+            p2 = F(g0, o1, F(-g1, o0, p2))
+        inv = 1.0 / (k + 1.0)
+        hh = 0.5 * inv
+        cf[k + 1, 0] = hh * (b00 + b01 + b02)
+        cf[k + 1, 1] = hh * (b10 + b11 + b12)
+        cf[k + 1, 2] = hh * (b20 + b21 + b22)
+        cf[k + 1, 3] = hh * (b30 + b31 + b32)
+        t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
+        if k == 0:
+            t0 += sc[S_TAU]
+            t1 += sc[S_TAU + 1]
+            t2 += sc[S_TAU + 2]
+        cf[k + 1, CG] = F(n, t0, p0) * inv
+        cf[k + 1, CG + 1] = F(n, t1, p1) * inv
+        cf[k + 1, CG + 2] = F(n, t2, p2) * inv
+        for j in range(nw):
+            b = S_WHEELS + j * WS
+            c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
+            r = -c1 * cf[k, CO + j]
+            if k == 0:
+                r += sc[b + W_U] - c0
+            cf[k + 1, CH + j] = r * inv
+        k += 1
+        dk *= d
+        ok = (
+            _block4(cf, k, 0) * dk <= tol_q
+            and _block3(cf, k, CG) * dk <= tol_g
+            and _blockh(cf, k, nw) * dk <= tol_h
+        )
+        if ok and prev_ok and k >= PMIN:
+            # ω, Ω at the final order too (for the dense output of Ω and the kink check)
+            p = k
+            continue
+        prev_ok = ok
+
+
+@jit
+def _jz_radius(cf, p, rtol, atol, nw):
+    """Jorba & Zou's ρ over the blocks q, g, h from the orders p − 1 and p."""
+    floor = atol / rtol
+    sq = max(_block4(cf, 0, 0), floor)
+    sg = max(_block3(cf, 0, CG), floor)
+    sh = max(_blockh(cf, 0, nw), floor)
+    rho = math.inf
+    for j in (p - 1, p):
+        rho = min(rho, _ratio(sq, _block4(cf, j, 0), j))
+        rho = min(rho, _ratio(sg, _block3(cf, j, CG), j))
+        if nw > 0:
+            rho = min(rho, _ratio(sh, _blockh(cf, j, nw), j))
+    return rho
+
+
+@jit(inline="always")
+def _horner(cf, p, col, tau):
+    a = cf[p, col]
+    for k in range(p - 1, -1, -1):
+        a = F(a, tau, cf[k, col])
+    return a
+
+
+@jit
+def dense_state(work, tstate, tau, out, nw):
+    """The state (q, Q, h) at ``tau`` = t − t_old of the last step into ``out``:
+    q, g, h from their polynomials, Q = q∘(c, 2g)/|q|²."""
+    p = int(tstate[TS_P_USED])
+    c = tstate[TS_C]
+    q0 = _horner(work, p, 0, tau)
+    q1 = _horner(work, p, 1, tau)
+    q2 = _horner(work, p, 2, tau)
+    q3 = _horner(work, p, 3, tau)
+    g0 = 2.0 * _horner(work, p, CG, tau)
+    g1 = 2.0 * _horner(work, p, CG + 1, tau)
+    g2 = 2.0 * _horner(work, p, CG + 2, tau)
+    # Q = q∘(c, 2g)/|q|² with |q|² of this q: g = ½ vec(q̃∘Q) and c = q·Q hold exactly (the
+    # start's n would scale g by |q|²/n at every step, a drift of the truncation error of |q|)
+    inv_n = 1.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
+    out[0] = q0
+    out[1] = q1
+    out[2] = q2
+    out[3] = q3
+    # q∘(c, 2g)
+    out[4] = (c * q0 - q1 * g0 - q2 * g1 - q3 * g2) * inv_n
+    out[5] = (c * q1 + q0 * g0 + q2 * g2 - q3 * g1) * inv_n
+    out[6] = (c * q2 + q0 * g1 - q1 * g2 + q3 * g0) * inv_n
+    out[7] = (c * q3 + q0 * g2 + q1 * g1 - q2 * g0) * inv_n
+    for j in range(nw):
+        out[8 + j] = _horner(work, p, CH + j, tau)
+
+
+@jit
+def _kink(work, p, sc, pieces, nw, h):
+    """The earliest time in (0, h] a wheel's Ω leaves its friction piece, and which wheel
+    (−1: none)."""
+    CO = CH + nw
+    best = h
+    which = -1
+    for j in range(nw):
+        b = S_WHEELS + j * WS
+        lc = sc[b + W_LC]
+        if sc[b + W_FRICTION] == 0.0 or lc <= 0.0:
+            continue
+        piece = int(pieces[j])
+        end = _horner(work, p, CO + j, best)
+        if _piece_of(end, lc) == piece:
+            continue
+        # the threshold crossed first from the piece
+        om0 = work[0, CO + j]
+        if piece == PIECE_INSIDE:
+            thr = lc if end > om0 else -lc
+        elif piece == PIECE_POS:
+            thr = lc
+        else:
+            thr = -lc
+        lo = 0.0
+        hi = best
+        s0 = om0 - thr
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mid <= lo or mid >= hi:
+                break
+            v = _horner(work, p, CO + j, mid) - thr
+            if (v > 0.0) == (s0 > 0.0) and v != 0.0:
+                lo = mid
+            else:
+                hi = mid
+        best = hi
+        which = j
+    return best, which
+
+
+@jit
+def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step):
+    """One Taylor step of the gyrostat from the state in ``work[Y]`` at ``tstate[0]``, never
+    past ``seg_end``. Returns a status."""
+    nw = int(sc[S_NW])
+    t = tstate[0]
+    p = int(tstate[3])
+    y = work[Y]
+    n, c = _initial_row(work, t, params)
+    if tstate[TS_HAS_G] != 0.0:
+        # g as the last step ended, not ½ vec(q̃∘Q) of the rebuilt Q: that round trip is
+        # biased by 3e-17 relative (measured), a drift of |g| over 1e5 steps
+        work[0, CG] = tstate[TS_G]
+        work[0, CG + 1] = tstate[TS_G + 1]
+        work[0, CG + 2] = tstate[TS_G + 2]
+    for j in range(nw):
+        work[0, CH + j] = y[8 + j]
+    # order 0 of ω and Ω, for the friction pieces
+    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    d = min(seg_end - t, max_step)
+    if not d > 0.0:
+        return STEP_TOO_SMALL
+    # ω[0], Ω[0] first (the pieces depend on Ω[0])
+    gyrostat_order0(work, sc, nw)
+    for j in range(nw):
+        if pieces[j] < 0.0:
+            b = S_WHEELS + j * WS
+            pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
+    pu = gyrostat_coefficients(work, p, params, sc, n, pieces, d, rtol, atol, nw)
+    counters[1] += pu
+    if pu >= p:
+        rho = _jz_radius(work, p, rtol, atol, nw)
+        h_abs = rho * tstate[4]
+    else:
+        h_abs = d
+    status, t_new = step_end(t, min(h_abs, d), seg_end, max_step)
+    if status != SUCCESS:
+        return status
+    h = t_new - t
+    tstate[TS_P_USED] = pu
+    tstate[TS_N] = n
+    tstate[TS_C] = c
+    hk, which = _kink(work, pu, sc, pieces, nw, h)
+    prev = -1
+    if which >= 0:
+        prev = int(pieces[which])
+        if hk < h:
+            h = hk
+            t_new = t + h
+    dense_state(work, tstate, h, y, nw)
+    for i in range(8 + nw):
+        if not math.isfinite(y[i]):
+            for ii in range(8):
+                y[ii] = work[0, ii]
+            for j in range(nw):
+                y[8 + j] = work[0, CH + j]
+            return NONFINITE
+    tstate[TS_G] = _horner(work, pu, CG, h)
+    tstate[TS_G + 1] = _horner(work, pu, CG + 1, h)
+    tstate[TS_G + 2] = _horner(work, pu, CG + 2, h)
+    tstate[TS_HAS_G] = 1.0
+    # the next step's pieces: the crossed wheel enters the next piece, the others re-decide
+    for j in range(nw):
+        pieces[j] = PIECE_FREE
+    if which >= 0:
+        om_end = _horner(work, pu, CH + nw + which, h)
+        if prev == PIECE_INSIDE:
+            pieces[which] = PIECE_POS if om_end > 0.0 else PIECE_NEG
+        else:
+            pieces[which] = PIECE_INSIDE
+    tstate[2] = t
+    tstate[1] = h
+    tstate[0] = t_new
+    counters[0] += 1
+    counters[4] = 1
+    return SUCCESS
+
+
+@jit(inline="always")
+def gyrostat_order0(cf, sc, nw):
+    """ω[0] = M (g[0] − ℓ[0]) and Ω_j[0] into row 0 (as the recurrences compute them)."""
+    l0 = l1 = l2 = 0.0
+    for j in range(nw):
+        b = S_WHEELS + j * WS
+        h = cf[0, CH + j]
+        l0 = F(h, sc[b + W_AXIS], l0)
+        l1 = F(h, sc[b + W_AXIS + 1], l1)
+        l2 = F(h, sc[b + W_AXIS + 2], l2)
+    e0 = cf[0, CG] - l0
+    e1 = cf[0, CG + 1] - l1
+    e2 = cf[0, CG + 2] - l2
+    w0 = F(sc[5], e2, F(sc[4], e1, sc[3] * e0))
+    w1 = F(sc[8], e2, F(sc[7], e1, sc[6] * e0))
+    w2 = F(sc[11], e2, F(sc[10], e1, sc[9] * e0))
+    for j in range(nw):
+        b = S_WHEELS + j * WS
+        aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
+        cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + W_INVJ], -aw)
+
+
+#: The command source of :func:`taylor_holds_run` (as :data:`attitude._core.holds.BOUNDARY`):
+#: the open-loop schedule here; the flight software's copies rebind it.
+BOUNDARY = schedule_boundary
+
+
+@jit
+def taylor_holds_run(
+    P, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps, ctl
+):
+    """The gyrostat's Taylor integration through held commands (the arguments and layouts of
+    :func:`attitude._core.holds.holds_run`, with this module's ``work`` and ``tstate``)."""
+    hs = ctl[0]
+    params = P[0]
+    sc = P[1]
+    nw = int(sc[S_NW])
+    n = y0.shape[0]
+    m = t_out.shape[0]
+    y = work[Y]
+    if counters[3] == 0:
+        for i in range(n):
+            y[i] = y0[i]
+        tstate[0] = t0
+        tstate[1] = 0.0
+        tstate[2] = t0
+        set_order(tstate, order_from_tolerance(rtol))
+        for j in range(nw):
+            tstate[TS_SIZE + j] = PIECE_FREE
+        hs[HS_NEXT] = 0.0
+        hs[HS_PENDING] = 1.0
+        hs[HS_HOLD_END] = math.nan
+        counters[3] = 1
+        counters[4] = 0
+    k = 0
+    while True:
+        while k < m:
+            to = t_out[k]
+            t = tstate[0]
+            if to == t:
+                if hs[HS_PENDING] != 0.0:
+                    break
+                for i in range(n):
+                    y_out[k, i] = y[i]
+            elif counters[4] == 1 and to >= tstate[2] and t > to:
+                dense_state(work, tstate, to - tstate[2], y_out[k], nw)
+            else:
+                break
+            record(sc, y_out[k], n)
+            k += 1
+        if hs[HS_PENDING] != 0.0:
+            bs = BOUNDARY(P, y, tstate[0], t_end, ctl)
+            if bs == BOUNDARY_NEEDS_COMMANDS:
+                return NEEDS_COMMANDS, k
+            if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
+                return bs, k
+            hs[HS_PENDING] = 0.0
+            continue
+        if k == m:
+            return SUCCESS, k
+        if counters[0] >= max_steps:
+            return TOO_MANY_STEPS, k
+        seg_end = hs[HS_SEG_END]
+        status = gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step)
+        if status != SUCCESS:
+            return status, k
+        if tstate[0] == seg_end and seg_end < t_end:
+            hs[HS_PENDING] = 1.0

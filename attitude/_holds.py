@@ -1,0 +1,517 @@
+"""Runs of a spacecraft with actuators: the state (q, Q, h), held commands, the runners.
+
+A :class:`~attitude.spacecraft.Spacecraft` with reaction wheels is a gyrostat whose state
+carries the wheels' axial momenta h beside (q, Q) (:mod:`attitude._core.gyrostat`); its
+commands are held from one boundary to the next, and the integrators restart at every boundary
+(:mod:`attitude._core.holds`). The commands come from an open-loop schedule or from the flight
+software at its ticks (:mod:`attitude._core.fsw`; your own Python ``step`` is called between
+compiled calls). This module prepares such a run (:func:`prepare`: the spacecraft block, the
+initial wheel momenta, the command source), runs it (:func:`run_dop853`, :func:`run_taylor`),
+and turns its output rows into the diagnostics the Dataset needs (:func:`diagnostics`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ._core import holds as _kh
+from ._core import rk as _rk
+from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
+from .errors import AttitudeTypeError, AttitudeValueError
+
+__all__ = [
+    "SPACECRAFT_METHODS",
+    "SpacecraftRun",
+    "check_taylor",
+    "diagnostics",
+    "prepare",
+    "run_dop853",
+    "run_taylor",
+]
+
+#: Methods that integrate a spacecraft with actuators.
+SPACECRAFT_METHODS = ("dop853", "taylor")
+#: Tick records allocated at first (the buffer doubles when full).
+TICK_BUFFER = 4096
+
+
+@dataclass
+class SpacecraftRun:
+    """What a spacecraft run adds to a :class:`~attitude._methods.Problem`."""
+
+    spacecraft: Any
+    sc: np.ndarray  # the spacecraft block (held slots written during the run)
+    hold_t: np.ndarray  # (K,) hold start times
+    hold_u: np.ndarray  # (K, n_cmd) raw commands
+    n_state: int  # 8 + n_wheels
+    n_rec: int  # record columns after the state in an output row
+    ideal_control: bool = False  # flight software acting through an ideal torque
+    program: Any = None  # attitude.software._software.Program of a flight software
+    software: Any = None  # the FlightSoftware
+    ticks: np.ndarray | None = None  # (k, width) tick records of the last run
+
+    def fresh_block(self) -> np.ndarray:
+        """A copy of the spacecraft block for one run (its held slots are written)."""
+        return self.sc.copy()
+
+
+def prepare(
+    spacecraft: Any,
+    q0: np.ndarray,
+    Q0: np.ndarray,
+    t: np.ndarray,
+    commands: Any,
+    software: Any = None,
+) -> tuple[SpacecraftRun, np.ndarray]:
+    """The spacecraft run's data and the initial state (q0, Q0, h0).
+
+    The initial wheel momenta follow from the total body momentum g0 = ½ vec(q̃0∘Q0) and the
+    wheels' initial speeds Ω_k relative to the body: ω0 = I⁻¹ (g0 − Σ J_k Ω_k a_k),
+    h_k = J_k (a_k·ω0 + Ω_k).
+    """
+    from .actuators.commands import CommandSchedule
+    from .quaternion import conjugate, multiply
+
+    tt = np.asarray(t, dtype=np.float64)
+    if tt.shape[0] > 1 and tt[-1] < tt[0]:
+        raise AttitudeValueError(
+            "t: a spacecraft with actuators is propagated forward in time (its commands are "
+            "held from one time to the next); give increasing times"
+        )
+    nw, nm, nt = spacecraft.counts
+    if commands is not None and software is not None:
+        raise AttitudeValueError(
+            "commands: the flight software commands the actuators; give commands= (open "
+            "loop) or software= (closed loop), not both"
+        )
+    if commands is None:
+        hold_t = np.zeros(0)
+        hold_u = np.zeros((0, nw + nm + nt))
+    else:
+        if not isinstance(commands, CommandSchedule):
+            raise AttitudeTypeError(
+                f"commands: expected an attitude.CommandSchedule, got {type(commands).__name__}"
+            )
+        hold_t, hold_u = commands.arrays(nw, nm, nt)
+        hold_t = np.ascontiguousarray(hold_t, dtype=np.float64)
+        hold_u = np.ascontiguousarray(hold_u, dtype=np.float64)
+    prog = None
+    if software is not None:
+        from .software import FlightSoftware
+        from .software._software import program
+
+        if not isinstance(software, FlightSoftware):
+            raise AttitudeTypeError(
+                f"software: expected an attitude.FlightSoftware, got {type(software).__name__}"
+            )
+        prog = program(software, spacecraft, float(tt[0]), float(tt[-1]))
+    sc = spacecraft.block(np.array([tt[0], tt[-1]]))
+    g0 = 0.5 * multiply(conjugate(q0), Q0)[1:]
+    w0 = spacecraft.rate_from_momentum(g0)
+    h0 = spacecraft.wheel_momenta(w0)
+    y0 = np.concatenate([q0, Q0, h0]).astype(np.float64)
+    run = SpacecraftRun(
+        spacecraft=spacecraft,
+        sc=sc,
+        hold_t=hold_t,
+        hold_u=hold_u,
+        n_state=8 + nw,
+        n_rec=_kh.record_width(nw, nm, nt),
+        ideal_control=bool(prog is not None and prog.ideal),
+        program=prog,
+        software=software,
+    )
+    return run, y0
+
+
+def check_taylor(spacecraft: Any, potential: Any) -> None:
+    """Raise :class:`AttitudeValueError` (naming ``method``) unless ``method="taylor"`` expands
+    this spacecraft: a built-in potential it expands (torque-free, heavy top, gravity gradient
+    of a Kepler orbit), wheels whose friction is piecewise affine (Coulomb + viscous with a
+    limit-cycle speed, no Stribeck regime), thrusters; no magnetorquers (the field is a table,
+    not a series)."""
+    from .taylor import check_potential
+
+    check_potential(potential)
+    if spacecraft.magnetorquers:
+        raise AttitudeValueError(
+            "method: 'taylor' does not expand the magnetorquers' torque (the geomagnetic field "
+            "is tabulated, not a series); use method='dop853'"
+        )
+    for i, w in enumerate(spacecraft.wheels):
+        if w.stribeck_speed is not None:
+            raise AttitudeValueError(
+                f"method: 'taylor' expands piecewise-affine wheel friction; wheel {i} has a "
+                "Stribeck regime (exp and tanh of the speed): use method='dop853'"
+            )
+        if w.coulomb_friction > 0.0 and w.limit_cycle_speed == 0.0:
+            raise AttitudeValueError(
+                f"method: wheel {i}'s Coulomb friction with limit_cycle_speed = 0 jumps at "
+                "zero speed; give it a limit-cycle speed (Basilisk's default 1e-4 rad/s) or "
+                "use method='dop853'"
+            )
+
+
+class _Source:
+    """The command source of a run: the driver's ``ctl`` tuple, and what to do when the driver
+    asks for commands (your own step function) or for room for its tick records."""
+
+    def __init__(self, run: SpacecraftRun, problem: Problem):
+        self.run = run
+        self.problem = problem
+        self.hs = np.zeros(_kh.HS_SIZE)
+        prog = run.program
+        self.prog = prog
+        if prog is None:
+            self.ctl = (self.hs, run.hold_t, run.hold_u, np.zeros(run.hold_u.shape[1]))
+            return
+        self.fs = prog.fresh_state()
+        self.cmd = np.zeros(max(prog.n_cmd, 3))
+        self.rec = np.full((TICK_BUFFER, prog.rec_width), np.nan)
+        self.rc = np.zeros(1, dtype=np.int64)
+        self.ctl = (self.hs, prog.fw, self.fs, self.cmd, self.rec, self.rc)
+
+    def handle(self, status: int, y: np.ndarray, t: float, sc: np.ndarray) -> None:
+        """Answer the driver: grow the tick records, or call your own step function."""
+        if status == _kh.RECORDS_FULL:
+            self.rec = np.concatenate([self.rec, np.full_like(self.rec, np.nan)])
+            self.ctl = (self.hs, self.prog.fw, self.fs, self.cmd, self.rec, self.rc)
+            return
+        self._step(y, t, sc)
+        self.hs[_kh.HS_READY] = 1.0
+
+    def _step(self, y: np.ndarray, t: float, sc: np.ndarray) -> None:
+        from ._core import fsw as _kf
+        from ._core import fsw_step as _ks
+        from .software._software import Measurements
+
+        prog = self.prog
+        craft = self.run.spacecraft
+        nw = craft.counts[0]
+        meas = np.empty(_ks.MEAS_WHEELS + 2 * nw)
+        _ks.measure(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc, prog.fw,
+                    self.fs, meas)  # fmt: skip
+
+        def vec(i, n=3):
+            v = meas[i : i + n].copy()
+            return None if np.isnan(v).any() else v
+
+        m = Measurements(
+            t=float(meas[_ks.MEAS_T]),
+            q=meas[_ks.MEAS_Q : _ks.MEAS_Q + 4].copy(),
+            omega=meas[_ks.MEAS_OMEGA : _ks.MEAS_OMEGA + 3].copy(),
+            q_ref=meas[_ks.MEAS_QREF : _ks.MEAS_QREF + 4].copy(),
+            omega_ref=meas[_ks.MEAS_OMEGA_REF : _ks.MEAS_OMEGA_REF + 3].copy(),
+            sigma_error=meas[_ks.MEAS_SIGMA : _ks.MEAS_SIGMA + 3].copy(),
+            omega_error=meas[_ks.MEAS_DOMEGA : _ks.MEAS_DOMEGA + 3].copy(),
+            wheel_speeds=meas[_ks.MEAS_WHEELS : _ks.MEAS_WHEELS + nw].copy(),
+            wheel_momenta=meas[_ks.MEAS_WHEELS + nw : _ks.MEAS_WHEELS + 2 * nw].copy(),
+            field=vec(_ks.MEAS_FIELD),
+            sun=vec(_ks.MEAS_SUN),
+            r=vec(_ks.MEAS_R),
+            v=vec(_ks.MEAS_V),
+        )
+        tick = int(self.fs[_kf.FS_TICK])
+        try:
+            out = prog.python_step(m.t, m)
+        except Exception as exc:
+            raise _StepFailed(exc, tick, t) from exc
+        self.cmd[:] = _commands(out, craft, tick, t)
+
+
+class _StepFailed(Exception):
+    """Your own step function raised (carried to propagate with the tick and time)."""
+
+    def __init__(self, exc: BaseException, tick: int, t: float):
+        super().__init__(str(exc))
+        self.exc = exc
+        self.tick = tick
+        self.t = t
+
+
+def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
+    """The raw command vector (length max(n_cmd, 3)) from what a step function returned."""
+    nw, nm, nt = craft.counts
+    n = nw + nm + nt
+    where = f"software: your step function at tick {tick} (t = {t!r} s)"
+    res = np.zeros(max(n, 3))
+    if isinstance(out, dict):
+        allowed = {"wheel_torque": (0, nw), "dipole": (nw, nm), "thrust": (nw + nm, nt)}
+        if n == 0:
+            allowed = {"torque": (0, 3)}
+        for k, v in out.items():
+            if k not in allowed:
+                raise AttitudeValueError(
+                    f"{where} returned the key {k!r}; expected {', '.join(sorted(allowed))}"
+                )
+            c0, cn = allowed[k]
+            a = np.asarray(v, dtype=np.float64).reshape(-1)
+            if a.shape != (cn,):
+                raise AttitudeValueError(
+                    f"{where} returned {k} of shape {a.shape}, expected ({cn},)"
+                )
+            res[c0 : c0 + cn] = a
+    else:
+        try:
+            a = np.asarray(out, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise AttitudeTypeError(
+                f"{where} returned {type(out).__name__}; expected an array of commands or a dict"
+            ) from None
+        want = n if n else 3
+        if a.shape != (want,):
+            what = (
+                "the body torque (3,)"
+                if n == 0
+                else f"{want} raw commands (wheels, dipoles, thrust)"
+            )
+            raise AttitudeValueError(f"{where} returned shape {a.shape}; expected {what}")
+        res[:want] = a
+    if not np.all(np.isfinite(res)):
+        raise AttitudeValueError(f"{where} returned a non-finite command")
+    return res
+
+
+def _compiled_step_failure(src: _Source, problem: Problem) -> str:
+    """Why a compiled step's commands cannot be applied (the reason left in ``hs`` by
+    :func:`attitude._core.fsw_step.step_boundary_with`)."""
+    from ._core import fsw as _kf
+    from ._core import fsw_step as _ks
+
+    tick = int(src.fs[_kf.FS_TICK])
+    t = float(src.fs[_kf.FS_NEXT])
+    where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
+    n = int(src.hs[_kh.HS_FAIL_N])
+    nw, nm, nt = problem.spacecraft.spacecraft.counts
+    want = nw + nm + nt
+    if src.hs[_kh.HS_FAIL] == _ks.STEP_WRONG_LENGTH:
+        what = (
+            "the body torque (3,)"
+            if want == 0
+            else f"{want} raw commands (wheels, dipoles, thrust)"
+        )
+        return f"{where} returned {n} values; expected {what}"
+    return f"{where} returned a non-finite command (entry {n})"
+
+
+def _run(
+    problem: Problem,
+    kernel: Callable,
+    work: np.ndarray,
+    tstate: np.ndarray,
+    counters: np.ndarray,
+    y_row: int,
+    *,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    max_steps: int,
+    progress: Callable[[int, int, float], None] | None,
+    chunk: int | None,
+    on_chunk: Callable[[int, np.ndarray], None] | None,
+    stats: Callable[[], dict],
+) -> RunResult:
+    """The chunked run loop shared by both integrators (the step budget and Ctrl-C through
+    :func:`attitude._methods.dop853_call`), answering the command source between calls."""
+    sr: SpacecraftRun = problem.spacecraft
+    src = _Source(sr, problem)
+    t = problem.t
+    m = t.shape[0]
+    n = sr.n_state
+    width = n + sr.n_rec
+    chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
+    y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
+    P = (problem.params, sr.fresh_block())
+
+    def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
+        return kernel(
+            P, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax, src.ctl
+        )
+
+    t0, t_end = float(t[0]), float(t[m - 1])
+    done = 0
+    k = 0
+    status = _rk.SUCCESS
+    y_chunk = y_out[:0]
+    failure = None
+    while done < m:
+        stop = min(m, done + chunk)
+        t_chunk = np.ascontiguousarray(t[done:stop])
+        y_chunk = y_out[: stop - done] if on_chunk is not None else y_out[done:stop]
+        pause = None
+        if progress is not None:
+
+            def pause(kk, done=done):
+                progress(done + kk, m, float(tstate[0]))
+
+        status, k = dop853_call(
+            entry, problem.params, problem.y0, t0, t_chunk, y_chunk, work, tstate, counters,
+            rtol, atol, t_end, max_step, max_steps, pause,
+        )  # fmt: skip
+        if on_chunk is not None and k:
+            on_chunk(done, y_chunk[:k])
+        done += k
+        if status == _kh.STEP_FAILED:
+            failure = _compiled_step_failure(src, problem)
+            status = _rk.NONFINITE
+            break
+        if status in (_kh.NEEDS_COMMANDS, _kh.RECORDS_FULL):
+            try:
+                src.handle(status, work[y_row], float(tstate[0]), P[1])
+            except _StepFailed as exc:
+                failure = exc
+                status = _rk.NONFINITE
+                break
+            continue
+        if progress is not None:
+            progress(done, m, float(tstate[0]))
+        if status != _rk.SUCCESS:
+            break
+    if src.prog is not None:
+        sr.ticks = src.rec[: int(src.rc[0])].copy()
+    st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS_NEXT])}
+    if src.prog is not None:
+        from ._core import fsw as _kf
+
+        del st["n_holds"]
+        st["n_ticks"] = int(src.fs[_kf.FS_TICK])
+    msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
+    if isinstance(failure, str):
+        msg = failure
+    elif failure is not None:
+        msg = (
+            f"your step function raised at tick {failure.tick} (t = {failure.t!r} s): "
+            f"{type(failure.exc).__name__}: {failure.exc}"
+        )
+    t_stop = None if status == _rk.SUCCESS else float(tstate[0])
+    if on_chunk is not None:
+        last = max(done - 1, 0)
+        return RunResult(y_chunk[:k][-1:].copy(), int(status), msg, st, first=last, t_stop=t_stop)
+    return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop)
+
+
+def run_dop853(
+    problem: Problem,
+    *,
+    rtol: float,
+    atol: float,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
+    on_chunk: Callable[[int, np.ndarray], None] | None = None,
+    **_: Any,
+) -> RunResult:
+    """``method="dop853"`` for a spacecraft: DOP853 restarted at every hold boundary.
+
+    Output rows are the state (8 + n_wheels) then the record of the commands in force
+    (:func:`attitude._core.holds.record`).
+    """
+    sr: SpacecraftRun = problem.spacecraft
+    kernel = (
+        problem.entry.dop853_spacecraft
+        if sr.program is None
+        else problem.entry.dop853_spacecraft_fsw
+    )
+    work, tstate, counters = _rk.new_state(sr.n_state)
+
+    def stats():
+        return {
+            "n_steps": int(counters[0]),
+            "n_rhs": int(counters[1]),
+            "n_rejected": int(counters[2]),
+        }
+
+    return _run(
+        problem, kernel, work, tstate, counters, _rk.Y, rtol=rtol, atol=atol,
+        max_step=max_step, max_steps=max_steps, progress=progress, chunk=chunk,
+        on_chunk=on_chunk, stats=stats,
+    )  # fmt: skip
+
+
+run_dop853.streams = True  # type: ignore[attr-defined]
+
+
+def run_taylor(
+    problem: Problem,
+    *,
+    rtol: float,
+    atol: float,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
+    on_chunk: Callable[[int, np.ndarray], None] | None = None,
+    **_: Any,
+) -> RunResult:
+    """``method="taylor"`` for a spacecraft: the gyrostat's Taylor series, restarted at every
+    hold boundary, the order chosen for each hold (:mod:`attitude._core.taylor_gyrostat`)."""
+    from ._core import taylor as _kt
+    from ._core import taylor_gyrostat as _ktg
+
+    sr: SpacecraftRun = problem.spacecraft
+    check_taylor(sr.spacecraft, problem.potential)
+    nw = sr.n_state - 8
+    work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
+    tstate = np.zeros(_ktg.TS_SIZE + nw)
+    counters = np.zeros(5, dtype=np.int64)
+    entry = problem.entry
+    kernel = entry.taylor_spacecraft if sr.program is None else entry.taylor_spacecraft_fsw
+
+    def stats():
+        return {
+            "order": int(tstate[3]),
+            "n_steps": int(counters[0]),
+            "n_series_terms": int(counters[1]),
+        }
+
+    return _run(
+        problem, kernel, work, tstate, counters, _kt.Y, rtol=rtol, atol=atol,
+        max_step=max_step, max_steps=max_steps, progress=progress, chunk=chunk,
+        on_chunk=on_chunk, stats=stats,
+    )  # fmt: skip
+
+
+run_taylor.streams = True  # type: ignore[attr-defined]
+
+
+def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:
+    """Per-sample diagnostics of a spacecraft run's output rows.
+
+    Returns
+    -------
+    dict
+        ``diag`` (m, 13) (the columns of :func:`attitude._core.dynamics.diagnostics_with`, with
+        the gyrostat's ω and energy), ``torques`` (m, n_terms + 1, 3) (the model's terms and
+        their sum), ``actuators`` (m, 4, 3) (the torques of the wheels on the body, the
+        magnetorquers, the thrusters and the ideal control torque), ``wheels``
+        (m, n_wheels, 2) (speed Ω relative to the body, friction torque), ``records``
+        (m, n_rec).
+    """
+    from ._core import gyrostat as _kg
+
+    sr: SpacecraftRun = problem.spacecraft
+    n = sr.n_state
+    m = rows.shape[0]
+    y = np.ascontiguousarray(rows[:, :n])
+    rec = np.ascontiguousarray(rows[:, n:])
+    diag = np.empty((m, 13))
+    n_terms = len(problem.potential.terms)
+    torques = np.empty((m, n_terms + 1, 3))
+    act = np.empty((m, 4, 3))
+    nw = n - 8
+    wheels = np.empty((m, nw, 2))
+    sc = sr.fresh_block()
+    for i in range(0, m, SAMPLE_BUDGET):
+        j = min(m, i + SAMPLE_BUDGET)
+        problem.entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
+        problem.entry.term_torques_at_rates(
+            t[i:j], y[i:j, :8], diag[i:j, 0:3], problem.params, torques[i:j]
+        )
+        _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
+    return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec}

@@ -1,0 +1,273 @@
+"""Control laws: each computes a body torque request (or a dipole request) at every tick."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._validation import as_float_array, as_scalar
+from ..errors import AttitudeTypeError, AttitudeValueError
+
+__all__ = [
+    "BDot",
+    "ControlLaw",
+    "MRPFeedback",
+    "MomentumDumping",
+    "QuaternionFeedback",
+    "RateDamping",
+    "positive_gain",
+]
+
+
+def positive_gain(x: Any, name: str, unit: str | None = None, *, allow_zero: bool = False) -> float:
+    from astropy import units as u
+
+    if isinstance(x, u.Quantity):
+        try:
+            x = x.to_value(unit, u.dimensionless_angles()) if unit else x.to_value()
+        except u.UnitConversionError:
+            raise AttitudeTypeError(
+                f"{name}: units {x.unit} cannot be converted to {unit}"
+            ) from None
+    v = as_scalar(x, name)
+    if not (v > 0 or (allow_zero and v == 0)) or not math.isfinite(v):
+        raise AttitudeValueError(f"{name}: the gain must be a positive finite number, got {v!r}")
+    return v
+
+
+def _matrix_gain(x: Any, name: str) -> np.ndarray:
+    """A gain given as a number (times the identity), 3 diagonal entries or a 3 × 3 matrix."""
+    a = as_float_array(x, name)
+    if a.ndim == 0:
+        m = float(a) * np.eye(3)
+    elif a.shape == (3,):
+        m = np.diag(a)
+    elif a.shape == (3, 3):
+        m = a.copy()
+    else:
+        raise AttitudeValueError(
+            f"{name}: expected a number, 3 diagonal entries or a 3 x 3 matrix, got shape {a.shape}"
+        )
+    sym = 0.5 * (m + m.T)
+    if not np.all(np.linalg.eigvalsh(sym) > 0):
+        raise AttitudeValueError(f"{name}: the gain matrix must be positive definite")
+    return m
+
+
+class ControlLaw:
+    """Base class of the built-in laws."""
+
+    #: Kind code of the compiled kernel (attitude._core.fsw CTRL_*).
+    _kind: int = 0
+    #: Actuators the law needs: "torque" (wheels, magnetorquers or an ideal torque), "dipole".
+    needs: str = "torque"
+
+    def _gains(self) -> tuple[float, np.ndarray, float, float, float]:
+        """(K, P (3 × 3), K_I, integral limit, law type) for the kernel."""
+        return 0.0, np.zeros((3, 3)), 0.0, 0.0, 0.0
+
+
+@dataclass(frozen=True, init=False)
+class MRPFeedback(ControlLaw):
+    """MRP feedback, Basilisk's ``mrpFeedback`` (Schaub & Junkins, *Analytical Mechanics of
+    Space Systems*, 4th ed., Sect. 8.4):
+
+        L_r = −[K σ + P δω + P K_I z − (ω_r + K_I z) × (I ω + Σ h_s a) + I (ω × ω_r − ω̇_r)]
+
+    σ = σ_BR the attitude error (MRP), δω = ω − ω_r, z = ∫ K σ dt + I δω the integral term
+    (only with K_I > 0; each component of ∫ K σ dt limited to ``integral_limit``), h_s the
+    wheels' axial momenta. Global asymptotic tracking for K, P > 0 (Schaub & Junkins).
+
+    Parameters
+    ----------
+    K : float
+        Attitude gain (N m).
+    P : float, array_like (3,) or (3, 3)
+        Rate gain (N m s); a number as in Basilisk, or a matrix.
+    Ki : float, optional
+        Integral gain (1/s); None or <= 0: no integral term (Basilisk's ``Ki = -1``).
+    integral_limit : float, optional
+        Limit of each component of ∫ K σ dt (N m s; default: 0.1 × 2 / Ki as in Basilisk's
+        scenario, unlimited without Ki).
+    law_type : {0, 1}
+        Basilisk's ``controlLawType``: 0 crosses the momentum with ω_r + K_I z, 1 with ω.
+    """
+
+    K: float
+    P: np.ndarray
+    Ki: float
+    integral_limit: float
+    law_type: int
+    _kind = 1
+
+    def __init__(self, K: Any, P: Any, Ki: Any = None, integral_limit: Any = None,
+                 law_type: int = 0):  # fmt: skip
+        s = object.__setattr__
+        s(self, "K", positive_gain(K, "K", "N m"))
+        s(self, "P", _matrix_gain(P, "P"))
+        ki = -1.0 if Ki is None else as_scalar(Ki, "Ki")
+        if not math.isfinite(ki):
+            raise AttitudeValueError("Ki: must be finite")
+        s(self, "Ki", ki)
+        if integral_limit is None:
+            lim = 2.0 / ki * 0.1 if ki > 0 else math.inf
+        else:
+            lim = positive_gain(integral_limit, "integral_limit")
+        s(self, "integral_limit", lim)
+        if law_type not in (0, 1):
+            raise AttitudeValueError(f"law_type: expected 0 or 1, got {law_type!r}")
+        s(self, "law_type", int(law_type))
+
+    def _gains(self):
+        return self.K, self.P, self.Ki, self.integral_limit, float(self.law_type)
+
+    def __repr__(self) -> str:
+        P = self.P[0, 0] if np.allclose(self.P, self.P[0, 0] * np.eye(3)) else self.P.tolist()
+        ki = f", Ki={self.Ki!r}" if self.Ki > 0 else ""
+        return f"MRPFeedback(K={self.K!r}, P={P!r}{ki})"
+
+
+@dataclass(frozen=True, init=False)
+class QuaternionFeedback(ControlLaw):
+    """Quaternion feedback (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., Sect. 7.3):
+
+        L_r = −K q_e − C δω + ω × (I ω + Σ h_s a) − I (ω × ω_r − ω̇_r)
+
+    q_e the vector part of the error quaternion q̃_R∘q (the shorter rotation).
+
+    Parameters
+    ----------
+    K : float
+        Attitude gain (N m).
+    C : float, array_like (3,) or (3, 3)
+        Rate gain (N m s).
+    """
+
+    K: float
+    C: np.ndarray
+    _kind = 2
+
+    def __init__(self, K: Any, C: Any):
+        object.__setattr__(self, "K", positive_gain(K, "K", "N m"))
+        object.__setattr__(self, "C", _matrix_gain(C, "C"))
+
+    def _gains(self):
+        return self.K, self.C, 0.0, 0.0, 0.0
+
+    def __repr__(self) -> str:
+        return f"QuaternionFeedback(K={self.K!r}, C={self.C.tolist()!r})"
+
+
+@dataclass(frozen=True, init=False)
+class RateDamping(ControlLaw):
+    """Rate damping, L_r = −K_d (ω − ω_r) (ω_r of the guidance; zero without one).
+
+    Parameters
+    ----------
+    K : float, array_like (3,) or (3, 3)
+        Damping gain (N m s).
+    """
+
+    K: np.ndarray
+    _kind = 3
+
+    def __init__(self, K: Any):
+        object.__setattr__(self, "K", _matrix_gain(K, "K"))
+
+    def _gains(self):
+        return 0.0, self.K, 0.0, 0.0, 0.0
+
+    def __repr__(self) -> str:
+        return f"RateDamping(K={self.K.tolist()!r})"
+
+
+@dataclass(frozen=True, init=False)
+class BDot(ControlLaw):
+    """B-dot detumbling with magnetorquers.
+
+    ``normalized=False``: m = −k Ḃ_B (Stickler & Alfriend, *J. Spacecraft* 13, 1976);
+    ``normalized=True``: m = −(k/|B|) ḃ, b = B/|B| the field's direction in body axes
+    (Avanzini & Giulietti, "Magnetic detumbling of a rigid spacecraft", *J. Guidance* 35,
+    2012, whose optimal gain :meth:`optimal_gain` is k = 2 n (1 + sin ξ_m) I_min). The
+    derivatives are the change of the measured field from the last tick to this one over the
+    period; the dipole is clipped to each rod's limit (nothing at the first tick of the mode).
+
+    Parameters
+    ----------
+    gain : float
+        k: A m² s T⁻¹ for m = −k Ḃ; N m s for the normalized law.
+    normalized : bool
+        Which of the two laws.
+    """
+
+    gain: float
+    normalized: bool
+    _kind = 4
+    needs = "dipole"
+
+    def __init__(self, gain: Any, normalized: bool = False):
+        object.__setattr__(self, "gain", positive_gain(gain, "gain"))
+        if not isinstance(normalized, (bool, np.bool_)):
+            raise AttitudeTypeError("normalized: expected True or False")
+        object.__setattr__(self, "normalized", bool(normalized))
+
+    @staticmethod
+    def optimal_gain(orbit: Any, inertia: Any) -> float:
+        """Avanzini & Giulietti's gain of the normalized law, k = 2 n (1 + sin ξ_m) I_min
+        (N m s): n the orbit's mean motion, ξ_m its inclination to the geomagnetic equator
+        (the inclination plus or minus the dipole's tilt, the larger of the two: 9.6° for
+        IGRF-14 at 2025), I_min the smallest principal moment."""
+        if not hasattr(orbit, "to_state"):
+            raise AttitudeTypeError("orbit: expected an orbit of the orbit package")
+        lo = orbit.time_span[0]
+        t0 = lo if math.isfinite(lo) else 0.0
+        r, v = (np.asarray(x, dtype=np.float64).reshape(3) for x in orbit.to_state(t0))
+        mu = float(orbit.mu)
+        h = np.cross(r, v)
+        inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
+        a = 1.0 / (2.0 / np.linalg.norm(r) - float(v @ v) / mu)  # vis-viva (osculating, km)
+        n = math.sqrt(mu / a**3)
+        tilt = math.radians(9.6)
+        xi = max(abs(math.sin(inc + tilt)), abs(math.sin(inc - tilt)))
+        inertia = np.asarray(getattr(inertia, "inertia", inertia), dtype=np.float64)
+        return 2.0 * n * (1.0 + xi) * float(np.min(inertia))
+
+    def _gains(self):
+        return self.gain, np.zeros((3, 3)), 0.0, 0.0, 1.0 if self.normalized else 0.0
+
+    def __repr__(self) -> str:
+        tail = ", normalized=True" if self.normalized else ""
+        return f"BDot(gain={self.gain!r}{tail})"
+
+
+@dataclass(frozen=True, init=False)
+class MomentumDumping:
+    """Wheel momentum dumping with magnetorquers, the cross-product law (Camillo & Markley,
+    AIAA 80-1773, 1980): m = k (h_w − h_ref) × B / |B|², whose torque m × B = −k (h_w − h_ref)
+    perpendicular to B. Beside a wheel law, which holds the attitude: the magnetic torque then
+    takes the momentum out of the wheels.
+
+    Parameters
+    ----------
+    gain : float
+        k (1/s).
+    reference : array_like (3,), optional
+        h_ref, the wheel momentum to keep in body axes (N m s; default 0).
+    """
+
+    gain: float
+    reference: np.ndarray
+
+    def __init__(self, gain: Any, reference: Any = None):
+        object.__setattr__(self, "gain", positive_gain(gain, "gain", "1 / s"))
+        r = np.zeros(3) if reference is None else as_float_array(reference, "reference",
+                                                                 unit="kg m2 / s")  # fmt: skip
+        if r.shape != (3,):
+            raise AttitudeValueError(f"reference: expected 3 body-axis components, got {r.shape}")
+        object.__setattr__(self, "reference", r)
+
+    def __repr__(self) -> str:
+        return f"MomentumDumping(gain={self.gain!r})"

@@ -1,0 +1,410 @@
+"""The sensor classes: parameters validated once, and their records of the sensor program."""
+
+from __future__ import annotations
+
+import math
+import secrets
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .._core import rng as _rng
+from .._core import sensors as _ks
+from .._validation import as_float_array, as_scalar
+from ..errors import AttitudeTypeError, AttitudeValueError
+
+__all__ = [
+    "Gyro",
+    "Magnetometer",
+    "Sensor",
+    "StarTracker",
+    "SunSensor",
+    "Truth",
+    "as_sensor_set",
+    "sensor_program",
+]
+
+
+def _q(x: Any, name: str, unit: str, *, allow_zero: bool = True, allow_inf: bool = False) -> float:
+    """A non-negative number from a plain number (SI) or a Quantity in ``unit``'s dimension."""
+    from astropy import units as u
+
+    if isinstance(x, u.Quantity):
+        try:
+            x = x.to_value(u.Unit(unit), u.dimensionless_angles())
+        except u.UnitConversionError:
+            raise AttitudeTypeError(
+                f"{name}: units {x.unit} cannot be converted to {u.Unit(unit)}"
+            ) from None
+    if allow_inf and isinstance(x, (int, float)) and not isinstance(x, bool) and x == math.inf:
+        return math.inf
+    v = as_scalar(x, name)
+    if v < 0 or (v == 0 and not allow_zero):
+        raise AttitudeValueError(
+            f"{name}: must be {'>= 0' if allow_zero else 'positive'}, got {v!r} ({unit})"
+        )
+    return v
+
+
+def _vector(x: Any, name: str, unit: str | None = None) -> np.ndarray:
+    a = as_float_array(x, name, unit=unit)
+    if a.ndim == 0:
+        a = np.full(3, float(a))
+    if a.shape != (3,):
+        raise AttitudeValueError(f"{name}: expected a number or 3 body-axis components")
+    return a
+
+
+def _seed(seed: Any) -> int:
+    if seed is None:
+        return secrets.randbits(63)
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise AttitudeTypeError(
+            f"seed: expected a non-negative integer (or None for a fresh one), got {seed!r}"
+        )
+    if not 0 <= int(seed) < 2**64:
+        raise AttitudeValueError(f"seed: expected an integer in [0, 2**64), got {seed!r}")
+    return int(seed)
+
+
+class Sensor:
+    """Base class of the sensors."""
+
+    seed: int
+    kind: str = "sensor"
+
+
+@dataclass(frozen=True, init=False)
+class Gyro(Sensor):
+    """A three-axis rate-integrating gyro (Farrenkopf's model, discretised exactly).
+
+    Parameters
+    ----------
+    arw : float or Quantity
+        Angle random walk σ_v (rad/√s; a Quantity such as ``0.01 * u.deg / u.hour**0.5``).
+    rrw : float or Quantity
+        Rate random walk σ_u (rad/s^{3/2}).
+    bias : float, array_like (3,) or Quantity
+        Constant bias b₀ (rad/s).
+    scale_factor : float or array_like (3,)
+        Scale factor errors S (dimensionless, e.g. 1e-4 for 100 ppm).
+    misalignment : array_like (3,) or (3, 3), optional
+        Small rotation of the sensor axes (rad, a rotation vector) or a full matrix M.
+    quantization : float or Quantity
+        Output resolution (rad/s; 0: none).
+    saturation : float or Quantity
+        Largest |rate| per axis (rad/s; inf: none).
+    seed : int, optional
+    """
+
+    arw: float
+    rrw: float
+    bias: np.ndarray
+    scale_factor: np.ndarray
+    misalignment: np.ndarray
+    quantization: float
+    saturation: float
+    seed: int
+    kind = "gyro"
+
+    def __init__(self, arw: Any, rrw: Any = 0.0, bias: Any = 0.0, scale_factor: Any = 0.0,
+                 misalignment: Any = None, quantization: Any = 0.0, saturation: Any = math.inf,
+                 seed: Any = None):  # fmt: skip
+        s = object.__setattr__
+        s(self, "arw", _q(arw, "arw", "rad / s(1/2)"))
+        s(self, "rrw", _q(rrw, "rrw", "rad / s(3/2)"))
+        s(self, "bias", _vector(bias, "bias", "rad / s"))
+        s(self, "scale_factor", _vector(scale_factor, "scale_factor"))
+        if misalignment is None:
+            M = np.eye(3)
+        else:
+            m = as_float_array(misalignment, "misalignment", unit="rad")
+            if m.shape == (3,):
+                from ..quaternion import from_rotation_vector, to_matrix
+
+                M = to_matrix(from_rotation_vector(m))
+            elif m.shape == (3, 3):
+                M = m.copy()
+            else:
+                raise AttitudeValueError(
+                    "misalignment: expected a rotation vector (3,) or a matrix (3, 3)"
+                )
+        s(self, "misalignment", M)
+        s(self, "quantization", _q(quantization, "quantization", "rad / s"))
+        s(self, "saturation", _q(saturation, "saturation", "rad / s", allow_zero=False,
+                                 allow_inf=True))  # fmt: skip
+        s(self, "seed", _seed(seed))
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """C = (1 + S) M: the sensor's response to the true rate."""
+        return np.diag(1.0 + self.scale_factor) @ self.misalignment
+
+    def allan_variance(self, tau: Any) -> np.ndarray:
+        """The model's Allan variance σ_v²/τ + σ_u² τ/3 (rad²/s²) at averaging times τ (s)."""
+        tt = np.asarray(tau, dtype=np.float64)
+        return self.arw**2 / tt + self.rrw**2 * tt / 3.0
+
+
+@dataclass(frozen=True, init=False)
+class StarTracker(Sensor):
+    """A star tracker: the attitude with noise about and across its boresight.
+
+    Parameters
+    ----------
+    noise : float, (cross, about) or Quantity
+        1-σ noise across the boresight and about it (rad; a Quantity in arcsec); one number:
+        the same across, 8 times larger about (a typical tracker's ratio).
+    boresight : array_like (3,)
+        Boresight in body axes.
+    rate : float or Quantity, optional
+        Update rate (Hz): a new measurement every 1/(rate·period) ticks of the software
+        (default: every tick).
+    sun_exclusion, earth_exclusion : float or Quantity, optional
+        Half-angles (rad, or an angle Quantity) from the Sun and from the Earth's limb inside
+        which the measurement is flagged invalid (needs the spacecraft's orbit).
+    seed : int, optional
+    """
+
+    noise: tuple[float, float]
+    boresight: np.ndarray
+    rate: float | None
+    sun_exclusion: float
+    earth_exclusion: float
+    seed: int
+    kind = "star_tracker"
+
+    def __init__(self, noise: Any, boresight: Any = (0.0, 0.0, 1.0), rate: Any = None,
+                 sun_exclusion: Any = None, earth_exclusion: Any = None,
+                 seed: Any = None):  # fmt: skip
+        from astropy import units as u
+
+        s = object.__setattr__
+        if (isinstance(noise, u.Quantity) and noise.isscalar) or isinstance(
+            noise, (int, float, np.integer, np.floating)
+        ):
+            c = _q(noise, "noise", "rad", allow_zero=False)
+            n = (c, 8.0 * c)
+        else:
+            items = (
+                list(noise) if isinstance(noise, (list, tuple, u.Quantity, np.ndarray)) else None
+            )
+            if items is None or len(items) != 2:
+                raise AttitudeValueError(
+                    "noise: expected the 1-sigma noise across and about the boresight (2 "
+                    "positive numbers, rad, or angle Quantities), or one number"
+                )
+            n = (
+                _q(items[0], "noise", "rad", allow_zero=False),
+                _q(items[1], "noise", "rad", allow_zero=False),
+            )
+        s(self, "noise", n)
+        b = as_float_array(boresight, "boresight")
+        if b.shape != (3,) or not float(np.linalg.norm(b)) > 0:
+            raise AttitudeValueError("boresight: expected a nonzero body-axis vector (3,)")
+        s(self, "boresight", b / np.linalg.norm(b))
+        s(self, "rate", None if rate is None else _q(rate, "rate", "Hz", allow_zero=False))
+        sun = 0.0 if sun_exclusion is None else _q(sun_exclusion, "sun_exclusion", "rad")
+        s(self, "sun_exclusion", sun)
+        earth = -1.0 if earth_exclusion is None else _q(earth_exclusion, "earth_exclusion", "rad")
+        s(self, "earth_exclusion", earth)
+        s(self, "seed", _seed(seed))
+
+    @property
+    def frame(self) -> np.ndarray:
+        """Rows: the sensor axes x, y, z (= boresight) in body axes."""
+        z = self.boresight
+        trial = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        x = trial - z * float(trial @ z)
+        x /= np.linalg.norm(x)
+        return np.array([x, np.cross(z, x), z])
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """The noise covariance in body axes (rad²)."""
+        C = self.frame
+        d = np.diag([self.noise[0] ** 2, self.noise[0] ** 2, self.noise[1] ** 2])
+        return C.T @ d @ C
+
+
+@dataclass(frozen=True, init=False)
+class Magnetometer(Sensor):
+    """A three-axis magnetometer: B̃ = B_B + b + σ N on the IGRF field along the orbit.
+
+    Parameters
+    ----------
+    noise : float or Quantity
+        σ (T; a Quantity such as ``100 * u.nT``).
+    bias : float, array_like (3,) or Quantity
+        b (T).
+    seed : int, optional
+    """
+
+    noise: float
+    bias: np.ndarray
+    seed: int
+    kind = "magnetometer"
+
+    def __init__(self, noise: Any, bias: Any = 0.0, seed: Any = None):
+        object.__setattr__(self, "noise", _q(noise, "noise", "T"))
+        object.__setattr__(self, "bias", _vector(bias, "bias", "T"))
+        object.__setattr__(self, "seed", _seed(seed))
+
+
+@dataclass(frozen=True, init=False)
+class SunSensor(Sensor):
+    """A coarse Sun sensor: heads with a cosine law, dark in the Earth's shadow.
+
+    Parameters
+    ----------
+    normals : array_like (n, 3), optional
+        The heads' normals in body axes (default: the six faces ±x, ±y, ±z).
+    noise : float
+        σ of each head's current, as a fraction of its full-Sun current.
+    seed : int, optional
+    """
+
+    normals: np.ndarray
+    noise: float
+    seed: int
+    kind = "sun_sensor"
+
+    def __init__(self, normals: Any = None, noise: Any = 0.01, seed: Any = None):
+        if normals is None:
+            n = np.vstack([np.eye(3), -np.eye(3)])
+        else:
+            n = as_float_array(normals, "normals")
+            if n.ndim != 2 or n.shape[1] != 3 or n.shape[0] < 3:
+                raise AttitudeValueError("normals: expected at least 3 head normals (n, 3)")
+            nn = np.linalg.norm(n, axis=1)
+            if not np.all(nn > 0):
+                raise AttitudeValueError("normals: a zero normal has no direction")
+            n = n / nn[:, None]
+        object.__setattr__(self, "normals", n)
+        object.__setattr__(self, "noise", _q(noise, "noise", "1"))
+        object.__setattr__(self, "seed", _seed(seed))
+
+
+class Truth(tuple):
+    """The perfect sensor set (the default): every quantity is measured exactly."""
+
+    def __new__(cls):
+        return super().__new__(cls, ())
+
+
+def as_sensor_set(x: Any) -> tuple:
+    """A tuple of distinct sensors (at most one of each kind) from a sensor, a sequence, a
+    :class:`Truth` or None."""
+    if x is None:
+        return ()
+    if isinstance(x, Sensor):
+        x = (x,)
+    if isinstance(x, (str, bytes)) or not hasattr(x, "__iter__"):
+        raise AttitudeTypeError(
+            f"sensors: expected attitude.sensors objects (Gyro, StarTracker, Magnetometer, "
+            f"SunSensor) or a sequence of them, got {type(x).__name__}"
+        )
+    out = tuple(x)
+    kinds = set()
+    for i, s in enumerate(out):
+        if not isinstance(s, Sensor):
+            raise AttitudeTypeError(f"sensors[{i}]: expected a sensor, got {type(s).__name__}")
+        if s.kind in kinds:
+            raise AttitudeValueError(f"sensors[{i}]: a second {s.kind} (one of each kind)")
+        kinds.add(s.kind)
+    return out
+
+
+def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: float) -> tuple:
+    """(the sensor program ``sn``, the initial sensor state ``ss``) of a sensor set."""
+    head = np.zeros(_ks.SN_HEADER)
+    parts = [head]
+    size = [head.size]
+    states: list[np.ndarray] = []
+    ss_size = [0]
+
+    def append(a):
+        at = size[0]
+        parts.append(np.asarray(a, dtype=np.float64).reshape(-1))
+        size[0] += parts[-1].size
+        return at
+
+    def stream(seed, extra=0):
+        at = ss_size[0]
+        st = np.zeros(_rng.RNG_SIZE + extra)
+        _rng.seed_stream(st, 0, np.uint64(seed))
+        states.append(st)
+        ss_size[0] += st.size
+        return at
+
+    needs_sky = False
+    for s in sensors:
+        if isinstance(s, Gyro):
+            r = np.zeros(_ks.G_SIZE)
+            r[_ks.G_SV] = s.arw
+            r[_ks.G_SU] = s.rrw
+            r[_ks.G_B0 : _ks.G_B0 + 3] = s.bias
+            r[_ks.G_C : _ks.G_C + 9] = s.matrix.reshape(-1)
+            r[_ks.G_QUANT] = s.quantization
+            r[_ks.G_SAT] = s.saturation
+            r[_ks.G_STATE] = stream(s.seed, 7)
+            head[_ks.SN_GYRO] = append(r)
+        elif isinstance(s, StarTracker):
+            r = np.zeros(_ks.T_SIZE)
+            r[_ks.T_SC], r[_ks.T_SB] = s.noise
+            r[_ks.T_CBS : _ks.T_CBS + 9] = s.frame.reshape(-1)
+            every = 1
+            if s.rate is not None:
+                k = 1.0 / (s.rate * period)
+                every = round(k)
+                if every < 1 or abs(every - k) > 1e-9 * k:
+                    raise AttitudeValueError(
+                        f"sensors: the star tracker's rate {s.rate:g} Hz is not the software's "
+                        f"{1 / period:g} Hz divided by a whole number"
+                    )
+            r[_ks.T_EVERY] = every
+            r[_ks.T_SUN_EXCL] = s.sun_exclusion
+            r[_ks.T_EARTH_EXCL] = s.earth_exclusion
+            r[_ks.T_STATE] = stream(s.seed)
+            head[_ks.SN_ST] = append(r)
+            needs_sky = needs_sky or s.sun_exclusion > 0 or s.earth_exclusion >= 0
+        elif isinstance(s, Magnetometer):
+            if craft.orbit is None:
+                raise AttitudeValueError(
+                    "sensors: a magnetometer measures the field along the orbit; give "
+                    "Spacecraft(..., orbit=...)"
+                )
+            r = np.zeros(_ks.M_SIZE)
+            r[_ks.M_SIGMA] = s.noise
+            r[_ks.M_BIAS : _ks.M_BIAS + 3] = s.bias
+            r[_ks.M_STATE] = stream(s.seed)
+            head[_ks.SN_MAG] = append(r)
+        elif isinstance(s, SunSensor):
+            r = np.zeros(_ks.S_NORMALS + 3 * s.normals.shape[0])
+            r[_ks.S_NHEADS] = s.normals.shape[0]
+            r[_ks.S_SIGMA] = s.noise
+            r[_ks.S_STATE] = stream(s.seed)
+            r[_ks.S_NORMALS :] = s.normals.reshape(-1)
+            head[_ks.SN_SUN] = append(r)
+            needs_sky = True
+    if needs_sky or head[_ks.SN_MAG]:
+        if craft.orbit is None:
+            raise AttitudeValueError(
+                "sensors: Sun and Earth exclusions and Sun sensors need the spacecraft's orbit "
+                "(Spacecraft(..., orbit=...), dated)"
+            )
+        head[_ks.SN_ORBIT] = append(craft.orbit.kernel_data())
+        if needs_sky:
+            if getattr(craft.orbit, "epoch", None) is None:
+                raise AttitudeValueError(
+                    "sensors: the Sun's direction needs a dated orbit (give the orbit an epoch)"
+                )
+            from orbit import sun as _sun
+
+            head[_ks.SN_SUNTAB] = append(
+                _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
+            )
+    sn = np.concatenate(parts)
+    ss = np.concatenate(states) if states else np.zeros(0)
+    return sn, ss

@@ -1,0 +1,520 @@
+"""The flight software: :class:`FlightSoftware` and its :class:`Mode` s, and the program the
+compiled loop runs (:func:`program`, the layout of :mod:`attitude._core.fsw`)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from .._core import fsw as _kf
+from .._core import fsw_step as _kstep
+from .._core import sensors as _ks
+from .._validation import as_float_array, as_int, as_scalar
+from ..control import ControlLaw, MomentumDumping, WheelAllocation
+from ..errors import AttitudeTypeError, AttitudeValueError
+from ._guidance import Slew, as_guidance
+from ._modes import Condition, as_condition
+
+__all__ = ["FlightSoftware", "MeasurementIndex", "Measurements", "Mode", "Program", "program"]
+
+
+def _period(x: Any) -> float:
+    """Seconds from a number (s), a time Quantity or a frequency Quantity (Hz)."""
+    from astropy import units as u
+
+    if isinstance(x, u.Quantity):
+        if x.unit.is_equivalent(u.Hz):
+            f = float(x.to_value(u.Hz))
+            if not f > 0 or not math.isfinite(f):
+                raise AttitudeValueError(f"period: a rate must be positive, got {x}")
+            return 1.0 / f
+        try:
+            x = x.to_value(u.s)
+        except u.UnitConversionError:
+            raise AttitudeTypeError(
+                f"period: expected seconds or a rate in Hz, got units {x.unit}"
+            ) from None
+    v = as_scalar(x, "period")
+    if not v > 0 or not math.isfinite(v):
+        raise AttitudeValueError(f"period: the tick interval must be positive, got {v!r} s")
+    return v
+
+
+def _is_compiled(fn: Any) -> bool:
+    """Whether ``fn`` is a numba-compiled function (``numba.njit``): your compiled step."""
+    if not hasattr(fn, "py_func"):
+        return False
+    from numba.core.registry import CPUDispatcher
+
+    return isinstance(fn, CPUDispatcher)
+
+
+def _control(x: Any) -> tuple[Any, MomentumDumping | None, Callable | None]:
+    """(law, dumping, Python step) from a law, (law, MomentumDumping), a callable or None."""
+    if x is None:
+        return None, None, None
+    if isinstance(x, ControlLaw):
+        return x, None, None
+    if isinstance(x, MomentumDumping):
+        return None, x, None
+    if isinstance(x, (tuple, list)):
+        laws = [c for c in x if isinstance(c, ControlLaw)]
+        dumps = [c for c in x if isinstance(c, MomentumDumping)]
+        if len(laws) + len(dumps) != len(x) or len(laws) > 1 or len(dumps) > 1:
+            raise AttitudeTypeError(
+                "control: a sequence combines one control law with one MomentumDumping"
+            )
+        return (laws[0] if laws else None), (dumps[0] if dumps else None), None
+    if callable(x):
+        return None, None, x
+    raise AttitudeTypeError(
+        f"control: expected a law of attitude.control (MRPFeedback, QuaternionFeedback, "
+        f"RateDamping, BDot), a MomentumDumping beside one, your own step(t, measurements) "
+        f"function, or None; got {type(x).__name__}"
+    )
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One mode of the flight software: its guidance, control law and allocation.
+
+    Parameters
+    ----------
+    guidance : Frame or Slew, optional
+        The reference attitude (none: the inertial identity, zero rate; what rate damping and
+        B-dot need).
+    control : ControlLaw, (ControlLaw, MomentumDumping), callable or None
+        The law; a Python callable ``step(t, measurements) -> commands`` is your own software
+        (docs/flight_software.md).
+    allocation : WheelAllocation, optional
+        How a torque request is spread over the wheels (default: the pseudo-inverse).
+    name : str, optional
+        Label in results (default ``mode<k>``).
+    """
+
+    guidance: Any = None
+    control: Any = None
+    allocation: Any = None
+    name: str | None = None
+
+    def __post_init__(self):
+        object.__setattr__(self, "guidance", as_guidance(self.guidance))
+        _control(self.control)
+        if self.allocation is not None and not isinstance(self.allocation, WheelAllocation):
+            raise AttitudeTypeError(
+                f"allocation: expected an attitude.control.WheelAllocation, got "
+                f"{type(self.allocation).__name__}"
+            )
+        if self.name is not None and (not isinstance(self.name, str) or not self.name):
+            raise AttitudeTypeError("name: expected a non-empty string")
+
+
+class Measurements(NamedTuple):
+    """What your own software sees at a tick (the truth until sensors are given).
+
+    Body axes; SI (rad/s, T, km and km/s for the orbit). ``field``, ``sun``, ``r``, ``v`` are
+    None when the spacecraft has no orbit (``sun`` also without an epoch).
+    """
+
+    t: float
+    q: np.ndarray  # (4,) attitude, body to space
+    omega: np.ndarray  # (3,) body rate, rad/s
+    q_ref: np.ndarray  # (4,) the guidance's reference attitude
+    omega_ref: np.ndarray  # (3,) the reference rate in body axes
+    sigma_error: np.ndarray  # (3,) attitude error σ_BR (MRP)
+    omega_error: np.ndarray  # (3,) rate error ω − ω_r
+    wheel_speeds: np.ndarray  # (n_w,) relative to the body, rad/s
+    wheel_momenta: np.ndarray  # (n_w,) axial momenta h, N m s
+    field: np.ndarray | None  # (3,) geomagnetic field, T
+    sun: np.ndarray | None  # (3,) unit vector to the Sun
+    r: np.ndarray | None  # (3,) position, km, space axes (GCRS)
+    v: np.ndarray | None  # (3,) velocity, km/s, space axes
+
+
+class MeasurementIndex(IntEnum):
+    """Where each measurement sits in the array ``m`` of your compiled ``step(t, m)``.
+
+    ``m[MeasurementIndex.Q : MeasurementIndex.Q + 4]`` is the attitude, and so on (the fields of
+    :class:`Measurements`; vectors of 3 unless noted); the n_w wheel speeds start at
+    ``WHEEL_SPEEDS``, the n_w wheel momenta at ``WHEEL_SPEEDS + n_w``. NaN where unavailable (no
+    orbit: field, Sun, r, v). numba reads the members as constants.
+    """
+
+    T = _kstep.MEAS_T
+    Q = _kstep.MEAS_Q  # 4
+    OMEGA = _kstep.MEAS_OMEGA
+    Q_REF = _kstep.MEAS_QREF  # 4
+    OMEGA_REF = _kstep.MEAS_OMEGA_REF
+    SIGMA_ERROR = _kstep.MEAS_SIGMA
+    OMEGA_ERROR = _kstep.MEAS_DOMEGA
+    FIELD = _kstep.MEAS_FIELD
+    SUN = _kstep.MEAS_SUN
+    R = _kstep.MEAS_R
+    V = _kstep.MEAS_V
+    WHEEL_SPEEDS = _kstep.MEAS_WHEELS
+
+
+class FlightSoftware:
+    """Flight software running at its own task rate inside the propagation.
+
+    At each tick t_k = t₀ + phase + k·period the software reads its measurements (the true
+    state; noisy sensors and an estimator plug in here), the guidance gives the reference
+    attitude, rate and acceleration, the control law a torque (or dipole) request, the
+    allocation the actuator commands (clipped by the actuators' limits), and those are held
+    until the next tick (zero-order hold); with ``delay = d`` the command computed at t_k acts
+    from t_{k+d}. The integrator restarts at every tick, so the dynamics between ticks keep
+    the method's accuracy. By default the semantics are those of Basilisk's reaction-wheel
+    scenario: u_k computed from the state at t_k acts on [t_k, t_{k+1}).
+
+    Parameters
+    ----------
+    period : float or Quantity
+        The tick interval (s), or a rate (Hz).
+    guidance : Frame or Slew, optional
+        Reference attitude of the (single) mode.
+    control : law, (law, MomentumDumping), callable or None
+        Control law of the (single) mode (:mod:`attitude.control`), or your own Python
+        ``step(t, measurements) -> commands`` (:class:`Measurements`; commands: the raw
+        actuator commands (n_wheels + n_magnetorquers + n_thrusters), or a dict with
+        ``wheel_torque``, ``dipole``, ``thrust``, or for a spacecraft without actuators the
+        body torque (3,)).
+    allocation : WheelAllocation, optional
+    sensors, estimator : optional
+        The measurements' sensors and the attitude estimator (:mod:`attitude.sensors`,
+        :mod:`attitude.estimation`); None: the truth.
+    modes : sequence of (condition, Mode or FlightSoftware), optional
+        Modes visited in order, e.g. detumble → Sun-safe → pointing: the software starts in the
+        first, and moves on to mode i + 1 at the first tick where its condition holds
+        (:mod:`attitude.software` conditions, or the events ``RateExceeds`` and
+        ``PointingExceeds``). The active mode is recorded. Instead of ``guidance``,
+        ``control`` and ``allocation``.
+    delay : int
+        Whole ticks between a command's computation and its application (latency).
+    phase : float or Quantity
+        Time of the first tick after the run's start (s, default 0).
+    inertia : array_like (3,) or (3, 3), optional
+        The software's model of the spacecraft's inertia (kg m²; default the true one):
+        what the laws' gyroscopic and feed-forward terms use.
+    record_every : int
+        Record every k-th tick (default every tick).
+    """
+
+    def __init__(
+        self,
+        period: Any,
+        guidance: Any = None,
+        control: Any = None,
+        allocation: Any = None,
+        sensors: Any = None,
+        estimator: Any = None,
+        modes: Sequence[tuple[Any, Any]] | None = None,
+        delay: int = 0,
+        *,
+        phase: Any = 0.0,
+        inertia: Any = None,
+        record_every: int = 1,
+    ):
+        self.period = _period(period)
+        self.delay = as_int(delay, "delay", low=0)
+        ph = as_float_array(phase, "phase", unit="s")
+        if ph.shape != () or not 0.0 <= float(ph) < math.inf:
+            raise AttitudeValueError(f"phase: expected a time >= 0 s, got {phase!r}")
+        self.phase = float(ph)
+        self.record_every = as_int(record_every, "record_every")
+        self.inertia = None
+        if inertia is not None:
+            a = as_float_array(inertia, "inertia", unit="kg m2")
+            if a.shape == (3,):
+                a = np.diag(a)
+            if a.shape != (3, 3) or not np.allclose(a, a.T) or np.any(np.linalg.eigvalsh(a) <= 0):
+                raise AttitudeValueError(
+                    "inertia: expected 3 principal moments or a symmetric positive definite 3 x 3"
+                )
+            self.inertia = a
+        if sensors is not None or estimator is not None:
+            from ..sensors import as_sensor_set
+
+            self.sensors = as_sensor_set(sensors)
+        else:
+            self.sensors = None
+        self.estimator = estimator
+        if modes is None:
+            self.modes: list[tuple[Condition | None, Mode]] = [
+                (None, Mode(guidance, control, allocation))
+            ]
+        else:
+            if guidance is not None or control is not None or allocation is not None:
+                raise AttitudeValueError(
+                    "modes: give guidance, control and allocation per mode, not beside modes"
+                )
+            if isinstance(modes, (str, bytes)) or not isinstance(modes, Sequence) or not modes:
+                raise AttitudeTypeError("modes: expected a non-empty list of (condition, Mode)")
+            out = []
+            for i, item in enumerate(modes):
+                if not isinstance(item, (tuple, list)) or len(item) != 2:
+                    raise AttitudeTypeError(f"modes[{i}]: expected a pair (condition, Mode)")
+                cond, mode = item
+                if isinstance(mode, FlightSoftware):
+                    if len(mode.modes) != 1:
+                        raise AttitudeValueError(f"modes[{i}]: a software with modes of its own")
+                    mode = mode.modes[0][1]
+                if not isinstance(mode, Mode):
+                    raise AttitudeTypeError(
+                        f"modes[{i}]: expected a Mode (or a FlightSoftware), got "
+                        f"{type(mode).__name__}"
+                    )
+                out.append((as_condition(cond) if i else None, mode))
+            self.modes = out
+        self.python_step = None
+        self.compiled_step = None
+        steps = [_control(m.control)[2] for _, m in self.modes]
+        if any(s is not None for s in steps):
+            if len(self.modes) != 1:
+                raise AttitudeValueError(
+                    "modes: your own step(t, measurements) runs the whole software; it does not "
+                    "mix with modes of built-in laws"
+                )
+            if _is_compiled(steps[0]):
+                self.compiled_step = steps[0]
+            else:
+                self.python_step = steps[0]
+
+    @property
+    def mode_names(self) -> list[str]:
+        return [m.name or f"mode{i}" for i, (_, m) in enumerate(self.modes)]
+
+    def describe(self) -> str:
+        parts = [f"period {self.period:g} s"]
+        if self.delay:
+            parts.append(f"delay {self.delay} ticks")
+        for i, (cond, m) in enumerate(self.modes):
+            law = (
+                m.control
+                if not callable(m.control) or isinstance(m.control, ControlLaw)
+                else (
+                    f"{'compiled' if _is_compiled(m.control) else 'python'} "
+                    f"{getattr(m.control, '__name__', 'step')}"
+                )
+            )
+            g = m.guidance.describe() if m.guidance is not None else "none"
+            c = f" when {type(cond).__name__}" if cond is not None else ""
+            parts.append(f"{self.mode_names[i]}{c}: guidance {g}, control {law!r}")
+        return "; ".join(parts)
+
+    def __repr__(self) -> str:
+        return f"FlightSoftware({self.describe()})"
+
+
+@dataclass
+class Program:
+    """The compiled loop's view of a flight software for one run."""
+
+    fw: np.ndarray
+    fs_size: int
+    n_cmd: int
+    rec_width: int
+    python_step: Callable | None = None
+    compiled_step: Callable | None = None  # a numba function step(t, m) -> commands
+    mode_names: list[str] = field(default_factory=list)
+    ideal: bool = False
+    frames: dict = field(default_factory=dict)
+    ss0: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the sensors' initial state
+    sensors: tuple = ()
+    estimator: Any = None
+
+    def fresh_state(self) -> np.ndarray:
+        """The software state ``fs`` at the start of a run (the sensors' streams seeded)."""
+        fs = np.zeros(self.fs_size)
+        if self.ss0.size:
+            at = int(self.fw[_kf.FW_SS])
+            fs[at : at + self.ss0.size] = self.ss0
+        return fs
+
+
+def _frame_data(frame: Any, start: float, stop: float) -> np.ndarray:
+    h = _kf.DOMEGA_STEP
+    return np.asarray(frame.kernel_data(start - 2 * h, stop + 2 * h), dtype=np.float64)
+
+
+def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Program:
+    """Validate ``software`` against the spacecraft and build its compiled program."""
+    nw, nm, nt = craft.counts
+    ncmd = nw + nm + nt
+    ideal = ncmd == 0
+    head = np.zeros(_kf.FW_HEADER)
+    head[_kf.FW_PERIOD] = software.period
+    head[_kf.FW_T0] = t0 + software.phase
+    head[_kf.FW_DELAY] = software.delay
+    head[_kf.FW_NMODES] = len(software.modes)
+    head[_kf.FW_NCMD] = ncmd
+    head[_kf.FW_IDEAL] = 1.0 if ideal else 0.0
+    head[_kf.FW_RECORD_EVERY] = software.record_every
+    external = software.python_step is not None or software.compiled_step is not None
+    head[_kf.FW_EXTERNAL] = 1.0 if external else 0.0
+    inertia = software.inertia if software.inertia is not None else np.diag(craft.body.inertia)
+    head[_kf.FW_INERTIA : _kf.FW_INERTIA + 9] = inertia.reshape(-1)
+    parts: list[np.ndarray] = [head]
+    size = [head.size]
+
+    gpinv = None
+
+    def append(a: np.ndarray) -> int:
+        at = size[0]
+        parts.append(np.asarray(a, dtype=np.float64).reshape(-1))
+        size[0] += parts[-1].size
+        return at
+
+    if nw:
+        G = craft.wheel_axes.T  # 3 × n
+        if np.linalg.matrix_rank(G) == 3:
+            gpinv = G.T @ np.linalg.inv(G @ G.T)  # n × 3
+            head[_kf.FW_GPINV] = append(gpinv)
+            head[_kf.FW_NULLP] = append(np.eye(nw) - gpinv @ G)
+    if nm:
+        A = np.array([m.axis for m in craft.magnetorquers]).T  # 3 × n_m
+        head[_kf.FW_NAPINV] = append(np.linalg.pinv(A))
+    modes_at = append(np.zeros(len(software.modes)))
+    head[_kf.FW_MODES] = modes_at
+    offsets = []
+    for i, (cond, mode) in enumerate(software.modes):
+        where = f"modes[{i}]" if len(software.modes) > 1 else "software"
+        law, dump, step = _control(mode.control)
+        mb = np.zeros(_kf.MB_SIZE)
+        if cond is not None:
+            mb[_kf.MB_COND] = cond._kind
+            mb[_kf.MB_COND_X] = cond.threshold
+            if cond.frame is not None:
+                mb[_kf.MB_COND_FRAME] = append(_frame_data(cond.frame, t0, t_end))
+                if cond.axis is not None:
+                    mb[_kf.MB_COND_AXIS : _kf.MB_COND_AXIS + 3] = cond.axis
+        g = mode.guidance
+        if isinstance(g, Slew):
+            mb[_kf.MB_GUID] = _kf.GUID_SLEW
+            mb[_kf.MB_GUID_FRAME] = append(_frame_data(g.target, t0, t_end))
+            mb[_kf.MB_SLEW_RATE] = g.max_rate
+            mb[_kf.MB_SLEW_ACC] = g.max_accel
+        elif g is not None:
+            mb[_kf.MB_GUID] = _kf.GUID_FRAME
+            mb[_kf.MB_GUID_FRAME] = append(_frame_data(g, t0, t_end))
+        if law is not None:
+            if law.needs == "dipole" and not nm:
+                raise AttitudeValueError(
+                    f"{where}: {type(law).__name__} commands magnetorquers; the spacecraft has "
+                    "none (Spacecraft(..., magnetorquers=[Magnetorquer(axis, max_dipole), ...]))"
+                )
+            if law.needs == "torque" and not ideal and not nw and not nm:
+                raise AttitudeValueError(
+                    f"{where}: {type(law).__name__} requests a body torque; thrusters alone are "
+                    "commanded by a CommandSchedule or your own step function"
+                )
+            if law.needs == "torque" and nw and gpinv is None:
+                raise AttitudeValueError(
+                    f"{where}: the wheels' axes do not span the three body axes: no wheel "
+                    "allocation can produce every torque"
+                )
+            K, P, Ki, lim, lt = law._gains()
+            mb[_kf.MB_CTRL] = law._kind
+            mb[_kf.MB_K] = K
+            mb[_kf.MB_P : _kf.MB_P + 9] = P.reshape(-1)
+            mb[_kf.MB_KI] = Ki
+            mb[_kf.MB_ILIM] = lim
+            mb[_kf.MB_LAWTYPE] = lt
+        if dump is not None:
+            if not nm or not nw:
+                raise AttitudeValueError(
+                    f"{where}: MomentumDumping unloads wheels with magnetorquers; the spacecraft "
+                    f"has {nw} wheels and {nm} magnetorquers"
+                )
+            mb[_kf.MB_DUMP] = dump.gain
+            mb[_kf.MB_DUMP_REF : _kf.MB_DUMP_REF + 3] = dump.reference
+        al = mode.allocation
+        if al is not None:
+            if not nw:
+                raise AttitudeValueError(f"{where}: a WheelAllocation needs wheels")
+            mb[_kf.MB_NULL] = al.null_gain
+            if al.null_speeds is not None:
+                if al.null_speeds.shape != (nw,):
+                    raise AttitudeValueError(
+                        f"{where}: null_speeds has {al.null_speeds.size} entries for {nw} wheels"
+                    )
+                mb[_kf.MB_NULL_SPEEDS] = append(al.null_speeds)
+        _ = step
+        offsets.append(append(mb))
+    fw = np.concatenate(parts)
+    fw[modes_at : modes_at + len(offsets)] = offsets
+    if any((_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
+           or _control(m.control)[1] is not None for _, m in software.modes):  # fmt: skip
+        if craft.orbit is None and isinstance(craft.field, str):
+            raise AttitudeValueError(
+                "software: the magnetic laws read the geomagnetic field along the orbit; give "
+                "Spacecraft(..., orbit=...)"
+            )
+    fs_size = _kf.state_size(software.delay, ncmd)
+    ss0 = np.zeros(0)
+    sensors = software.sensors or ()
+    if sensors or software.estimator is not None:
+        from ..sensors._models import SunSensor, sensor_program
+
+        sn, ss0 = sensor_program(sensors, software.period, craft, t0, t_end)
+        at = fw.size
+        fw = np.concatenate([fw, sn])
+        fw[_kf.FW_SENSORS] = at
+        fw[_kf.FW_SS] = fs_size
+        fs_size += ss0.size
+        fw[_kf.FW_ES] = fs_size
+        fs_size += _kf.ES_SIZE
+        fw[_kf.FW_Z] = fs_size
+        heads = max((x.normals.shape[0] for x in sensors if isinstance(x, SunSensor)), default=0)
+        fs_size += _ks.Z_SIZE + heads
+        if software.estimator is not None:
+            from ..estimation import MEKF
+
+            if not isinstance(software.estimator, MEKF):
+                raise AttitudeTypeError(
+                    f"estimator: expected an attitude.estimation.MEKF, got "
+                    f"{type(software.estimator).__name__}"
+                )
+            ep = software.estimator.record(sensors)
+            fw[_kf.FW_EST] = fw.size
+            fw = np.concatenate([fw, ep])
+    needs_field = any(
+        (_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
+        or _control(m.control)[1] is not None
+        for _, m in software.modes
+    ) or any(getattr(x, "kind", "") == "magnetometer" for x in sensors)
+    if needs_field and not nm and craft.orbit is not None:
+        from ..potentials import MagneticDipole
+
+        fm = MagneticDipole(craft.orbit, [0.0, 0.0, 0.0], craft.field)
+        span = np.array([t0, t_end])
+        fm.prepare(span)
+        fw[_kf.FW_FIELD] = fw.size
+        fw = np.concatenate([fw, fm._kernel_params(span)])
+    if craft.orbit is not None:
+        fw[_kf.FW_ORBIT] = fw.size
+        fw = np.concatenate([fw, np.asarray(craft.orbit.kernel_data(), dtype=np.float64)])
+        if getattr(craft.orbit, "epoch", None) is not None:
+            from orbit import sun as _sun
+
+            fw[_kf.FW_SUN] = fw.size
+            table = _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
+            fw = np.concatenate([fw, table])
+    fw = np.ascontiguousarray(fw)
+    return Program(
+        fw=fw,
+        fs_size=fs_size,
+        n_cmd=ncmd,
+        rec_width=_kf.record_width(ncmd, bool(sensors) or software.estimator is not None),
+        python_step=software.python_step,
+        compiled_step=software.compiled_step,
+        mode_names=software.mode_names,
+        ideal=ideal,
+        ss0=ss0,
+        sensors=tuple(sensors),
+        estimator=software.estimator,
+    )

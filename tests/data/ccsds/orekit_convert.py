@@ -1,0 +1,171 @@
+"""Have Orekit read the KVN sources and write them again (step 2 of 2 of the CCSDS test data).
+
+Orekit (through ``orekit_jpype``, which bundles Orekit's jars; Java 17) is an independent
+implementation of CCSDS 502.0-B-3 (OEM) and 504.0-B-2 (AEM), used here only to write test
+files: it is never a dependency of the package. Run it in a scratch environment::
+
+    python3 -m venv /work/scratch/orekitvenv
+    /work/scratch/orekitvenv/bin/pip install orekit_jpype astropy
+    /work/scratch/orekitvenv/bin/python tests/data/ccsds/orekit_convert.py
+
+It writes, beside this file, from ``attitude_q.aem``, ``attitude_angvel.aem`` and ``orbit.oem``
+(``make_sources.py``):
+
+* ``orekit_attitude_q.xml.aem``, ``orekit_attitude_angvel.xml.aem``, ``orekit_orbit.xml.oem``:
+  the same messages as XML (NDM/XML, CCSDS 505.0-B-3 schema), as Orekit writes them;
+* ``orekit_orbit_stream.xml.oem``: the OEM as Orekit's ``EphemerisOemWriter`` writes it, in
+  XML without the ``<segment>`` element (a form ccsds-ndm-py refuses);
+* ``orekit_attitude_q_tai.aem``, ``orekit_attitude_q_gps.aem``: the attitude of
+  ``attitude_q.aem`` written by Orekit in KVN with ``TIME_SYSTEM = TAI`` and ``GPS``: the same
+  instants under two labels (GPS = TAI - 19 s), for the time-system test.
+
+Orekit needs the UTC-TAI history to read UTC epochs: it is written from astropy's leap-second
+table to a temporary directory (``tai-utc.dat``, the USNO format Orekit reads); no other Orekit
+data are needed (GCRF and EME2000 are defined without Earth orientation data).
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def _leap_seconds(directory: Path) -> None:
+    from astropy.time import Time
+    from astropy.utils.iers import LeapSeconds
+
+    table = LeapSeconds.auto_open()
+    months = "JAN FEB MAR APR MAY JUN JUL AUG SEP OCT NOV DEC".split()
+    lines = []
+    for row in table:
+        if int(row["year"]) < 1972:
+            continue
+        t = Time(f"{int(row['year'])}-{int(row['month']):02d}-01", scale="utc")
+        lines.append(
+            f" {int(row['year'])} {months[int(row['month']) - 1]:>3}  1 =JD {t.jd:.1f}  "
+            f"TAI-UTC= {float(row['tai_utc']):5.1f}       S + (MJD - 41317.) X 0.0      S"
+        )
+    (directory / "tai-utc.dat").write_text("\n".join(lines) + "\n")
+
+
+def main() -> None:
+    import orekit_jpype as orekit
+
+    orekit.initVM()
+    with tempfile.TemporaryDirectory() as tmp:
+        _leap_seconds(Path(tmp))
+        from java.io import File
+        from org.orekit.data import DataContext, DirectoryCrawler
+
+        manager = DataContext.getDefault().getDataProvidersManager()
+        manager.addProvider(DirectoryCrawler(File(tmp)))
+        _earth_without_ephemerides()
+        _convert()
+
+
+def _earth_without_ephemerides() -> None:
+    """CENTER_NAME = EARTH makes Orekit's parsers load the Earth from JPL ephemerides, which
+    are not here and not needed to convert a message: a stand-in Earth (GCRF, Earth's GM; its
+    position is never asked for) is registered instead."""
+    from jpype import JImplements, JOverride
+    from org.orekit.bodies import CelestialBodyFactory
+    from org.orekit.frames import FramesFactory
+    from org.orekit.utils import Constants
+
+    @JImplements("org.orekit.bodies.CelestialBody")
+    class Earth:
+        @JOverride
+        def getInertiallyOrientedFrame(self):
+            return FramesFactory.getGCRF()
+
+        @JOverride
+        def getBodyOrientedFrame(self):
+            return FramesFactory.getGCRF()
+
+        @JOverride
+        def getGM(self):
+            return Constants.EIGEN5C_EARTH_MU
+
+        @JOverride
+        def getName(self):
+            return "Earth"
+
+        @JOverride
+        def getPosition(self, date, frame):
+            raise NotImplementedError("the stand-in Earth has no ephemeris")
+
+    @JImplements("org.orekit.bodies.CelestialBodyLoader")
+    class Loader:
+        @JOverride
+        def loadCelestialBody(self, name):
+            return Earth()
+
+    CelestialBodyFactory.addCelestialBodyLoader(CelestialBodyFactory.EARTH, Loader())
+
+
+def _parse(kind: str, path: Path):
+    from org.orekit.data import DataSource
+    from org.orekit.files.ccsds.ndm import ParserBuilder
+
+    parser = getattr(ParserBuilder(), f"build{kind}Parser")()
+    return parser.parseMessage(DataSource(str(path)))
+
+
+def _write(kind: str, message, path: Path, xml: bool) -> None:
+    from java.lang import StringBuilder
+    from org.orekit.files.ccsds.ndm import WriterBuilder
+    from org.orekit.files.ccsds.utils.generation import KvnGenerator, XmlGenerator
+    from org.orekit.utils import Constants
+
+    writer = getattr(WriterBuilder(), f"build{kind}Writer")()
+    out = StringBuilder()
+    if xml:
+        gen = XmlGenerator(out, XmlGenerator.DEFAULT_INDENT, path.name, Constants.JULIAN_DAY,
+                           False, XmlGenerator.NDM_XML_V3_SCHEMA_LOCATION)  # fmt: skip
+    else:
+        gen = KvnGenerator(out, 25, path.name, Constants.JULIAN_DAY, 60)
+    writer.writeMessage(gen, message)
+    gen.close()
+    path.write_text(str(out.toString()))
+    print("written", path.name)
+
+
+def _convert() -> None:
+    from org.orekit.files.ccsds.definitions import TimeSystem
+
+    for name in ("attitude_q", "attitude_angvel"):
+        msg = _parse("Aem", HERE / f"{name}.aem")
+        _write("Aem", msg, HERE / f"orekit_{name}.xml.aem", xml=True)
+    for system in ("TAI", "GPS"):
+        msg = _parse("Aem", HERE / "attitude_q.aem")
+        for seg in msg.getSegments():
+            seg.getMetadata().setTimeSystem(getattr(TimeSystem, system))
+        _write("Aem", msg, HERE / f"orekit_attitude_q_{system.lower()}.aem", xml=False)
+    msg = _parse("Oem", HERE / "orbit.oem")
+    _write("Oem", msg, HERE / "orekit_orbit.xml.oem", xml=True)
+    _write_streaming_oem(msg, HERE / "orekit_orbit_stream.xml.oem")
+
+
+def _write_streaming_oem(oem, path: Path) -> None:
+    """The OEM as Orekit's ``EphemerisOemWriter`` writes an ephemeris (what a user of
+    Orekit's propagators writes): in XML it leaves out the ``<segment>`` element."""
+    from java.lang import StringBuilder
+    from org.orekit.files.ccsds.ndm import WriterBuilder
+    from org.orekit.files.ccsds.ndm.odm.oem import EphemerisOemWriter
+    from org.orekit.files.ccsds.utils import FileFormat
+    from org.orekit.utils import Constants
+
+    seg = oem.getSegments().get(0)
+    writer = EphemerisOemWriter(WriterBuilder().buildOemWriter(), oem.getHeader(),
+                                seg.getMetadata(), FileFormat.XML, path.name,
+                                Constants.JULIAN_DAY, 0)  # fmt: skip
+    out = StringBuilder()
+    writer.write(out, oem)
+    path.write_text(str(out.toString()))
+    print("written", path.name)
+
+
+if __name__ == "__main__":
+    main()
