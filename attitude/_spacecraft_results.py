@@ -135,6 +135,12 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             "1",
             "magnetorquer axis in body axes",
         )
+        new["magnetorquer_max_dipole"] = var(
+            ("magnetorquer",),
+            np.array([x.max_dipole for x in craft.magnetorquers], dtype=np.float64),
+            dip,
+            "magnetorquer dipole limit (the command is clipped to +-it)",
+        )
         c += 2 * nm
     if nt:
         coords["thruster"] = (
@@ -166,6 +172,9 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             np.array([x.position for x in craft.thrusters]),
             SI["length"] if u.torque != "1" else "1",
             "point of application in body axes",
+        )
+        new["thruster_max_thrust"] = var(
+            ("thruster",), fmax.astype(np.float64), force, "thrust when firing"
         )
     # The torque budget with the actuators.
     terms = list(ds.model_label.values[:-1])
