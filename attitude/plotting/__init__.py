@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ._closed_loop import CLOSED_LOOP_PANELS, is_closed_loop, mark_modes
+from ._closed_loop import CLOSED_LOOP_PANELS, closed_loop_defaults, is_closed_loop, mark_modes
 from ._common import (
     MAX_POINTS,
     TimeAxis,
@@ -153,7 +153,7 @@ def plot_result(
     ref = reference(d, t, frame, orbit)
     ctx = PlotContext(d, t, axis, ref, run_events(ds))
     if names is None:
-        names = default_panels(ctx)
+        names = closed_loop_defaults(ctx) if is_closed_loop(d) else default_panels(ctx)
     missing = [p for p in names if not available(ctx, p)]
     if missing:
         raise AttitudeValueError(

@@ -146,13 +146,13 @@ def mark_modes(axes: list, ds: xr.Dataset, axis: Any) -> bool:
         return False
     names = str(ds["mode"].attrs.get("flag_meanings", "")).split()
     top = axes[0]
-    for a, b, m in spans:
+    for i, (a, b, m) in enumerate(spans):
         color = MODE_COLORS[m % len(MODE_COLORS)]
         top.axvspan(a / axis.scale, b / axis.scale, color=color, alpha=MODE_ALPHA, lw=0, zorder=0)
         name = names[m] if m < len(names) else f"mode{m}"
         top.annotate(name, (a / axis.scale, 0.0), xycoords=("data", "axes fraction"),
-                     xytext=(3, 3), textcoords="offset points", fontsize=8, color=color,
-                     fontweight="bold")  # fmt: skip
+                     xytext=(3, 3 + 11 * (i % 2)), textcoords="offset points", fontsize=8,
+                     color=color, fontweight="bold")  # fmt: skip
     for ax in axes:
         for a, _, _ in spans[1:]:
             ax.axvline(a / axis.scale, color="0.3", lw=0.9, ls="--", zorder=1.5)
@@ -168,6 +168,14 @@ def _log_if_spanning(ax: Any, y: np.ndarray) -> bool:
         ax.set_ylim(10.0**lo, 10.0**hi)  # whole decades: both ends labelled
         return True
     return False
+
+
+def _nice(x: float, unit: str, digits: int = 4) -> str:
+    """``x`` in ``unit`` as text, a prefix up where it reaches 1000 (5000 µN m: 5 mN m)."""
+    for small, big in (("µN", "mN"), ("mN", "N")):
+        if unit.startswith(small) and abs(x) >= 1000.0:
+            x, unit = x / 1000.0, big + unit[len(small) :]
+    return f"{x:.{digits}g} {unit}"
 
 
 def _robust_peak(y: np.ndarray) -> float:
@@ -186,9 +194,9 @@ def _limit_lines(ax: Any, y: np.ndarray, limits: np.ndarray, unit: str, what: st
         return ""
     peak = _robust_peak(y)
     if peak < LIMIT_OFF_SCALE * float(lim.min()):
-        vals = ", ".join(f"{x:.4g}" for x in lim)
+        vals = ", ".join(_nice(x, unit) for x in lim)
         top = float(np.nanmax(np.abs(y))) if y.size else 0.0
-        note = f"{what} ±{vals} {unit} off scale: max {top:.3g} {unit} = {top / lim.max():.1%}"
+        note = f"{what} ±{vals} off scale: max {_nice(top, unit, 3)} = {top / lim.max():.1%}"
         if top > 1.5 * peak and peak > 0:
             ax.set_ylim(-1.3 * peak, 1.3 * peak)
             note += "; start off scale"
@@ -292,7 +300,7 @@ def rate_norm(ax: Any, ctx: PlotContext) -> None:
     f, unit = ctx.rate_scale
     w = np.linalg.norm(np.asarray(ctx.ds["omega"].values, dtype=np.float64), axis=1) * f
     series(ax, ctx.t, w, "band", color="k", lw=1.3, label="|ω|", zorder=2)
-    logged = _log_if_spanning(ax, w)
+    refs = []
     if "r" in ctx.ds and unit == "deg/s" and _units(ctx.ds, "r") == "km":
         from orbit.keplerorbit import EARTH_MU
 
@@ -300,6 +308,8 @@ def rate_norm(ax: Any, ctx: PlotContext) -> None:
         n = float(np.degrees(np.sqrt(EARTH_MU / r**3)))
         ax.axhline(n, color="tab:blue", lw=1.0, ls=":", label=f"orbital rate n = {n:.3g} deg/s")
         ax.axhline(2 * n, color="tab:blue", lw=1.0, ls="--", label="2n")
+        refs = [n, 2 * n]
+    logged = _log_if_spanning(ax, np.concatenate([w, refs]))  # n in view
     if not logged:
         ax.set_ylim(bottom=0.0)
     ax.set_ylabel(f"|ω| [{unit}]")
@@ -463,7 +473,7 @@ def estimation(ax: Any, ctx: PlotContext) -> None:
         color = _AXIS_COLORS[k]
         series(ax, t, err[:, k], "band", color=color, lw=1.0, label=f"δθ {c}", zorder=2)
         ax.plot(t, sig3[:, k], color=color, lw=0.9, ls="--", zorder=2.1,
-                label="±3σ (dashed)" if k == 0 else None)  # fmt: skip
+                label="±3σ (dashed)" if k == 2 else None)  # fmt: skip
         ax.plot(t, -sig3[:, k], color=color, lw=0.9, ls="--", zorder=2.1)
         ok = np.isfinite(err[:, k]) & np.isfinite(sig3[:, k])
         inside.append(float(np.mean(np.abs(err[ok, k]) <= sig3[ok, k])) if ok.any() else np.nan)
@@ -499,7 +509,7 @@ def gyro_bias(ax: Any, ctx: PlotContext) -> None:
                             alpha=0.15, lw=0, zorder=1)  # fmt: skip
         if true is not None:
             ax.plot(t, true[:, k], color=color, lw=1.0, ls="--", zorder=2.1,
-                    label="true (dashed)" if k == 0 else None)  # fmt: skip
+                    label="true (dashed)" if k == 2 else None)  # fmt: skip
     if sig3 is not None:  # limits on the converged band
         vals = np.concatenate([est, true if true is not None else est])
         b = np.nanpercentile(sig3, 90)

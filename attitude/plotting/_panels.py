@@ -324,12 +324,8 @@ TUMBLING_PANELS = ("pointing", "rates", "energy", "torque")
 
 
 def default_panels(ctx: PlotContext) -> list[str]:
-    """The panels drawn when none are asked for: a run with actuators or flight software
-    gets the closed-loop panels (:func:`attitude.plotting._closed_loop.closed_loop_defaults`)."""
-    from ._closed_loop import closed_loop_defaults, is_closed_loop
-
-    if is_closed_loop(ctx.ds):
-        return closed_loop_defaults(ctx)
+    """The panels drawn when none are asked for (a run with actuators or flight software
+    gets the closed-loop ones instead: ``_closed_loop.closed_loop_defaults``)."""
     names = TUMBLING_PANELS if ctx.tumbling else DEFAULT_PANELS
     out = [p for p in names if available(ctx, p)]
     if "torque" in out and ctx.ds.sizes.get("model", 0) < 3:  # one term and its total
