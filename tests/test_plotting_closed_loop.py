@@ -261,6 +261,19 @@ def test_thrust_panel_of_an_open_loop_schedule():
     plt.close(fig)
 
 
+def test_rate_error_and_torque_request_by_name(rw_run):
+    fig = plot_result(rw_run, panels=["rate_error", "torque_request"])
+    ax, bx = fig.axes
+    assert (ax.get_ylabel(), bx.get_ylabel()) == ("rate error [deg/s]", "torque request [N m]")
+    for k, c in enumerate("xyz"):
+        dw = np.degrees(rw_run.rate_error.values[:, k])
+        np.testing.assert_allclose(_lines(ax)[f"δω {c}"].get_ydata(), dw, rtol=1e-14)
+        np.testing.assert_array_equal(_lines(bx)[f"L {c}"].get_ydata(),
+                                      rw_run.torque_request.values[:, k])  # fmt: skip
+        np.testing.assert_array_equal(_lines(bx)[f"L {c}"].get_xdata(), rw_run.tick.values)
+    plt.close(fig)
+
+
 def test_limits_off_scale_are_said(rw_run):
     """Wheels far below their speed limit: the limit is named in the title, not drawn at a
     scale that would flatten the speeds."""

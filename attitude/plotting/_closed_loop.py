@@ -317,6 +317,37 @@ def rate_norm(ax: Any, ctx: PlotContext) -> None:
     _legend(ax)
 
 
+def _per_axis_ticks(ax: Any, ctx: PlotContext, name: str, f: float, label: str) -> np.ndarray:
+    """A (tick, axis) variable times ``f``, one line per body axis."""
+    y = tick_values(ctx, name) * f
+    t = ctx.axis.values(ctx.tick_seconds)
+    for k, c in enumerate("xyz"):
+        series(ax, t, y[:, k], "band", color=_AXIS_COLORS[k], lw=1.1, label=f"{label} {c}")
+    ax.axhline(0.0, color="0.5", lw=0.6)
+    return y
+
+
+@register_panel("rate_error", needs=("rate_error", "tick"))
+def rate_error(ax: Any, ctx: PlotContext) -> None:
+    """The rate error ω − ω_r the software sees (body axes, every tick), deg/s."""
+    f = _factor(_units(ctx.ds, "rate_error"), "deg/s")
+    _per_axis_ticks(ax, ctx, "rate_error", 1.0 if f is None else f, "δω")
+    ax.set_ylabel(f"rate error [{'deg/s' if f is not None else 'rad per time unit'}]")
+    _title(ax, "rate error ω − ω_r, body axes, every tick")
+    _legend(ax)
+
+
+@register_panel("torque_request", needs=("torque_request", "tick"))
+def torque_request(ax: Any, ctx: PlotContext) -> None:
+    """The control law's torque request (body axes, every tick), N m, mN m or µN m."""
+    si = _factor(_units(ctx.ds, "torque_request"), "N m")
+    f, unit = _scale_of(ctx.ds["torque_request"].values, np.array([np.inf]), si, "N m")
+    _per_axis_ticks(ax, ctx, "torque_request", f, "L")
+    ax.set_ylabel(f"torque request [{unit}]")
+    _title(ax, "control torque requested by the law, body axes, every tick")
+    _legend(ax)
+
+
 @register_panel("wheel_speeds", needs=("wheel_speed",))
 def wheel_speeds(ax: Any, ctx: PlotContext) -> None:
     """Wheel speeds relative to the body in rpm, the speed limits (dashed red) and bars at the
