@@ -474,7 +474,7 @@ def _sections(lines: list[str], where: str) -> tuple[dict, dict, list[tuple[str,
             raise AttitudeValueError(f"{where}:{n}: unexpected line {line!r}")
     if state in ("section", "sensor"):
         raise AttitudeValueError(f"{where}: {kind}_STOP missing (truncated file?)")
-    if state in ("header", "meta"):
+    if state in ("header", "meta") and "CCSDS_ACM_VERS" in header:
         raise AttitudeValueError(f"{where}: no complete metadata section (META_START/META_STOP)")
     return header, meta, secs
 
