@@ -66,8 +66,8 @@ def _abs_times(ds: xr.Dataset, epoch: Any, time_unit_seconds: float | None) -> t
     if units in ("1", ""):
         if time_unit_seconds is None:
             raise AttitudeValueError(
-                "time_unit_seconds: this run is dimensionless (time unit '1'); an AEM needs "
-                "seconds: give the length of one time unit in seconds (--time-unit-seconds)"
+                "time_unit_seconds: this run is dimensionless (time unit '1'); a CCSDS message "
+                "needs seconds: give the length of one time unit in seconds (--time-unit-seconds)"
             )
         scale = float(time_unit_seconds)
     else:
