@@ -42,10 +42,11 @@ import numpy as np
 import xarray as xr
 
 from . import quaternion as qt
+from ._aem_parse import _parse_epochs
 from ._files import OutputFile, file_error, input_path
 from ._validation import as_positive
 from ._version import __version__
-from .aem import _CONTROL, _abs_times, _frame_a, _kvn, _parse_epochs, _stamps
+from .aem import _CONTROL, _abs_times, _frame_a, _kvn, _stamps
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["COV_TYPES", "read", "write_acm"]
@@ -568,7 +569,7 @@ def read(path: str | os.PathLike) -> xr.Dataset:
         if k not in meta:
             raise AttitudeValueError(f"{p}: metadata keyword {k} missing")
     system = meta["TIME_SYSTEM"].upper()
-    from .aem import _SCALES
+    from ._aem_parse import _SCALES
 
     if system not in _SCALES and system != "GPS":
         raise AttitudeValueError(f"{p}: TIME_SYSTEM {system} is not read")
