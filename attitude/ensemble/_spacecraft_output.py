@@ -1,12 +1,14 @@
 """The Dataset of a chunk of spacecraft members: the single run's variables over ``member``.
 
 The variables and their numbers are made by the single run's own builders
-(:func:`attitude.results.build_dataset`, :func:`~attitude.results.add_actuator_variables`,
-:func:`~attitude.results.add_tick_variables`), called once per chunk on the members' samples
-laid end to end (member after member along ``time``, and along ``tick``), then cut back into
-(member, time) and (member, tick): so every member's values are, element for element, the ones
-its single run would hold, without a Dataset per member. The actuators' constants (axes,
-inertias, limits) are each member's own (:func:`~attitude.results.actuator_constants`).
+(:func:`attitude.results.build_dataset`,
+:func:`~attitude._spacecraft_results.add_actuator_variables`,
+:func:`~attitude._spacecraft_results.add_tick_variables`), called once per chunk on the
+members' samples laid end to end (member after member along ``time``, and along ``tick``),
+then cut back into (member, time) and (member, tick): so every member's values are, element
+for element, the ones its single run would hold, without a Dataset per member. The actuators'
+constants (axes, inertias, limits) are each member's own
+(:func:`~attitude._spacecraft_results.actuator_constants`).
 """
 
 from __future__ import annotations
@@ -17,14 +19,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from ..results import (
-    actuator_constants,
-    add_actuator_variables,
-    add_tick_variables,
-    build_dataset,
-    instant_attrs,
-    time_unit,
-)
+from .._spacecraft_results import actuator_constants, add_actuator_variables, add_tick_variables
+from ..results import build_dataset, instant_attrs, time_unit
 from ._chunks import STATUS_FLAGS
 from ._members import initial_state_vars
 
