@@ -26,7 +26,8 @@ Modules, one concern each:
                           ``[ensemble]`` table, from Python too), :func:`disperse_spacecraft`
 ``_spacecraft_*``         ensembles of spacecraft with actuators and flight software
 ``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
-                          :func:`event_time_percentiles`
+                          :func:`event_time_percentiles`,
+                          :func:`error_angle_percentiles`, :func:`settling_times`
 ========================  ===================================================================
 
 The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario`; the
@@ -44,7 +45,13 @@ from .dispersions import (
     disperse_spacecraft,
 )
 from .replay import member_initial_state, rerun_member
-from .statistics import event_time_percentiles, pointing_error_percentiles, rate_percentiles
+from .statistics import (
+    error_angle_percentiles,
+    event_time_percentiles,
+    pointing_error_percentiles,
+    rate_percentiles,
+    settling_times,
+)
 
 __all__ = [
     "Dispersed",
@@ -52,6 +59,7 @@ __all__ = [
     "Dispersions",
     "disperse",
     "disperse_spacecraft",
+    "error_angle_percentiles",
     "event_time_percentiles",
     "member_initial_state",
     "pointing_error_percentiles",
@@ -59,4 +67,5 @@ __all__ = [
     "rate_percentiles",
     "rerun_member",
     "run_scenario",
+    "settling_times",
 ]
