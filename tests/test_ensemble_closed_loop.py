@@ -153,12 +153,12 @@ def test_bad_closed_loop_ensemble_input_is_refused_before_any_work():
     with pytest.raises(AttitudeValueError, match="gyro_bias_error"):
         fs = FlightSoftware(1.0, control=RateDamping(10.0))
         disperse_spacecraft(craft(), q, w, 3, software=fs, gyro_bias_error=1e-5)
-    with pytest.raises(AttitudeValueError, match="gain_error: a relative error up to 0.6"):
-        disperse_spacecraft(craft(), q, w, 3, software=software(), gain_error=0.2)
+    with pytest.raises(AttitudeValueError, match=r"gain_error: a relative error up to 1\.2"):
+        disperse_spacecraft(craft(), q, w, 3, software=software(), gain_error=0.4)
     no_limit = attitude.Spacecraft(craft().body, [ReactionWheel([0, 0, 1.0], JS)])
     with pytest.raises(AttitudeValueError, match="no torque limit"):
         disperse_spacecraft(no_limit, q, w, 3, wheel_max_torque_error=0.1)
-    with pytest.raises(AttitudeTypeError, match="spacecraft: expected an attitude.Spacecraft"):
+    with pytest.raises(AttitudeTypeError, match="spacecraft: expected an attitude"):
         disperse_spacecraft(craft().body, q, w, 3)
     c = craft()
     q0 = np.tile(q, (2, 1))
@@ -167,8 +167,8 @@ def test_bad_closed_loop_ensemble_input_is_refused_before_any_work():
     with pytest.raises(AttitudeTypeError, match="seed: expected a non-negative integer"):
         propagate_ensemble(c, q0, Q0, t, software=software(), seed=1.5)
     with pytest.raises(AttitudeValueError, match="commands: the flight software commands"):
-        propagate_ensemble(c, q0, Q0, t, software=software(),
-                           commands=attitude.CommandSchedule([0.0], wheel_torque=[[0, 0, 0]]))  # fmt: skip
+        cmd = attitude.CommandSchedule([0.0], wheel_torque=[[0, 0, 0]])
+        propagate_ensemble(c, q0, Q0, t, software=software(), commands=cmd)
     with pytest.raises(AttitudeValueError, match="software: 3 given for 2 members"):
         propagate_ensemble(c, q0, Q0, t, software=[software()] * 3)
     with pytest.raises(AttitudeValueError, match="seed: the ensemble seed of noisy sensors"):
@@ -186,8 +186,10 @@ def test_closed_loop_statistics_of_pointing_error_and_settling_time():
     closed loop's (I θ̈ + P θ̇ + K θ/4 = 0, per axis)."""
     n = 24
     fs = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0))
-    d = disperse_spacecraft(craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=4,
-                            rate_error=np.radians(0.05), inertia_error=0.05, gain_error=0.1)  # fmt: skip
+    d = disperse_spacecraft(
+        craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=4,
+        rate_error=np.radians(0.05), inertia_error=0.05, gain_error=0.1,
+    )  # fmt: skip
     ds = propagate_ensemble(d.spacecraft, d.q, d.Q, [0.0, 120.0], software=d.software)
     e = ds.error_angle.values
     thr = math.radians(0.001)
