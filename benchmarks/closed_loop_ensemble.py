@@ -50,7 +50,6 @@ def main(n: int) -> None:
     from scipy import stats
     from test_ensemble_closed_loop import ARCSEC, JS, SPEEDS, craft, software
 
-    import attitude
     from attitude import canonical as C
     from attitude import frames
     from attitude.control import MRPFeedback
@@ -60,9 +59,10 @@ def main(n: int) -> None:
         propagate_ensemble,
         settling_times,
     )
+    from attitude.software import FlightSoftware
 
     print(f"1. settling: {n} members, dispersed inertia (5 %), rates, gains (10 %); 300 s at 1 Hz")
-    fs = attitude.FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0))
+    fs = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0))
     d = disperse_spacecraft(
         craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=1,
         attitude_error=math.radians(0.5), rate_error=math.radians(0.01), inertia_error=0.05,
