@@ -62,7 +62,8 @@ def _same(a, b, names):
         assert np.array_equal(x, y, equal_nan=True), v
 
 
-@pytest.mark.parametrize("method", ["dop853", "taylor"])
+# (taylor: slow, its SIMD gyrostat lanes compile for minutes in a fresh cache)
+@pytest.mark.parametrize("method", ["dop853", pytest.param("taylor", marks=pytest.mark.slow)])
 def test_dispersed_members_equal_their_single_runs_bit_for_bit(method):
     """Inertia, rates, wheel inertias, gains, sensor noise and gyro bias dispersed; each member
     (in a chunk of SIMD lanes for Taylor) equals ``propagate`` of its own spacecraft and software
@@ -97,6 +98,7 @@ def test_dispersed_members_equal_their_single_runs_bit_for_bit(method):
         _same(ds, two, names)
 
 
+@pytest.mark.slow  # (compiles the SIMD gyrostat lanes: minutes in a fresh cache)
 def test_open_loop_taylor_ensemble_in_simd_lanes_equals_single_runs():
     """Open-loop wheel schedules with dispersed wheel inertias and torque limits (saturating):
     the Taylor SIMD lanes of gyrostats give each member's single run bit for bit."""
