@@ -40,7 +40,15 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
 
-from .environment import drag_torque, eddy_torque, magnetic_potential, magnetic_torque, solar_torque
+from .environment import (
+    ENV_SIZE,
+    drag_torque,
+    eddy_torque,
+    environment_vector,
+    magnetic_potential,
+    magnetic_torque,
+    solar_torque,
+)
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
@@ -285,6 +293,11 @@ def model_n_terms(params):
 
 # User models ----------------------------------------------------------------------------------
 # The bodies of the user kernels of attitude._user_kernels (CustomTorque, CustomPotential).
+# A CustomTorque with an orbit reads the environment from a block of ``params`` appended after
+# the built-in part: such blocks, one per user term that reads the environment, follow the
+# built-in blocks, and the last entries of ``params`` are their offsets, in the order of the
+# terms (``params[len(params) - n_env + e]`` for the e-th of n_env), so the built-in layout
+# above is unchanged (attitude.potentials builds them, attitude._user_kernels reads them).
 
 #: Complex-step size: derivatives are exact to round-off for any h this small
 #: (Squire & Trapp, SIAM Rev. 40, 110, 1998): Im U(q + i h e_k) / h = ∂U/∂q_k + O(h²).
@@ -302,6 +315,25 @@ def user_torque(tau_fn, q, w, t):
 def user_torque_rates(tau_fn, q, w, t):
     """A user's rate-dependent ``tau(q, omega, t)``; ``omega`` a length-3 array (body axes)."""
     tau = tau_fn(q, np.array((w[0], w[1], w[2])), t)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def user_torque_env(tau_fn, q, w, t, params, base):
+    """A user's ``tau(q, t, env)``: ``env`` the environment at t (:func:`environment_vector`
+    on the block at ``params[base]``), a 1-D array of ENV_SIZE floats."""
+    env = np.empty(ENV_SIZE)
+    environment_vector(q, t, params, base, env)
+    tau = tau_fn(q, t, env)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def user_torque_rates_env(tau_fn, q, w, t, params, base):
+    """A user's ``tau(q, omega, t, env)`` (:func:`user_torque_rates` with the environment)."""
+    env = np.empty(ENV_SIZE)
+    environment_vector(q, t, params, base, env)
+    tau = tau_fn(q, np.array((w[0], w[1], w[2])), t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
 
 
