@@ -83,6 +83,38 @@ def test_run_with_field_torque_is_the_magnetic_dipole_run(leo):
     assert "rods" in list(x.model_label.values)
 
 
+def test_splitting_with_field_torque_is_the_magnetic_dipole_run(leo):
+    """The composition methods take a torque tau(q, t, env) (not rate-dependent) like any user
+    torque: the same trajectory as MagneticDipole's."""
+    t = np.linspace(0.0, 600.0, 7)
+    q0 = aq.normalize([1.0, 0.2, -0.1, 0.3])
+    Q0 = momenta_from_angular_velocity(q0, [0.01, -0.02, 0.03], INERTIA)
+    ct = CustomTorque(et.dipole_torque, orbit=leo)
+    assert not ct.rate_dependent
+    md = MagneticDipole(leo, et.DIPOLE)
+    x = attitude.propagate(INERTIA, q0, Q0, t, potential=ct, method="splitting", dt=10.0)
+    y = attitude.propagate(INERTIA, q0, Q0, t, potential=md, method="splitting", dt=10.0)
+    assert float(np.abs(x.q - y.q).max()) <= 1e-14
+
+
+@pytest.mark.slow
+def test_ensemble_with_field_torque_members_are_magnetic_dipole_runs(leo):
+    """propagate_ensemble takes the environment torque (its parameters shared by the members):
+    each member is MagneticDipole's single run to round-off."""
+    from attitude.ensemble import propagate_ensemble
+
+    t = np.linspace(0.0, 1800.0, 19)
+    n = 4
+    q = aq.normalize(RNG.normal(size=(n, 4)))
+    Q = momenta_from_angular_velocity(q, RNG.normal(scale=0.02, size=(n, 3)), INERTIA)
+    ct = CustomTorque(et.dipole_torque, orbit=leo)
+    ds = propagate_ensemble(INERTIA, q, Q, t, ct, rtol=1e-12, atol=1e-14)
+    md = MagneticDipole(leo, et.DIPOLE)
+    for i in range(n):
+        x = attitude.propagate(INERTIA, q[i], Q[i], t, potential=md, rtol=1e-12, atol=1e-14)
+        assert np.abs(ds.q.values[i] - x.q.values).max() <= 1e-13
+
+
 def test_sun_torque_from_env_matches_astropy_sun(leo):
     """k ν ŝ_B from env against the Sun of astropy (orbit.sun.sun_position, called directly at
     each time), the orbit's positions and the conical shadow function called from Python; the
