@@ -10,12 +10,12 @@ field. The user torques live in tests/env_torques.py (cached by numba across run
 
 from __future__ import annotations
 
+import env_torques as et
 import numpy as np
 import pytest
 from astropy.time import Time, TimeDelta
 
 import attitude
-import env_torques as et
 import orbit
 from attitude import quaternion as aq
 from attitude.canonical import momenta_from_angular_velocity
