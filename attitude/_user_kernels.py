@@ -85,10 +85,9 @@ _END = "# --- model: end ---"
 
 #: How each kind of user term builds its torque from the injected functions (``{k}``: the
 #: term's number): CustomTorque gives tau(q, t) or tau(q, omega, t), with or without U(q, t),
-#: and with an orbit tau(q, t, env) or tau(q, omega, t, env) (``{env}``: the offset of its
-#: environment block, the entry ``{e}`` of the ``{ne}`` offsets ending ``params``:
-#: attitude._core.potentials); CustomPotential gives U(q, t) and its torque by complex-step
-#: differentiation.
+#: and with an orbit tau(q, t, env) or tau(q, omega, t, env) (``{env}``: the number of the term
+#: among those reading the environment, whose blocks attitude._core.potentials.user_env_base
+#: finds); CustomPotential gives U(q, t) and its torque by complex-step differentiation.
 TORQUE_EXPR = {
     "torque": "user_torque(USER_TORQUE_{k}, q, w, t)",
     "torque_rates": "user_torque_rates(USER_TORQUE_{k}, q, w, t)",
@@ -103,14 +102,10 @@ ENV_KINDS = ("torque_env", "torque_rates_env")
 
 def _torque_exprs(terms: tuple) -> list[str]:
     """The torque expression of each term, environment blocks numbered in order."""
-    ne = sum(kind in ENV_KINDS for kind, _, _ in terms)
     out, e = [], 0
     for k, (kind, _, _) in enumerate(terms):
-        env = ""
-        if kind in ENV_KINDS:
-            env = f"int(params[params.shape[0] - {ne - e}])"
-            e += 1
-        out.append(TORQUE_EXPR[kind].format(k=k, env=env))
+        out.append(TORQUE_EXPR[kind].format(k=k, env=e))
+        e += kind in ENV_KINDS
     return out
 
 

@@ -87,7 +87,12 @@ class Potential:
         """Parameter vector for the compiled kernels (inertia first, see _core.potentials)."""
         kind = _kp.KIND_USER if self._kind is None else self._kind
         head = np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
-        return _with_user_environment(head, self._user_env_blocks())
+        env = self._user_env_blocks()
+        if not env:
+            return head
+        # a user model alone: the environment's directory at P0 (_core.potentials)
+        assert kind == _kp.KIND_USER and head.shape[0] == _kp.P0
+        return np.concatenate([head, _user_environment(_kp.P0, env)])
 
     def _user_terms(self) -> tuple:
         """The user terms (kind, torque, potential) compiled into a user module; () if none."""
@@ -479,16 +484,17 @@ def _probe_environment() -> np.ndarray:
     return env
 
 
-def _with_user_environment(head: np.ndarray, blocks: tuple[np.ndarray, ...]) -> np.ndarray:
-    """``head`` (the built-in part of the parameters) followed by the environment blocks of the
-    user terms and their offsets (the layout of :mod:`attitude._core.potentials`)."""
+def _user_environment(start: int, blocks: tuple[np.ndarray, ...]) -> np.ndarray:
+    """The environment blocks of the user terms placed at ``params[start]``: their offsets
+    (absolute, in the order of the terms), then the blocks (the layout of
+    :mod:`attitude._core.potentials`); empty without blocks."""
     if not blocks:
-        return head
-    offsets, at = [], head.shape[0]
+        return np.zeros(0)
+    offsets, at = [], start + len(blocks)
     for b in blocks:
         offsets.append(at)
         at += b.shape[0]
-    return np.concatenate([head, *blocks, np.array(offsets, dtype=np.float64)])
+    return np.concatenate([np.array(offsets, dtype=np.float64), *blocks])
 
 
 class _TorqueEnvironment:
@@ -851,19 +857,19 @@ class Sum(Potential):
 
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         # [I1, I2, I3, KIND_SUM, n, offsets (n), blocks]: _core.potentials
+        # the environment blocks of user terms (if any) between the offsets and the blocks
         n = len(self._builtin)
-        env = self._user_env_blocks()
+        env = _user_environment(_kp.P_OFFSETS + n if n else _kp.P0, self._user_env_blocks())
         if n == 0:
-            head = np.array([*inertia, _kp.KIND_USER], dtype=np.float64)
-            return _with_user_environment(head, env)
+            return np.concatenate([np.array([*inertia, _kp.KIND_USER], dtype=np.float64), env])
         blocks = [[t._kind, *t._potential_params()] for t in self._builtin]
-        offsets, at = [], _kp.P_OFFSETS + n
+        offsets, at = [], _kp.P_OFFSETS + n + env.shape[0]
         for b in blocks:
             offsets.append(at)
             at += len(b)
         flat = [x for b in blocks for x in b]
-        head = np.array([*inertia, _kp.KIND_SUM, n, *offsets, *flat], dtype=np.float64)
-        return _with_user_environment(head, env)
+        head = np.array([*inertia, _kp.KIND_SUM, n, *offsets], dtype=np.float64)
+        return np.concatenate([head, env, np.array(flat, dtype=np.float64)])
 
     def _user_terms(self) -> tuple:
         return tuple(u for t in self._user for u in t._user_terms())

@@ -97,6 +97,54 @@ def test_splitting_with_field_torque_is_the_magnetic_dipole_run(leo):
     assert float(np.abs(x.q - y.q).max()) <= 1e-14
 
 
+def test_euler_equations_with_field_torque_is_the_magnetic_dipole_run(leo):
+    """The formulations append their scratch to the parameters: the environment blocks are
+    where that does not reach (same trajectory as MagneticDipole's)."""
+    t = np.linspace(0.0, 600.0, 7)
+    q0 = aq.normalize([1.0, 0.2, -0.1, 0.3])
+    Q0 = momenta_from_angular_velocity(q0, [0.01, -0.02, 0.03], INERTIA)
+    kw = dict(formulation="euler_equations", rtol=1e-12, atol=1e-14)
+    ct = CustomTorque(et.dipole_torque, orbit=leo)
+    x = attitude.propagate(INERTIA, q0, Q0, t, potential=ct, **kw)
+    y = attitude.propagate(INERTIA, q0, Q0, t, potential=MagneticDipole(leo, et.DIPOLE), **kw)
+    assert float(np.abs(x.q - y.q).max()) <= 1e-14
+
+
+def test_two_environment_torques_in_a_sum_read_their_own_blocks(leo):
+    """Two user terms reading the environment (different field models) with built-in terms:
+    the sum's torque is the sum of the terms' torques, each term's the one alone."""
+    a = CustomTorque(et.dipole_torque, orbit=leo, name="rods")
+    b = CustomTorque(et.sun_torque, orbit=leo, field="dipole", name="sun")
+    gg = GravityGradient(leo, inertia=INERTIA)
+    md = MagneticDipole(leo, [0.0, 0.0, 0.01], field="dipole")
+    total = gg + a + md + b
+    assert total.term_names() == ["gravity_gradient", "magnetic_dipole", "rods", "sun"]
+    t, q = _samples(20, 3000.0)
+    each = [p.torque(q, t) for p in (gg, md, a, b)]
+    got = total.torque(q, t)
+    scale = max(np.abs(x).max() for x in each)
+    np.testing.assert_allclose(got, sum(each), rtol=0, atol=4e-16 * scale)
+
+
+@pytest.mark.slow
+def test_flight_software_run_with_field_torque_is_the_magnetic_dipole_run(leo):
+    """A closed-loop run (the software's compiled loop) with the environment torque."""
+    from attitude import frames
+    from attitude.control import MRPFeedback
+    from attitude.software import FlightSoftware
+
+    t = np.linspace(0.0, 600.0, 13)
+    q0 = aq.normalize([1.0, 0.2, -0.1, 0.3])
+    Q0 = momenta_from_angular_velocity(q0, [0.01, -0.02, 0.03], INERTIA)
+    craft = attitude.Spacecraft(attitude.RigidBody(INERTIA), orbit=leo)
+    fsw = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(K=0.001, P=0.01))
+    kw = dict(software=fsw, rtol=1e-12, atol=1e-14)
+    ct = CustomTorque(et.dipole_torque, orbit=leo)
+    x = attitude.propagate(craft, q0, Q0, t, potential=ct, **kw)
+    y = attitude.propagate(craft, q0, Q0, t, potential=MagneticDipole(leo, et.DIPOLE), **kw)
+    assert float(np.abs(x.q - y.q).max()) <= 1e-14
+
+
 @pytest.mark.slow
 def test_ensemble_with_field_torque_members_are_magnetic_dipole_runs(leo):
     """propagate_ensemble takes the environment torque (its parameters shared by the members):
