@@ -382,8 +382,9 @@ def propagate(
         from . import _holds
 
         craft.check_orbit(getattr(pot, "orbit", None))
-        if software is not None:
-            _check_ticks(software.period, float(span[1] - span[0]), max_steps)
+        period = getattr(software, "period", None)
+        if isinstance(period, float):  # the type of software is checked by _holds.prepare
+            _check_ticks(period, float(span[1] - span[0]), max_steps)
         sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software)
         run_attrs["spacecraft"] = craft.describe()
         if software is not None:

@@ -292,8 +292,8 @@ def _closed_loop_bases() -> list[dict[str, Any]]:
     out.append(variant(
         spacecraft={"wheels": wheels, "thrusters": thrusters[:1]}, software=None,
         commands={"file": "commands.csv"},
-        __files__={"commands.csv": "time,wheel_torque_1,wheel_torque_3,thrust_1\n"
-                   "0,0.1,-0.1,0.5\n5,0,0.05,0\n# a comment\n10,-0.1,0,1\n"}))  # fmt: skip
+        __files__={"commands.csv": "time,wheel_torque_1,wheel_torque_2,wheel_torque_3,thrust_1\n"
+                   "0,0.1,0,-0.1,0.5\n5,0,0,0.05,0\n# a comment\n10,-0.1,0.02,0,1\n"}))  # fmt: skip
     out.append(variant(software={
         **software, "period": 0.5,
         "sensors": [
@@ -312,7 +312,7 @@ def _closed_loop_bases() -> list[dict[str, Any]]:
             {"name": "damp", "control": "rate_damping", "C": 30.0, "C_unit": "N m s"},
             {"name": "slew", "condition": "rate_below", "threshold": 1.5,
              "threshold_unit": "deg/s", "guidance": "inertial",
-             "guidance_q": [0.9, 0.1, 0.0, 0.42], "slew_rate": 1.0, "slew_rate_unit": "deg/s",
+             "guidance_q": [0.9, 0.1, 0.0, 0.4242640687119285], "slew_rate": 1.0, "slew_rate_unit": "deg/s",
              "slew_accel": 0.1, "slew_accel_unit": "deg/s2", "control": "quaternion_feedback",
              "K": 3.5, "K_unit": "N m", "C": 30.0, "C_unit": "N m s", "null_gain": 0.1},
             {"name": "hold", "condition": "after", "threshold": 20.0, "threshold_unit": "s",

@@ -359,6 +359,8 @@ def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
     if name != "inertial" and name not in F.NAMED:
         raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
+        if q is not None and name != "inertial":  # the frame turned by q (inertial(q) is too)
+            return F.by_name(name, orbit).offset(q)
         return F.by_name(name, orbit, q)
     except ValueError as exc:
         raise _fail(key, str(exc)) from None

@@ -44,6 +44,8 @@ def _q(x: Any, name: str, unit: str, *, allow_zero: bool = True, allow_inf: bool
         raise AttitudeValueError(
             f"{name}: must be {'>= 0' if allow_zero else 'positive'}, got {v!r} ({unit})"
         )
+    if not math.isfinite(v * v):  # noise densities are squared (variances): 1e308 overflows
+        raise AttitudeValueError(f"{name}: {v!r} ({unit}) is too large: its square overflows")
     return v
 
 
@@ -203,6 +205,11 @@ class StarTracker(Sensor):
             n = (
                 _q(items[0], "noise", "rad", allow_zero=False),
                 _q(items[1], "noise", "rad", allow_zero=False),
+            )
+        if max(n) >= math.pi:
+            raise AttitudeValueError(
+                f"noise: a 1-sigma attitude noise of {max(n)!r} rad (>= 180°) measures nothing; "
+                "expected arcseconds (e.g. 6 * u.arcsec)"
             )
         s(self, "noise", n)
         b = as_float_array(boresight, "boresight")
