@@ -279,3 +279,21 @@ def test_scenario_guidance_q_turns_an_orbit_frame_instead_of_being_ignored():
     got = ds.reference_q.values
     assert np.max(qt.angle_between(got, want)) < 1e-9
     assert np.min(qt.angle_between(got, frames.lvlh(orb).quaternion(ds.tick.values))) > 0.1
+
+
+def test_scenario_tle_span_far_from_the_epoch_is_refused_without_raw_warnings():
+    """A TLE scenario whose times reach past 2200 (or overflow) was turned into dates by astropy
+    first: ERFA's "dubious year" and numpy's overflow warnings reached the user before the
+    error. The dates are now checked first, by plain arithmetic."""
+    import re
+    import warnings
+    from pathlib import Path
+
+    base = (Path(__file__).parent.parent / "scenarios" / "cubesat_bdot.toml").read_text()
+    for stop in ("1e12", "1e308"):
+        text = re.sub(r"\[time\][^\[]*", f'[time]\nstart = 0.0\nstop = {stop}\nunit = "s"\n'
+                      "count = 10\n\n", base)  # fmt: skip
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with pytest.raises(scenario.ScenarioError, match="dates are accepted from 1900"):
+                scenario.loads(text)

@@ -419,7 +419,9 @@ def mutated_scenario(draw, bases=None) -> tuple[str, list[str], dict[str, str]]:
         it = base.setdefault("integrator", {})
         it["rtol"] = draw(st.sampled_from([1e-13, 1e-10, 1e-8, 1e-6, 1e-3]))
         it["atol"] = draw(st.sampled_from([1e-16, 1e-12, 1e-9]))
-        m = draw(st.sampled_from(["dop853", "scipy:DOP853", "splitting", "nosquish", "taylor"]))
+        m = draw(st.sampled_from(
+            ["dop853", "taylor"] if _is_closed_loop(base)  # what a spacecraft runs with
+            else ["dop853", "scipy:DOP853", "splitting", "nosquish", "taylor"]))  # fmt: skip
         if "ensemble" not in base:
             it["method"] = m
             if m in ("splitting", "nosquish"):

@@ -146,9 +146,17 @@ def _orbit(
                 )
             from astropy.time import Time, TimeDelta
 
-            e0 = Time(epoch.rstrip("Z"), scale="utc")
-            start = e0 + TimeDelta(float(t[0]), format="sec")
-            stop = e0 + TimeDelta(float(t[-1]), format="sec")
+            from orbit.timescales import check_dates, quiet_erfa
+
+            with quiet_erfa():  # the dates are checked here, before astropy's arithmetic
+                e0 = Time(epoch.rstrip("Z"), scale="utc")
+            try:  # (epoch + 1e308 s overflowed in astropy, 1e12 s warned "dubious year")
+                check_dates(e0, [float(t[0]), float(t[-1])], "time")
+            except O.OrbitError as exc:
+                raise _fail("time", str(exc).removeprefix("time: ")) from None
+            with quiet_erfa():
+                start = e0 + TimeDelta(float(t[0]), format="sec")
+                stop = e0 + TimeDelta(float(t[-1]), format="sec")
             try:
                 orb = O.EphemerisOrbit.from_tle(l1, l2, start, stop, step, epoch=e0, mu=mu_q)
             except O.OrbitError as exc:
