@@ -297,3 +297,16 @@ def test_scenario_tle_span_far_from_the_epoch_is_refused_without_raw_warnings():
             warnings.simplefilter("error")
             with pytest.raises(scenario.ScenarioError, match="dates are accepted from 1900"):
                 scenario.loads(text)
+
+
+def test_scenario_times_that_overflow_in_seconds_warn_nothing():
+    """time.start = -1e308 h overflowed in numpy's scalar arithmetic: its "overflow encountered
+    in scalar multiply" warning reached the user before the error."""
+    import warnings
+
+    text = _RW.replace('start = 0.0\nstop = 2.0\ncount = 3\nunit = "s"',
+                       'start = -1e308\nstop = 2.0\ncount = 3\nunit = "h"')  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(scenario.ScenarioError, match=r"time\.start: .*overflows in seconds"):
+            scenario.loads(text)

@@ -391,7 +391,8 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[TimeGrid, str, float]:
             raise _fail("time.unit", f"missing: the time unit, e.g. {_EXAMPLE['time']}")
         tt2 = {"x": 1.0, "x_unit": tt["unit"]}
         try:
-            scale = r.value(tt2, "x", "time", "time")
+            scale = float(r.value(tt2, "x", "time", "time"))  # plain floats: an overflow is
+            # inf, checked below (numpy's scalars warned "overflow encountered")
         except ScenarioError as exc:
             raise ScenarioError(str(exc).replace("time.x_unit", "time.unit")) from None
         tunit = "s"
