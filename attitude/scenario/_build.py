@@ -239,6 +239,13 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [ensemble]
     ensemble = None
     if "ensemble" in data:
+        if craft is not None:  # the ensemble runner takes rigid bodies: they were dropped
+            raise _fail(
+                "ensemble",
+                "a scenario with actuators, [commands] or [software] does not run as an "
+                "ensemble yet (its members would be the rigid body alone); remove [ensemble] "
+                "or run the closed-loop scenario singly",
+            )
         ensemble = _dispersions(r, r.table("ensemble"), body)
 
     # [events]
