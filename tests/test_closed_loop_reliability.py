@@ -254,6 +254,7 @@ def test_scenario_center_of_mass_without_thrusters_is_an_error():
         scenario.loads(text)
 
 
+@pytest.mark.slow  # (compiles the loop for a secular-J2 frame: minutes in a fresh cache)
 def test_scenario_guidance_q_turns_an_orbit_frame_instead_of_being_ignored():
     """``guidance_q`` with an orbit frame (here LVLH) was ignored: the reference is now the
     frame turned by q about its own axes, as ``frame.offset(q)`` (for ``inertial``, the
