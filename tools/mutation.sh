@@ -58,7 +58,12 @@ SENS_FSW="$E::test_runs_are_reproducible_from_their_seeds $E::test_star_tracker_
  $E::test_star_tracker_exclusion_flags_exactly_when_the_geometry_says"
 SENS="$E::test_xoshiro256starstar_is_the_published_generator $E::test_bad_sensor_parameters_are_refused
  $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
-MEKF="$E::test_bad_sensor_parameters_are_refused $E::test_mekf_converges_from_ten_degrees_and_is_consistent"
+MEKF="$E::test_bad_sensor_parameters_are_refused $E::test_mekf_covariance_steps_equal_the_dense_matrix_formulas
+ $E::test_mekf_converges_from_ten_degrees_and_is_consistent"
+# your own step function (fsw_step.py: the measurements it sees, the checks of its commands)
+STEP="$S::test_your_own_step_function_equals_the_compiled_law $S::test_a_step_function_that_raises_keeps_the_samples_computed
+ $S::test_bad_software_is_refused_before_any_work $S::test_a_compiled_step_equals_the_compiled_law
+ $S::test_your_own_step_sees_what_the_sensors_and_the_estimator_give"
 
 declare -A MODULE_TESTS=(
   [attitude/_core/quat.py]="tests/test_propagate.py tests/test_potentials.py"  # kernels only: attitude.quaternion is numpy
@@ -84,6 +89,7 @@ declare -A MODULE_TESTS=(
   [attitude/_core/holds.py]="$ACT $SOFT_FAST"
   [attitude/_core/taylor_gyrostat.py]="$TAYLOR"
   [attitude/_core/fsw.py]="$SOFT $SENS_FSW"
+  [attitude/_core/fsw_step.py]="$STEP"
   [attitude/_core/sensors.py]="$SENS"
   [attitude/_core/rng.py]="$SENS"
   [attitude/_core/mekf.py]="$MEKF"
