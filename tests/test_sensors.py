@@ -344,3 +344,62 @@ def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     dq = np.concatenate([[1.0], 0.5 * dx[:3]])
     want_q = qt.multiply(q_before, dq / np.linalg.norm(dq))
     np.testing.assert_allclose(es[M.E_Q : M.E_Q + 4], want_q, rtol=0, atol=1e-15)
+
+
+def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
+    """The magnetometer's and Sun sensor's update (a body-axes measurement b̃ of a known space
+    vector r) against the dense formulas: H = ∂b/∂δθ by central differences of
+    b(δθ) = A(q̂∘δq(δθ)) r (not the kernel's [b̂×]), K = P Hᵀ (H P Hᵀ + σ² 1)⁻¹, Joseph form,
+    δx = K (b̃ − b̂), q̂ ← q̂∘(1, δθ/2)/|·|. Then the estimation error: the rotation vector of
+    q̂⁻¹∘q (scipy's Rotation), β − β̂, and its NEES δxᵀ P⁻¹ δx by a linear solve."""
+    from scipy.spatial.transform import Rotation
+
+    from attitude._core import mekf as M
+
+    rng = np.random.default_rng(11)
+    A = rng.normal(size=(6, 6)) * np.array([1e-2] * 3 + [1e-5] * 3)[:, None]
+    P0 = A @ A.T + np.diag([1e-5] * 3 + [1e-11] * 3)
+    q_hat = qt.normalize([0.7, -0.2, 0.5, 0.4])
+    b_hat = np.array([2e-5, -1e-5, 4e-5])
+    es = np.zeros(M.E_SIZE)
+    M.mekf_init(es, np.zeros(M.EP_SIZE), tuple(q_hat), tuple(b_hat))
+    es[M.E_P : M.E_P + 36] = P0.ravel()
+    r = np.array([0.3, -0.8, 0.5])
+    r /= np.linalg.norm(r)
+    sigma = 3e-3
+
+    def body(dth):
+        return qt.rotate_inverse(qt.multiply(q_hat, qt.from_rotation_vector(dth)), r)
+
+    h = 1e-6
+    H = np.zeros((3, 6))
+    for k in range(3):
+        d = np.zeros(3)
+        d[k] = h
+        H[:, k] = (body(d) - body(-d)) / (2 * h)
+    bm = body(np.array([0.01, -0.02, 0.015])) + np.array([1e-3, -2e-3, 5e-4])
+    M.mekf_update_vector(es, *bm, *r, sigma)
+    R = sigma**2 * np.eye(3)
+    K = P0 @ H.T @ np.linalg.inv(H @ P0 @ H.T + R)
+    IKH = np.eye(6) - K @ H
+    P1 = IKH @ P0 @ IKH.T + K @ R @ K.T
+    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    np.testing.assert_array_equal(got, got.T)
+    np.testing.assert_allclose(got, P1, rtol=1e-8, atol=1e-8 * np.abs(P1).max())
+    dx = K @ (bm - body(np.zeros(3)))
+    np.testing.assert_allclose(es[M.E_B : M.E_B + 3], b_hat + dx[3:], rtol=1e-8, atol=1e-16)
+    dq = np.concatenate([[1.0], 0.5 * dx[:3]])
+    want_q = qt.multiply(q_hat, dq / np.linalg.norm(dq))
+    np.testing.assert_allclose(es[M.E_Q : M.E_Q + 4], want_q, rtol=0, atol=1e-10)
+
+    # the estimation error of the updated estimate against a truth 2° away, and its NEES
+    q_new = es[M.E_Q : M.E_Q + 4].copy()
+    b_new = es[M.E_B : M.E_B + 3].copy()
+    q_true = qt.multiply(q_new, qt.from_rotation_vector(np.radians([1.2, -0.9, 1.3])))
+    beta = b_new + np.array([3e-6, -1e-6, 2e-6])
+    for sign in (1.0, -1.0):  # q and −q: the same attitude, the same error
+        e, nees = M.estimation_error(es, tuple(sign * q_true), tuple(beta))
+        rot = Rotation.from_quat(np.roll(q_new, -1)).inv() * Rotation.from_quat(np.roll(q_true, -1))
+        want = np.concatenate([rot.as_rotvec(), beta - b_new])
+        np.testing.assert_allclose(e, want, rtol=1e-12, atol=1e-18)
+        np.testing.assert_allclose(nees, want @ np.linalg.solve(P1, want), rtol=1e-8)
