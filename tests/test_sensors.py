@@ -403,3 +403,54 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
         want = np.concatenate([rot.as_rotvec(), beta - b_new])
         np.testing.assert_allclose(e, want, rtol=1e-12, atol=1e-18)
         np.testing.assert_allclose(nees, want @ np.linalg.solve(P1, want), rtol=1e-8)
+
+
+def test_sun_sensor_direction_and_eclipse_against_astropys_sun():
+    """A spacecraft at rest in space with the six-face coarse Sun sensor, over an orbit with an
+    eclipse: noise-free, the direction (least squares over the lit heads) is the Sun's direction
+    from the satellite (astropy's Sun, the orbit's position) in body axes, to the Sun table's
+    interpolation error, wherever any of the Sun is seen, and NaN in the umbra; the sunlight is
+    the conical shadow function of the same positions. With noise σ and three heads facing the
+    Sun (a dark head read above its 3σ threshold, 0.13 % of the time, would join the least
+    squares and pull its axis' component to half), in full sunlight, the direction's error
+    across the Sun line has 2 components of variance σ² per tick (each head's current is the
+    Sun's component plus N(0, σ²)): chi-square at 99 %."""
+    import orbit
+    from orbit.sun import shadow_function, sun_position
+
+    from attitude.sensors import SunSensor
+
+    o = orbit.KeplerOrbit(6878.0, 0.001, 1.0, 0.3, 0.0, epoch="2024-03-20T12:00:00")
+    craft = attitude.Spacecraft(attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2"), orbit=o)
+    s0 = sun_position(o.epoch, 0.0) - o.position(0.0)
+    s0 /= np.linalg.norm(s0)
+    u_b = np.array([0.6, -0.48, 0.64])  # the Sun in body axes at t = 0: three faces lit
+    axis = np.cross(u_b, s0)
+    q0 = qt.from_rotation_vector(axis / np.linalg.norm(axis) * math.acos(u_b @ s0))
+    assert np.allclose(qt.rotate_inverse(q0, s0), u_b, atol=1e-14)
+
+    ds = _record([SunSensor(noise=0.0)], 10.0, 6000.0, craft, q0)
+    t = ds.tick.values
+    r = o.position(t)
+    sun = sun_position(o.epoch, t)
+    s = sun - r
+    s /= np.linalg.norm(s, axis=1)[:, None]
+    sb = qt.rotate_inverse(q0, s)  # at rest: q = q0 throughout
+    nu = ds.sunlight.values
+    np.testing.assert_allclose(nu, shadow_function(r, sun), rtol=0, atol=1e-6)
+    seen = nu > 0.0
+    assert (~seen).any() and (nu == 1.0).any() and ((nu > 0.0) & (nu < 1.0)).any()
+    got = ds.sun_direction.values
+    np.testing.assert_allclose(got[seen], sb[seen], rtol=0, atol=1e-8)
+    assert np.all(np.isnan(got[~seen]))
+
+    sigma = 0.01
+    heads = [[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0]]
+    ds = _record([SunSensor(heads, noise=sigma, seed=8)], 10.0, 6000.0, craft, q0)
+    lit = ds.sunlight.values == 1.0
+    z = ds.sun_direction.values[lit]
+    e = z - np.sum(z * sb[lit], axis=1)[:, None] * sb[lit]  # across the Sun line
+    n = int(lit.sum())
+    chi = np.sum(e**2) / sigma**2
+    assert stats.chi2.ppf(0.005, 2 * n) < chi < stats.chi2.ppf(0.995, 2 * n)
+    assert np.all(np.linalg.norm(e, axis=1) < 6 * sigma)

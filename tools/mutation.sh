@@ -57,8 +57,9 @@ E=tests/test_sensors.py
 SENS_FSW="$E::test_runs_are_reproducible_from_their_seeds $E::test_star_tracker_and_magnetometer_noise_is_what_their_parameters_say
  $E::test_star_tracker_exclusion_flags_exactly_when_the_geometry_says"
 SENS="$E::test_xoshiro256starstar_is_the_published_generator $E::test_bad_sensor_parameters_are_refused
- $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
+ $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_sun_sensor_direction_and_eclipse_against_astropys_sun $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
 MEKF="$E::test_bad_sensor_parameters_are_refused $E::test_mekf_covariance_steps_equal_the_dense_matrix_formulas
+ $E::test_mekf_vector_update_and_estimation_error_against_dense_formulas
  $E::test_mekf_converges_from_ten_degrees_and_is_consistent"
 # your own step function (fsw_step.py: the measurements it sees, the checks of its commands)
 STEP="$S::test_your_own_step_function_equals_the_compiled_law $S::test_a_step_function_that_raises_keeps_the_samples_computed
