@@ -416,9 +416,8 @@ def test_sun_sensor_direction_and_eclipse_against_astropys_sun():
     across the Sun line has 2 components of variance σ² per tick (each head's current is the
     Sun's component plus N(0, σ²)): chi-square at 99 %."""
     import orbit
-    from orbit.sun import shadow_function, sun_position
-
     from attitude.sensors import SunSensor
+    from orbit.sun import shadow_function, sun_position
 
     o = orbit.KeplerOrbit(6878.0, 0.001, 1.0, 0.3, 0.0, epoch="2024-03-20T12:00:00")
     craft = attitude.Spacecraft(attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2"), orbit=o)
