@@ -377,6 +377,36 @@ def test_coulomb_friction_stops_a_wheel_through_the_kink_at_the_closed_form_time
     )
 
 
+def test_stribeck_regime_of_a_wheel_let_go_below_a_tenth_of_the_limit_cycle_speed():
+    """Basilisk's regime test at each hold boundary: Stribeck while |Ω| < ω_lc/10 and Ω moves
+    away from rest (sign Ω = sign ΔΩ, or ΔΩ = 0 at the first boundary), else Coulomb. A free
+    wheel let go at Ω₀ = ω_lc/20 decays, linear below ω_lc, as Ω₀ exp(−s k t) with
+    k = 1/J + 1/(I₃ − J): the Stribeck slope s = f_S(ω_lc)/ω_lc over the first hold, the
+    Coulomb slope (f_c + c_v ω_lc)/ω_lc from the second boundary on (ΔΩ < 0 there); let go
+    at 0.15 ω_lc, Coulomb throughout. The slopes from Basilisk's friction law written out here."""
+    J, fc, fs, beta, cv, lc = 0.05, 5e-4, 8e-4, 0.5, 2e-6, 0.01
+    body = attitude.RigidBody([10.0, 10.0, 8.0], units="kg m2")
+    k = 1 / J + 1 / (8.0 - J)
+    s_s = -_basilisk_friction(lc, fc, fs, beta, cv, lc, True) / lc
+    s_c = -_basilisk_friction(lc, fc, fs, beta, cv, lc, False) / lc
+    assert abs(s_s - s_c) > 0.5 * s_s
+    t = np.linspace(0.0, 8.0, 81)
+    hold = 2.0
+    for w0, first in ((lc / 20, s_s), (0.15 * lc, s_c)):
+        wheel = ReactionWheel(
+            [0, 0, 1], J, speed=w0, coulomb_friction=fc, static_friction=fs,
+            stribeck_speed=beta, viscous_friction=cv, limit_cycle_speed=lc,
+        )  # fmt: skip
+        craft = Spacecraft(body, [wheel])
+        ds = attitude.propagate(
+            craft, Q_ID, total_momenta(craft, Q_ID, np.zeros(3)), t, rtol=1e-13, atol=1e-18,
+            commands=CommandSchedule(np.arange(4) * hold, np.zeros((4, 1))),
+        )  # fmt: skip
+        w1 = w0 * math.exp(-first * k * hold)
+        ref = np.where(t <= hold, w0 * np.exp(-first * k * t), w1 * np.exp(-s_c * k * (t - hold)))
+        np.testing.assert_allclose(ds.wheel_speed.values[:, 0], ref, rtol=1e-10, atol=0)
+
+
 @pytest.mark.parametrize("potential", ["torque_free", "gravity_gradient"])
 def test_taylor_equals_dop853_with_wheels_and_thrusters(potential):
     """The two integrators of a spacecraft agree to their tolerance under the same schedule

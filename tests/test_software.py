@@ -454,3 +454,65 @@ def test_momentum_dumping_unloads_the_wheels_at_its_gain():
     np.testing.assert_allclose(par, par[0], rtol=1e-3)
     np.testing.assert_allclose(perp, perp[0] * np.exp(-k * t), rtol=0.01)
     assert perp[-1] < 0.1 * perp[0]
+
+
+def test_your_own_step_measures_against_closed_forms_and_astropys_sun():
+    """What your own step sees, on a sphere spinning at a constant rate (torque-free, the
+    rods' dipole zero) on a circular orbit with LVLH guidance, against independent truth at
+    every tick: q = q0∘exp(ω t/2) and ω (closed form); r and v on the circle
+    r = a (cos u P + sin u Q), u = ω_p + n t; the LVLH reference's axes (x along track, y = −ĥ,
+    z to nadir) and rate n ĥ; σ_BR, the MRP of q_R⁻¹∘q (shorter rotation); ω − ω_R; the Sun's
+    direction from astropy and the field of the dipole model, in body axes."""
+    import orbit
+    from orbit.sun import sun_position
+
+    a, inc, raan, argp = 7000.0, 0.9, 0.4, 0.3
+    o = orbit.KeplerOrbit(a, 0.0, inc, raan, argp, f0=0.0, epoch="2024-03-20T12:00:00")
+    rods = [Magnetorquer(np.eye(3)[k], 0.2) for k in range(3)]
+    craft = attitude.Spacecraft(
+        attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2"), magnetorquers=rods, orbit=o
+    )
+    w = np.array([0.01, -0.02, 0.015])
+    q0 = qt.normalize([0.8, 0.3, -0.2, 0.4])
+    seen = []
+
+    def step(tt, m):
+        seen.append(m)
+        return {"dipole": np.zeros(3)}
+
+    fsw = FlightSoftware(10.0, frames.lvlh(o), step)
+    Q0 = C.momenta_from_angular_velocity(q0, w, craft)
+    attitude.propagate(craft, q0, Q0, [0.0, 600.0], software=fsw, rtol=1e-13)
+    t = np.array([m.t for m in seen])
+    np.testing.assert_array_equal(t, 10.0 * np.arange(t.size))
+    assert t.size >= 60
+
+    def stack(name):
+        return np.array([getattr(m, name) for m in seen])
+
+    q = qt.multiply(q0, qt.from_rotation_vector(w[None, :] * t[:, None]))
+    np.testing.assert_allclose(qt.to_matrix(stack("q")), qt.to_matrix(q), rtol=0, atol=1e-11)
+    np.testing.assert_allclose(stack("omega"), np.broadcast_to(w, (t.size, 3)), atol=1e-14)
+    n = math.sqrt(o.mu / a**3)
+    P = np.array([math.cos(raan), math.sin(raan), 0.0])
+    Qv = np.array([-math.cos(inc) * math.sin(raan), math.cos(inc) * math.cos(raan), math.sin(inc)])
+    h = np.cross(P, Qv)
+    u_ = argp + n * t
+    r = a * (np.cos(u_)[:, None] * P + np.sin(u_)[:, None] * Qv)
+    v = a * n * (-np.sin(u_)[:, None] * P + np.cos(u_)[:, None] * Qv)
+    np.testing.assert_allclose(stack("r"), r, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(stack("v"), v, rtol=0, atol=1e-11)
+    rh = r / a
+    axes = np.stack([np.cross(h, rh), np.broadcast_to(-h, rh.shape), -rh], axis=-1)
+    np.testing.assert_allclose(qt.to_matrix(stack("q_ref")), axes, rtol=0, atol=1e-12)
+    w_ref = qt.rotate_inverse(q, np.broadcast_to(n * h, (t.size, 3)))
+    np.testing.assert_allclose(stack("omega_ref"), w_ref, rtol=0, atol=1e-14)
+    np.testing.assert_allclose(stack("omega_error"), w - w_ref, rtol=0, atol=1e-14)
+    e = qt.multiply(qt.conjugate(stack("q_ref")), q)
+    e *= np.where(e[:, :1] < 0.0, -1.0, 1.0)
+    np.testing.assert_allclose(stack("sigma_error"), e[:, 1:] / (1.0 + e[:, :1]), atol=1e-11)
+    s = sun_position(o.epoch, t) - r
+    s /= np.linalg.norm(s, axis=1)[:, None]
+    np.testing.assert_allclose(stack("sun"), qt.rotate_inverse(q, s), rtol=0, atol=1e-8)
+    B = attitude.MagneticDipole(o, [0, 0, 0]).magnetic_field(t)
+    np.testing.assert_allclose(stack("field"), qt.rotate_inverse(q, B), rtol=0, atol=1e-9 * 3e-5)
