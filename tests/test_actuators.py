@@ -269,11 +269,18 @@ def test_magnetorquers_equal_a_magnetic_dipole_of_the_same_moment():
     np.testing.assert_array_equal(ds2.dipole.values[0], [0.2, -0.2, 0.0])
 
 
-def test_thruster_pair_pulse_against_the_closed_form():
-    """A couple about principal axis b3 fired for a fraction of a hold from rest: the body
-    turns about b3 alone, G₃ = τ t_on, angle ½ (τ/I₃) t² while firing, then linear; the
-    force is recorded only while firing."""
-    th = [Thruster([0.5, 0, 0], [0, 1, 0], 2.0), Thruster([-0.5, 0, 0], [0, -1, 0], 2.0)]
+@pytest.mark.parametrize("about", ["+b3", "-b2"])
+def test_thruster_pair_pulse_against_the_closed_form(about):
+    """A couple about a principal axis (b3; −b2, the torque's only non-zero component
+    negative) fired for a fraction of a hold from rest: the body turns about that axis alone,
+    G = τ t_on, angle ½ (τ/I) t² while firing, then linear; the force is recorded only while
+    firing."""
+    if about == "+b3":
+        th = [Thruster([0.5, 0, 0], [0, 1, 0], 2.0), Thruster([-0.5, 0, 0], [0, -1, 0], 2.0)]
+        axis, inertia = np.array([0.0, 0.0, 1.0]), 8.0
+    else:  # (0.5 x) × (2 z) = −1 y, twice
+        th = [Thruster([0.5, 0, 0], [0, 0, 1], 2.0), Thruster([-0.5, 0, 0], [0, 0, -1], 2.0)]
+        axis, inertia = np.array([0.0, -1.0, 0.0]), 12.0
     craft = Spacecraft(BODY, thrusters=th)
     tau = 2.0 * 2.0 * 0.5  # two 2 N forces on 0.5 m arms
     t = np.linspace(0.0, 10.0, 101)
@@ -287,12 +294,14 @@ def test_thruster_pair_pulse_against_the_closed_form():
         commands=CommandSchedule([0.0, 10.0], thrust=[[0.37, 0.37], [0, 0]]),
     )
     ton = 3.7
-    G3 = tau * np.minimum(t, ton)
-    np.testing.assert_allclose(ds.G.values[:, 2], G3, atol=1e-13)
+    G = tau * np.minimum(t, ton)
+    np.testing.assert_allclose(ds.G.values, np.outer(G, axis), atol=1e-13)
     ang = np.where(
-        t <= ton, 0.5 * tau / 8.0 * t**2, 0.5 * tau / 8.0 * ton**2 + tau * ton / 8.0 * (t - ton)
+        t <= ton,
+        0.5 * tau / inertia * t**2,
+        0.5 * tau / inertia * ton**2 + tau * ton / inertia * (t - ton),
     )
-    ref = qt.from_rotation_vector(np.outer(ang, [0, 0, 1]))
+    ref = qt.from_rotation_vector(np.outer(ang, axis))
     np.testing.assert_allclose(ds.q.values, ref, atol=1e-12)
     firing = t < ton
     np.testing.assert_array_equal(ds.thruster_force.values[:, 0], np.where(firing, 2.0, 0.0))
