@@ -516,3 +516,49 @@ def test_your_own_step_measures_against_closed_forms_and_astropys_sun():
     np.testing.assert_allclose(stack("sun"), qt.rotate_inverse(q, s), rtol=0, atol=1e-8)
     B = attitude.MagneticDipole(o, [0, 0, 0]).magnetic_field(t)
     np.testing.assert_allclose(stack("field"), qt.rotate_inverse(q, B), rtol=0, atol=1e-9 * 3e-5)
+
+
+@pytest.mark.parametrize("angle", [1.4, 0.1])
+def test_slew_reference_is_the_trapezoidal_rate_profile(angle):
+    """A body at rest, slewing onto an inertial target an angle θ₀ away about e (target axes):
+    the reference your step sees is q_R = q_T∘exp(θ e/2) with θ(t) the rest-to-rest profile
+    written out here (accelerate at a to the rate limit w, coast, decelerate; triangular,
+    peak √(θ₀ a), when θ₀ < w²/a), and ω_R = θ̇ e in body axes; then the target."""
+    wmax, amax = math.radians(1.0), math.radians(0.05)
+    e = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    q_t = qt.from_euler([0.6, -0.3, 1.2], "321")
+    q0 = qt.multiply(q_t, qt.from_rotation_vector(angle * e))  # θ₀ about e from the target
+    body = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
+    seen = []
+
+    def step(tt, m):
+        seen.append(m)
+        return np.zeros(3)
+
+    fsw = FlightSoftware(0.5, Slew(frames.inertial(q_t), wmax, amax), step)
+    Q0 = C.momenta_from_angular_velocity(q0, [0.0, 0.0, 0.0], body)
+    attitude.propagate(body, q0, Q0, [0.0, 120.0], software=fsw, rtol=1e-12)
+    t = np.array([m.t for m in seen])
+    if angle * amax > wmax**2:  # trapezoid
+        t1, tc, wp = wmax / amax, angle / wmax - wmax / amax, wmax
+    else:
+        t1, tc, wp = math.sqrt(angle / amax), 0.0, math.sqrt(angle * amax)
+    te = 2 * t1 + tc
+    assert te < 110.0
+    phases = [t < t1, t < t1 + tc, t < te]
+    theta = np.select(
+        phases,
+        [
+            angle - amax * t**2 / 2,
+            angle - amax * t1**2 / 2 - wp * (t - t1),
+            amax * (te - t) ** 2 / 2,
+        ],
+        0.0,
+    )
+    rate = np.select(phases, [-amax * t, -wp, -amax * (te - t)], 0.0)
+    q_ref = qt.multiply(q_t, qt.from_rotation_vector(theta[:, None] * e))
+    got = np.array([m.q_ref for m in seen])
+    np.testing.assert_allclose(qt.to_matrix(got), qt.to_matrix(q_ref), rtol=0, atol=1e-12)
+    # ω_R = θ̇ e in the reference axes, seen in body axes (the body at rest: q = q0)
+    w_ref = qt.rotate_inverse(qt.multiply(qt.conjugate(q_ref), q0), rate[:, None] * e)
+    np.testing.assert_allclose(np.array([m.omega_ref for m in seen]), w_ref, rtol=0, atol=1e-15)
