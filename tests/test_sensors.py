@@ -453,3 +453,45 @@ def test_sun_sensor_direction_and_eclipse_against_astropys_sun():
     chi = np.sum(e**2) / sigma**2
     assert stats.chi2.ppf(0.005, 2 * n) < chi < stats.chi2.ppf(0.995, 2 * n)
     assert np.all(np.linalg.norm(e, axis=1) < 6 * sigma)
+
+
+@pytest.mark.parametrize("rate", [0.0, 0.02, 0.5])
+def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
+    """The covariance propagation against Φ = expm(F Δt) (scipy) where the closed form of Φ
+    switches to the series of (wΔt − sin wΔt)/w³ (wΔt < 0.1) and above it, and at ω = 0; and,
+    from P = 0, the process noise Q alone, every entry to 1e-12 relative (its terms are far
+    below the rest of P otherwise): σ_v² Δt + σ_u² Δt³/3, −σ_u² Δt²/2, σ_u² Δt (Farrenkopf)."""
+    from scipy.linalg import expm
+
+    from attitude._core import mekf as M
+
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(6, 6)) * np.array([1e-3] * 3 + [1e-5] * 3)[:, None]
+    P0 = A @ A.T + np.diag([1e-6] * 3 + [1e-10] * 3)
+    ep = np.zeros(M.EP_SIZE)
+    ep[M.EP_SV], ep[M.EP_SU] = 3e-4, 2e-5
+    bias = np.array([1e-3, -2e-3, 3e-3]) * (rate > 0)
+    om = bias + rate * np.array([0.6, -0.48, 0.64])
+    dt = 2.0
+    W = np.array([[0, -rate * 0.64, -rate * 0.48], [rate * 0.64, 0, -rate * 0.6],
+                  [rate * 0.48, rate * 0.6, 0]])  # fmt: skip
+    F = np.zeros((6, 6))
+    F[:3, :3], F[:3, 3:] = -W, -np.eye(3)
+    Phi = expm(F * dt)
+    sv2, su2 = ep[M.EP_SV] ** 2, ep[M.EP_SU] ** 2
+    Q = np.zeros((6, 6))
+    Q[:3, :3] = (sv2 * dt + su2 * dt**3 / 3) * np.eye(3)
+    Q[:3, 3:] = Q[3:, :3] = -su2 * dt**2 / 2 * np.eye(3)
+    Q[3:, 3:] = su2 * dt * np.eye(3)
+    for P, want in ((P0, Phi @ P0 @ Phi.T + Q), (np.zeros((6, 6)), Q)):
+        es = np.zeros(M.E_SIZE)
+        M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
+        es[M.E_P : M.E_P + 36] = P.ravel()
+        M.mekf_propagate(es, ep, om, dt)
+        got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13 * np.abs(want).max())
+        if not P.any():
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
+    # the attitude turned by exp(ω̂ Δt/2), ω̂ = ω − β̂
+    q = es[M.E_Q : M.E_Q + 4]
+    np.testing.assert_allclose(q, qt.from_rotation_vector((om - bias) * dt), rtol=0, atol=1e-15)
