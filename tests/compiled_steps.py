@@ -33,3 +33,15 @@ def nan_after_two_seconds(t, m):
     if t >= 2.0:
         out[1] = np.nan
     return out
+
+
+@njit(cache=True)
+def rate_damping(t, m):
+    """Three body-torque components (no actuators): −2 ω (N m s)."""
+    return -2.0 * m[M.OMEGA : M.OMEGA + 3]
+
+
+@njit(cache=True)
+def wheel_speed_loop(t, m):
+    """One wheel on its tachometer: u = −0.02 (Ω − 10 rad/s) N m."""
+    return np.array([-0.02 * (m[M.WHEEL_SPEEDS] - 10.0)])

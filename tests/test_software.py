@@ -562,3 +562,43 @@ def test_slew_reference_is_the_trapezoidal_rate_profile(angle):
     # ω_R = θ̇ e in the reference axes, seen in body axes (the body at rest: q = q0)
     w_ref = qt.rotate_inverse(qt.multiply(qt.conjugate(q_ref), q0), rate[:, None] * e)
     np.testing.assert_allclose(np.array([m.omega_ref for m in seen]), w_ref, rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("kind", ["python", "compiled"])
+def test_own_steps_with_three_torques_or_one_wheel_are_the_exact_hold_discretisation(kind):
+    """Steps returning three body torques (no actuators) or one wheel's torque, written in
+    Python and as numba functions (tests/compiled_steps.py), against the exact discretisation
+    of their zero-order hold at the ticks: a sphere damped by −c ω, ω_n = (1 − T c/I)ⁿ ω₀; a
+    wheel on the symmetry axis from rest (angular momentum 0) on its tachometer,
+    u = −c (Ω − Ω_r): Ω̇ = u k, k = 1/J + 1/(I₃ − J), so Ω_n − Ω_r = (1 − T k c)ⁿ (Ω₀ − Ω_r),
+    and ω₃ = −J Ω / I₃ (G = 0)."""
+    import compiled_steps as cs
+
+    if kind == "python":
+        damp = lambda tt, m: -2.0 * m.omega  # noqa: E731
+        loop = lambda tt, m: np.array([-0.02 * (m.wheel_speeds[0] - 10.0)])  # noqa: E731
+    else:
+        damp, loop = cs.rate_damping, cs.wheel_speed_loop
+    T = 0.5
+    t = T * np.arange(21)
+    sphere = attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2")
+    w0 = np.array([0.02, -0.01, 0.03])
+    ds = attitude.propagate(
+        sphere, [1.0, 0, 0, 0], C.momenta_from_angular_velocity([1.0, 0, 0, 0], w0, sphere), t,
+        software=FlightSoftware(T, control=damp), rtol=1e-13,
+    )  # fmt: skip
+    want = (1 - T * 2.0 / 10.0) ** np.arange(21)[:, None] * w0
+    np.testing.assert_allclose(ds.omega.values, want, rtol=1e-11, atol=1e-16)
+
+    J = 0.05
+    craft = attitude.Spacecraft(
+        attitude.RigidBody([10.0, 10.0, 8.0], units="kg m2"), [ReactionWheel([0, 0, 1], J)]
+    )
+    ds = attitude.propagate(
+        craft, [1.0, 0, 0, 0], np.zeros(4), t, software=FlightSoftware(T, control=loop),
+        rtol=1e-13,
+    )  # fmt: skip
+    k = 1 / J + 1 / (8.0 - J)
+    want = 10.0 - 10.0 * (1 - T * k * 0.02) ** np.arange(21)
+    np.testing.assert_allclose(ds.wheel_speed.values[:, 0], want, rtol=1e-11)
+    np.testing.assert_allclose(ds.omega.values[:, 2], -J * want / 8.0, rtol=1e-11)  # G = 0
