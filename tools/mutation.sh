@@ -7,6 +7,8 @@
 #   tools/mutation.sh orbit/_kernels.py:159-316                   # lines of a module only
 #   SAMPLE=0.2 tools/mutation.sh ...        # a seeded random 20 % of the mutants
 #   SAMPLE_N=24 tools/mutation.sh ...       # a seeded random 24 mutants of each module
+#   SAMPLE_SEED=1 SAMPLE_N=10 ...           # another sample (the seed; default 0)
+#   TESTS="tests/test_x.py::test_y" tools/mutation.sh module.py   # other tests than the table's
 #   KEEP=1 tools/mutation.sh ...            # keep the session directory (sqlite, logs)
 #
 # How it works (see docs/mutation.md):
@@ -32,11 +34,12 @@ OUT="${MUTATION_OUT:-$ROOT/.mutation}"  # survivors (diffs) per module, git-igno
 
 # Selected tests of the actuator, software and sensor modules, fast ones first. Left out (they
 # take 1-7 min each with the JIT disabled; run compiled on the survivors): the Taylor-against-
-# DOP853 runs with gravity gradient, the MEKF consistency test for all but the MEKF, the Allan
-# deviation for all but the sensors.
+# DOP853 runs with gravity gradient, the MEKF consistency test (the MEKF's kernels have their
+# dense-formula tests), the Allan deviation for all but the sensors.
 A=tests/test_actuators.py
 ACT="$A::test_friction_kernel_is_basilisks_law $A::test_speed_limit_cuts_commands_that_spin_the_wheel_further
  $A::test_wheel_on_the_symmetry_axis_spun_up_by_a_constant_torque $A::test_thruster_pair_pulse_against_the_closed_form
+ $A::test_stribeck_regime_of_a_wheel_let_go_below_a_tenth_of_the_limit_cycle_speed
  $A::test_coulomb_friction_stops_a_wheel_through_the_kink_at_the_closed_form_time
  $A::test_rotor_stabilised_spin_about_the_intermediate_axis $A::test_steady_spins_of_a_gyrostat_with_a_skew_rotor
  $A::test_magnetorquers_equal_a_magnetic_dipole_of_the_same_moment $A::test_bad_actuators_and_schedules_are_refused_before_any_work
@@ -51,18 +54,23 @@ S=tests/test_software.py
 SOFT_FAST="$S::test_slow_pd_control_is_the_exact_zero_order_hold_discretisation $S::test_a_step_function_that_raises_keeps_the_samples_computed
  $S::test_your_own_step_function_equals_the_compiled_law $S::test_modes_delay_and_slew
  $S::test_null_space_management_spreads_the_momentum_without_a_body_torque $S::test_bad_software_is_refused_before_any_work"
-SOFT="$SOFT_FAST $S::test_momentum_dumping_unloads_the_wheels_at_its_gain $S::test_fast_pd_control_matches_the_second_order_response
+SOFT="$SOFT_FAST $S::test_slew_reference_is_the_trapezoidal_rate_profile
+ $S::test_your_own_step_measures_against_closed_forms_and_astropys_sun
+ $S::test_momentum_dumping_unloads_the_wheels_at_its_gain $S::test_fast_pd_control_matches_the_second_order_response
  $S::test_wheels_alone_in_closed_loop_conserve_G_to_round_off $S::test_bdot_detumbles_the_cubesat_to_twice_the_orbital_rate"
 E=tests/test_sensors.py
 SENS_FSW="$E::test_runs_are_reproducible_from_their_seeds $E::test_star_tracker_and_magnetometer_noise_is_what_their_parameters_say
  $E::test_star_tracker_exclusion_flags_exactly_when_the_geometry_says"
 SENS="$E::test_xoshiro256starstar_is_the_published_generator $E::test_bad_sensor_parameters_are_refused
- $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_sun_sensor_direction_and_eclipse_against_astropys_sun $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
+ $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_sun_sensor_direction_and_eclipse_against_astropys_sun
+ $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
 MEKF="$E::test_bad_sensor_parameters_are_refused $E::test_mekf_covariance_steps_equal_the_dense_matrix_formulas
  $E::test_mekf_vector_update_and_estimation_error_against_dense_formulas
- $E::test_mekf_converges_from_ten_degrees_and_is_consistent"
+ $E::test_mekf_propagation_against_expm_at_any_rotation_per_step"
 # your own step function (fsw_step.py: the measurements it sees, the checks of its commands)
-STEP="$S::test_your_own_step_function_equals_the_compiled_law $S::test_a_step_function_that_raises_keeps_the_samples_computed
+STEP="$S::test_your_own_step_measures_against_closed_forms_and_astropys_sun
+ $S::test_own_steps_with_three_torques_or_one_wheel_are_the_exact_hold_discretisation
+ $S::test_your_own_step_function_equals_the_compiled_law $S::test_a_step_function_that_raises_keeps_the_samples_computed
  $S::test_bad_software_is_refused_before_any_work $S::test_a_compiled_step_equals_the_compiled_law
  $S::test_your_own_step_sees_what_the_sensors_and_the_estimator_give"
 
@@ -134,7 +142,7 @@ for spec in "$@"; do
   module="${spec%%:*}"
   lines=""
   [ "$spec" != "$module" ] && lines="${spec#*:}"
-  tests="${MODULE_TESTS[$module]:?no test files configured for $module}"
+  tests="${TESTS:-${MODULE_TESTS[$module]:?no test files configured for $module}}"
   name="$(echo "$spec" | tr '/.:-' '____')"
   cat > "$name.toml" <<TOML
 [cosmic-ray]
@@ -169,7 +177,7 @@ TOML
   cr-filter-pragma "$name.sqlite"
   [ -n "$lines" ] && cr-filter-lines --config "$name.toml" "$name.sqlite"
   if [ -n "${SAMPLE:-}${SAMPLE_N:-}" ]; then  # keep a seeded random part of the pending mutants
-    "$PY" - "$name.sqlite" "${SAMPLE:-}" "${SAMPLE_N:-}" <<'PY'
+    "$PY" - "$name.sqlite" "${SAMPLE:-}" "${SAMPLE_N:-}" "${SAMPLE_SEED:-0}" <<'PY'
 import random, sys
 from cosmic_ray.work_db import WorkDB, use_db
 from cosmic_ray.work_item import WorkResult, WorkerOutcome
@@ -179,7 +187,7 @@ with use_db(sys.argv[1], WorkDB.Mode.open) as db:
         str(i.mutations[0].module_path), tuple(i.mutations[0].start_pos),
         i.mutations[0].operator_name, i.mutations[0].occurrence))
     n = int(sys.argv[3]) if sys.argv[3] else round(float(sys.argv[2]) * len(items))
-    keep = set(random.Random(0).sample(range(len(items)), min(n, len(items))))
+    keep = set(random.Random(int(sys.argv[4])).sample(range(len(items)), min(n, len(items))))
     for i, item in enumerate(items):
         if i not in keep:
             db.set_result(item.job_id, WorkResult(output="not sampled",
