@@ -119,6 +119,10 @@ def test_wheel_on_the_symmetry_axis_spun_up_by_a_constant_torque():
     np.testing.assert_allclose(
         ds.wheel_speed.values[:, 0], u * t / J + u * t / (8.0 - J), rtol=1e-13, atol=1e-13
     )
+    # the motor's reaction on the body, −u along the wheel's axis (internal: the total is 0)
+    labels = list(ds.model_label.values)
+    np.testing.assert_array_equal(ds.torque.values[:, labels.index("wheels")], [[0, 0, -u]] * 11)
+    assert np.all(ds.torque.values[:, labels.index("total")] == 0.0)
     # the attitude: a rotation about b3 by −u t² / (2 (I₃ − J))
     ang = -u * t**2 / (2 * (8.0 - J))
     ref = qt.from_rotation_vector(np.outer(ang, [0, 0, 1]))
@@ -305,6 +309,12 @@ def test_thruster_pair_pulse_against_the_closed_form(about):
     np.testing.assert_allclose(ds.q.values, ref, atol=1e-12)
     firing = t < ton
     np.testing.assert_array_equal(ds.thruster_force.values[:, 0], np.where(firing, 2.0, 0.0))
+    # the thrusters' torque on the body while firing, the external total the same
+    labels = list(ds.model_label.values)
+    want = np.where(firing[:, None], tau * axis, 0.0)
+    for name in ("thrusters", "total"):
+        got = ds.torque.values[:, labels.index(name)]
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-15)
     # a minimum impulse bit drops shorter firings
     th2 = [Thruster([0.5, 0, 0], [0, 1, 0], 2.0, min_impulse_bit=8.0)]
     ds2 = attitude.propagate(
