@@ -537,8 +537,9 @@ def test_slew_reference_is_the_trapezoidal_rate_profile(angle):
 
     fsw = FlightSoftware(0.5, Slew(frames.inertial(q_t), wmax, amax), step)
     Q0 = C.momenta_from_angular_velocity(q0, [0.0, 0.0, 0.0], body)
-    attitude.propagate(body, q0, Q0, [0.0, 120.0], software=fsw, rtol=1e-12)
+    ds = attitude.propagate(body, q0, Q0, [0.0, 120.0], software=fsw, rtol=1e-12)
     t = np.array([m.t for m in seen])
+    np.testing.assert_array_equal(ds.tick.values, t)
     if angle * amax > wmax**2:  # trapezoid
         t1, tc, wp = wmax / amax, angle / wmax - wmax / amax, wmax
     else:
@@ -562,6 +563,10 @@ def test_slew_reference_is_the_trapezoidal_rate_profile(angle):
     # ω_R = θ̇ e in the reference axes, seen in body axes (the body at rest: q = q0)
     w_ref = qt.rotate_inverse(qt.multiply(qt.conjugate(q_ref), q0), rate[:, None] * e)
     np.testing.assert_allclose(np.array([m.omega_ref for m in seen]), w_ref, rtol=0, atol=1e-15)
+    # the recorded error: the angle θ₀ − θ about e, σ_BR = tan((θ₀ − θ)/4) e
+    np.testing.assert_allclose(ds.error_angle.values, angle - theta, rtol=0, atol=1e-12)
+    sig = np.tan((angle - theta) / 4)[:, None] * e
+    np.testing.assert_allclose(ds.sigma_error.values, sig, rtol=0, atol=1e-12)
 
 
 @pytest.mark.parametrize("kind", ["python", "compiled"])
