@@ -609,12 +609,14 @@ def test_own_steps_with_three_torques_or_one_wheel_are_the_exact_hold_discretisa
     np.testing.assert_allclose(ds.omega.values[:, 2], -J * want / 8.0, rtol=1e-11)  # G = 0
 
 
-@pytest.mark.parametrize("law_type", [0, 1])
-def test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law(law_type):
-    """Basilisk's mrpFeedback written in Python (Schaub & Junkins: L_r = K σ + P δω
-    − v × (I ω + Σ h a) + I (ω × ω_r), v = ω_r for law type 0, ω for 1; u = L_r on three
-    wheels along the body axes), tracking LVLH on a circular orbit (ω_r ≠ 0, ω̇_r = 0): the
-    same run as the compiled law, in both of Basilisk's law types."""
+@pytest.mark.parametrize("law_type,Ki", [(0, None), (1, None), (0, 0.01), (1, 0.01)])
+def test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law(law_type, Ki):
+    """Basilisk's mrpFeedback written in Python (Schaub & Junkins: L_r = K σ + P δω + P K_I z
+    − v × (I ω + Σ h a) + I (ω × ω_r), v = ω_r + K_I z for law type 0, ω for 1, the integral
+    z = ∫ K σ dt + I δω summed at the ticks, each component of ∫ K σ dt limited; u = L_r on
+    three wheels along the body axes), tracking LVLH on a circular orbit (ω_r ≠ 0,
+    ω̇_r = 0): the same run as the compiled law, in both of Basilisk's law types, with and
+    without the integral term."""
     import orbit
 
     o = orbit.KeplerOrbit(7000.0, 0.0, 0.9, 0.4, 0.3, f0=0.0)
@@ -622,22 +624,35 @@ def test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law(law_type):
     q0 = qt.from_mrp([0.1, 0.2, -0.3])
     Q0 = C.momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
     t = np.linspace(0.0, 20.0, 21)
-    law = MRPFeedback(3.5, 30.0, law_type=law_type)
+    K, P, lim = 3.5, 30.0, 0.05
+    law = MRPFeedback(K, P, Ki=Ki, integral_limit=lim if Ki else None, law_type=law_type)
     a = attitude.propagate(
         craft, q0, Q0, t, software=FlightSoftware(0.1, frames.lvlh(o), law), rtol=1e-13
     )
     I = np.diag([900.0, 800.0, 600.0])
     js = craft.wheel_inertias
+    state = {"int": np.zeros(3), "prior": None}
 
     def step(tt, m):
         w, wr = m.omega, m.omega_ref
+        Kz = np.zeros(3)
+        if Ki:
+            dt = 0.0 if state["prior"] is None else tt - state["prior"]
+            v = state["int"] + K * dt * m.sigma_error
+            v = np.where(np.abs(v) > lim, lim * np.sign(v), v)
+            state["int"] = v
+            Kz = Ki * (v + I @ m.omega_error)
+        state["prior"] = tt
         H = I @ w + js * (w + m.wheel_speeds)
-        v = wr if law_type == 0 else w
-        return 3.5 * m.sigma_error + 30.0 * m.omega_error - np.cross(v, H) + I @ np.cross(w, wr)
+        v8 = wr + Kz if law_type == 0 else w
+        lr = K * m.sigma_error + P * m.omega_error + P * Kz - np.cross(v8, H)
+        return lr + I @ np.cross(w, wr)
 
     b = attitude.propagate(
         craft, q0, Q0, t, software=FlightSoftware(0.1, frames.lvlh(o), step), rtol=1e-13
     )
     assert np.abs(a.command_sent.values).max() > 1e-3
+    if Ki:
+        assert np.abs(state["int"]).max() == lim  # the limit reached
     np.testing.assert_allclose(b.command_sent.values, a.command_sent.values, rtol=0, atol=1e-12)
     np.testing.assert_allclose(b.q.values, a.q.values, rtol=0, atol=1e-13)
