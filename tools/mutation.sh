@@ -56,6 +56,8 @@ SOFT_FAST="$S::test_slow_pd_control_is_the_exact_zero_order_hold_discretisation 
  $S::test_null_space_management_spreads_the_momentum_without_a_body_torque $S::test_bad_software_is_refused_before_any_work"
 SOFT="$SOFT_FAST $S::test_slew_reference_is_the_trapezoidal_rate_profile
  $S::test_your_own_step_measures_against_closed_forms_and_astropys_sun
+ $S::test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law
+ tests/test_sensors.py::test_mekf_with_a_vector_sensor_in_the_loop_is_the_filter_replayed_by_hand
  $S::test_momentum_dumping_unloads_the_wheels_at_its_gain $S::test_fast_pd_control_matches_the_second_order_response
  $S::test_wheels_alone_in_closed_loop_conserve_G_to_round_off $S::test_bdot_detumbles_the_cubesat_to_twice_the_orbital_rate"
 E=tests/test_sensors.py
