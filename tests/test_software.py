@@ -656,3 +656,38 @@ def test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law(law_type, Ki):
         assert np.abs(state["int"]).max() == lim  # the limit reached
     np.testing.assert_allclose(b.command_sent.values, a.command_sent.values, rtol=0, atol=1e-12)
     np.testing.assert_allclose(b.q.values, a.q.values, rtol=0, atol=1e-13)
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_mode_conditions_switch_at_the_first_tick_the_closed_form_says(sign):
+    """A sphere spinning at W about z from the inertial frame, the software moving on through
+    PointingBeyond (total angle W t > 1.02 rad: first tick past 10.2 s), PointingWithin about
+    body x (angle between body and frame x, W t folded, < 0.5 rad again: first tick past
+    (2π − 0.5)/W), After(70.2 s) and RateAbove(1.5 W) (never): the recorded mode at each tick
+    against these closed-form times; the same from −q (the same attitude)."""
+    from attitude.software import After, PointingBeyond, PointingWithin, RateAbove
+
+    W, T = 0.1, 0.5
+    sphere = attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2")
+
+    inertial = frames.inertial()
+    fsw = FlightSoftware(
+        T,
+        modes=[
+            (None, Mode(name="coast")),
+            (PointingBeyond(inertial, 1.02), Mode(name="coast")),
+            (PointingWithin(inertial, 0.5, axis=[1.0, 0.0, 0.0]), Mode(name="coast")),
+            (After(70.2), Mode(name="coast")),
+            (RateAbove(1.5 * W), Mode(name="coast")),
+        ],
+    )
+    q0 = [sign, 0.0, 0.0, 0.0]
+    Q0 = C.momenta_from_angular_velocity(q0, [0.0, 0.0, W], sphere)
+    ds = attitude.propagate(sphere, q0, Q0, [0.0, 80.0], software=fsw, rtol=1e-12)
+    t = ds.tick.values
+    t1 = T * math.ceil(1.02 / W / T + 1e-9)
+    t2 = T * math.ceil((2 * math.pi - 0.5) / W / T)
+    t3 = T * math.ceil(70.2 / T)
+    assert (t1, t2, t3) == (10.5, 58.0, 70.5)
+    want = (t >= t1).astype(int) + (t >= t2) + (t >= t3)
+    np.testing.assert_array_equal(ds["mode"].values, want)
