@@ -57,6 +57,7 @@ SOFT_FAST="$S::test_slow_pd_control_is_the_exact_zero_order_hold_discretisation 
 SOFT="$SOFT_FAST $S::test_slew_reference_is_the_trapezoidal_rate_profile
  $S::test_your_own_step_measures_against_closed_forms_and_astropys_sun
  $S::test_your_own_mrp_law_tracking_lvlh_equals_the_compiled_law
+ $S::test_mode_conditions_switch_at_the_first_tick_the_closed_form_says
  tests/test_sensors.py::test_mekf_with_a_vector_sensor_in_the_loop_is_the_filter_replayed_by_hand
  $S::test_momentum_dumping_unloads_the_wheels_at_its_gain $S::test_fast_pd_control_matches_the_second_order_response
  $S::test_wheels_alone_in_closed_loop_conserve_G_to_round_off $S::test_bdot_detumbles_the_cubesat_to_twice_the_orbital_rate"
