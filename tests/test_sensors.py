@@ -59,6 +59,9 @@ def test_xoshiro256starstar_is_the_published_generator():
     _rng.seed_stream(st, 0, np.uint64(12345))
     ours = [int(_rng.next_u64(st, 0)) for _ in range(1000)]
     assert ours == ref
+    # uniform deviates: the top 53 bits of the same stream, times 2⁻⁵³
+    _rng.seed_stream(st, 0, np.uint64(12345))
+    assert [_rng.uniform(st, 0) for _ in range(1000)] == [(r >> 11) / 2**53 for r in ref]
 
 
 def test_normal_deviates_are_standard_normal():
