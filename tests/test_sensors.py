@@ -157,14 +157,16 @@ def test_star_tracker_and_magnetometer_noise_is_what_their_parameters_say():
     assert stats.chi2.ppf(0.005, 3 * n) < np.sum(zm**2) < stats.chi2.ppf(0.995, 3 * n)
 
 
-def test_star_tracker_exclusion_flags_exactly_when_the_geometry_says():
+@pytest.mark.parametrize("epoch", ["2024-03-20T12:00:00", "2024-06-21T06:00:00"])
+def test_star_tracker_exclusion_flags_exactly_when_the_geometry_says(epoch):
     """A turning spacecraft: the status says Sun (Earth) exclusion at exactly the ticks where
     the boresight is within the angle of the Sun, outside the Earth's shadow (of the Earth's
-    limb), from astropy's Sun and the orbit, computed here independently."""
+    limb), from astropy's Sun and the orbit, computed here independently; at an equinox (the
+    Sun near +x) and a solstice (the Sun far from every axis)."""
     import orbit
     from orbit.sun import R_EARTH, shadow_function, sun_position
 
-    o = orbit.KeplerOrbit(6878.0, 0.001, 1.0, 0.3, 0.0, epoch="2024-03-20T12:00:00")
+    o = orbit.KeplerOrbit(6878.0, 0.001, 1.0, 0.3, 0.0, epoch=epoch)
     # a sphere turning about the normal of the plane of its boresight and the Sun: the
     # boresight sweeps across the Sun and the Earth
     craft = attitude.Spacecraft(attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2"), orbit=o)
