@@ -62,6 +62,18 @@ def test_xoshiro256starstar_is_the_published_generator():
     # uniform deviates: the top 53 bits of the same stream, times 2⁻⁵³
     _rng.seed_stream(st, 0, np.uint64(12345))
     assert [_rng.uniform(st, 0) for _ in range(1000)] == [(r >> 11) / 2**53 for r in ref]
+    # normal deviates: Marsaglia's polar method on those uniforms, both of each pair
+    uni = iter([(r >> 11) / 2**53 for r in ref])
+    want = []
+    while len(want) < 300:
+        x, y = 2.0 * next(uni) - 1.0, 2.0 * next(uni) - 1.0
+        r2 = x * x + y * y
+        if 0.0 < r2 < 1.0:
+            f = math.sqrt(-2.0 * math.log(r2) / r2)
+            want += [x * f, y * f]
+    _rng.seed_stream(st, 0, np.uint64(12345))
+    got = [_rng.normal(st, 0) for _ in range(300)]
+    np.testing.assert_allclose(got, want, rtol=1e-15, atol=0)
 
 
 def test_normal_deviates_are_standard_normal():
