@@ -322,8 +322,9 @@ def specialise(module, tag: str, names=None, **bindings):
         if key in bindings or (names is not None and key not in names):
             continue
         if hasattr(obj, "_attitude_rebind"):  # a rebind() of the module: redone in the copy
-            rebound.append((key, obj._attitude_rebind))
-            continue
+            if all(n in ns for n in obj._attitude_rebind[2].values()):
+                rebound.append((key, obj._attitude_rebind))
+            continue  # (else another module's, imported: shared as it is)
         f = getattr(obj, "py_func", obj) if not JIT_DISABLED else obj
         if not isinstance(f, types.FunctionType) or f.__module__ != module.__name__:
             continue

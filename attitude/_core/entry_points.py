@@ -64,7 +64,7 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
-from attitude._core.fsw import fsw_boundary  # noqa: F401 (bound by name)
+from attitude._core.fsw import fsw_boundary, fsw_boundary_inline  # noqa: F401 (bound by name)
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
 from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
@@ -206,13 +206,13 @@ dop853_spacecraft_fsw = rebind(
     "spacecraft_fsw",
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
-    BOUNDARY="fsw_boundary",
+    BOUNDARY="fsw_boundary_inline",
 )
 
 #: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
 #: software as its command source (in a user module: with the user's compiled step).
 taylor_spacecraft_fsw = rebind(
-    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary"
+    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary_inline"
 )
 
 #: The same under an open-loop schedule.
