@@ -764,15 +764,28 @@ def fsw_boundary(P, y, t, t_end, ctl):
 # passing the tick's arrays through three calls (seven arguments an array) cost ~10 % of a
 # 10 Hz closed-loop tick. The ensemble drivers keep the calls (numba's parallel array analysis
 # rejects the inlined tick).
-_sense_inline = rebind(_sense, globals(), "inline", options={"inline": "always"})
+_INLINE = {"inline": "always"}
+_sense_inline = rebind(_sense, globals(), "inline", options=_INLINE)
+_guidance_inline = rebind(guidance, globals(), "inline", options=_INLINE)
+_configure_hold_inline = rebind(configure_hold, globals(), "inline", options=_INLINE)
+_thrusters_off_at_inline = rebind(thrusters_off_at, globals(), "inline", options=_INLINE)
+_next_thruster_off_inline = rebind(next_thruster_off, globals(), "inline", options=_INLINE)
 fsw_tick_inline = rebind(
-    fsw_tick, globals(), "inline", options={"inline": "always"}, _sense="_sense_inline"
+    fsw_tick,
+    globals(),
+    "inline",
+    options=_INLINE,
+    _sense="_sense_inline",
+    guidance="_guidance_inline",
 )
 fsw_boundary_inline = rebind(
     fsw_boundary,
     globals(),
     "inline",
-    options={"inline": "always"},
+    options=_INLINE,
     fsw_tick="fsw_tick_inline",
     _sense="_sense_inline",
+    configure_hold="_configure_hold_inline",
+    thrusters_off_at="_thrusters_off_at_inline",
+    next_thruster_off="_next_thruster_off_inline",
 )
