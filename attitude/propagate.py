@@ -31,6 +31,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from orbit._state_kernels import TYPE_EPHEMERIS
+
+from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
 from ._validation import as_float_array, as_int, as_positive, as_times
@@ -46,6 +49,7 @@ from .results import (
     add_event_variables,
     add_tick_variables,
     build_dataset,
+    dataset_from_samples,
 )
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
@@ -580,13 +584,23 @@ def finish_dataset(
             t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
         )
         return add_actuator_variables(ds, problem.spacecraft, y, d)
-    diag = np.empty((n, 13))
-    n_terms = len(problem.potential.terms)
-    torques = np.empty((n, n_terms + 1, 3))
+    # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
+    # buffer whose blocks become the Dataset's variables without copies.
+    pot = problem.potential
+    n_terms = len(pot.terms)
+    orbit = getattr(pot, "orbit", None)
+    od = orbit.kernel_data() if orbit is not None else _NO_ORBIT
+    buf = np.empty(_kd.buffer_size(n, n_terms))
+    y = np.ascontiguousarray(y, dtype=np.float64)
     for i in range(0, n, SAMPLE_BUDGET):  # bounded compiled calls: Ctrl-C acts in between
         j = min(n, i + SAMPLE_BUDGET)
-        problem.entry.diagnostics(t[i:j], y[i:j], problem.params, diag[i:j])
-        problem.entry.term_torques(t[i:j], y[i:j], problem.params, torques[i:j])
-    if not problem.potential.has_potential:
+        problem.entry.samples(t, y, problem.params, od, orbit is not None, buf, i, j)
+    if orbit is not None and int(od[0]) == TYPE_EPHEMERIS and n:
+        # the osculating true anomaly of a table: the orbit's own (numpy) formula, bit for bit
+        buf[_kd.O_F * n : (_kd.O_F + 1) * n] = orbit.true_anomaly(t)
+    if not pot.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    return build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)
+    return dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
+
+
+_NO_ORBIT = np.zeros(1)

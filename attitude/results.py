@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import xarray as xr
 
+from ._core import diagnostics as _kd
 from ._version import __version__
 from .body import RigidBody
 
@@ -31,6 +32,7 @@ __all__ = [
     "add_event_variables",
     "add_tick_variables",
     "build_dataset",
+    "dataset_from_samples",
     "instant_attrs",
     "set_time_attrs",
     "time_attrs",
@@ -322,7 +324,7 @@ def build_dataset(
     attrs: dict[str, Any],
     torques: np.ndarray | None = None,
 ) -> xr.Dataset:
-    """Assemble the result Dataset.
+    """Assemble the result Dataset from the states and their diagnostics.
 
     Parameters
     ----------
@@ -338,55 +340,125 @@ def build_dataset(
         Run description (method, tolerances, statistics...).
     torques : ndarray, shape (m, n_terms + 1, 3), optional
         Body torque of each term of the model and their sum (``_core.dynamics.term_torques_with``).
+
+    The orbit's variables (``r``, ``f``, ``p``) are computed here by the orbit's methods;
+    :func:`dataset_from_samples` takes everything from one compiled pass instead.
     """
-    u = UnitSystem(body)
 
-    def var(dims, data, units, long_name, **extra):
-        data = np.ascontiguousarray(data, dtype=np.float64)
-        attrs = {"units": units, "long_name": long_name, **extra}
-        return xr.Variable(dims, data, attrs, fastpath=True)
+    def c(a: Any) -> np.ndarray:
+        return np.ascontiguousarray(a, dtype=np.float64)
 
-    data_vars = {
-        "q": var(
-            ("time", "component"),
-            y[:, :4],
-            "1",
-            "attitude quaternion (Euler parameters), body to space, scalar first",
-        ),
-        "Q": var(
-            ("time", "component"),
-            y[:, 4:],
-            u.momentum,
-            "conjugate momenta of the Euler parameters, Q = 2 q o (0, g)",
-        ),
-        "omega": var(("time", "axis"), diag[:, 0:3], u.rate, "angular velocity in body axes"),
-        "g": var(("time", "axis"), diag[:, 3:6], u.momentum, "angular momentum in body axes"),
-        "G": var(("time", "axis"), diag[:, 6:9], u.momentum, "angular momentum in space axes"),
-        "energy": var(("time",), diag[:, 9], u.energy, "total energy H = T + U"),
-        "potential_energy": var(("time",), diag[:, 12], u.energy, "potential energy U"),
-        "norm_error": var(("time",), diag[:, 10], "1", "|q| - 1"),
-        "qQ": var(("time",), diag[:, 11], u.momentum, "q . Q (zero on the constraint manifold)"),
+    blocks = {
+        "q": c(y[:, :4]),
+        "Q": c(y[:, 4:]),
+        "omega": c(diag[:, 0:3]),
+        "g": c(diag[:, 3:6]),
+        "G": c(diag[:, 6:9]),
+        "energy": c(diag[:, 9]),
+        "potential_energy": c(diag[:, 12]),
+        "norm_error": c(diag[:, 10]),
+        "qQ": c(diag[:, 11]),
     }
     orbit = getattr(potential, "orbit", None)
     if orbit is not None:
         # The orbit module works in km and s whatever the body's unit system.
-        data_vars["r"] = var(
-            ("time",), _plain(orbit.radius(t), "km"), SI["orbit_length"], "orbit radius"
-        )
-        data_vars["f"] = var(("time",), _plain(orbit.true_anomaly(t), "rad"), "rad", "true anomaly")
+        blocks["r"] = c(_plain(orbit.radius(t), "km"))
+        blocks["f"] = c(_plain(orbit.true_anomaly(t), "rad"))
+        blocks["p"] = c(_plain(orbit.frame_quaternion(t), None))
+    if torques is not None:
+        blocks["torque"] = c(torques)
+    return _assemble(np.asarray(t, dtype=np.float64), blocks, body, potential, attrs)
+
+
+def dataset_from_samples(
+    t: np.ndarray,
+    buf: np.ndarray,
+    n_terms: int,
+    body: RigidBody,
+    potential: Any,
+    attrs: dict[str, Any],
+    has_orbit: bool,
+) -> xr.Dataset:
+    """Assemble the result Dataset from the buffer of one compiled pass over the samples.
+
+    Parameters
+    ----------
+    t : ndarray, shape (m,)
+        Output times.
+    buf : ndarray, shape (m * (27 + 3 (n_terms + 1)),)
+        Every per-sample variable, one contiguous block each (layout in
+        :mod:`attitude._core.diagnostics`, written by the entry point ``samples``); the
+        Dataset's variables are views of it.
+    n_terms : int
+        Number of terms of the model.
+    body, potential, attrs
+        As :func:`build_dataset`.
+    has_orbit : bool
+        Whether the orbit blocks were written (the potential has an orbit).
+    """
+    m = t.shape[0]
+    blocks = {}
+    for name, off, width in _kd.BLOCKS:
+        if name in _ORBIT_BLOCKS and not has_orbit:
+            continue
+        v = buf[off * m : (off + width) * m]
+        blocks[name] = v.reshape(m, width) if width > 1 else v
+    w3 = 3 * (n_terms + 1)
+    o = _kd.SAMPLE_WIDTH * m
+    blocks["torque"] = buf[o : o + w3 * m].reshape(m, n_terms + 1, 3)
+    return _assemble(t, blocks, body, potential, attrs)
+
+
+_ORBIT_BLOCKS = ("r", "f", "p")
+
+
+def _assemble(
+    t: np.ndarray, b: dict[str, np.ndarray], body: RigidBody, potential: Any, attrs: dict
+) -> xr.Dataset:
+    """The Dataset of the contiguous float64 arrays ``b`` (one per variable)."""
+    u = UnitSystem(body)
+    Variable = xr.Variable
+
+    def var(dims, data, units, long_name):
+        return Variable(dims, data, {"units": units, "long_name": long_name}, fastpath=True)
+
+    tc = ("time", "component")
+    ta = ("time", "axis")
+    t1 = ("time",)
+    data_vars = {
+        "q": var(
+            tc, b["q"], "1", "attitude quaternion (Euler parameters), body to space, scalar first"
+        ),
+        "Q": var(
+            tc,
+            b["Q"],
+            u.momentum,
+            "conjugate momenta of the Euler parameters, Q = 2 q o (0, g)",
+        ),
+        "omega": var(ta, b["omega"], u.rate, "angular velocity in body axes"),
+        "g": var(ta, b["g"], u.momentum, "angular momentum in body axes"),
+        "G": var(ta, b["G"], u.momentum, "angular momentum in space axes"),
+        "energy": var(t1, b["energy"], u.energy, "total energy H = T + U"),
+        "potential_energy": var(t1, b["potential_energy"], u.energy, "potential energy U"),
+        "norm_error": var(t1, b["norm_error"], "1", "|q| - 1"),
+        "qQ": var(t1, b["qQ"], u.momentum, "q . Q (zero on the constraint manifold)"),
+    }
+    if "r" in b:
+        data_vars["r"] = var(t1, b["r"], SI["orbit_length"], "orbit radius")
+        data_vars["f"] = var(t1, b["f"], "rad", "true anomaly")
         data_vars["p"] = var(
-            ("time", "component"),
-            _plain(orbit.frame_quaternion(t), None),
+            tc,
+            b["p"],
             "1",
             "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
             "z_O orbit normal), scalar first",
         )
     extra_coords = {}
-    if torques is not None:
+    if "torque" in b:
         names = [*potential.term_names(), "total"]
         data_vars["torque"] = var(
             ("time", "model", "axis"),
-            torques,
+            b["torque"],
             u.torque,
             "body-frame torque of each model term and their sum (model = total)",
         )
@@ -402,7 +474,7 @@ def build_dataset(
         if missing:
             attrs = {**attrs, "terms_without_potential": ", ".join(missing)}
     coords = {
-        "time": ("time", np.asarray(t, dtype=np.float64), time_attrs(u.time, attrs.get("epoch"))),
+        "time": ("time", t, time_attrs(u.time, attrs.get("epoch"))),
         **index_coords(),
         **extra_coords,
     }
