@@ -86,8 +86,8 @@ __all__ = [
     "radius_and_frame",
     "radius_and_radial_unit",
     "state",
-    "true_from_eccentric_scalar",
     "true_anomaly",
+    "true_from_eccentric_scalar",
     "true_from_hyperbolic_scalar",
 ]
 
