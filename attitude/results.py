@@ -417,10 +417,9 @@ def _assemble(
 ) -> xr.Dataset:
     """The Dataset of the contiguous float64 arrays ``b`` (one per variable)."""
     u = UnitSystem(body)
-    Variable = xr.Variable
 
     def var(dims, data, units, long_name):
-        return Variable(dims, data, {"units": units, "long_name": long_name}, fastpath=True)
+        return _variable(dims, data, {"units": units, "long_name": long_name})
 
     tc = ("time", "component")
     ta = ("time", "axis")
@@ -453,31 +452,18 @@ def _assemble(
             "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
             "z_O orbit normal), scalar first",
         )
-    extra_coords = {}
+    names = None
     if "torque" in b:
-        names = [*potential.term_names(), "total"]
+        names = (*potential.term_names(), "total")
         data_vars["torque"] = var(
             ("time", "model", "axis"),
             b["torque"],
             u.torque,
             "body-frame torque of each model term and their sum (model = total)",
         )
-        extra_coords = {
-            "model": (
-                "model",
-                np.arange(len(names), dtype=np.int32),
-                {"long_name": "torque model term index (labels in model_label)", "units": "1"},
-            ),
-            "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
-        }
         missing = getattr(potential, "terms_without_potential", None)
         if missing:
             attrs = {**attrs, "terms_without_potential": ", ".join(missing)}
-    coords = {
-        "time": ("time", t, time_attrs(u.time, attrs.get("epoch"))),
-        **index_coords(),
-        **extra_coords,
-    }
     base = {
         "Conventions": "CF-1.11",
         "title": "attitude propagation",
@@ -493,7 +479,105 @@ def _assemble(
         ),
     }
     base.update(attrs)
-    return _dataset(data_vars, coords, base)
+    return _result_dataset(data_vars, t, time_attrs(u.time, attrs.get("epoch")), names, base)
+
+
+def _model_coords(names: tuple[str, ...]) -> dict[str, Any]:
+    """The ``model``/``model_label`` coordinates of the torque terms ``names``."""
+    return {
+        "model": (
+            "model",
+            np.arange(len(names), dtype=np.int32),
+            {"long_name": "torque model term index (labels in model_label)", "units": "1"},
+        ),
+        "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
+    }
+
+
+def _result_dataset(
+    data_vars: dict[str, xr.Variable],
+    t: np.ndarray,
+    tattrs: dict,
+    names: tuple[str, ...] | None,
+    attrs: dict,
+) -> xr.Dataset:
+    """The result Dataset of ``data_vars`` on the times ``t`` (attrs ``tattrs``), with the
+    ``component``, ``axis`` and (torque terms ``names``) ``model`` coordinates: the constant
+    coordinates and their indexes built once per set of names, copied with their own attrs."""
+
+    def coords() -> dict[str, tuple]:
+        c = {"time": ("time", t, tattrs), **index_coords()}
+        return c if names is None else {**c, **_model_coords(names)}
+
+    try:
+        const = _CONSTANT_COORDS.get(names)
+        if const is None:
+            ds = _dataset({}, {k: v for k, v in coords().items() if k != "time"}, {})
+            for v in ds.variables.values():  # shared by every result: read-only
+                if isinstance(v._data, np.ndarray):
+                    v._data.setflags(write=False)
+            const = _CONSTANT_COORDS[names] = (dict(ds.variables), dict(ds.xindexes))
+        cvars, cidx = const
+        import pandas as pd
+        from xarray.core.indexes import PandasIndex
+
+        pidx = pd.Index(t, name="time", copy=False)
+        tidx = PandasIndex(pidx, "time", coord_dtype=t.dtype, fastpath=True)
+        tvar = tidx.create_variables()["time"]
+        tvar.attrs = tattrs
+        variables = {**data_vars, "time": tvar}
+        for k, v in cvars.items():
+            variables[k] = _shallow_copy(v)
+        indexes = {"time": tidx, **cidx}
+        dims = {"time": t.shape[0], "component": 4, "axis": 3}
+        if names is not None:
+            dims["model"] = len(names)
+        return xr.Dataset._construct_direct(variables, {"time", *cvars}, dims, attrs, indexes)
+    except (ImportError, AttributeError, TypeError):  # pragma: no cover - xarray internals moved
+        return _dataset(data_vars, coords(), attrs)
+
+
+# The constant coordinates of the result Datasets (variables and indexes) by torque terms.
+_CONSTANT_COORDS: dict[Any, tuple[dict, dict]] = {}
+
+
+def _shallow_copy(v: xr.Variable) -> xr.Variable:
+    """``v.copy(deep=False)`` (same data, own attrs and encoding) without its overhead."""
+    if not _RAW_VARIABLES:
+        return v.copy(deep=False)
+    w = _new_variable(type(v))
+    w._dims = v._dims
+    w._data = v._data
+    w._attrs = None if v._attrs is None else dict(v._attrs)
+    w._encoding = None if v._encoding is None else dict(v._encoding)
+    return w
+
+
+def _variable(dims: tuple, data: np.ndarray, attrs: dict) -> xr.Variable:
+    """``xr.Variable(dims, data, attrs, fastpath=True)`` for a numpy array whose dims match its
+    shape, without the constructor's checks (a fifth of its cost: the Dataset has twenty
+    variables); the public constructor on an xarray whose Variable is laid out otherwise."""
+    if not _RAW_VARIABLES:
+        return xr.Variable(dims, data, attrs, fastpath=True)
+    v = _new_variable(xr.Variable)
+    v._dims = dims
+    v._data = data
+    v._attrs = attrs
+    v._encoding = None
+    return v
+
+
+_new_variable = object.__new__
+_RAW_VARIABLES = set(getattr(xr.Variable, "__slots__", ())) == {
+    "_attrs",
+    "_data",
+    "_dims",
+    "_encoding",
+} and all(
+    getattr(c, "__new__", object.__new__) is object.__new__
+    for c in xr.Variable.__mro__
+    if c is not object and "__new__" in vars(c)
+)
 
 
 def _dataset(
@@ -518,18 +602,10 @@ def _dataset(
         for name, (dim, values, vattrs) in coords.items():
             values = np.asarray(values)
             if name != dim:  # an auxiliary (label) coordinate: no index
-                coord_vars[name] = xr.Variable((dim,), values, dict(vattrs))
+                coord_vars[name] = _variable((dim,), values, dict(vattrs))
                 continue
-            const = values.dtype.kind in "iU"  # the index coordinates (component, axis, model)
-            key = (name, tuple(values.tolist()), tuple(vattrs.items())) if const else None
-            if key is not None and key in _COORD_CACHE:
-                idx, cvar = _COORD_CACHE[key]
-                cvar = cvar.copy(deep=False)  # own attrs dict; the index is immutable
-            else:
-                idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
-                cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
-                if key is not None:
-                    _COORD_CACHE[key] = (idx, cvar.copy(deep=False))
+            idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
+            cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
             coord_vars[name] = cvar
             indexes[name] = idx
         variables = {**data_vars, **coord_vars}  # the public constructor's order
@@ -541,10 +617,6 @@ def _dataset(
         return xr.Dataset(
             data_vars, coords={k: (d, v, a) for k, (d, v, a) in coords.items()}, attrs=attrs
         )
-
-
-# Default indexes of the constant index coordinates ("component", "axis", "model"), reused.
-_COORD_CACHE: dict[tuple, Any] = {}
 
 
 def add_event_variables(
