@@ -15,7 +15,14 @@ Conventions (docs/conventions.md): quaternions are ``(..., 4)`` float arrays, sc
 Hamilton product; ``q`` maps body components to space components, x_S = q∘x_B∘q̃.
 """
 
+# ruff: noqa: E402  (the imports after the command's early signal handlers)
 from __future__ import annotations
+
+from . import _interrupt
+
+# The command (python -m attitude, the console script): exit 130 on Ctrl-C or SIGTERM during
+# the imports below (~0.7 s), before the command installs its handlers.
+_interrupt.guard_command_start()
 
 from . import accessor as _accessor  # registers the ``ds.attitude`` xarray accessor
 from . import (

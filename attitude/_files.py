@@ -339,6 +339,11 @@ class OutputFile:
         """
         if self.through:
             return
+        if _read_only(self.target.parent):  # (a read-only tmpfs reports its size as free)
+            raise AttitudeFileError(
+                f"{self.what}: {self.target}: the file system is read-only; write the output "
+                "elsewhere"
+            )
         free = _free_bytes(self.target)
         if free is not None and nbytes / 4.0 > free:
             raise AttitudeFileError(
@@ -367,8 +372,9 @@ class OutputFile:
         try:
             yield
         except OSError as exc:
+            err = file_error(exc, self.target)  # before the discard frees the space
             self.discard()
-            raise file_error(exc, self.target) from None
+            raise err from None
         except BaseException:
             self.discard()
             raise

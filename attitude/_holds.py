@@ -187,13 +187,14 @@ class _Source:
 
     def _step(self, y: np.ndarray, t: float, sc: np.ndarray) -> None:
         from ._core import fsw as _kf
+        from ._core import fsw_step as _ks
         from .software._software import Measurements
 
         prog = self.prog
         craft = self.run.spacecraft
         nw = craft.counts[0]
-        meas = np.empty(_kf.MEAS_WHEELS + 2 * nw)
-        _kf.measure(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc, prog.fw,
+        meas = np.empty(_ks.MEAS_WHEELS + 2 * nw)
+        _ks.measure(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc, prog.fw,
                     self.fs, meas)  # fmt: skip
 
         def vec(i, n=3):
@@ -201,19 +202,19 @@ class _Source:
             return None if np.isnan(v).any() else v
 
         m = Measurements(
-            t=float(meas[_kf.MEAS_T]),
-            q=meas[_kf.MEAS_Q : _kf.MEAS_Q + 4].copy(),
-            omega=meas[_kf.MEAS_OMEGA : _kf.MEAS_OMEGA + 3].copy(),
-            q_ref=meas[_kf.MEAS_QREF : _kf.MEAS_QREF + 4].copy(),
-            omega_ref=meas[_kf.MEAS_OMEGA_REF : _kf.MEAS_OMEGA_REF + 3].copy(),
-            sigma_error=meas[_kf.MEAS_SIGMA : _kf.MEAS_SIGMA + 3].copy(),
-            omega_error=meas[_kf.MEAS_DOMEGA : _kf.MEAS_DOMEGA + 3].copy(),
-            wheel_speeds=meas[_kf.MEAS_WHEELS : _kf.MEAS_WHEELS + nw].copy(),
-            wheel_momenta=meas[_kf.MEAS_WHEELS + nw : _kf.MEAS_WHEELS + 2 * nw].copy(),
-            field=vec(_kf.MEAS_FIELD),
-            sun=vec(_kf.MEAS_SUN),
-            r=vec(_kf.MEAS_R),
-            v=vec(_kf.MEAS_V),
+            t=float(meas[_ks.MEAS_T]),
+            q=meas[_ks.MEAS_Q : _ks.MEAS_Q + 4].copy(),
+            omega=meas[_ks.MEAS_OMEGA : _ks.MEAS_OMEGA + 3].copy(),
+            q_ref=meas[_ks.MEAS_QREF : _ks.MEAS_QREF + 4].copy(),
+            omega_ref=meas[_ks.MEAS_OMEGA_REF : _ks.MEAS_OMEGA_REF + 3].copy(),
+            sigma_error=meas[_ks.MEAS_SIGMA : _ks.MEAS_SIGMA + 3].copy(),
+            omega_error=meas[_ks.MEAS_DOMEGA : _ks.MEAS_DOMEGA + 3].copy(),
+            wheel_speeds=meas[_ks.MEAS_WHEELS : _ks.MEAS_WHEELS + nw].copy(),
+            wheel_momenta=meas[_ks.MEAS_WHEELS + nw : _ks.MEAS_WHEELS + 2 * nw].copy(),
+            field=vec(_ks.MEAS_FIELD),
+            sun=vec(_ks.MEAS_SUN),
+            r=vec(_ks.MEAS_R),
+            v=vec(_ks.MEAS_V),
         )
         tick = int(self.fs[_kf.FS_TICK])
         try:
@@ -276,6 +277,28 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
     return res
 
 
+def _compiled_step_failure(src: _Source, problem: Problem) -> str:
+    """Why a compiled step's commands cannot be applied (the reason left in ``hs`` by
+    :func:`attitude._core.fsw_step.step_boundary_with`)."""
+    from ._core import fsw as _kf
+    from ._core import fsw_step as _ks
+
+    tick = int(src.fs[_kf.FS_TICK])
+    t = float(src.fs[_kf.FS_NEXT])
+    where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
+    n = int(src.hs[_kh.HS_FAIL_N])
+    nw, nm, nt = problem.spacecraft.spacecraft.counts
+    want = nw + nm + nt
+    if src.hs[_kh.HS_FAIL] == _ks.STEP_WRONG_LENGTH:
+        what = (
+            "the body torque (3,)"
+            if want == 0
+            else f"{want} raw commands (wheels, dipoles, thrust)"
+        )
+        return f"{where} returned {n} values; expected {what}"
+    return f"{where} returned a non-finite command (entry {n})"
+
+
 def _run(
     problem: Problem,
     kernel: Callable,
@@ -333,6 +356,10 @@ def _run(
         if on_chunk is not None and k:
             on_chunk(done, y_chunk[:k])
         done += k
+        if status == _kh.STEP_FAILED:
+            failure = _compiled_step_failure(src, problem)
+            status = _rk.NONFINITE
+            break
         if status in (_kh.NEEDS_COMMANDS, _kh.RECORDS_FULL):
             try:
                 src.handle(status, work[y_row], float(tstate[0]), P[1])
@@ -354,7 +381,9 @@ def _run(
         del st["n_holds"]
         st["n_ticks"] = int(src.fs[_kf.FS_TICK])
     msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
-    if failure is not None:
+    if isinstance(failure, str):
+        msg = failure
+    elif failure is not None:
         msg = (
             f"your step function raised at tick {failure.tick} (t = {failure.t!r} s): "
             f"{type(failure.exc).__name__}: {failure.exc}"
@@ -422,7 +451,6 @@ def run_taylor(
 ) -> RunResult:
     """``method="taylor"`` for a spacecraft: the gyrostat's Taylor series, restarted at every
     hold boundary, the order chosen for each hold (:mod:`attitude._core.taylor_gyrostat`)."""
-    from ._core import fsw as _kf
     from ._core import taylor as _kt
     from ._core import taylor_gyrostat as _ktg
 
@@ -432,7 +460,8 @@ def run_taylor(
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
     tstate = np.zeros(_ktg.TS_SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
-    kernel = _ktg.taylor_holds_run if sr.program is None else _kf.taylor_holds_fsw
+    entry = problem.entry
+    kernel = entry.taylor_spacecraft if sr.program is None else entry.taylor_spacecraft_fsw
 
     def stats():
         return {

@@ -17,11 +17,12 @@ recorded and :func:`check` never raises: Python's own handler applies.
 from __future__ import annotations
 
 import contextlib
+import os
 import signal
 import sys
 from collections.abc import Iterator
 
-__all__ = ["check", "clear", "handling", "request", "requested"]
+__all__ = ["check", "clear", "guard_command_start", "handling", "request", "requested"]
 
 _requested: list[int] = []  # the signals received (empty: no request)
 
@@ -92,3 +93,46 @@ def handling(
         for sig, h in old.items():
             with contextlib.suppress(ValueError, TypeError):
                 signal.signal(sig, signal.SIG_IGN if then_ignore else h)
+
+
+def _running_as_the_command() -> bool:
+    """Whether this process is the ``attitude`` command being started: ``python -m attitude``
+    (while the package is imported, ``sys.argv[0]`` is ``"-m"``) or the console script
+    ``attitude`` (the ``__main__`` script of that name)."""
+    a0 = sys.argv[0] if sys.argv else ""
+    if a0 == "-m":
+        argv = list(getattr(sys, "orig_argv", ()))
+        for i, a in enumerate(argv):
+            if a == "-m":
+                return i + 1 < len(argv) and argv[i + 1] == "attitude"
+            if a.startswith("-m"):
+                return a[2:] == "attitude"
+        return False
+    main = sys.modules.get("__main__")
+    return (
+        os.path.basename(a0) in ("attitude", "attitude.exe", "attitude-script.py")
+        and getattr(main, "__file__", None) == a0
+    )
+
+
+def _exit_early(signum, frame):
+    """Ctrl-C or SIGTERM while the command imports the package: nothing is written yet."""
+    with contextlib.suppress(Exception):
+        sys.stderr.write("attitude: interrupted (no output file written)\n")
+        sys.stderr.flush()
+    os._exit(130)
+
+
+def guard_command_start() -> None:
+    """Exit 130 on SIGINT or SIGTERM from now until the command installs its own handlers
+    (:func:`handling`), when this process is the ``attitude`` command: the package's imports
+    take ~0.7 s, and a signal there printed a ``KeyboardInterrupt`` traceback and killed the
+    process by the signal. Called first thing by ``attitude/__init__``; a no-op for a program
+    that imports the library."""
+    if not _running_as_the_command():
+        return
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            signal.signal(sig, _exit_early)
+        except ValueError:  # not the main thread
+            return

@@ -405,6 +405,13 @@ def _run_dop853_events(
     )
 
 
+class _NonFiniteDerivative(Exception):
+    """The right-hand side of a ``scipy:*`` run became non-finite (raised inside ``fun``)."""
+
+
+_NONFINITE_RHS = "the derivative of the state became non-finite (NaN or inf)"
+
+
 def run_scipy(
     problem: Problem,
     *,
@@ -434,6 +441,11 @@ def run_scipy(
     def fun(tt, yy):
         out = np.empty(8)
         rhs(tt, np.ascontiguousarray(yy), params, out)
+        if not np.isfinite(out).all():
+            # scipy's step loops shrink the step on a NaN error estimate and leave only below
+            # their minimum step, which a NaN size never is (they would spin); its implicit
+            # solvers raise a raw ValueError. Stop here instead.
+            raise _NonFiniteDerivative(tt)
         return out
 
     t = problem.t
@@ -447,9 +459,12 @@ def run_scipy(
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     streaming = on_chunk is not None
     t0, tf = float(t[0]), float(t[m - 1])
-    ode = getattr(scipy.integrate, solver)(
-        fun, t0, problem.y0, tf, rtol=rtol, atol=atol, max_step=max_step
-    )
+    try:
+        ode = getattr(scipy.integrate, solver)(
+            fun, t0, problem.y0, tf, rtol=rtol, atol=atol, max_step=max_step
+        )
+    except _NonFiniteDerivative:
+        return RunResult(np.empty((0, 8)), _rk.NONFINITE, _NONFINITE_RHS, stats, t_stop=t0)
     direction = 1.0 if tf > t0 else -1.0
     y_all = None if streaming else np.empty((m, 8))
     buf = np.empty((chunk if streaming else 0, 8))  # samples not handed out yet
@@ -479,12 +494,25 @@ def run_scipy(
         if n_steps >= max_steps:
             status, message = _rk.TOO_MANY_STEPS, _rk.STATUS_MESSAGES[_rk.TOO_MANY_STEPS]
             break
-        msg = ode.step()
+        t_before = ode.t
+        try:
+            msg = ode.step()
+        except _NonFiniteDerivative:
+            status, message = _rk.NONFINITE, _NONFINITE_RHS
+            break
+        except ValueError as exc:  # e.g. Radau/BDF: LU of a Jacobian that overflowed
+            status, message = _rk.NONFINITE, f"scipy {solver}: {exc}"
+            break
         n_steps += 1
         if ode.status == "failed":
             status, message = _rk.NONFINITE, f"scipy {solver}: {msg}"
             break
         tn = ode.t
+        if tn == t_before and ode.status != "finished":
+            # LSODA reports steps of size 0 as successes (an overflowing torque): they would
+            # be repeated up to max_steps
+            status, message = _rk.STEP_TOO_SMALL, f"scipy {solver}: the step size fell to 0"
+            break
         if n_steps == PROBE_STEPS:
             check_work(n_steps, float(tn), float(ode.step_size or math.nan), tf, max_steps)
         sol = None

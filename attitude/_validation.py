@@ -151,6 +151,26 @@ def as_positive(x: Any, name: str, *, unit: Any = None, allow_inf: bool = False)
     return v
 
 
+#: The widest relative tolerance accepted: rtol = 10 lets the error control accept any step
+#: (the run then fails midway, or returns noise).
+RTOL_MAX = 0.1
+
+
+def as_rtol(x: Any, name: str = "rtol") -> float:
+    """A relative tolerance of the adaptive methods, in [1e-15, :data:`RTOL_MAX`]."""
+    v = as_positive(x, name)
+    if v < 1e-15:
+        raise AttitudeValueError(
+            f"{name}: {v:g} is below what double precision can deliver; use >= 1e-15"
+        )
+    if v > RTOL_MAX:
+        raise AttitudeValueError(
+            f"{name}: {v:g} is not a relative tolerance the error control can work with; use "
+            f"at most {RTOL_MAX:g} (1e-10 is the default, 1e-6 a coarse run)"
+        )
+    return v
+
+
 def as_int(x: Any, name: str, *, low: int = 1) -> int:
     """An integer >= ``low`` (Python or numpy integer; booleans and floats are refused)."""
     if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):

@@ -48,6 +48,10 @@ ATTITUDE_TYPES = ("QUATERNION", "QUATERNION/ANGVEL")
 BLOCK = 50_000
 
 
+#: Control characters (C0, DEL, C1): never in a KVN header or metadata value.
+_CONTROL = re.compile(r"[\x00-\x1f\x7f-\x9f]")
+
+
 def _kvn(key: str, value: Any) -> str:
     return f"{key:<20} = {value}"
 
@@ -135,6 +139,11 @@ def _check_arguments(ds, version, epoch, interpolation, **names) -> None:
     for key, v in names.items():
         if v is not None and not isinstance(v, str):
             raise AttitudeTypeError(f"{key}: expected a string, got {type(v).__name__}")
+        if v is not None and _CONTROL.search(v):
+            raise AttitudeValueError(
+                f"{key}: {v!r} holds a control character (a line break would end the KVN line "
+                "and start another: the file would not be an AEM)"
+            )
     if interpolation is not None and not (
         isinstance(interpolation, (tuple, list))
         and len(interpolation) == 2
@@ -361,6 +370,12 @@ def write_aem(
         meta.append(_kvn("INTERPOLATION_METHOD", interpolation[0]))
         meta.append(_kvn("INTERPOLATION_DEGREE", min(int(interpolation[1]), n - 1)))
     meta += ["META_STOP", "", "DATA_START"]
+    for line in head + meta:  # values from the Dataset's attrs too (a scenario's names)
+        if _CONTROL.search(line):
+            raise AttitudeValueError(
+                f"ds: the AEM header line {line.split('=')[0].strip()!r} would hold a control "
+                f"character ({line!r}), from the Dataset's attrs; give the value as a parameter"
+            )
 
     with target.writing() as tmp:
         with open(tmp, "w", encoding="latin-1", errors="replace", newline="\n") as fh:
@@ -511,6 +526,63 @@ def _segments(lines: list[str], where: str) -> tuple[dict[str, str], list[tuple[
     return header, segs
 
 
+def _check_segment(
+    where: str, major: str, meta: dict, vals: np.ndarray, parsed: tuple, system: str
+) -> None:
+    """What :func:`read` refuses in a segment besides its layout: a NaN, inf or overflowing
+    value (``nan``, ``inf``, ``1e999``), QUATERNION_TYPE in a version-2 file (its data lines
+    are scalar last), and START_TIME / STOP_TIME that are not times or do not bound the data
+    (they are the span the data lines cover: within the largest interval between epochs).
+    ``parsed``: the data epochs as :func:`_parse_epochs` gives them, in ``system``."""
+    from astropy.time import TimeDelta
+
+    from orbit.timescales import quiet_erfa
+
+    def instants(p):
+        whole, fracs = p
+        return whole + TimeDelta(np.array([float(f) for f in fracs]), format="sec")
+
+    bad = ~np.isfinite(vals)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise AttitudeValueError(
+            f"{where}: data line {row + 1}, value {col + 1} is not a finite number "
+            f"({vals[row, col]!r})"
+        )
+    if major == "2" and "QUATERNION_TYPE" in meta:
+        raise AttitudeValueError(
+            f"{where}: QUATERNION_TYPE is a version 1 keyword; a version 2 AEM's data lines are "
+            "always scalar last (remove it, or write CCSDS_AEM_VERS = 1.0)"
+        )
+    tt = instants(parsed)
+    n = len(tt)
+    gap = float(np.max(np.abs(np.diff((tt - tt[0]).to_value("s"))))) if n > 1 else 0.0
+    for key, i in (("START_TIME", 0), ("STOP_TIME", n - 1)):
+        if key not in meta:
+            continue
+        try:
+            with quiet_erfa():  # (a date before 1960: ERFA's "dubious year")
+                edge = instants(_parse_epochs([meta[key]], system))[0]
+                off = float((edge - tt[i]).to_value("s"))
+        except ValueError:
+            raise AttitudeValueError(
+                f"{where}: {key} = {meta[key]!r} is not a CCSDS epoch (YYYY-MM-DDThh:mm:ss or "
+                "YYYY-DDDThh:mm:ss)"
+            ) from None
+        if not abs(off) <= max(1e-3, gap):
+            raise AttitudeValueError(
+                f"{where}: {key} = {meta[key]} is {abs(off):.6g} s from the "
+                f"{'first' if i == 0 else 'last'} data epoch {_epoch_text(tt[i])}: it must "
+                "bound the span the data lines cover"
+            )
+
+
+def _epoch_text(t: Any) -> str:
+    t = t.copy()
+    t.precision = 3
+    return str(t.isot)
+
+
 #: Element names of an XML AEM's data entry, in the order of a KVN data line: the quaternion
 #: (scalar last; first when the metadata say QUATERNION_TYPE = FIRST), then the rates or the
 #: quaternion's derivative (CCSDS 505.0-B-3: quaternionEphemeris, quaternionAngVel,
@@ -656,9 +728,11 @@ def read(path: str | os.PathLike, *, body_frame: str | None = None) -> xr.Datase
         except ValueError as exc:
             raise AttitudeValueError(f"{where}: a data value is not a number ({exc})") from None
         try:
-            times.append(_parse_epochs([d[0] for d in data], ts))
+            parsed = _parse_epochs([d[0] for d in data], ts)
         except ValueError as exc:
             raise AttitudeValueError(f"{where}: bad epoch ({exc})") from None
+        _check_segment(where, major, meta, vals, parsed, ts)
+        times.append(parsed)
         systems.add(ts)
         # The quaternion "from A to B" (annex F) as scalar first.
         if qtype == "FIRST":

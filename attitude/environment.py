@@ -220,10 +220,24 @@ def grid_times(orbit: Any, lo: float, hi: float, step: float) -> tuple[np.ndarra
     reads the time of day in whole seconds: nodes there see the model without that rounding);
     otherwise they divide [a, b] evenly. At least 8 nodes, at most ``step`` apart.
     """
+    from orbit.errors import OrbitError
+    from orbit.tables import MAX_NODES
+    from orbit.timescales import check_dates
+
     pad = 4.0 * step
     span_lo, span_hi = orbit.time_span
     a, b = max(lo - pad, span_lo), min(hi + pad, span_hi)
     epoch = getattr(orbit, "epoch", None)
+    if (b - a) / step + 1.0 > MAX_NODES:
+        raise AttitudeValueError(
+            f"t: the environment along the orbit is tabulated every {step:g} s (the model's "
+            f"step) over the run's {hi - lo:.6g} s: {(b - a) / step:.3g} nodes, more than "
+            f"{MAX_NODES}; shorten the run or give the model a larger step"
+        )
+    try:
+        check_dates(epoch, [a, b], "t")
+    except OrbitError as exc:
+        raise AttitudeValueError(str(exc)) from None
     if epoch is not None and step == round(step) and b - a >= 7.0 * step:
         f = _utc_fraction(epoch)
         k0 = math.ceil((a + f) / step - 1e-9)

@@ -384,6 +384,12 @@ class AngleToSun(Event):
         self.angle = _angle(angle, "angle")
         if orbit is not None and not hasattr(orbit, "kernel_data"):
             raise AttitudeTypeError(f"orbit: expected an orbit, got {type(orbit).__name__}")
+        if orbit is not None and getattr(orbit, "epoch", None) is None:
+            raise AttitudeValueError(
+                "orbit: AngleToSun sees the Sun from the orbit, at the orbit's dates, so the "
+                "orbit needs an epoch (build it with epoch='2024-03-20T12:00:00'), or leave "
+                "orbit out (the Sun seen from the geocentre at the run's epoch)"
+            )
         self.orbit = orbit
 
     @property

@@ -203,6 +203,11 @@ def box_wing(
     }
     back = dict(front)
     if wing_back is not None:
+        if not isinstance(wing_back, dict):
+            raise AttitudeTypeError(
+                f"wing_back: expected a dict of the wings' back-face coefficients such as "
+                f"{{'cd': 2.2, 'specular': 0.0, 'diffuse': 0.1}}, got {type(wing_back).__name__}"
+            )
         unknown = set(wing_back) - {"cd", "specular", "diffuse"}
         if unknown:
             raise AttitudeValueError(

@@ -400,11 +400,13 @@ class Aligned(Frame):
             from astropy.time import TimeDelta
 
             from orbit.frames import itrs_to_gcrs
+            from orbit.timescales import check_dates
 
             ep = self.orbit.epoch
             x = self.target_itrs
 
             def positions(t: np.ndarray) -> np.ndarray:
+                check_dates(ep, t, "t")
                 return itrs_to_gcrs(ep + TimeDelta(t, format="sec"), x, "t")
 
             out.append(_tables.tabulate(positions, start, stop, TARGET_STEP))
@@ -490,6 +492,11 @@ def sun_pointing(
     return Aligned(orbit, (axis, "sun"), (secondary, toward), name="sun_pointing")
 
 
+#: Heights of a ground target accepted [km]: from below the deepest ocean floor (−11 km) to
+#: the edge of space (a height of −7000 km is on the far side of the Earth's centre).
+TARGET_HEIGHTS = (-12.0, 100.0)
+
+
 def target(
     orbit: Any,
     latitude: Any,
@@ -518,6 +525,12 @@ def target(
     h = as_scalar(height, "height", unit="km")
     if abs(lat) > math.pi / 2:
         raise AttitudeValueError(f"latitude: must lie in [-90°, 90°], got {math.degrees(lat)}°")
+    if not TARGET_HEIGHTS[0] <= h <= TARGET_HEIGHTS[1]:
+        raise AttitudeValueError(
+            f"height: a ground target's height above the WGS 84 ellipsoid must lie in "
+            f"[{TARGET_HEIGHTS[0]:g}, {TARGET_HEIGHTS[1]:g}] km (the ocean floor to the edge "
+            f"of space), got {h!r} km"
+        )
     x = itrs_from_geodetic(lat, lon, h)
     fr = Aligned(orbit, (axis, "target"), (secondary, toward), target_itrs=x, name="target")
     fr.site = (lat, lon, h)

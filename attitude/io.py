@@ -338,8 +338,9 @@ class StreamWriter:
             self.abort()
             raise
         except (OSError, RuntimeError) as exc:
+            err = file_error(exc, self._out.target)  # a full disk: before the abort frees it
             self.abort()
-            raise file_error(exc, self._out.target) from None
+            raise err from None
         except BaseException:
             self.abort()
             raise
@@ -480,6 +481,8 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
     AttitudeFileError
         No such file, a directory, not a netCDF4 file, or a truncated or corrupt one.
     """
+    if not isinstance(load, (bool, np.bool_)):
+        raise AttitudeTypeError(f"load: expected True or False, got {load!r}")
     p = input_path(path, "path")
     try:
         ds = xr.open_dataset(
@@ -490,7 +493,7 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
             mask_and_scale=False,
             decode_coords=False,
         )
-    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError, AttributeError) as exc:
         raise AttitudeFileError(f"{p}: not a netCDF4 file ({exc})") from None
     try:
         # CF auxiliary coordinates (named in the data variables' "coordinates" attrs) back to
@@ -510,7 +513,7 @@ def read(path: str | os.PathLike, *, load: bool = True) -> xr.Dataset:
         if load:
             with ds:
                 ds = ds.load()
-    except (OSError, RuntimeError, ValueError, KeyError, IndexError) as exc:
+    except (OSError, RuntimeError, ValueError, KeyError, IndexError, AttributeError) as exc:
         ds.close()
         raise file_error(exc, p, "read") from None
     return ds

@@ -957,6 +957,22 @@ class EddyCurrentDamping(_EnvironmentModel):
         return f"EddyCurrentDamping(tensor={self.tensor.tolist()}, field={f!r})"
 
 
+def _check_above_surface(height: np.ndarray, t: np.ndarray) -> None:
+    """Refuse an orbit that goes below the Earth's surface while drag is computed (NRLMSIS
+    returns 0 there, the exponential table 1e48 kg/m³ at −800 km: no atmosphere model means
+    anything below the ground)."""
+    if not height.size or float(np.min(height)) >= 0.0:
+        return
+    i = int(np.argmin(height))
+    raise AttitudeValueError(
+        f"orbit: AerodynamicDrag needs the atmosphere along the orbit, and this orbit passes "
+        f"{-float(height[i]):.1f} km below the Earth's surface (WGS 84 height "
+        f"{float(height[i]):.1f} km at t ≈ {float(t[i]):.6g} s): check "
+        "the orbit (its perigee radius a (1 − e) is the geocentric distance of its lowest "
+        "point), or leave drag out"
+    )
+
+
 class AerodynamicDrag(_EnvironmentModel):
     """Aerodynamic torque on flat-plate facets in the co-rotating atmosphere.
 
@@ -1031,6 +1047,7 @@ class AerodynamicDrag(_EnvironmentModel):
         key = ("drag_rows", self.density, self.f107, self.f107a, self.ap)
         if key not in g._memo:
             lat, lon, h = g.geodetic
+            _check_above_surface(h, g.t)
             if self.density == "exponential":
                 x = h
             else:

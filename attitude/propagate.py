@@ -36,21 +36,15 @@ from orbit._state_kernels import TYPE_EPHEMERIS
 from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
-from ._validation import as_float_array, as_int, as_positive, as_times
+from ._spacecraft_results import add_actuator_variables, add_tick_variables
+from ._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
 from .canonical import _project
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import (
-    Trajectory,
-    add_actuator_variables,
-    add_event_variables,
-    add_tick_variables,
-    build_dataset,
-    dataset_from_samples,
-)
+from .results import Trajectory, add_event_variables, build_dataset, dataset_from_samples
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
@@ -315,12 +309,8 @@ def propagate(
         Q0, "Q0", trailing=4, ndim=1, unit=None if body.units is None else "kg m2 / s"
     )
     tt = as_times(t, "t", lazy=True)
-    rtol = as_positive(rtol, "rtol")
+    rtol = as_rtol(rtol, "rtol")
     atol = as_positive(atol, "atol")
-    if rtol < 1e-15:
-        raise AttitudeValueError(
-            f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
-        )
     if atol < ATOL_MIN:
         raise AttitudeValueError(
             f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
@@ -394,10 +384,11 @@ def propagate(
         params=pot._params(body.inertia),
         y0=y0,
         t=tt,
-        entry=_entry_points(pot, evset),
+        entry=_entry_points(pot, evset, sc_run),
         events=evset,
         spacecraft=sc_run,
     )
+    _check_initial_state(problem)
     _check_work(problem, method, max_step, max_steps)
     options = dict(
         rtol=rtol,
@@ -420,9 +411,20 @@ def propagate(
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
 
             def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
-                on_chunk(finish_dataset(problem, y, chunk_attrs, first=first, t_last=t_last))
+                part, n_ok = _finish(problem, y, chunk_attrs, first=first, t_last=t_last)
+                if n_ok is not None:  # the diagnostics overflowed: hand out the rows before
+                    if n_ok:
+                        on_chunk(part.isel(time=slice(0, n_ok)))
+                    raise _DiagnosticsOverflow(first + n_ok, float(problem.t[first + n_ok]))
+                on_chunk(part)
 
-            result = runner(problem, **options, on_chunk=emit)
+            try:
+                result = runner(problem, **options, on_chunk=emit)
+            except _DiagnosticsOverflow as exc:
+                result = RunResult(
+                    np.empty((0, 8)), _rk.NONFINITE, _OVERFLOW_MESSAGE, first=exc.n,
+                    t_stop=exc.t,
+                )  # fmt: skip
         elif form is None:
             result = runner(problem, **options)
         else:
@@ -444,8 +446,16 @@ def propagate(
     }
     if arrays:
         ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:8], attrs)
+    elif streaming and result.status == _rk.NONFINITE and result.message == _OVERFLOW_MESSAGE:
+        ds = finish_dataset(problem, result.y, attrs, first=result.first)
     else:
-        ds = finish_dataset(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        ds, n_ok = _finish(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        if n_ok is not None:  # a finite state whose energy or rates overflow: fail there
+            ds = ds.isel(time=slice(0, n_ok))
+            result = RunResult(
+                result.y[:n_ok], _rk.NONFINITE, _OVERFLOW_MESSAGE, result.stats,
+                first=result.first, t_stop=float(tt[result.first + n_ok]), events=result.events,
+            )  # fmt: skip
     if on_chunk is not None and not streaming:  # hand the finished samples out in chunks
         for i in range(0, ds.sizes["time"], int(chunk)):
             on_chunk(ds.isel(time=slice(i, i + int(chunk))))
@@ -500,13 +510,16 @@ def _spacecraft_runner(
     return _holds.run_dop853
 
 
-def _entry_points(pot: Potential, evset: Any) -> Any:
-    """The compiled entry points of the model and of the user's event functions."""
-    if evset is None or not evset.user_functions:
+def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
+    """The compiled entry points of the model, of the user's event functions and of the user's
+    compiled flight-software step."""
+    user_events = () if evset is None else tuple(evset.user_functions)
+    step = None if sc_run is None or sc_run.program is None else sc_run.program.compiled_step
+    if not user_events and step is None:
         return pot._entry_points()
     from . import _user_kernels
 
-    return _user_kernels.entry_points(pot._user_terms(), evset.user_functions)
+    return _user_kernels.entry_points(pot._user_terms(), user_events, step=step)
 
 
 #: Methods that locate events (inside their compiled loops).
@@ -560,6 +573,41 @@ def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
     return out
 
 
+#: The failure of a run whose states are finite but whose energy, rates or torques overflow.
+_OVERFLOW_MESSAGE = (
+    "the energy, body rates or torque overflowed double precision (the state itself is finite)"
+)
+
+
+class _DiagnosticsOverflow(Exception):
+    """Raised from a streamed run's chunk handler: the diagnostics of sample ``n`` (at ``t``)
+    are not finite."""
+
+    def __init__(self, n: int, t: float):
+        super().__init__(n, t)
+        self.n, self.t = n, t
+
+
+def _check_initial_state(problem: Problem) -> None:
+    """Refuse an initial state whose body rates or kinetic energy overflow, before any work
+    (|Q0| ≈ 1e160 is a finite number; its energy is not). Plain floats: a few µs.
+
+    (A torque that is not finite at t0 ends the run at t0 with a PropagationError.)"""
+    q0, q1, q2, q3, p0, p1, p2, p3 = problem.y0[:8].tolist()
+    i1, i2, i3 = problem.params[:3].tolist()
+    # g = ½ vec(q̃∘Q), ω = g / I, T = ½ g·ω (attitude._core.dynamics.diagnostics_row)
+    g1 = 0.5 * (q0 * p1 - q1 * p0 - q2 * p3 + q3 * p2)
+    g2 = 0.5 * (q0 * p2 + q1 * p3 - q2 * p0 - q3 * p1)
+    g3 = 0.5 * (q0 * p3 - q1 * p2 + q2 * p1 - q3 * p0)
+    w1, w2, w3 = g1 / i1, g2 / i2, g3 / i3
+    if not math.isfinite(g1 * w1 + g2 * w2 + g3 * w3 + w1 * w1 + w2 * w2 + w3 * w3):
+        raise AttitudeValueError(
+            f"Q0: the body rates or kinetic energy of this initial state overflow double "
+            f"precision (largest |Q0| component {max(abs(p0), abs(p1), abs(p2), abs(p3)):.3g}, "
+            f"inertia {problem.body.inertia.tolist()}); no run can represent it"
+        )
+
+
 def finish_dataset(
     problem: Problem,
     y: np.ndarray,
@@ -569,6 +617,18 @@ def finish_dataset(
 ) -> xr.Dataset:
     """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``
     (the last one at ``t_last`` instead when given: the state at a terminal event)."""
+    return _finish(problem, y, attrs, first, t_last)[0]
+
+
+def _finish(
+    problem: Problem,
+    y: np.ndarray,
+    attrs: dict[str, Any],
+    first: int = 0,
+    t_last: float | None = None,
+) -> tuple[xr.Dataset, int | None]:
+    """:func:`finish_dataset`, and the number of leading samples whose diagnostics and torques
+    are finite when a later one's are not (None: all are)."""
     n = y.shape[0]
     t = problem.t[first : first + n]
     if t_last is not None and n:
@@ -583,7 +643,7 @@ def finish_dataset(
         ds = build_dataset(
             t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
         )
-        return add_actuator_variables(ds, problem.spacecraft, y, d)
+        return add_actuator_variables(ds, problem.spacecraft, y, d), None
     # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
     # buffer whose blocks become the Dataset's variables without copies.
     pot = problem.potential
@@ -598,9 +658,26 @@ def finish_dataset(
     if orbit is not None and int(od[0]) == TYPE_EPHEMERIS and n:
         # the osculating true anomaly of a table: the orbit's own (numpy) formula, bit for bit
         buf[_kd.O_F * n : (_kd.O_F + 1) * n] = orbit.true_anomaly(t)
+    n_ok = _finite_prefix(buf, n, n_terms)
     if not pot.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    return dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
+    ds = dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
+    return ds, n_ok
+
+
+def _finite_prefix(buf: np.ndarray, n: int, n_terms: int) -> int | None:
+    """The number of leading samples whose diagnostics (ω … q·Q) and torques in the buffer of
+    :func:`attitude._core.diagnostics.samples_with` are finite, when a later one's are not
+    (None: all are)."""
+    diag = buf[_kd.O_OMEGA * n : _kd.O_R * n]
+    torques = buf[_kd.SAMPLE_WIDTH * n :]
+    if np.isfinite(diag).all() and np.isfinite(torques).all():
+        return None
+    ok = np.isfinite(torques.reshape(n, -1)).all(axis=1)
+    for _, off, w in _kd.BLOCKS:
+        if _kd.O_OMEGA <= off < _kd.O_R:
+            ok &= np.isfinite(buf[off * n : (off + w) * n].reshape(n, w)).all(axis=1)
+    return int(np.argmin(ok))
 
 
 _NO_ORBIT = np.zeros(1)

@@ -181,7 +181,8 @@ def _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chu
     y_out = np.empty((min(chunk, m) if streaming else m, 8))
     state = np.empty(8)
     _ks.canonical_to_state(problem.y0, state)
-    counters = np.zeros(3, dtype=np.int64)
+    counters = np.zeros(_ks.N_COUNTERS, dtype=np.int64)
+    counters[4] = _methods.STEP_BUDGET  # steps per compiled call: Ctrl-C acts in between
     buf = _EventBuffers(ev.n)
     g0 = np.empty((1, ev.n))
     problem.entry.event_values(t[:1], problem.y0[None, :], problem.params, ev.data, g0)
@@ -209,6 +210,11 @@ def _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chu
                 if streaming:
                     on_chunk(done, buf_y[:filled])
             done += filled
+            _interrupt.check()
+            if status == _rk.TOO_MANY_STEPS:  # paused at the step budget: go on from there
+                if progress is not None and done:
+                    progress(done, m, float(t[done - 1]))
+                continue
             if status != _rk.EVENT_BUFFER_FULL:
                 break
             buf.grow()

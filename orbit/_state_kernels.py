@@ -164,7 +164,7 @@ def table_interval(d, toff, n, h, t):
     t0 = d[toff]
     if h > 0.0:
         x = (t - t0) / h
-        if x <= 0.0:
+        if not x > 0.0:  # (also a NaN t: int(NaN) is no index)
             i = 0
         elif x >= n - 2:
             i = n - 2

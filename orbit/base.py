@@ -37,6 +37,7 @@ import numpy as np
 from . import _state_kernels as _sk
 from .errors import OrbitValueError
 from .kepler import _as_array
+from .timescales import check_dates, quiet_erfa
 
 __all__ = ["Orbit", "OrbitBase"]
 
@@ -165,7 +166,9 @@ class OrbitBase:
                 "one (give epoch='2024-03-20T12:00:00' or an astropy Time)"
             )
         flat, shape = self._seconds(t, "t", check=False)
-        return (self._epoch + TimeDelta(flat, format="sec")).utc.reshape(shape)
+        check_dates(self._epoch, flat, "t")
+        with quiet_erfa():
+            return (self._epoch + TimeDelta(flat, format="sec")).utc.reshape(shape)
 
     def _seconds(self, t: Any, name: str, check: bool = True) -> tuple[np.ndarray, tuple]:
         from astropy.time import Time

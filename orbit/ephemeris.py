@@ -29,6 +29,7 @@ import math
 import os
 import re
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -37,15 +38,14 @@ import numpy as np
 from . import _state_kernels as _sk
 from .base import OrbitBase
 from .ccsds import is_xml
-from .errors import OrbitTypeError, OrbitValueError
+from .errors import OrbitTypeError, OrbitValueError, TLEAgeWarning
 from .kepler import _as_array
 from .keplerorbit import _scalar, earth_mu
+from .tables import MAX_NODES  # (1e7 nodes are 560 MB of floats)
 from .timescales import as_epoch, format_epoch, offline_iers
 
 __all__ = ["EphemerisOrbit", "check_tle", "position_derivative"]
 
-#: Largest table accepted (nodes): 1e7 nodes are 560 MB of floats.
-MAX_NODES = 10_000_000
 #: Step [s] of the central differences giving a TLE table's velocities (truncation
 #: δ⁴/30 |r⁽⁵⁾| ~ 5e-12 km/s in LEO; SGP4's 1e-12 rad Kepler tolerance noise / δ ~ 4e-9 km/s;
 #: measured: interpolated positions within 8e-9 km of SGP4 at off-grid times, δ = 1 to 4 s).
@@ -64,6 +64,73 @@ OEM_TIME_SYSTEMS = ("UTC", "TAI", "TT", "GPS", "TDB")
 # TLE checks (sgp4 parses columns without checking the format or the checksums).
 def _tle_checksum(line: str) -> int:
     return sum(int(c) if c.isdigit() else (1 if c == "-" else 0) for c in line[:68]) % 10
+
+
+#: The numeric fields of a TLE: (line, first column, last column (1-based, inclusive), name,
+#: format). A line shifted by one blank keeps a valid checksum; its fields do not parse.
+_TLE_FIELDS = [
+    (1, 19, 20, "epoch year", r"[ \d]\d"),
+    (1, 21, 32, "epoch day of the year", r"[ \d]{3}\.\d{8}"),
+    (1, 34, 43, "first derivative of the mean motion", r"[ +-]\.\d{8}"),
+    (1, 45, 52, "second derivative of the mean motion", r"[ +-]\d{5}[+-]\d"),
+    (1, 54, 61, "BSTAR drag term", r"[ +-]\d{5}[+-]\d"),
+    (1, 63, 63, "ephemeris type", r"[ \d]"),
+    (1, 65, 68, "element set number", r" *\d*"),
+    (2, 9, 16, "inclination", r"[ \d]{3}\.[\d ]{4}"),
+    (2, 18, 25, "right ascension of the ascending node", r"[ \d]{3}\.[\d ]{4}"),
+    (2, 27, 33, "eccentricity", r"\d{7}"),
+    (2, 35, 42, "argument of perigee", r"[ \d]{3}\.[\d ]{4}"),
+    (2, 44, 51, "mean anomaly", r"[ \d]{3}\.[\d ]{4}"),
+    (2, 53, 63, "mean motion", r"[ \d]{2}\.[\d ]{8}"),
+    (2, 64, 68, "revolution number", r" *\d*"),
+]
+#: The columns that are blank between the fields (1-based).
+_TLE_BLANKS = {1: (2, 9, 18, 33, 44, 53, 62, 64), 2: (2, 8, 17, 26, 34, 43, 52)}
+
+
+def _check_tle_fields(line: str, name: str, num: int) -> None:
+    """Raise OrbitValueError naming the first TLE field that is not in its fixed columns."""
+    for n, c0, c1, what, fmt in _TLE_FIELDS:
+        if n == num and not re.fullmatch(fmt, line[c0 - 1 : c1]):
+            raise OrbitValueError(
+                f"{name}: the {what} (columns {c0}-{c1}) reads {line[c0 - 1 : c1]!r}, not a "
+                "number in its fixed columns: is the line shifted (a blank added or lost)?"
+            )
+    for c in _TLE_BLANKS[num]:
+        if line[c - 1] != " ":
+            raise OrbitValueError(
+                f"{name}: column {c} separates two fields and must be blank, got "
+                f"{line[c - 1]!r}: is the line shifted (a blank added or lost)?"
+            )
+
+
+#: Days from a TLE's epoch beyond which :class:`~orbit.errors.TLEAgeWarning` is given: SGP4
+#: errors grow by about 1-3 km a day in low orbit; element sets are refitted daily.
+TLE_MAX_AGE = 30.0
+#: No element set describes an orbit before the first satellite (Sputnik 1, launched
+#: 1957-10-04T19:28:34 UTC): a TLE span that starts earlier is refused.
+FIRST_SATELLITE = "1957-10-04T19:28:34"
+
+
+def _check_tle_span(t_start: Any, t_stop: Any, tle_epoch: Any) -> None:
+    from astropy.time import Time
+
+    first = Time(FIRST_SATELLITE, scale="utc")
+    if float((t_start - first).sec) < 0.0:
+        raise OrbitValueError(
+            f"start: {t_start.utc.isot[:19]} UTC is before {FIRST_SATELLITE[:10]}, the launch "
+            "of the first satellite: no element set describes an orbit then"
+        )
+    age = max(abs(float((t - tle_epoch).sec)) for t in (t_start, t_stop)) / 86400.0
+    if age > TLE_MAX_AGE:
+        warnings.warn(
+            f"start, stop: the span reaches {age:.4g} days from the element set's epoch "
+            f"{tle_epoch.utc.isot[:19]} UTC; SGP4's error grows with that time (about 1-3 km a "
+            f"day in low orbit): beyond {TLE_MAX_AGE:g} days use an element set of the span's "
+            "dates",
+            TLEAgeWarning,
+            stacklevel=3,
+        )
 
 
 def check_tle(line1: Any, line2: Any) -> tuple[str, str]:
@@ -99,6 +166,7 @@ def check_tle(line1: Any, line2: Any) -> tuple[str, str]:
                 f"{name}: checksum error: the last digit is {s[68]!r} but the line sums to "
                 f"{_tle_checksum(s)} (mod 10); the line is corrupted or mistyped"
             )
+        _check_tle_fields(s, name, int(num))
         lines.append(s)
     if lines[0][2:7] != lines[1][2:7]:
         raise OrbitValueError(
@@ -146,6 +214,31 @@ def _oem_time(s: str, scale: str) -> str:
     if m:
         return f"{m.group(1)}:{m.group(2)}:{m.group(3).replace('Z', '')}"
     return s.strip().rstrip("Z")
+
+
+def _oem_path(path: Any) -> Path:
+    """The OEM file to read: a str, bytes or path-like naming an existing file."""
+    if isinstance(path, (bool, int, float)) or path is None:
+        raise OrbitTypeError(
+            f"path: expected a file name (str or pathlib.Path), got {type(path).__name__} {path!r}"
+        )
+    try:
+        name = os.fsdecode(os.fspath(path))
+    except TypeError:
+        raise OrbitTypeError(
+            f"path: expected a file name (str or pathlib.Path), got {type(path).__name__}"
+        ) from None
+    if not name or "\x00" in name:
+        raise OrbitValueError(f"path: {name!r} is not a file name (empty, or a NUL byte)")
+    p = Path(name)
+    try:
+        ok = p.is_file()
+    except OSError as exc:  # a name too long, a loop of links...
+        shown = name if len(name) <= 80 else name[:60] + "..."
+        raise OrbitValueError(f"path: cannot read {shown!r}: {exc.strerror or exc}") from None
+    if not ok:
+        raise OrbitValueError(f"path: no such OEM file: {p}")
+    return p
 
 
 class EphemerisOrbit(OrbitBase):
@@ -395,6 +488,7 @@ class EphemerisOrbit(OrbitBase):
             from astropy.time import Time
 
             tle_epoch = Time(sat.jdsatepoch, sat.jdsatepochF, format="jd", scale="utc")
+            _check_tle_span(t_start, t_stop, tle_epoch)
             since = _grid(span, h)
             times = t_start + TimeDelta(since, format="sec")
             offset = float((t_start - tle_epoch).sec)
@@ -482,9 +576,7 @@ class EphemerisOrbit(OrbitBase):
                 f"velocities: 'file' or 'positions' (the derivative of the positions), got "
                 f"{velocities!r}"
             )
-        p = Path(path)
-        if not p.is_file():
-            raise OrbitValueError(f"path: no such OEM file: {p}")
+        p = _oem_path(path)
         try:
             raw = p.read_bytes()
         except OSError as exc:

@@ -9,6 +9,7 @@ __all__ = [
     "OrbitValueError",
     "OrbitWarning",
     "PerigeeInsideEarthWarning",
+    "TLEAgeWarning",
 ]
 
 
@@ -31,6 +32,12 @@ class OrbitWarning(UserWarning):
 class PerigeeInsideEarthWarning(OrbitWarning):
     """An Earth orbit (mu = Earth's GM) whose perigee radius a (1 − e) is below the Earth's
     equatorial radius: the satellite would pass through the Earth."""
+
+
+class TLEAgeWarning(OrbitWarning):
+    """A two-line element set used far from its epoch: SGP4's error grows with the time from
+    the epoch (about 1-3 km a day in low orbit), so beyond ``orbit.ephemeris.TLE_MAX_AGE`` days
+    the positions are rough, and years away they are fiction."""
 
 
 class OemVelocityWarning(OrbitWarning):

@@ -43,6 +43,9 @@ __all__ = ["EARTH_J2", "EARTH_RADIUS", "SecularJ2Orbit", "j2_secular_rates"]
 
 #: Earth's J2 (WGS 84, NIMA TR8350.2 3rd ed. 2000).
 EARTH_J2 = 1.08263e-3
+#: Largest J2 accepted: the first-order secular rates are meaningless for a large J2 (and
+#: 2**63 gave NaN positions).
+MAX_J2 = 0.1
 #: Earth's equatorial radius [km] (WGS 84 semi-major axis).
 EARTH_RADIUS = 6378.137
 
@@ -89,7 +92,8 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
     Raises
     ------
     OrbitValueError
-        The element checks of :class:`KeplerOrbit`, e >= 1, j2 < 0 or not finite, radius <= 0.
+        The element checks of :class:`KeplerOrbit`, e >= 1, j2 outside [0, MAX_J2 = 0.1] or
+        not finite, radius <= 0.
     """
 
     def __init__(
@@ -115,8 +119,11 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
             )
         j2_ = EARTH_J2 if j2 is None else _scalar(j2, "j2", None)
         rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
-        if not (math.isfinite(j2_) and j2_ >= 0.0):
-            raise OrbitValueError(f"j2: must be a finite number >= 0, got {j2_!r}")
+        if not (math.isfinite(j2_) and 0.0 <= j2_ <= MAX_J2):
+            raise OrbitValueError(
+                f"j2: must be a number in [0, {MAX_J2:g}] (first-order secular theory is for a "
+                f"small J2: the Earth's is 1.0826e-3, Saturn's 1.6e-2), got {j2_!r}"
+            )
         if not (math.isfinite(rad) and rad > 0.0):
             raise OrbitValueError(f"radius: equatorial radius must be > 0 km, got {rad!r}")
         self._kep = kep
@@ -189,6 +196,9 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
             f"secular J2 (a = {self.a!r} km, e = {self.e!r}, J2 = {self.j2!r}, "
             f"R = {self.equatorial_radius!r} km)"
         )
+
+    def _angle_rates(self) -> tuple[float, float, float]:
+        return self.raan_rate, self.argp_rate, self.mean_motion
 
     def raan_at(self, t: Any) -> Any:
         """Ω(t) = Ω0 + Ω̇ (t − t0) [rad], not wrapped."""

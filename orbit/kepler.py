@@ -90,7 +90,7 @@ def _as_array(x: Any, name: str, unit: Any = None) -> np.ndarray:
         raise OrbitTypeError(f"{name}: expected real numbers, got {x!r}")
     try:
         raw = np.asarray(x)
-        if isinstance(x, (bool, np.bool_)) or raw.dtype.kind in "bcUSV":  # not real numbers
+        if isinstance(x, (bool, np.bool_)) or raw.dtype.kind in "bcUSVMm":  # not real numbers
             raise TypeError(f"{raw.dtype} values")
         arr = raw.astype(np.float64, copy=False)
     except OverflowError as exc:

@@ -173,6 +173,32 @@ class ClassicalElements:
         """Time of the elements [s since the epoch]."""
         return float(self._el[_k.T0])
 
+    def _angle_rates(self) -> tuple[float, float, float]:
+        """(Ω̇, ω̇, n) [rad/s]: the rates of the angles that grow with t (Kepler: n only)."""
+        return 0.0, 0.0, float(self._el[_k.N])
+
+    def check_times(self, t: Any, name: str = "t") -> None:
+        """Raise :class:`OrbitValueError` (naming ``name``) for times so far from t0 that the
+        mean anomaly (or a node or periapsis angle that drifts) exceeds 2**50 rad: no accuracy
+        is left modulo one revolution (the kernels would return NaN or noise)."""
+        OrbitBase.check_times(self, t, name)  # (finite times)
+        arr = np.asarray(t, dtype=np.float64)
+        if not arr.size or self._el[_k.A] < 0.0:  # a hyperbola's anomaly does not wrap
+            return
+        dt = max(abs(float(np.max(arr)) - self.t0), abs(float(np.min(arr)) - self.t0))
+        for what, x0, rate in zip(
+            ("node Ω0 + Ω̇", "periapsis ω0 + ω̇", "mean anomaly M0 + n"),
+            (self.raan, self.argp, self.M0),
+            self._angle_rates(),
+            strict=True,
+        ):
+            if abs(x0) + abs(rate) * dt > MAX_MEAN_ANOMALY:
+                raise OrbitValueError(
+                    f"{name}: the {what} (t − t0) exceeds 2**50 rad at some t (|t − t0| up "
+                    f"to {dt:.3g} s); times that far from t0 have no accuracy left modulo one "
+                    "revolution"
+                )
+
 
 class KeplerOrbit(ClassicalElements, OrbitBase):
     """A Keplerian orbit about a point mass: elliptic (0 <= e < 1) or hyperbolic (e > 1).

@@ -38,7 +38,7 @@ from . import _state_kernels as _sk
 from . import tables as _tables
 from ._shared_jit import jit
 from .errors import OrbitValueError
-from .timescales import as_epoch, offline_iers
+from .timescales import as_epoch, check_dates, offline_iers
 
 __all__ = [
     "R_EARTH",
@@ -88,6 +88,7 @@ def sun_position(epoch: Any, t: Any) -> np.ndarray:
     ep = as_epoch(epoch, "epoch", allow_none=False)
     times, tt = _seconds(ep, t)
     flat = tt.ravel()
+    check_dates(ep, flat, "t")
     if times is None:
         times = ep + TimeDelta(flat, format="sec")
     with offline_iers():

@@ -29,7 +29,12 @@ import numpy as np
 from . import _state_kernels as _sk
 from .errors import OrbitValueError
 
-__all__ = ["evaluate", "tabulate"]
+__all__ = ["MAX_NODES", "evaluate", "tabulate"]
+
+#: Most nodes of a table sampled through astropy or SGP4 (an ephemeris, the Sun, a ground
+#: station, the environment along an orbit): a span too long for its step is refused before
+#: anything is computed (t = [0, 1e12] asked numpy for 248 GiB).
+MAX_NODES = 10_000_000
 
 
 def tabulate(
@@ -69,6 +74,11 @@ def tabulate(
         raise OrbitValueError(f"step: must be positive, got {step}")
     n = math.ceil((stop - start) / step) + 1 + 2 * int(margin)
     n = max(n, 4)
+    if n > MAX_NODES:
+        raise OrbitValueError(
+            f"t: a table over [{start:.6g}, {stop:.6g}] s every {step:g} s would have {n:.3g} "
+            f"nodes, more than {MAX_NODES}; shorten the span"
+        )
     t = start - margin * step + step * np.arange(n, dtype=np.float64)
     dl = step / 60.0 if delta is None else float(delta)
     offs = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * dl

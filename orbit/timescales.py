@@ -37,8 +37,10 @@ import numpy as np
 from .errors import OrbitTypeError, OrbitValueError
 
 __all__ = [
+    "DATE_RANGE",
     "IERSRangeWarning",
     "as_epoch",
+    "check_dates",
     "check_iers_range",
     "format_epoch",
     "iers_table",
@@ -52,6 +54,33 @@ __all__ = [
 SCALES = ("UTC", "TAI", "TT", "TDB", "GPS")
 #: GPS time = TAI − 19 s (constant since 1980; IS-GPS-200).
 GPS_MINUS_TAI = -19.0
+
+
+#: The dates the package computes with (UTC): every epoch, and epoch + t wherever a date is
+#: needed (Earth-fixed positions, the Sun, the geomagnetic field, the atmosphere). UTC has
+#: leap seconds from 1960, the IERS table runs from 1973, IGRF from 1900; astropy/ERFA warn of
+#: "dubious years" outside, and fail or run out of memory for absurd ones (t = 9.2e18 s).
+DATE_RANGE = ("1900-01-01", "2200-01-01")
+_JD_RANGE = (2415020.5, 2524593.5)  # the Julian dates of DATE_RANGE
+
+
+def check_dates(epoch: Any, t: Any, name: str = "t") -> None:
+    """Raise :class:`OrbitValueError` (naming ``name``) if ``epoch + t`` leaves
+    :data:`DATE_RANGE` (``t`` in seconds; plain arithmetic on Julian dates, no astropy call)."""
+    arr = np.asarray(t, dtype=np.float64)
+    if epoch is None or arr.size == 0:
+        return
+    jd = float(epoch.jd1) + float(epoch.jd2)
+    lo, hi = float(np.min(arr)), float(np.max(arr))
+    for s, edge in ((lo, "start"), (hi, "end")):
+        j = jd + s / 86400.0
+        if not (_JD_RANGE[0] <= j <= _JD_RANGE[1]):
+            year = 2000.0 + (j - 2451545.0) / 365.25 if math.isfinite(j) else j
+            raise OrbitValueError(
+                f"{name}: {s!r} s from the epoch {epoch.utc.isot[:19]} is the year {year:.6g}; "
+                f"dates are accepted from {DATE_RANGE[0]} to {DATE_RANGE[1]} (time scales, "
+                f"Earth orientation and the Sun are defined there): the run's {edge} is outside"
+            )
 
 
 class IERSRangeWarning(UserWarning):
@@ -99,7 +128,23 @@ def offline_iers() -> Iterator[None]:
         iers.conf.set_temp("auto_download", False),
         iers.conf.set_temp("iers_degraded_accuracy", "ignore"),
         iers.earth_orientation_table.set(iers_table()),
+        quiet_erfa(),
     ):
+        yield
+
+
+@contextmanager
+def quiet_erfa() -> Iterator[None]:
+    """ERFA's "dubious year" warnings silenced (UTC dates before 1960 or a few years past its
+    leap-second table), and astropy's about polar motion outside the IERS table: the dates are
+    checked against :data:`DATE_RANGE`, and Earth-fixed computations warn once with
+    :class:`IERSRangeWarning` where the accuracy degrades."""
+    from astropy.utils.exceptions import AstropyWarning
+    from erfa import ErfaWarning
+
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", r".*dubious year", ErfaWarning)
+        warnings.filterwarnings("ignore", r"Tried to get polar motions", AstropyWarning)
         yield
 
 
@@ -153,12 +198,28 @@ def _parse_string(s: str, name: str) -> Any:
         if scale != "UTC":
             raise OrbitValueError(f"{name}: {s!r} has a 'Z' (UTC) and a {scale} scale")
         text = text[:-1]
+    from erfa import ErfaWarning
+
     try:
-        if scale == "GPS":
-            t = Time(text, scale="tai") - GPS_MINUS_TAI * _sec()
-            return Time(t, scale="tai")
-        return Time(text, scale=scale.lower())
-    except (ValueError, TypeError):
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ErfaWarning)
+            warnings.filterwarnings("ignore", r".*dubious year", ErfaWarning)
+            if scale == "GPS":
+                t = Time(text, scale="tai") - GPS_MINUS_TAI * _sec()
+                t = Time(t, scale="tai")
+            else:
+                t = Time(text, scale=scale.lower())
+        for w in caught:
+            if "end of day" in str(w.message):
+                raise OrbitValueError(
+                    f"{name}: {s!r} is not a time: a second 60 exists only at the end of a UTC "
+                    "day with a leap second (e.g. 2016-12-31T23:59:60), and this day had none"
+                )
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        return t
+    except (ValueError, TypeError) as exc:
+        if isinstance(exc, OrbitValueError):
+            raise
         raise OrbitValueError(
             f"{name}: astropy cannot read {s!r} as a time; write ISO 8601 like "
             f"'2024-03-20T12:00:00' (UTC), or '2024-03-20T12:00:00 TT' ({', '.join(SCALES)})"
@@ -204,11 +265,22 @@ def as_epoch(value: Any, name: str = "epoch", *, allow_none: bool = True) -> Any
         raise OrbitValueError(f"{name}: expected a single time, got {t.shape} times")
     if not (math.isfinite(float(t.jd1)) and math.isfinite(float(t.jd2))):
         raise OrbitValueError(f"{name}: not a finite time ({value!r})")
+    jd = float(t.jd1) + float(t.jd2)
+    if not _JD_RANGE[0] <= jd <= _JD_RANGE[1]:
+        raise OrbitValueError(
+            f"{name}: {value!r} is outside the dates the package computes with, "
+            f"{DATE_RANGE[0]} to {DATE_RANGE[1]}"
+        )
     return t
 
 
 def format_epoch(t: Any) -> str:
     """UTC ISO 8601 with a trailing Z, microseconds (nanoseconds when they are needed)."""
+    with quiet_erfa():
+        return _format_epoch(t)
+
+
+def _format_epoch(t: Any) -> str:
     u = t.utc
     c = u.copy()
     c.precision = 6

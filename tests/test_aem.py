@@ -94,6 +94,8 @@ ORIGINATOR = OTHER_TOOL
 
 
 def _segment(meta: dict[str, str], lines: list[str]) -> str:
+    if meta.get("START_TIME") == "x" and lines:  # the span of the segment's data lines
+        meta = {**meta, "START_TIME": lines[0].split()[0], "STOP_TIME": lines[-1].split()[0]}
     m = "\n".join(f"{k} = {v}" for k, v in meta.items())
     return f"META_START\nOBJECT_NAME = X\nOBJECT_ID = 2024-001A\n{m}\nMETA_STOP\n" + (
         "DATA_START\n" + "\n".join(lines) + "\nDATA_STOP\n"

@@ -544,6 +544,52 @@ def test_rate_percentiles_against_known_rates():
     np.testing.assert_allclose(comp.values[:, :, 1:], 0.0, atol=1e-11)
 
 
+def test_statistics_default_percentiles(spun_about_b3):
+    """Called without ``percentiles``, the three statistics give the 5th, 50th and 95th
+    percentiles (the documented default), each np.percentile over the members."""
+    from attitude.ensemble import event_time_percentiles
+
+    want_p = [5.0, 50.0, 95.0]
+    ds, _, err = spun_about_b3
+    got = pointing_error_percentiles(ds)  # no reference_q stored: from the mean attitude
+    np.testing.assert_array_equal(got["percentile"].values, want_p)
+    want = np.percentile(err, want_p)
+    np.testing.assert_allclose(got.values, np.broadcast_to(want[:, None], got.shape), atol=1e-9)
+
+    rng = np.random.default_rng(9)
+    n = 9
+    rates = rng.uniform(0.1, 2.0, n)
+    w = np.zeros((n, 3))
+    w[:, 0] = rates  # about the major axis: |ω| constant
+    q0 = random_unit(rng, n)
+    spins = propagate_ensemble(
+        I_PAPER, q0, C.momenta_from_angular_velocity(q0, w, I_PAPER), [0.0, 1.0], rtol=1e-13
+    )
+    got = rate_percentiles(spins)
+    np.testing.assert_array_equal(got["percentile"].values, want_p)
+    np.testing.assert_allclose(
+        got.values, np.percentile(rates, want_p)[:, None] * [1, 1], rtol=1e-11
+    )
+
+    first = rng.uniform(0.0, 100.0, (n, 2))
+    first[[1, 4], 1] = np.nan  # two members without the second event
+    events = xr.Dataset(
+        {
+            "event_first_time": (("member", "detector"), first, {"units": "s"}),
+            "event_count": (("member", "detector"), np.isfinite(first).astype(np.int64)),
+        },
+        coords={"member": np.arange(n), "detector": [0, 1]},
+    )
+    got = event_time_percentiles(events)
+    np.testing.assert_array_equal(got["percentile"].values, want_p)
+    np.testing.assert_array_equal(
+        got["first_time"].values[:, 0], np.percentile(first[:, 0], want_p)
+    )
+    np.testing.assert_array_equal(
+        got["first_time"].values[:, 1], np.nanpercentile(first[:, 1], want_p)
+    )
+
+
 def test_statistics_on_a_lazy_dask_file(spun_about_b3, tmp_path):
     import dask  # noqa: F401 - test extra
 

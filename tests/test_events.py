@@ -66,6 +66,29 @@ def test_uniform_spin_crosses_the_angle_at_the_analytic_time(method, kw):
         assert d2["detector_count"].values.tolist() == [2]
 
 
+@pytest.mark.parametrize(
+    "method,kw", [("dop853", {"rtol": 1e-12, "atol": 1e-14}), ("splitting", {"dt": 0.1})]
+)
+def test_total_angle_error_through_180_degrees(method, kw):
+    """The total error angle (PointingExceeds without an axis) of a uniform spin about z from
+    a frame r = the initial attitude: the error is exp(W t z/2), its angle W t folded into
+    [0, π] (it rises to π at π/W and comes back); 3 rad is passed at 3/W, (2π − 3)/W,
+    (2π + 3)/W, (4π − 3)/W. The angle does not depend on the sign of q: the run from −q0 has
+    the same events (q and −q are the same attitude)."""
+    r = aq.from_euler([0.4, -1.2, 2.1], "321")
+    t = np.linspace(0.0, 45.0, 91)
+    exact = np.array([3.0, 2 * math.pi - 3.0, 2 * math.pi + 3.0, 4 * math.pi - 3.0]) / W
+    times = []
+    for q0 in (r, -r):
+        Q0 = canonical.momenta_from_angular_velocity(q0, [0.0, 0.0, W], BODY)
+        ev = events.PointingExceeds(frames.inertial(r), None, 3.0, direction="both")
+        ds = attitude.propagate(BODY, q0, Q0, t, events=[ev], method=method, **kw)
+        np.testing.assert_allclose(ds["event_time"].values, exact, rtol=0, atol=1e-9)
+        assert ds["event_direction"].values.tolist() == [1, -1, 1, -1]
+        times.append(ds["event_time"].values)
+    np.testing.assert_allclose(times[0], times[1], rtol=0, atol=1e-12)
+
+
 def test_terminal_event_ends_the_run_at_the_root():
     t = np.linspace(0.0, 40.0, 81)
     ev = events.PointingExceeds(frames.inertial(), "+x", 1.0, terminal=True, name="past_1rad")

@@ -148,6 +148,30 @@ def test_offset_composes_on_the_right():
     assert np.all(qi == off) and np.all(wi == 0.0)
 
 
+def test_offsets_compose_in_order():
+    """Two offsets in a row: (lvlh.offset(a)).offset(b) turns by a, then by b about the new
+    axes, q = q_R∘a∘b: the same frame as one offset a∘b, and not b∘a (a, b do not commute)."""
+    o = orbit.KeplerOrbit(7000.0, 0.2, 0.5, 0.8, 0.3)
+    a = aq.from_euler([0.3, -0.2, 1.1], "321")
+    b = aq.from_euler([-0.7, 0.4, 0.25], "321")
+    ab, ba = aq.multiply(a, b), aq.multiply(b, a)
+    assert np.max(np.abs(aq.to_matrix(ab) - aq.to_matrix(ba))) > 0.1
+    t = np.linspace(0, 3000, 7)
+    q, w = frames.lvlh(o).evaluate(t)
+    q2, w2 = frames.lvlh(o).offset(a).offset(b).evaluate(t)
+    q1, w1 = frames.lvlh(o).offset(ab).evaluate(t)
+    assert np.max(np.abs(aq.to_matrix(q2) - aq.to_matrix(q1))) < 1e-15
+    assert np.max(np.abs(w2 - w1)) < 1e-17
+    # the definition, by hand: reference axes turned by a, then by b
+    want_q = aq.multiply(aq.multiply(q, a), b)
+    want_w = aq.rotate_inverse(b, aq.rotate_inverse(a, w))
+    assert np.max(np.abs(aq.to_matrix(q2) - aq.to_matrix(want_q))) < 1e-15
+    assert np.max(np.abs(w2 - want_w)) < 1e-17
+    # the same on an inertial frame (its constant q)
+    qi, _ = frames.inertial(a).offset(b).evaluate(t[:2])
+    assert np.max(np.abs(aq.to_matrix(qi) - aq.to_matrix(ab))) < 1e-15
+
+
 def test_sun_pointing_against_astropy():
     from orbit.sun import sun_position
 

@@ -69,6 +69,8 @@ SEED = int(os.environ.get("ATTITUDE_FUZZ_SEED", "0"))
 #: Seconds a single fuzzed call may take before it is interrupted (counted as "slow").
 TIME_LIMIT = 20.0
 _RAW_CLI = re.compile(r"attitude: failed: [A-Za-z_.]*(Error|Exception|Warning|Interrupt)\b")
+#: Warnings of the libraries the package calls, printed by the command as they came.
+_RAW_WARNING = re.compile(r"ERFA function|Tried to get polar motions|encountered in")
 
 
 def _settings(n: int):
@@ -100,6 +102,57 @@ def _own_temps() -> list[Path]:
     return list(Path(tempfile.gettempdir()).glob(f".*.attitude-{os.getpid()}.tmp"))
 
 
+#: Seconds after which a call that has not returned counts as a hang (the calls' own limit,
+#: TIME_LIMIT, acts only when the compiled code returns to Python).
+HANG_LIMIT = float(os.environ.get("ATTITUDE_FUZZ_HANG_LIMIT", "180"))
+
+_WATCHDOG = """
+import os, signal, sys, time
+pid, path, limit = int(sys.argv[1]), sys.argv[2], float(sys.argv[3])
+while True:
+    time.sleep(1.0)
+    try:
+        os.kill(pid, 0)
+        t0, _, case = open(path).read().partition("\\n")
+        late = bool(case) and time.time() - float(t0) > limit
+    except ValueError:
+        continue
+    except OSError:
+        break
+    if late:
+        sys.stderr.write(f"\\n[fuzz] HANG: still running after {limit:g} s: {case}\\n")
+        sys.stderr.flush()
+        os.kill(pid, signal.SIGABRT)  # pytest's faulthandler prints where it hangs
+        break
+"""
+
+
+class _Watchdog:
+    """A child process that ends this one when a call runs past HANG_LIMIT, after printing the
+    case (SIGABRT: pytest's faulthandler prints the tracebacks): a hang fails the suite
+    instead of stalling it. A Python thread could not: a compiled loop that spins holds the
+    GIL, and SIGALRM's handler runs only when it returns."""
+
+    def __init__(self, d: Path):
+        self.file = d / "watchdog_case"
+        self.file.write_text("")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-c", _WATCHDOG, str(os.getpid()), str(self.file), str(HANG_LIMIT)]
+        )
+
+    @contextlib.contextmanager
+    def __call__(self, case: str):
+        self.file.write_text(f"{time.time()}\n{case}")
+        try:
+            yield
+        finally:
+            self.file.write_text("")
+
+    def close(self) -> None:
+        self.proc.kill()
+        self.proc.wait()
+
+
 @contextlib.contextmanager
 def _time_limit(seconds: float):
     """Raise KeyboardInterrupt in this thread after ``seconds`` (SIGALRM)."""
@@ -117,6 +170,15 @@ def _time_limit(seconds: float):
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old)
+
+
+def _figures(counts: Counter) -> str:
+    """The figures issue 23 asks for (a hang ends the run: reaching here means none)."""
+    return (
+        f"; raw exceptions {counts['raw exceptions']}, raw warnings {counts['raw warnings']}, "
+        f"silent NaN/inf {counts['silent NaN/inf']}, silent no-ops {counts['silent no-ops']}, "
+        f"hangs 0 (a call running past {HANG_LIMIT:g} s ends the suite)"
+    )
 
 
 def _report(capsys, title: str, counts: Counter, extra: str = "") -> None:
@@ -223,8 +285,15 @@ def mutated_scenario(draw) -> tuple[str, list[str]]:
     for _ in range(n_ops):
         op = draw(st.sampled_from(
             ["delete", "weird", "scale", "number", "unit", "unknown", "time", "integrator",
-             "form", "output", "ensemble", "table"]
+             "form", "output", "ensemble", "table", "drag"]
         ))  # fmt: skip
+        if op == "drag" and "orbit" in base:  # issue 23: drag added (paper orbit: underground)
+            base["potential"] = {"models": ["gravity_gradient", "aerodynamic_drag"]}
+            base.setdefault("spacecraft", {})["facets"] = [
+                {"area": draw(st.sampled_from([1.0, 0.0, 1e30])), "area_unit": "m2",
+                 "normal": [1.0, 0.0, 0.0], "center": [0.1, 0.0, 0.0], "center_unit": "m"}
+            ]  # fmt: skip
+            continue
         tables = [k for k, v in base.items() if isinstance(v, dict) and v]
         if not tables:
             break
@@ -341,6 +410,13 @@ def _check_cli_result(code: int, err: str, out: Path) -> str | None:
             return f"exit 0 with an unreadable output: {exc!r}"
         if n < 2 or status != "complete":
             return f"exit 0 with {n} samples, run_status {status!r}"
+        with io.read(out, load=True) as ds:
+            nan = _nonfinite(ds)
+        if nan:
+            return f"silent NaN/inf: exit 0 with a file whose {nan}"
+    raw = [ln for ln in lines if ln.startswith("attitude: warning:") and _RAW_WARNING.search(ln)]
+    if raw:
+        return f"raw warning: {raw[0]}"
     if code == 1 and out.exists():
         with io.read(out, load=False) as ds:
             if not str(ds.attrs.get("run_status", "")).startswith("failed"):
@@ -411,8 +487,8 @@ def test_fuzz_scenario_files_through_the_cli(tmp_path_factory, capsys):
         try:
             with contextlib.redirect_stderr(buf), contextlib.redirect_stdout(_stdio.StringIO()):
                 with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    with _time_limit(TIME_LIMIT):
+                    warnings.simplefilter("always")  # the command prints them: raw ones fail
+                    with guard(f"attitude {' '.join(args)}\n{text}"), _time_limit(TIME_LIMIT):
                         code = main(args)
         except BaseException as exc:
             code = -1
@@ -447,6 +523,18 @@ def test_fuzz_scenario_files_through_the_cli(tmp_path_factory, capsys):
             problem = (problem or "") + f" temporary files left: {temps}"
         if problem:
             counts["other"] += 1
+            kind = (
+                "raw exceptions"
+                if problem.startswith(
+                    ("traceback", "raw exception", "info:", "export:", "exit code")
+                )
+                else "raw warnings"
+                if problem.startswith("raw warning")
+                else "silent NaN/inf"
+                if problem.startswith("silent NaN")
+                else "silent no-ops"
+            )
+            counts[kind] += 1
             failures.append(f"{problem}\n  options {opts}\n  stderr {err[-400:]!r}\n{text[:1500]}")
         with contextlib.suppress(OSError):
             for p in sorted(d.rglob("*"), reverse=True):
@@ -456,10 +544,14 @@ def test_fuzz_scenario_files_through_the_cli(tmp_path_factory, capsys):
                     p.unlink()
             d.rmdir()
 
-    run()
+    guard = _Watchdog(work)
+    try:
+        run()
+    finally:
+        guard.close()
     if null.exists():
         assert stat.S_ISCHR(null.lstat().st_mode), "a device was replaced by a regular file"
-    _report(capsys, "scenario files through the CLI", counts)
+    _report(capsys, "scenario files through the CLI", counts, _figures(counts))
     if slow:
         _report(capsys, "scenario files interrupted after 20 s", Counter(), "\n" + "\n".join(slow))
     assert not failures, "\n\n".join(failures[:10])
@@ -524,6 +616,8 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
     rate_ev = E.RateExceeds(0.25)
     ens = attitude.propagate_ensemble(I, np.tile(q0, (4, 1)), Q0, [0.0, 0.5, 1.0])
     aem.write_aem(small, tmp / "r.aem", epoch="2024-01-01T00:00:00", time_unit_seconds=1.0)
+    heavy_big = attitude.HeavyTop(1e300, [1.0, 0.0, 1.0])
+    oem = EphemerisOrbit.from_orbit(leo, 0.0, 600.0, 60.0).to_oem(tmp / "o.oem")
 
     return {
         "propagate": (attitude.propagate, dict(
@@ -552,7 +646,7 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
         "momenta_from_angular_velocity": (attitude.canonical.momenta_from_angular_velocity,
                                           dict(q=q0, omega=[0.1, 0.2, 0.3], inertia=I)),
         "io.write+read": (write_then_read, dict(ds=small, path=tmp / "w.nc", complevel=4)),
-        "io.read": (io.read, dict(path=tmp / "w.nc")),
+        "io.read": (io.read, dict(path=tmp / "w.nc", load=True)),
         "propagate_taylor": (attitude.propagate, dict(
             body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], method="taylor", rtol=1e-10, atol=1e-12,
             potential=attitude.HeavyTop(0.5, [0.0, 0.0, 1.0]), max_steps=10**6)),
@@ -598,28 +692,81 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
         "aem.write_aem": (aem.write_aem, dict(
             ds=small, path=tmp / "a.aem", epoch="2024-01-01T00:00:00", version=2,
             time_unit_seconds=1.0, object_name="X")),
+        # issue 23: every integrator with states and torques that overflow (HeavyTop weights,
+        # Q0 of 1e150 among the bad values), drag, the orbits' and frames' times, OEM files
+        "propagate_methods": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], potential=attitude.HeavyTop(0.5, [0, 0, 1.0]),
+            method="scipy:LSODA", dt=0.01, formulation="canonical")),
+        "propagate_heavy": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], potential=heavy_big, method="dop853",
+            dt=0.01)),
+        "propagate_exact": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=[0.0, 1e150, 1e148, 0.0], t=[0.0, 0.5, 1.0], method="exact")),
+        "propagate_drag": (attitude.propagate, dict(
+            body=sbody, q0=q0, Q0=[0.0, 1e-4, 0.0, 0.0], t=[0.0, 30.0, 60.0],
+            potential=attitude.AerodynamicDrag(leo, box, density="exponential"))),
+        "propagate_ensemble_taylor": (attitude.propagate_ensemble, dict(
+            bodies_or_body=I, q0=np.tile(q0, (3, 1)), Q0=Q0, t=[0.0, 0.5, 1.0], method="taylor",
+            rtol=1e-10, max_steps=10**6)),
+        "SecularJ2Orbit.position": (leo.position, dict(t=[0.0, 600.0])),
+        "frames.target.quaternion": (F.target(leo, 0.7, 0.2).quaternion, dict(t=[0.0, 60.0])),
+        "frames.nadir.quaternion": (F.nadir(orb).quaternion, dict(t=[0.0, 60.0])),
+        "EphemerisOrbit.from_oem": (EphemerisOrbit.from_oem, dict(
+            path=oem, epoch=None, mu=None)),
+        "propagate_splitting_events": (attitude.propagate, dict(
+            body=I, q0=q0, Q0=Q0, t=[0.0, 0.5, 1.0], method="splitting", dt=0.01,
+            potential=attitude.HeavyTop(0.5, [0.0, 0.0, 1.0]), events=[rate_ev])),
     }  # fmt: skip
+
+
+#: Variables that are NaN by definition (no event occurred; a failed ensemble member's
+#: samples after its failure are in a PropagationError, not a normal return).
+_NAN_BY_DESIGN = ("first_time", "detector_first_time", "event_first_time")
+
+
+def _nonfinite(result: Any) -> str | None:
+    """The first variable of a normal return that holds NaN or inf (a silent NaN), or None."""
+    import xarray as xr
+
+    if isinstance(result, xr.Dataset):
+        for k, v in result.data_vars.items():
+            if v.dtype.kind == "f" and not k.endswith(_NAN_BY_DESIGN):
+                if not np.all(np.isfinite(v.values)):
+                    return f"variable {k!r} holds NaN or inf"
+        return None
+    arrays = result if isinstance(result, tuple) else (result,)
+    for a in arrays:
+        if isinstance(a, np.ndarray) and a.dtype.kind == "f" and not np.all(np.isfinite(a)):
+            return "an array with NaN or inf"
+        if isinstance(a, float) and not math.isfinite(a):
+            return "a NaN or inf"
+    return None
 
 
 def _check_api_result(name: str, result: Any, kwargs: dict[str, Any]) -> str | None:
     """Silent no-ops: a normal return without what was asked for."""
     if name.startswith("propagate") and not name.startswith("propagate_ensemble"):
         t = np.atleast_1d(np.asarray(kwargs["t"], dtype=float))
-        if result.sizes["time"] != t.size or not np.all(np.isfinite(result.q.values)):
+        if result.sizes["time"] != t.size:
             return f"returned {result.sizes['time']} samples for {t.size} times"
-    if name == "propagate_ensemble" and (
-        result is None or not np.all(np.isfinite(result.q.values))
-    ):
-        return "an ensemble result with non-finite states"
-    if name == "propagate_ensemble_statistics" and (
-        result is None or not np.all(np.isfinite(result.pointing_error_percentiles.values))
-    ):
-        return "an ensemble result with non-finite states"
+    if name.startswith("propagate_ensemble") and result is None:
+        return "no ensemble result"
     if name == "io.write+read" and result.sizes.get("time", 0) == 0:
         return "wrote nothing"
     if name == "aem.write_aem" and not Path(result).stat().st_size:
         return "an empty AEM file"
     return None
+
+
+def _raw_warning(w: warnings.WarningMessage) -> bool:
+    """A warning of a library the package calls, not the package's own (ERFA's "dubious
+    year", astropy's polar motion, numpy's "divide by zero encountered in log")."""
+    from astropy.utils.exceptions import AstropyWarning
+    from erfa import ErfaWarning
+
+    if issubclass(w.category, (ErfaWarning, AstropyWarning)):
+        return True
+    return issubclass(w.category, RuntimeWarning) and "encountered in" in str(w.message)
 
 
 def test_fuzz_public_api(tmp_path_factory, capsys, monkeypatch):
@@ -656,21 +803,29 @@ def test_fuzz_public_api(tmp_path_factory, capsys, monkeypatch):
             ]))  # fmt: skip
         seen[0] += 1
         counts["tried"] += 1
+        raw_warnings: list[str] = []
+        clean = False
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
                 warnings.simplefilter("error", np.exceptions.ComplexWarning)
-                with _time_limit(TIME_LIMIT):
-                    result = func(**kwargs)
+                try:
+                    with guard(f"{name}({_short(kwargs)})"), _time_limit(TIME_LIMIT):
+                        result = func(**kwargs)
+                finally:
+                    raw_warnings = [
+                        f"{w.category.__name__}: {w.message}" for w in caught if _raw_warning(w)
+                    ]
         except (AttitudeError, OrbitError):
             counts["clean error"] += 1
-            return
+            result = clean = None
         except KeyboardInterrupt:
             counts["slow (interrupted after 20 s)"] += 1
             slow.append(f"{name}({_short(kwargs)})")
             return
         except BaseException as exc:
             counts["other"] += 1
+            counts["raw exceptions"] += 1
             tb = "".join(traceback.format_exception(exc)[-3:])
             where = traceback.extract_tb(exc.__traceback__)[-1]
             sig = f"{name}: {type(exc).__name__} at {Path(where.filename).name}:{where.lineno}"
@@ -678,17 +833,47 @@ def test_fuzz_public_api(tmp_path_factory, capsys, monkeypatch):
             if sigs[sig] == 1:  # the first example of each distinct failure
                 failures.append(f"{name}({_short(kwargs)}): {type(exc).__name__}: {exc}\n{tb}")
             return
+        if raw_warnings:
+            counts["other"] += 1
+            counts["raw warnings"] += 1
+            sig = f"{name}: {raw_warnings[0][:60]}"
+            sigs[sig] += 1
+            if sigs[sig] == 1:
+                failures.append(f"{name}({_short(kwargs)}): raw warning {raw_warnings[0]}")
+        if clean is None:  # a clean error
+            return
         counts["ok"] += 1
         problem = _check_api_result(name, result, kwargs)
+        nan = _nonfinite(result)
         with contextlib.suppress(Exception):
             result.close()
         if problem:
             counts["other"] += 1
+            counts["silent no-ops"] += 1
             failures.append(f"{name}({_short(kwargs)}): silent no-op: {problem}")
+        if nan:
+            counts["other"] += 1
+            counts["silent NaN/inf"] += 1
+            sig = f"{name}: silent NaN: {nan}"
+            sigs[sig] += 1
+            if sigs[sig] == 1:
+                failures.append(f"{name}({_short(kwargs)}): silent NaN/inf: {nan}")
 
-    run()
+    # Every target once with its valid arguments, before any time limit: compiles the kernels
+    # (an interrupt inside numba's compiler leaves its dispatcher unusable in this process).
+    for func, valid in targets.values():
+        with contextlib.suppress(Exception), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = func(**valid)
+            with contextlib.suppress(Exception):
+                r.close()
+    guard = _Watchdog(tmp)
+    try:
+        run()
+    finally:
+        guard.close()
     temps = _temps(tmp) + _own_temps()
-    _report(capsys, "public API", counts, f", temporary files left {len(temps)}")
+    _report(capsys, "public API", counts, f", temporary files left {len(temps)}" + _figures(counts))
     if slow:
         _report(
             capsys,

@@ -7,6 +7,7 @@ fuzz suites of the same campaign are in tests/test_fuzz.py (``pytest -m slow``).
 from __future__ import annotations
 
 import gc
+import json
 import os
 import shutil
 import signal
@@ -885,3 +886,522 @@ def test_an_error_after_a_swallowed_interrupt_is_reported_as_the_interrupt(monke
     assert "interrupted" in err
     assert "RuntimeError" not in err and "Traceback" not in err and "ignored" not in err
     assert sys.unraisablehook is hook  # restored after the command
+
+
+# ------------------------------------------------------------------------------------------------
+# issue 23: runs that can never hang
+# ------------------------------------------------------------------------------------------------
+
+_NONFINITE = ROOT / "tests" / "_nonfinite.py"
+#: Seconds the child of one integrator may take (its cases take 1-3 s with the numba cache
+#: warm; compiling the entry points in a cold cache takes up to a minute).
+HANG_DEADLINE = 240.0
+
+
+def _run_cases(integrator: str) -> dict[str, str]:
+    """The outcomes of ``tests/_nonfinite.py integrator``, killed at HANG_DEADLINE: a case that
+    does not return fails the test, naming the case (it does not hang the suite)."""
+    proc = subprocess.Popen(
+        [sys.executable, str(_NONFINITE), integrator], env=ENV, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        out, err = proc.communicate(timeout=HANG_DEADLINE)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        started = [json.loads(ln) for ln in out.splitlines() if ln.startswith("{")]
+        last = [d["start"] for d in started if "start" in d][-1:] or ["(setup)"]
+        pytest.fail(f"{integrator}: case {last[0]!r} still running after {HANG_DEADLINE:g} s")
+    assert proc.returncode == 0, err[-2000:]
+    rows = [json.loads(ln) for ln in out.splitlines() if ln.startswith("{")]
+    return {d["case"]: d["outcome"] for d in rows if "case" in d}
+
+
+@pytest.mark.parametrize(
+    "integrator",
+    [
+        "dop853", "taylor", "exact", "splitting", "nosquish", "scipy:DOP853", "scipy:RK23",
+        "scipy:Radau", "scipy:BDF", "scipy:LSODA", "euler_angles", "schwab", "euler_equations",
+        "dop853 events", "splitting events", "ensemble dop853", "ensemble taylor",
+        "ensemble events",
+    ],
+)  # fmt: skip
+def test_nonfinite_inputs_end_cleanly(integrator):
+    # was: the DOP853 rejection loop spun forever on the NaN step size of a non-finite first
+    # derivative (|Q0| = 1e160, drag below the surface; ensembles too), ignoring Ctrl-C and
+    # SIGTERM; scipy's RK loops likewise, LSODA repeated steps of size 0, Radau raised a raw
+    # ValueError; the splittings ran on a NaN state to the next output time.
+    outcomes = _run_cases(integrator)
+    assert outcomes, "no case ran"
+    for case, outcome in outcomes.items():
+        if case.startswith("kernel:"):
+            # the compiled loop called directly: NONFINITE (1) on a NaN or inf anywhere; a
+            # finite state of 1e160 may also run (propagate refuses it before any work)
+            allowed = {"status 1"} | ({"status 0"} if "overflows" in case else set())
+        elif case in ("nan momenta", "inf attitude", "energy overflows"):
+            allowed = {"refused"}
+        elif integrator.startswith("ensemble"):
+            allowed = {"failed"}  # the bad members fail, the others finish
+        else:
+            allowed = {"refused", "failed", "ok"}  # never NaN results, never a raw error
+        assert outcome in allowed, (integrator, case, outcome)
+
+
+def test_drag_below_the_surface_is_refused_before_any_work():
+    # was: the paper's orbit (perigee 778 km inside the Earth) with drag: NRLMSIS gives 0
+    # there, log(0) a raw numpy warning, NaN tables, and the run never returned
+    o = KeplerOrbit(7000.0, 0.2, 0.5236, 0.7854, 0.2618, epoch="2000-01-01T11:58:55.816")
+    body = attitude.RigidBody([4e8, 5e8, 6e8], units="kg m2")
+    drag = attitude.AerodynamicDrag(o, attitude.box_wing([1.0, 1.0, 2.0]))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        with pytest.raises(AttitudeValueError, match=r"orbit: .*below the Earth's surface"):
+            propagate(body, Q_UNIT, [0, 8e5, 0, 0], [0.0, 600.0], potential=drag)
+        with pytest.raises(AttitudeValueError, match="below the Earth's surface"):
+            attitude.propagate_ensemble(
+                body, np.tile(Q_UNIT, (2, 1)), [0, 8e5, 0, 0], [0.0, 600.0], potential=drag
+            )
+
+
+def test_drag_scenario_below_the_surface_exits_2(tmp_path, capsys):
+    # the issue's case: the shipped scenario with drag added, one facet
+    text = (SCEN / "paper_keplerian.toml").read_text()
+    old = 'kind = "gravity_gradient"'
+    assert old in text
+    text = text.replace(old, 'models = ["gravity_gradient", "aerodynamic_drag"]')
+    text += (
+        '\n[[spacecraft.facets]]\narea = 1.0\narea_unit = "m2"\nnormal = [1.0, 0.0, 0.0]\n'
+        'center = [0.1, 0.0, 0.0]\ncenter_unit = "m"\n'
+    )
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    assert main(["run", str(p), "-o", str(tmp_path / "s.nc"), "-q"]) == 2
+    assert "below the Earth's surface" in capsys.readouterr().err
+
+
+def test_splitting_events_and_taylor_ensembles_return_at_their_step_budget(monkeypatch):
+    # was: the splittings with events ran their whole span in one compiled call, the Taylor
+    # ensemble a chunk's members to their ends (58 s uninterruptible for 2 fast members)
+    from attitude import splitting as _sp
+    from attitude.ensemble import _chunks
+    from attitude.events import RateExceeds
+
+    t = np.linspace(0.0, 20.0, 3)
+    Q0 = _Q([0.3, 2.0, 0.1])
+    pot = HeavyTop(0.5, [0.0, 0.0, 1.0])
+    dense = propagate(I_PAPER, Q_UNIT, Q0, np.linspace(0.0, 20.0, 401), potential=pot)
+    w = np.linalg.norm(dense.omega.values, axis=-1)
+    ev = RateExceeds(0.5 * (w.min() + w.max()), direction="both")
+    kw = dict(potential=pot, method="splitting", dt=0.01, events=[ev])
+    ref = propagate(I_PAPER, Q_UNIT, Q0, t, **kw)
+    q0s = np.tile(Q_UNIT, (9, 1))
+    Q0s = Q0 * np.linspace(1.0, 1.5, 9)[:, None]
+    ens = attitude.propagate_ensemble(I_PAPER, q0s, Q0s, t, pot, method="taylor")
+    checks = []
+    assert _sp._interrupt is _chunks._interrupt  # (Ctrl-C is checked between compiled calls)
+    monkeypatch.setattr(_sp._interrupt, "check", lambda: checks.append(1))
+    monkeypatch.setattr(_methods, "STEP_BUDGET", 50)
+    monkeypatch.setattr(_chunks, "ENSEMBLE_STEP_BUDGET", 8)
+    monkeypatch.setattr(_chunks, "MIN_MEMBER_BUDGET", 2)
+    got = propagate(I_PAPER, Q_UNIT, Q0, t, **kw)
+    assert len(checks) >= 2000 // 50  # 2000 steps
+    assert np.array_equal(got.q.values, ref.q.values)
+    assert np.array_equal(got.event_time.values, ref.event_time.values)
+    assert got.event_time.size >= 2
+    checks.clear()
+    ens2 = attitude.propagate_ensemble(I_PAPER, q0s, Q0s, t, pot, method="taylor")
+    # ~1000 member steps in batches of 4 lanes, a few batch steps a call
+    assert int(ens.member_n_steps.values.sum()) > 1000
+    assert len(checks) >= 1000 // (4 * 8)
+    for v in ("q", "Q", "member_n_steps", "member_status"):
+        assert np.array_equal(ens[v].values, ens2[v].values), v
+
+
+def _mapped(pid: int, name: str) -> bool:
+    try:
+        return name in Path(f"/proc/{pid}/maps").read_text()
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc")
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+@pytest.mark.parametrize("form", ["python -m attitude", "console script"])
+def test_a_signal_while_the_command_imports_exits_130(tmp_path, sig, form):
+    # was: 21 of 120 signals sent in the first seconds of `attitude run` arrived during the
+    # package's imports (~0.7 s): a KeyboardInterrupt traceback and death by the signal
+    script = Path(sys.executable).parent / "attitude"
+    if form == "console script" and not script.exists():
+        pytest.skip("the console script is not installed beside this interpreter")
+    cmd = [sys.executable, "-m", "attitude"] if form != "console script" else [str(script)]
+    proc = subprocess.Popen(
+        [*cmd, "run", str(SCEN / "paper_torque_free.toml"), "-o", str(tmp_path / "o.nc"), "-q"],
+        env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    deadline = time.monotonic() + 60.0
+    # numpy is first loaded by the package's imports, after the command's early handlers
+    while not _mapped(proc.pid, "_multiarray_umath") and proc.poll() is None:
+        assert time.monotonic() < deadline, "the command did not start importing"
+        time.sleep(0.001)
+    proc.send_signal(getattr(signal, sig))
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, (proc.returncode, err[-1000:])
+    assert "Traceback" not in err
+    assert "interrupted" in err
+    assert not (tmp_path / "o.nc").exists() and not _temps(tmp_path)
+
+
+# ------------------------------------------------------------------------------------------------
+# issue 23: raw exceptions and warnings, silent NaN, nonsense accepted, unclear errors
+# ------------------------------------------------------------------------------------------------
+
+EPOCH_2024 = "2024-03-01T00:00:00"
+TLE_L1 = "1 28057U 03049A   06177.78615833  .00000060  00000-0  35940-4 0  1836"
+TLE_L2 = "2 28057  98.4283 247.6961 0000884  88.1964 271.9322 14.35478080140550"
+
+
+def _leo():
+    from orbit import SecularJ2Orbit
+
+    return SecularJ2Orbit(7000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch=EPOCH_2024)
+
+
+def _paper_orbit(**kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # its perigee is inside the Earth (the paper's case)
+        return KeplerOrbit(7000.0, 0.2, 0.5236, 0.7854, 0.2618, **kw)
+
+
+def _raw_cases():
+    from astropy import units as u
+
+    from attitude import events, frames
+    from orbit import EphemerisOrbit
+
+    sbody = attitude.RigidBody([0.02, 0.03, 0.04], units="kg m2")
+    return {
+        "from_oem(5)": (lambda: EphemerisOrbit.from_oem(5), OrbitTypeError, "path"),
+        "from_oem(bytes)": (lambda: EphemerisOrbit.from_oem(b"x.oem"), OrbitValueError, "path"),
+        "from_oem(300 chars)": (
+            lambda: EphemerisOrbit.from_oem("x" * 300),
+            OrbitValueError,
+            "path: cannot read",
+        ),
+        "environment table over 1e12 s": (
+            lambda: propagate(
+                sbody,
+                Q_UNIT,
+                [0.0] * 4,
+                [0.0, 1e12],
+                potential=attitude.MagneticDipole(_leo(), [0.0, 0.0, 0.05], field="dipole"),
+            ),
+            AttitudeValueError,
+            r"^t: .* every 30 s",
+        ),
+        "target at 2**63 s": (
+            lambda: frames.target(_paper_orbit(epoch=EPOCH_2024), 0.7, 0.2).quaternion(
+                [2**63 - 1] * 3
+            ),
+            AttitudeValueError,
+            "^t:",
+        ),
+        "target over 9.2e18 s": (
+            lambda: frames.target(_leo(), 0.7, 0.2).quaternion([0.0, 9.2e18]),
+            AttitudeValueError,
+            "^t:",
+        ),
+        "sun frame over 1e10 s": (
+            lambda: (
+                frames.sun_pointing(_paper_orbit(epoch=EPOCH_2024, e=0.01)).quaternion([0.0, 1e10])
+                if False
+                else frames.sun_pointing(_leo()).quaternion([0.0, 1e10])
+            ),
+            (AttitudeValueError, OrbitValueError),
+            "^t: .*dates are accepted from 1900",
+        ),
+        "AngleToSun on an orbit without epoch": (
+            lambda: events.AngleToSun("+z", 0.5, orbit=_paper_orbit()),
+            AttitudeValueError,
+            "orbit: .*epoch",
+        ),
+        "box_wing(wing_back=3 kg)": (
+            lambda: attitude.box_wing([1.0, 1.0, 2.0], wing_back=3 * u.kg),
+            AttitudeTypeError,
+            "wing_back",
+        ),
+    }
+
+
+@pytest.mark.parametrize(
+    "case",
+    [
+        "from_oem(5)", "from_oem(bytes)", "from_oem(300 chars)", "environment table over 1e12 s",
+        "target at 2**63 s", "target over 9.2e18 s", "sun frame over 1e10 s",
+        "AngleToSun on an orbit without epoch", "box_wing(wing_back=3 kg)",
+    ],
+)  # fmt: skip
+def test_raw_exceptions_are_the_package_errors(case):
+    # was: TypeError/OSError (pathlib), MemoryError (248 GiB, 109 PiB), ErfaError,
+    # AttributeError (sun_table), astropy TypeError
+    f, exc, match = _raw_cases()[case]
+    with pytest.raises(exc, match=match):
+        f()
+
+
+def test_ensemble_paths_as_bytes_and_devices(tmp_path, monkeypatch):
+    from attitude.ensemble import _chunks
+
+    q0s, Q0 = np.tile(Q_UNIT, (3, 1)), _Q([0.3, 0.2, 0.1])
+    # bytes, as io.write takes them (was: a raw TypeError from pathlib)
+    ds = attitude.propagate_ensemble(
+        I_PAPER, q0s, Q0, [0.0, 1.0], path=os.fsencode(tmp_path / "e.nc")
+    )
+    assert ds.sizes["member"] == 3 and (tmp_path / "e.nc").exists()
+    ds.close()
+
+    def no_work(*a, **k):
+        raise AssertionError("the ensemble ran")
+
+    monkeypatch.setattr(_chunks, "_compute_chunk", no_work)
+    # was: the whole ensemble ran, then reading /dev/null back failed
+    with pytest.raises(AttitudeFileError, match=r"pipe or a device"):
+        attitude.propagate_ensemble(I_PAPER, q0s, Q0, [0.0, 1.0], path="/dev/null")
+
+
+def test_corrupt_hdf5_attribute_exits_2(tmp_path, small_ds, capsys):
+    # was: "attitude: failed: AttributeError: NetCDF: Can't open HDF5 attribute", exit 1
+    p = tmp_path / "c.nc"
+    io.write(small_ds, p)
+    raw = bytearray(p.read_bytes())
+    i = raw.find(b"n_rejected\x00")
+    assert i > 0
+    raw[i : i + 8] = b"\xff" * 8
+    p.write_bytes(bytes(raw))
+    with pytest.raises(AttitudeFileError):
+        io.read(p)
+    for cmd in (
+        ["info", str(p)],
+        ["plot", str(p), "-o", str(tmp_path / "c.png")],
+        ["export", str(p), "--ccsds-aem", str(tmp_path / "c.aem"), "--epoch", EPOCH_2024,
+         "--time-unit-seconds", "1"],
+    ):  # fmt: skip
+        assert main(cmd) == 2, cmd
+        err = capsys.readouterr().err
+        assert err.startswith("attitude: error:") and "AttributeError" not in err, err
+    assert not (tmp_path / "c.aem").exists() and not (tmp_path / "c.png").exists()
+
+
+@pytest.mark.parametrize("year", [1950, 2040])
+def test_no_raw_erfa_or_astropy_warnings(year, tmp_path):
+    # was: "ERFA function ... dubious year", "Tried to get polar motions for times after IERS
+    # data is valid" (astropy) reached the user; the package's IERSRangeWarning says it once
+    from astropy.utils.exceptions import AstropyWarning
+    from erfa import ErfaWarning
+
+    from attitude import aem, frames
+    from orbit import SecularJ2Orbit
+
+    o = SecularJ2Orbit(7000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch=f"{year}-03-01T00:00:00")
+    body = attitude.RigidBody([0.02, 0.03, 0.04], units="kg m2")
+    box = attitude.box_wing([0.1, 0.1, 0.3])
+    t = np.linspace(0.0, 600.0, 11)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ErfaWarning)
+        warnings.simplefilter("error", AstropyWarning)
+        warnings.simplefilter("error", RuntimeWarning)
+        warnings.simplefilter("ignore", UserWarning)  # IERSRangeWarning: the package's own
+        frames.target(o, 0.7, 0.2).quaternion(t)
+        frames.sun_pointing(o).quaternion(t)
+        pot = attitude.GravityGradient(o) + attitude.SolarRadiation(o, box)
+        ds = propagate(body, Q_UNIT, [0.0, 1e-4, 0.0, 0.0], t, potential=pot)
+        aem.read(aem.write_aem(ds, tmp_path / "a.aem"))
+        io.read(io.write(ds, tmp_path / "a.nc"))
+
+
+def test_invalid_leap_seconds_and_dates_are_refused():
+    from orbit.timescales import as_epoch
+
+    with pytest.raises(OrbitValueError, match=r"no leap second|this day had none"):
+        as_epoch("2017-06-30T23:59:60")  # was: accepted, with ERFA's "time is after end of day"
+    assert as_epoch("2016-12-31T23:59:60").utc.isot.startswith("2016-12-31T23:59:60")
+    with pytest.raises(OrbitValueError, match=r"1900-01-01 to 2200-01-01"):
+        as_epoch("2300-01-01T00:00:00")
+
+
+def test_silent_nan_results_are_refused(tmp_path):
+    from attitude import aem, frames
+    from orbit import SecularJ2Orbit
+
+    # was: NaN positions for j2 = 2**63 - 1
+    with pytest.raises(OrbitValueError, match=r"^j2:"):
+        SecularJ2Orbit(7078.0, 0.001, 1.7, 0.5, 0.0, j2=2**63 - 1)
+    # was: a NaN row at t = -1e308
+    with pytest.raises(AttitudeValueError, match=r"^t: the mean anomaly"):
+        frames.nadir(_paper_orbit()).quaternion([-1e308, 0.0])
+    # was: energy inf at every sample of method="exact"
+    with pytest.raises(AttitudeValueError, match=r"^Q0: .*overflow"):
+        propagate(I_PAPER, Q_UNIT, [0.0, 1e200, 0.0, 0.0], [0.0, 1.0], method="exact")
+    # was: aem.read returned nan, inf, 1e999 from the data lines
+    ds = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 1.0, 5))
+    good = aem.write_aem(ds, tmp_path / "g.aem", epoch=EPOCH_2024, time_unit_seconds=1.0)
+    text = good.read_text()
+    row = next(ln for ln in text.splitlines() if ln.startswith("2024-03-01T00:00:00.500"))
+    for bad in ("nan", "inf", "-inf", "1e999"):
+        p = tmp_path / f"{bad}.aem"
+        fields = row.split()
+        p.write_text(text.replace(row, " ".join([fields[0], bad, *fields[2:]])))
+        with pytest.raises(AttitudeValueError, match=r"data line 3, value 1 is not a finite"):
+            aem.read(p)
+
+
+def test_splitting_energy_overflow_is_a_failure_not_inf():
+    # a finite state whose energy overflows (a 1e300 heavy top drives |Q| past 1e154)
+    with pytest.raises(PropagationError, match=r"overflowed double precision") as err:
+        propagate(
+            I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), [0.0, 0.5, 1.0],
+            potential=HeavyTop(1e300, [1.0, 0.0, 1.0]), method="splitting", dt=0.01,
+        )  # fmt: skip
+    part = err.value.partial
+    assert np.isfinite(part.energy.values).all() and part.sizes["time"] >= 1
+
+
+def _aem_text(tmp_path) -> str:
+    from attitude import aem
+
+    ds = propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 1.0, 5))
+    return aem.write_aem(
+        ds, tmp_path / "g.aem", epoch=EPOCH_2024, time_unit_seconds=1.0
+    ).read_text()
+
+
+@pytest.mark.parametrize(
+    "old, new, match",
+    [
+        ("START_TIME           = 2024-03-01T00:00:00.000000", "START_TIME = garbage",
+         "START_TIME = 'garbage' is not a CCSDS epoch"),
+        ("START_TIME           = 2024-03-01T00:00:00.000000", "START_TIME = 1800-01-01T00:00:00",
+         "START_TIME = 1800-01-01T00:00:00 is .* s from the first data epoch"),
+        ("STOP_TIME            = 2024-03-01T00:00:01.000000", "STOP_TIME = 2024-03-01T09:00:00",
+         "STOP_TIME .* from the last data epoch"),
+        ("ATTITUDE_TYPE        = QUATERNION", "ATTITUDE_TYPE = QUATERNION\nQUATERNION_TYPE = FIRST",
+         "QUATERNION_TYPE is a version 1 keyword"),
+    ],
+)  # fmt: skip
+def test_aem_read_refuses_inconsistent_metadata(tmp_path, old, new, match):
+    from attitude import aem
+
+    text = _aem_text(tmp_path)
+    assert old in text
+    p = tmp_path / "b.aem"
+    p.write_text(text.replace(old, new))
+    with pytest.raises(AttitudeValueError, match=match):
+        aem.read(p)  # was: read without a word
+
+
+@pytest.mark.parametrize("key", ["object_name", "object_id", "originator", "ref_frame_b"])
+def test_write_aem_refuses_control_characters(tmp_path, small_ds, key):
+    from attitude import aem
+
+    # was: a malformed file (its own reader then refused it)
+    with pytest.raises(AttitudeValueError, match=rf"^{key}: .*control character"):
+        aem.write_aem(
+            small_ds, tmp_path / "c.aem", epoch=EPOCH_2024, time_unit_seconds=1.0,
+            **{key: "SAT\nMETA_STOP\nX = 1"},
+        )  # fmt: skip
+    assert not list(tmp_path.iterdir())
+
+
+def test_nonsense_arguments_are_refused(tmp_path, small_ds):
+    from astropy import units as u
+
+    from attitude import frames
+    from orbit import SecularJ2Orbit
+
+    with pytest.raises(AttitudeValueError, match=r"^rtol: 10 is not a relative tolerance"):
+        propagate(I_PAPER, Q_UNIT, _Q([0.3, 0.2, 0.1]), [0.0, 1.0], rtol=10)
+    with pytest.raises(AttitudeValueError, match=r"^rtol:"):
+        attitude.propagate_ensemble(
+            I_PAPER, np.tile(Q_UNIT, (2, 1)), _Q([0.3, 0.2, 0.1]), [0.0, 1.0], rtol=10
+        )
+    with pytest.raises(OrbitTypeError, match=r"^radius: expected real numbers"):
+        SecularJ2Orbit(7078.0, 0.001, 1.7, 0.5, 0.0, radius=np.datetime64("2020-01-01"))
+    p = io.write(small_ds, tmp_path / "s.nc")
+    with pytest.raises(AttitudeTypeError, match=r"^load: expected True or False"):
+        io.read(p, load="no")
+    with pytest.raises(AttitudeValueError, match=r"^height:"):
+        frames.target(_leo(), 0.7, 0.2, height=-7000 * u.km)
+
+
+def test_tle_age_warns_and_absurd_spans_are_refused():
+    from orbit import EphemerisOrbit
+    from orbit.errors import TLEAgeWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        EphemerisOrbit.from_tle(TLE_L1, TLE_L2, "2006-06-27T00:00:00", "2006-06-27T01:00:00")
+    # was: exit 0 and no word, decades from the element set's epoch
+    with pytest.warns(TLEAgeWarning, match=r"365.3 days from the element set's epoch"):
+        EphemerisOrbit.from_tle(TLE_L1, TLE_L2, "2007-06-27T00:00:00", "2007-06-27T01:00:00")
+    with pytest.raises(OrbitValueError, match=r"^start: .*before 1957-10-04"):
+        EphemerisOrbit.from_tle(TLE_L1, TLE_L2, "1950-01-01T00:00:00", "1950-01-01T01:00:00")
+
+
+def test_a_shifted_tle_field_is_named():
+    from orbit import EphemerisOrbit
+
+    # one blank added before the inclination, one taken out after it: the checksum holds
+    shifted = TLE_L2[:8] + " " + TLE_L2[8:16] + TLE_L2[17:]
+    assert len(shifted) == 69 and shifted != TLE_L2
+    # was: "orbit.tle: r: must be finite" (SGP4's output)
+    with pytest.raises(OrbitValueError, match=r"^line2: the inclination \(columns 9-16\)"):
+        EphemerisOrbit.from_tle(TLE_L1, shifted, "2006-06-27T00:00:00", "2006-06-27T01:00:00")
+
+
+def test_scenario_event_keys_of_another_type_are_errors():
+    text = _scenario_text() + (
+        '\n[events.e1]\ntype = "rate_exceeds"\nrate = 0.5\nshadow = "umbra"\n'
+    )
+    # was: ignored (docs/scenarios.md says they are errors); eclipse_entry with direction too
+    with pytest.raises(scenario.ScenarioError, match=r"^events\.e1\.shadow: a rate_exceeds"):
+        scenario.loads(text)
+
+
+def test_scenario_errors_name_the_table():
+    text = _scenario_text().replace("inertia = [1.25, 1.0, 0.75]", "inertia = [1.0, 1.0, 5.0]")
+    # was: "inertia: violates the triangle inequality"
+    with pytest.raises(scenario.ScenarioError, match=r"^body\.inertia: violates"):
+        scenario.loads(text)
+    text = (
+        _scenario_text()
+        + '\n[potential]\nkind = "heavy_top"\nweight = -1.0\ncenter_of_mass = [0.0, 0.0, 1.0]\n'
+    )
+    with pytest.raises(scenario.ScenarioError, match=r"^potential\.weight:"):
+        scenario.loads(text)
+
+
+def test_disk_filling_during_a_streamed_write_says_so(tmp_path, capsys):
+    # 50001 samples: 8.8 MB raw, 5.1 MB written; a 3 MB file system passes the up-front check
+    # (a quarter of the raw size) and fills during the write
+    mnt = tmp_path / "fill"
+    if not _mount_tmpfs(mnt, "size=3m"):
+        pytest.skip("needs root and tmpfs to make a small file system")
+    try:
+        (tmp_path / "s.toml").write_text(_scenario_text(stop=500.0, step=0.01))
+        assert main(["run", str(tmp_path / "s.toml"), "-o", str(mnt / "s.nc"), "-q"]) == 2
+        err = capsys.readouterr().err
+        # was: "writing failed: RuntimeError: NetCDF: HDF error" (the free space was measured
+        # after the temporary file had been removed)
+        assert "the disk is full" in err, err
+        assert list(mnt.iterdir()) == []
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], check=False)
+
+
+def test_ensemble_to_a_read_only_file_system_says_so(read_only_dir):
+    # was: "has 1.05 MB free; needs about 6.79 MB"
+    with pytest.raises(AttitudeFileError, match=r"read-only|permission"):
+        attitude.propagate_ensemble(
+            I_PAPER, np.tile(Q_UNIT, (2000, 1)), _Q([0.3, 0.2, 0.1]), np.linspace(0.0, 1.0, 101),
+            path=read_only_dir / "e.nc",
+        )  # fmt: skip

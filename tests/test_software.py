@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import astropy.units as u
 import numpy as np
 import pytest
 from scipy.linalg import expm
@@ -256,6 +257,81 @@ def test_your_own_step_function_equals_the_compiled_law():
     )
     np.testing.assert_allclose(b.q.values, a.q.values, atol=1e-13)
     np.testing.assert_allclose(b.command_sent.values, a.command_sent.values, atol=1e-12)
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_a_compiled_step_equals_the_compiled_law(method):
+    """The same law as a numba function step(t, m) (tests/compiled_steps.py) gives the built-in
+    law's run; commands of the wrong length or non-finite stop the run with the tick named."""
+    import compiled_steps as cs
+
+    craft = hr16_spacecraft()
+    q0 = qt.from_mrp([0.1, 0.2, -0.3])
+    Q0 = C.momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
+    t = np.linspace(0.0, 20.0, 21)
+    law = FlightSoftware(0.1, guidance=frames.inertial(), control=MRPFeedback(3.5, 30.0))
+    a = attitude.propagate(craft, q0, Q0, t, software=law, rtol=1e-13, method=method)
+    fsw = FlightSoftware(0.1, frames.inertial(), cs.mrp_feedback)
+    assert "compiled mrp_feedback" in fsw.describe()
+    b = attitude.propagate(craft, q0, Q0, t, software=fsw, rtol=1e-13, method=method)
+    np.testing.assert_allclose(b.q.values, a.q.values, atol=1e-13)
+    np.testing.assert_allclose(b.wheel_speed.values, a.wheel_speed.values, atol=1e-10)
+    np.testing.assert_allclose(b.command_sent.values, a.command_sent.values, atol=1e-12)
+    with pytest.raises(PropagationError, match=r"compiled step .* tick 0 .* returned 5 values"):
+        attitude.propagate(
+            craft, q0, Q0, t, software=FlightSoftware(0.1, control=cs.too_many), method=method
+        )
+    with pytest.raises(PropagationError, match=r"tick 20 \(t = 2.0 s\).*non-finite") as exc:
+        attitude.propagate(
+            craft, q0, Q0, t, software=FlightSoftware(0.1, control=cs.nan_after_two_seconds),
+            method=method,
+        )  # fmt: skip
+    assert exc.value.partial.sizes["time"] == 2  # t = 0, 1 s: the samples before the tick
+
+
+def test_your_own_step_sees_what_the_sensors_and_the_estimator_give():
+    """With a gyro, a star tracker and the MEKF, the measurements of your own step are the
+    estimate (attitude, bias-corrected gyro rate), taken once per tick: the MRP law written in
+    Python gives the compiled law's run with the same seeds."""
+    from attitude.estimation import MEKF
+    from attitude.sensors import Gyro, StarTracker
+
+    craft = hr16_spacecraft()
+    q0 = qt.from_mrp([0.02, -0.01, 0.03])
+    Q0 = C.momenta_from_angular_velocity(q0, [0.001, 0.0, -0.002], craft)
+    t = np.linspace(0.0, 30.0, 7)
+
+    def sensors():
+        gyro = Gyro(0.05 * u.deg / u.hour**0.5, 2e-9 * u.rad / u.s**1.5, bias=[2e-5, -1e-5, 0],
+                    seed=3)  # fmt: skip
+        return [gyro, StarTracker([6 * u.arcsec, 45 * u.arcsec], [0.0, 0.6, 0.8], seed=4)]
+
+    def fsw(control):
+        return FlightSoftware(0.5, frames.inertial(), control, sensors=sensors(),
+                              estimator=MEKF(), record_every=1)  # fmt: skip
+
+    a = attitude.propagate(craft, q0, Q0, t, software=fsw(MRPFeedback(3.5, 30.0)), rtol=1e-12)
+    I = np.diag([900.0, 800.0, 600.0])
+    js = craft.wheel_inertias
+    seen = []
+
+    def step(tt, m):
+        seen.append((m.q, m.omega))
+        w = m.omega
+        h = js * (w + m.wheel_speeds)
+        lr = 3.5 * m.sigma_error + 30.0 * m.omega_error
+        return lr - np.cross(m.omega_ref, I @ w + h) + I @ np.cross(w, m.omega_ref)
+
+    b = attitude.propagate(craft, q0, Q0, t, software=fsw(step), rtol=1e-12)
+    np.testing.assert_allclose(b.q.values, a.q.values, atol=1e-12)
+    np.testing.assert_array_equal(b.gyro_rate.values, a.gyro_rate.values)
+    qs = np.array([s[0] for s in seen])
+    ws = np.array([s[1] for s in seen])
+    ok = ~np.isnan(b.estimate_q.values[:, 0])
+    np.testing.assert_allclose(qs[ok], b.estimate_q.values[ok], atol=1e-15)
+    np.testing.assert_allclose(
+        ws[ok], b.gyro_rate.values[ok] - b.bias_estimate.values[ok], atol=1e-18
+    )
 
 
 def test_a_step_function_that_raises_keeps_the_samples_computed():

@@ -6,6 +6,7 @@
 #   tools/mutation.sh attitude/_core/quat.py orbit/_kernels.py   # a subset
 #   tools/mutation.sh orbit/_kernels.py:159-316                   # lines of a module only
 #   SAMPLE=0.2 tools/mutation.sh ...        # a seeded random 20 % of the mutants
+#   SAMPLE_N=24 tools/mutation.sh ...       # a seeded random 24 mutants of each module
 #   KEEP=1 tools/mutation.sh ...            # keep the session directory (sqlite, logs)
 #
 # How it works (see docs/mutation.md):
@@ -15,7 +16,10 @@
 #   change the source fingerprint of the on-disk cache and recompile all kernels (10-60 s each).
 #   Removing a decorator is therefore not a mutation here (it would be equivalent).
 # * Each module is tested by the test files that exercise it (MODULE_TESTS below), stopped at
-#   the first failure; tests that only make sense compiled are deselected.
+#   the first failure, in one process (-n 0: the tests run in the order given, fast ones first);
+#   tests that only make sense compiled are deselected. The actuator, flight-software and
+#   sensor modules run selected tests: the rest take minutes each with the JIT disabled and
+#   are run on the survivors afterwards, compiled (docs/mutation.md).
 # * Operators: arithmetic (+ - * /) and comparison swaps, unary minus, number changes, boolean
 #   and loop mutations. Bitwise, floor-division, modulo, power and identity operators are
 #   filtered out (on floats they are type errors or never plausible).
@@ -25,6 +29,36 @@ ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 PY="${PYTHON:-python}"
 TIMEOUT="${MUTATION_TIMEOUT:-300}"
 OUT="${MUTATION_OUT:-$ROOT/.mutation}"  # survivors (diffs) per module, git-ignored
+
+# Selected tests of the actuator, software and sensor modules, fast ones first. Left out (they
+# take 1-7 min each with the JIT disabled; run compiled on the survivors): the Taylor-against-
+# DOP853 runs with gravity gradient, the MEKF consistency test for all but the MEKF, the Allan
+# deviation for all but the sensors.
+A=tests/test_actuators.py
+ACT="$A::test_friction_kernel_is_basilisks_law $A::test_speed_limit_cuts_commands_that_spin_the_wheel_further
+ $A::test_wheel_on_the_symmetry_axis_spun_up_by_a_constant_torque $A::test_thruster_pair_pulse_against_the_closed_form
+ $A::test_coulomb_friction_stops_a_wheel_through_the_kink_at_the_closed_form_time
+ $A::test_rotor_stabilised_spin_about_the_intermediate_axis $A::test_steady_spins_of_a_gyrostat_with_a_skew_rotor
+ $A::test_magnetorquers_equal_a_magnetic_dipole_of_the_same_moment $A::test_bad_actuators_and_schedules_are_refused_before_any_work
+ $A::test_command_schedule_from_csv $A::test_scenario_actuators_and_commands_inline_and_from_csv
+ $A::test_scenario_actuator_errors_name_the_key
+ $A::test_from_tensor_with_skew_wheels_against_euler_equations_in_the_structural_frame
+ $A::test_pyramid_under_a_saturating_schedule_conserves_G_and_pays_the_motor_work"
+TAYLOR="$A::test_coulomb_friction_stops_a_wheel_through_the_kink_at_the_closed_form_time $A::test_taylor_order_follows_the_hold
+ $A::test_taylor_equals_dop853_with_wheels_and_thrusters[torque_free] tests/test_software.py::test_wheels_alone_in_closed_loop_conserve_G_to_round_off
+ tests/test_sensors.py::test_runs_are_reproducible_from_their_seeds"
+S=tests/test_software.py
+SOFT_FAST="$S::test_slow_pd_control_is_the_exact_zero_order_hold_discretisation $S::test_a_step_function_that_raises_keeps_the_samples_computed
+ $S::test_your_own_step_function_equals_the_compiled_law $S::test_modes_delay_and_slew
+ $S::test_null_space_management_spreads_the_momentum_without_a_body_torque $S::test_bad_software_is_refused_before_any_work"
+SOFT="$SOFT_FAST $S::test_momentum_dumping_unloads_the_wheels_at_its_gain $S::test_fast_pd_control_matches_the_second_order_response
+ $S::test_wheels_alone_in_closed_loop_conserve_G_to_round_off $S::test_bdot_detumbles_the_cubesat_to_twice_the_orbital_rate"
+E=tests/test_sensors.py
+SENS_FSW="$E::test_runs_are_reproducible_from_their_seeds $E::test_star_tracker_and_magnetometer_noise_is_what_their_parameters_say
+ $E::test_star_tracker_exclusion_flags_exactly_when_the_geometry_says"
+SENS="$E::test_xoshiro256starstar_is_the_published_generator $E::test_bad_sensor_parameters_are_refused
+ $E::test_normal_deviates_are_standard_normal $SENS_FSW $E::test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters"
+MEKF="$E::test_bad_sensor_parameters_are_refused $E::test_mekf_converges_from_ten_degrees_and_is_consistent"
 
 declare -A MODULE_TESTS=(
   [attitude/_core/quat.py]="tests/test_propagate.py tests/test_potentials.py"  # kernels only: attitude.quaternion is numpy
@@ -44,6 +78,29 @@ declare -A MODULE_TESTS=(
   [attitude/_core/taylor.py]="tests/test_taylor.py"
   [orbit/_state_kernels.py]="tests/test_orbit_sources_runs.py tests/test_keplerorbit.py"
   [orbit/_kernels.py]="tests/test_kepler.py tests/test_keplerorbit.py"
+  # issues 24-26: actuators, flight software, sensors, estimation (selected tests: below)
+  [attitude/_core/actuators.py]="$ACT"
+  [attitude/_core/gyrostat.py]="$ACT"
+  [attitude/_core/holds.py]="$ACT $SOFT_FAST"
+  [attitude/_core/taylor_gyrostat.py]="$TAYLOR"
+  [attitude/_core/fsw.py]="$SOFT $SENS_FSW"
+  [attitude/_core/sensors.py]="$SENS"
+  [attitude/_core/rng.py]="$SENS"
+  [attitude/_core/mekf.py]="$MEKF"
+  [attitude/actuators/_common.py]="$ACT"
+  [attitude/actuators/commands.py]="$ACT"
+  [attitude/actuators/magnetorquers.py]="$ACT"
+  [attitude/actuators/thrusters.py]="$ACT"
+  [attitude/actuators/wheels.py]="$ACT"
+  [attitude/spacecraft.py]="$ACT"
+  [attitude/_holds.py]="$ACT $SOFT_FAST"
+  [attitude/control/_allocation.py]="$SOFT"
+  [attitude/control/_laws.py]="$SOFT"
+  [attitude/software/_guidance.py]="$SOFT"
+  [attitude/software/_modes.py]="$SOFT"
+  [attitude/software/_software.py]="$SOFT $SENS_FSW"
+  [attitude/sensors/_models.py]="$SENS"
+  [attitude/estimation/_mekf.py]="$MEKF"
 )
 # Tests that check compiled-only behaviour (numba typing errors, caching, calls from numba).
 DESELECT=(
@@ -77,7 +134,7 @@ for spec in "$@"; do
 module-path = "$module"
 timeout = $TIMEOUT
 excluded-modules = []
-test-command = "$PY -m pytest -x -q -p no:cacheprovider --hypothesis-seed=0 ${deselect[*]} $tests"
+test-command = "$PY -m pytest -x -q -n 0 -p no:cacheprovider --hypothesis-seed=0 ${deselect[*]} $(echo $tests)"
 
 [cosmic-ray.distributor]
 name = "local"
@@ -104,14 +161,18 @@ TOML
   cr-filter-operators "$name.sqlite" "$name.toml"
   cr-filter-pragma "$name.sqlite"
   [ -n "$lines" ] && cr-filter-lines --config "$name.toml" "$name.sqlite"
-  if [ -n "${SAMPLE:-}" ]; then  # keep a seeded random fraction of the pending mutants
-    "$PY" - "$name.sqlite" "$SAMPLE" <<'PY'
+  if [ -n "${SAMPLE:-}${SAMPLE_N:-}" ]; then  # keep a seeded random part of the pending mutants
+    "$PY" - "$name.sqlite" "${SAMPLE:-}" "${SAMPLE_N:-}" <<'PY'
 import random, sys
 from cosmic_ray.work_db import WorkDB, use_db
 from cosmic_ray.work_item import WorkResult, WorkerOutcome
 with use_db(sys.argv[1], WorkDB.Mode.open) as db:
-    items = sorted(db.pending_work_items, key=lambda i: i.job_id)
-    keep = set(random.Random(0).sample(range(len(items)), round(float(sys.argv[2]) * len(items))))
+    # in source order (job ids are random uuids: sorting on them made samples unrepeatable)
+    items = sorted(db.pending_work_items, key=lambda i: (
+        str(i.mutations[0].module_path), tuple(i.mutations[0].start_pos),
+        i.mutations[0].operator_name, i.mutations[0].occurrence))
+    n = int(sys.argv[3]) if sys.argv[3] else round(float(sys.argv[2]) * len(items))
+    keep = set(random.Random(0).sample(range(len(items)), min(n, len(items))))
     for i, item in enumerate(items):
         if i not in keep:
             db.set_result(item.job_id, WorkResult(output="not sampled",

@@ -76,6 +76,7 @@ from attitude._core.potentials import (
 )
 from attitude._core.rk import dop853_run
 from attitude._core.splitting import composition_run
+from attitude._core.taylor_gyrostat import taylor_holds_run
 from orbit._shared_jit import jit, parallel_jit, rebind
 from orbit._state_kernels import orbit_sample as _any_orbit_sample
 
@@ -232,6 +233,21 @@ dop853_spacecraft_fsw = rebind(
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary",
+)
+
+#: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
+#: software as its command source (in a user module: with the user's compiled step).
+taylor_spacecraft_fsw = rebind(
+    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary"
+)
+
+#: The same under an open-loop schedule.
+taylor_spacecraft = rebind(
+    taylor_holds_run,
+    globals(),
+    "spacecraft",
+    options={"_nrt": REFCOUNT},
+    BOUNDARY="schedule_boundary",
 )
 
 

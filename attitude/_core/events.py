@@ -634,9 +634,15 @@ def composition_events_run(
     refined by Brent's method on g(t_s + τ, Φ_τ(y_s)), Φ_τ one step of the method of size τ
     from the step's start y_s. ``evs[:, EVS_G]`` must hold g at ``t_start`` on the first call.
 
+    ``counters`` (int64, 5): steps, kick and free-flow evaluations, then as in
+    ``composition_run`` the step at which the first interval resumes and the most steps this
+    call takes (0: no limit); when that budget runs out the call returns ``TOO_MANY_STEPS``
+    with ``state`` mid-interval: called again with the same ``t_start`` and the remaining
+    ``t_out`` it continues bit for bit (the steps are whole: nothing is pending).
+
     Returns (status, n_done) as ``composition_run``, or ``EVENT`` (``state`` then holds the
-    state at the terminal event, also the last record) or ``EVENT_BUFFER_FULL`` (at an output
-    time: enlarge the records and call again from there).
+    state at the terminal event, also the last record), ``EVENT_BUFFER_FULL`` (at an output
+    time: enlarge the records and call again from there) or ``TOO_MANY_STEPS`` (paused).
     """
     m = t_out.shape[0]
     n_ev = int(evd[EV_N])
@@ -651,20 +657,39 @@ def composition_events_run(
     zs = np.empty(6)
     direction = 1.0 if (m == 0 or t_out[m - 1] >= t_start) else -1.0
     t_a = t_start
+    budget = counters[4]
+    taken = 0
     for k in range(m):
         t_b = t_out[k]
         span = t_b - t_a
         if span != 0.0:
             n = n_steps_for(span, dt)
-            if cap > 0 and cap - ev_count[0] < n_ev * n:
+            j0 = counters[3]
+            if cap > 0 and cap - ev_count[0] < n_ev * (n - j0):
                 return EVENT_BUFFER_FULL, k
+            counters[3] = 0
             h = span / n
-            for j in range(n):
+            for j in range(j0, n):
+                if budget > 0 and taken >= budget:
+                    counters[3] = j
+                    return TOO_MANY_STEPS, k
+                taken += 1
                 ts = t_a + j * h
                 for i in range(8):
                     sbak[i] = state[i]
                 composition_step(torque, params, kinds, coefs, toffs, state, ts, h, counters)
                 counters[0] += 1
+                if not math.isfinite(
+                    state[0]
+                    + state[1]
+                    + state[2]
+                    + state[3]
+                    + state[4]
+                    + state[5]
+                    + state[6]
+                    + state[7]
+                ):  # once per step, as composition_run
+                    return NONFINITE, k
                 te = t_b if j == n - 1 else ts + h
                 state_to_canonical(state, yc)
                 for e in range(n_ev):

@@ -38,8 +38,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit, rebind
-from orbit._state_kernels import orbit_state
+from orbit._shared_jit import jit
 
 from .actuators import (
     S_IDEAL,
@@ -57,7 +56,7 @@ from .actuators import (
     wheel_speed,
 )
 from .environment import field_body
-from .frames import frame_eval
+from .frames import F_TYPE, FRAME_INERTIAL, frame_eval
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
@@ -175,8 +174,12 @@ FS_SLEW_T0 = 11  # start of the slew
 FS_SLEW_AXIS = 12  # axis of the offset from the target (3, target axes)
 FS_SLEW_ANGLE = 15  # its angle
 FS_ENTERED = 16  # 1 once the active mode has run a tick (0 at its entry)
-FS_QUEUE = 20  # delayed commands: delay rows of n_cmd, a ring indexed by the tick
-FS_HEADER = 20
+FS_SENSED = 17  # 1: this tick's measurements were taken (your own step asked for commands)
+FS_SQ = 20  # the attitude the software uses at this tick (4), then its rate (3), its field (3)
+FS_SW = 24
+FS_SB = 27
+FS_QUEUE = 32  # delayed commands: delay rows of n_cmd, a ring indexed by the tick
+FS_HEADER = 32
 
 # --- tick records -------------------------------------------------------------------------------
 R_T = 0
@@ -246,6 +249,8 @@ def frame_reference(d, t):
     r = frame_eval(d, t)
     q = (r[0], r[1], r[2], r[3])
     w = (r[4], r[5], r[6])
+    if int(d[F_TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
+        return q, w, (0.0, 0.0, 0.0)
     h = DOMEGA_STEP
     a = frame_eval(d, t + h)
     b = frame_eval(d, t - h)
@@ -464,22 +469,50 @@ def _updates(es, ep, z, q, bb, sn, t):
 
 
 @jit
+def _field_offset(fw, sc):
+    """Offset of the field block the software reads (its own, else the magnetorquers')."""
+    fo = int(fw[FW_FIELD])
+    if fo == 0:
+        fo = int(sc[S_MTQ])
+    return fo
+
+
+@jit
+def _sense(t, y, sc, fw, fs, rec_row):
+    """The truth at t, then what the software measures or estimates of it: (q, ω, B_body);
+    the sensors' and the estimator's record written into ``rec_row``."""
+    qt = (y[0], y[1], y[2], y[3])
+    _g, omt = state_rate(sc, y)
+    fo = _field_offset(fw, sc)
+    bbt = (0.0, 0.0, 0.0)
+    if fo > 0:
+        bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
+    at = R_CMD + 2 * int(fw[FW_NCMD])
+    return sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, at)
+
+
+@jit
+def _sensed(fs):
+    """The (q, ω, B_body) stored by :func:`fsw_boundary` at this tick."""
+    q = (fs[FS_SQ], fs[FS_SQ + 1], fs[FS_SQ + 2], fs[FS_SQ + 3])
+    om = (fs[FS_SW], fs[FS_SW + 1], fs[FS_SW + 2])
+    bb = (fs[FS_SB], fs[FS_SB + 1], fs[FS_SB + 2])
+    return q, om, bb
+
+
+@jit
 def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     """One tick of the flight software at t from the state y: the commands to apply into
     ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``."""
     nw = int(sc[S_NW])
     nm = int(sc[S_NM])
     ncmd = int(fw[FW_NCMD])
-    # the truth, then what the software measures or estimates of it
-    qt = (y[0], y[1], y[2], y[3])
-    _g, omt = state_rate(sc, y)
-    fo = int(fw[FW_FIELD])
-    if fo == 0:
-        fo = int(sc[S_MTQ])
-    bbt = (0.0, 0.0, 0.0)
-    if fo > 0:
-        bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
-    q, om, bb = sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, R_CMD + 2 * ncmd)
+    fo = _field_offset(fw, sc)
+    if fs[FS_SENSED] != 0.0:  # measured when your own step asked for its commands
+        q, om, bb = _sensed(fs)
+        fs[FS_SENSED] = 0.0
+    else:
+        q, om, bb = _sense(t, y, sc, fw, fs, rec_row)
     # modes: forward to the next one when its condition holds
     mode = int(fs[FS_MODE])
     nmodes = int(fw[FW_NMODES])
@@ -685,15 +718,25 @@ def fsw_boundary(P, y, t, t_end, ctl):
             sc[S_IDEAL + 2] = 0.0
             hs[HS_HOLD_END] = fw[FW_T0]
     if t >= fs[FS_NEXT]:
-        if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
-            return BOUNDARY_NEEDS_COMMANDS
-        hs[HS_READY] = 0.0
         k = int(fs[FS_TICK])
         every = int(fw[FW_RECORD_EVERY])
         keep = k % every == 0
         if keep and rc[0] >= rec.shape[0]:
             return RECORDS_FULL
         row = rec[int(rc[0])] if keep else rec[rec.shape[0] - 1]
+        if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
+            # your own step: measure once (its record in this tick's row), then ask for the
+            # commands; measure() hands these measurements to the step
+            if fs[FS_SENSED] == 0.0:
+                q, om, bb = _sense(t, y, sc, fw, fs, row)
+                for i in range(4):
+                    fs[FS_SQ + i] = q[i]
+                for i in range(3):
+                    fs[FS_SW + i] = om[i]
+                    fs[FS_SB + i] = bb[i]
+                fs[FS_SENSED] = 1.0
+            return BOUNDARY_NEEDS_COMMANDS
+        hs[HS_READY] = 0.0
         fsw_tick(t, y, params, sc, fw, fs, cmd, row)
         t_next = fw[FW_T0] + (k + 1) * per
         configure_hold(sc, y, cmd, t, t_next)
@@ -712,81 +755,3 @@ def fsw_boundary(P, y, t, t_end, ctl):
     thrusters_off_at(sc, t)
     hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
     return BOUNDARY_DONE
-
-
-#: Layout of the measurement vector of :func:`measure` (then n_w wheel speeds, n_w momenta).
-MEAS_T = 0
-MEAS_Q = 1
-MEAS_OMEGA = 5
-MEAS_QREF = 8
-MEAS_OMEGA_REF = 12
-MEAS_SIGMA = 15
-MEAS_DOMEGA = 18
-MEAS_FIELD = 21
-MEAS_SUN = 24
-MEAS_R = 27
-MEAS_V = 30
-MEAS_WHEELS = 33
-
-
-@jit
-def measure(t, y, params, sc, fw, fs, out):
-    """The measurements your own software sees at t (the truth; NaN where unavailable): the
-    layout MEAS_* above. Runs the active mode's guidance (a slew starts here)."""
-    nw = int(sc[S_NW])
-    q = (y[0], y[1], y[2], y[3])
-    _g, om = state_rate(sc, y)
-    mb = int(fw[int(fw[FW_MODES]) + int(fs[FS_MODE])])
-    qR, wR_R, _dwR_R = guidance(fw, fs, mb, t, q)
-    fs[FS_ENTERED] = 1.0
-    qBR = conj_mul(qR, q)
-    sig = mrp(qBR)
-    wRN = rotate_inverse(qBR, wR_R)
-    out[MEAS_T] = t
-    for i in range(4):
-        out[MEAS_Q + i] = q[i]
-        out[MEAS_QREF + i] = qR[i]
-    for i in range(3):
-        out[MEAS_OMEGA + i] = om[i]
-        out[MEAS_OMEGA_REF + i] = wRN[i]
-        out[MEAS_SIGMA + i] = sig[i]
-        out[MEAS_DOMEGA + i] = om[i] - wRN[i]
-        out[MEAS_FIELD + i] = math.nan
-        out[MEAS_SUN + i] = math.nan
-        out[MEAS_R + i] = math.nan
-        out[MEAS_V + i] = math.nan
-    fo = int(fw[FW_FIELD])
-    if fo > 0:
-        bb = field_body(q, t, fw, fo)
-    elif int(sc[S_MTQ]) > 0:
-        bb = field_body(q, t, sc, int(sc[S_MTQ]))
-    else:
-        bb = (math.nan, math.nan, math.nan)
-    oo = int(fw[FW_ORBIT])
-    if oo > 0:
-        st = orbit_state(fw[oo:], t)
-        for i in range(3):
-            out[MEAS_R + i] = st[i]
-            out[MEAS_V + i] = st[3 + i]
-        so = int(fw[FW_SUN])
-        if so > 0:
-            sun = orbit_state(fw[so:], t)
-            dx = sun[0] - st[0]
-            dy = sun[1] - st[1]
-            dz = sun[2] - st[2]
-            n = math.sqrt(dx * dx + dy * dy + dz * dz)
-            sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
-            for i in range(3):
-                out[MEAS_SUN + i] = sb[i]
-    for i in range(3):
-        out[MEAS_FIELD + i] = bb[i]
-    for k in range(nw):
-        b = S_WHEELS + k * WS
-        out[MEAS_WHEELS + k] = wheel_speed(sc, b, y[8 + k], om)
-        out[MEAS_WHEELS + nw + k] = y[8 + k]
-
-
-from .taylor_gyrostat import taylor_holds_run  # noqa: E402 (the Taylor driver, rebound below)
-
-#: The Taylor integration of the gyrostat with the flight software as its command source.
-taylor_holds_fsw = rebind(taylor_holds_run, globals(), "fsw", BOUNDARY="fsw_boundary")

@@ -73,7 +73,9 @@ HS_PENDING = 1
 HS_SEG_END = 2
 HS_HOLD_END = 3
 HS_READY = 4  # the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)
-HS_SIZE = 5
+HS_FAIL = 5  # why a command source stopped the run (STEP_FAILED), and a number about it
+HS_FAIL_N = 6
+HS_SIZE = 7
 
 #: Statuses of a command source (:data:`BOUNDARY`).
 BOUNDARY_DONE = 0
@@ -83,6 +85,9 @@ BOUNDARY_NEEDS_COMMANDS = 1
 NEEDS_COMMANDS = 6
 #: Status when a record buffer of the command source is full (grow it and call again).
 RECORDS_FULL = 7
+#: Status when your own compiled step function returned commands that cannot be applied
+#: (the reason in ``hs[HS_FAIL]``); the run stops there, its samples kept.
+STEP_FAILED = 8
 
 #: Record columns per wheel, magnetorquer and thruster.
 REC_WHEEL = 4
@@ -218,9 +223,9 @@ def holds_run(
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 tstate[1] = h_abs
                 return NEEDS_COMMANDS, k
-            if bs != BOUNDARY_DONE:
+            if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
                 tstate[1] = h_abs
-                return RECORDS_FULL, k
+                return bs, k
             RHS(t, y, P, f)
             counters[1] += 1
             counters[4] = 0

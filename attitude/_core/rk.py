@@ -185,6 +185,11 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
         h_abs = max_step
     elif h_abs < min_step:
         h_abs = min_step
+    elif not h_abs == h_abs:
+        # A NaN size (from a non-finite derivative at the start) would never compare below
+        # min_step: the rejection loop below would spin forever.
+        tstate[1] = h_abs
+        return NONFINITE, h_abs
     rejected = False
     while True:
         if h_abs < min_step:
@@ -216,7 +221,9 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
         # Error estimate: the 5th- and 3rd-order embedded pairs (HNW II.10, eq. 10.17).
         e5 = 0.0
         e3 = 0.0
+        finite = True
         for i in range(n):
+            finite = finite and math.isfinite(yn[i])
             sc = atol + rtol * max(abs(y[i]), abs(yn[i]))
             a5 = 0.0
             a3 = 0.0
@@ -229,8 +236,9 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
             err = 0.0
         else:
             err = h_abs * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-        if not math.isfinite(err):
-            # A non-finite trial state: shrink hard; if that cannot help, report it.
+        if not (finite and math.isfinite(err)):
+            # A non-finite trial state (an overflowing state divides by an infinite scale and
+            # can leave err finite): shrink hard; if that cannot help, report it.
             h_abs *= _MIN_FACTOR
             rejected = True
             counters[2] += 1

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import JIT_DISABLED, jit
 
 RNG_SIZE = 6
 _CACHE = 4
@@ -114,3 +114,20 @@ def normals_loop(st, o, out):
     """``out[i] = normal(st, o)`` (for tests of the generator's statistics)."""
     for i in range(out.shape[0]):
         out[i] = normal(st, o)
+
+
+def _wrapping(f):
+    """``f`` with numpy's overflow warning off: the generators want 64-bit products and sums
+    to wrap around, which compiled code does silently and plain numpy scalars warn about."""
+
+    def wrapped(*args):
+        with np.errstate(over="ignore"):
+            return f(*args)
+
+    wrapped.__doc__ = f.__doc__
+    return wrapped
+
+
+if JIT_DISABLED:  # ATTITUDE_DISABLE_JIT=1: the same numbers, without a warning per draw
+    splitmix64 = _wrapping(splitmix64)
+    next_u64 = _wrapping(next_u64)

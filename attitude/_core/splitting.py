@@ -369,6 +369,10 @@ def composition_run(
                     else:
                         free_flow_state(q, w, tau, params)
                         counters[2] += 1
+                # once per step: a NaN or inf anywhere in the state (a non-finite torque, an
+                # overflow) ends the run here, not at the next output time
+                if not math.isfinite(q[0] + q[1] + q[2] + q[3] + w[0] + w[1] + w[2] + w[3]):
+                    return NONFINITE, k
         state_to_canonical(state, y_out[k])
         ok = True
         for i in range(8):

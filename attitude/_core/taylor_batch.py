@@ -78,7 +78,7 @@ from .taylor import (
     step_end,
 )
 
-__all__ = ["LANES", "taylor_ensemble_parallel", "taylor_ensemble_serial"]
+__all__ = ["LANES", "new_workspaces", "taylor_ensemble_parallel", "taylor_ensemble_serial"]
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
 K_II = 0  # 1/I1, 1/I2, 1/I3
@@ -506,13 +506,23 @@ def _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate, counters,
 L_MEMBER = 5  # the member in the lane (−1: idle); columns 0..4 are its counters
 L_K = 6  # its next output sample
 LINT = 7
+#: Columns of a group's state ``gst`` (int64): the next member to take (start: not begun),
+#: and 1 once every member of the group has ended.
+G_NEXT = 0
+G_DONE = 1
+GST = 2
 
 
-@jit
-def new_workspace():
-    """The arrays of one batch integrator: ``(cf, cst, lts, lint)``."""
-    return (np.zeros((WORK_ROWS, NCOL, LANES)), np.zeros((NCONST, LANES)), np.zeros((LANES, 5)),
-            np.zeros((LANES, LINT), dtype=np.int64))  # fmt: skip
+def new_workspaces(n_groups):
+    """The arrays of ``n_groups`` batch integrators, ``(cf, cst, lts, lint, gst)``, each with
+    a leading group axis; ``gst[:, G_NEXT] = -1``: not begun. They persist between the calls
+    of a run that is paused at its step budget."""
+    gst = np.zeros((n_groups, GST), dtype=np.int64)
+    for g in range(n_groups):
+        gst[g, G_NEXT] = -1
+    return (np.zeros((n_groups, WORK_ROWS, NCOL, LANES)), np.zeros((n_groups, NCONST, LANES)),
+            np.zeros((n_groups, LANES, 5)), np.zeros((n_groups, LANES, LINT), dtype=np.int64),
+            gst)  # fmt: skip
 
 
 # No reference counting in the step loop (numba's _nrt=False): every array it touches is
@@ -520,24 +530,34 @@ def new_workspace():
 # atomic operations per call (more than the step's bookkeeping).
 @jit(_nrt=False)
 def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
-                 max_step, max_steps, orbit_tab, start, stop, cf, cst, lts, lint):  # fmt: skip
+                 max_step, max_steps, orbit_tab, start, stop, cf, cst, lts, lint, gst,
+                 budget):  # fmt: skip
     """Members ``start..stop-1`` through one batch integrator of LANES lanes (the workspace
-    ``cf, cst, lts, lint`` of :func:`new_workspace`)."""
+    ``cf, cst, lts, lint`` and group state ``gst`` of one group of :func:`new_workspaces`),
+    for at most ``budget`` batch steps (0: to the end). Paused at the budget, the lanes keep
+    their members in the workspace: the next call goes on bit for bit (the lanes are
+    independent, so no member's steps depend on when the group pauses). Returns the number of
+    batch steps taken."""
     m = t.shape[0]
     t_end = t[m - 1]
     direction = 1.0 if t_end >= t[0] else -1.0
     p = order_from_tolerance(rtol)
     kind = int(params[start, P_KIND])
-    # Every lane starts from a valid state (a lane without a member repeats the first one).
-    for lane in range(LANES):
-        for j in range(8):
-            cf[Y, j, lane] = y0[start, j]
-        n, c = _lane_initial_row(cf, lane, t[0], params, start)
-        _lane_constants(params, start, cst, lane)
-        _lane_state_constants(n, c, cst, lane)
-        lint[lane, L_MEMBER] = -1
-    nxt = start
+    if gst[G_DONE] != 0:
+        return 0
+    if gst[G_NEXT] < 0:
+        # Every lane starts from a valid state (a lane without a member repeats the first one).
+        for lane in range(LANES):
+            for j in range(8):
+                cf[Y, j, lane] = y0[start, j]
+            n, c = _lane_initial_row(cf, lane, t[0], params, start)
+            _lane_constants(params, start, cst, lane)
+            _lane_state_constants(n, c, cst, lane)
+            lint[lane, L_MEMBER] = -1
+        gst[G_NEXT] = start
+    nxt = gst[G_NEXT]
     refill = True
+    taken = 0
     while True:
         if refill:  # idle lanes take the next members (those that need no step finish here)
             refill = False
@@ -563,15 +583,22 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
                         st = SUCCESS if k >= m else TOO_MANY_STEPS
                         _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate,
                                 counters, status, n_done, orbit_tab)  # fmt: skip
+            gst[G_NEXT] = nxt
         active = 0
+        for lane in range(LANES):
+            if lint[lane, L_MEMBER] >= 0:
+                active += 1
+        if active == 0:
+            gst[G_DONE] = 1
+            return taken
+        if budget > 0 and taken >= budget:
+            return taken  # paused: the lanes hold their members
+        taken += 1
         for lane in range(LANES):
             i = lint[lane, L_MEMBER]
             if i >= 0:
-                active += 1
                 n, c = _lane_initial_row(cf, lane, lts[lane, 0], params, i)
                 _lane_state_constants(n, c, cst, lane)
-        if active == 0:
-            return
         taylor_coefficients_lanes(cf, p, kind, cst)
         for lane in range(LANES):
             i = lint[lane, L_MEMBER]
@@ -595,25 +622,36 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
 
 @parallel_jit(nogil=True)
 def taylor_ensemble_parallel(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol,
-                             atol, max_step, max_steps, orbit_tab, group):  # fmt: skip
-    """All members, ``group`` members per batch integrator, the groups in parallel (prange)."""
+                             atol, max_step, max_steps, orbit_tab, group, cf, cst, lts, lint,
+                             gst, budget):  # fmt: skip
+    """All members, ``group`` members per batch integrator (workspaces of
+    :func:`new_workspaces`, one per group), the groups in parallel (prange), each for at most
+    ``budget`` batch steps this call."""
     n = y0.shape[0]
     n_groups = (n + group - 1) // group
     for g in numba.prange(n_groups):
         start = g * group
-        cf, cst, lts, lint = new_workspace()
         taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
-                     max_step, max_steps, orbit_tab, start, min(n, start + group), cf, cst, lts,
-                     lint)  # fmt: skip
+                     max_step, max_steps, orbit_tab, start, min(n, start + group), cf[g], cst[g],
+                     lts[g], lint[g], gst[g], budget)  # fmt: skip
 
 
 @jit(nogil=True)
 def taylor_ensemble_serial(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol,
-                           atol, max_step, max_steps, orbit_tab, group):  # fmt: skip
-    """All members, one group after the other, GIL released (what a Dask worker thread runs)."""
+                           atol, max_step, max_steps, orbit_tab, group, cf, cst, lts, lint, gst,
+                           budget):  # fmt: skip
+    """All members, one group after the other, GIL released (what a Dask worker thread runs),
+    for at most ``budget`` batch steps this call (over all groups)."""
     n = y0.shape[0]
-    cf, cst, lts, lint = new_workspace()
+    left = budget
+    g = 0
     for start in range(0, n, group):
-        taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
-                     max_step, max_steps, orbit_tab, start, min(n, start + group), cf, cst, lts,
-                     lint)  # fmt: skip
+        if gst[g, G_DONE] == 0:
+            if budget > 0 and left <= 0:
+                return
+            taken = taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done,
+                                 rtol, atol, max_step, max_steps, orbit_tab, start,
+                                 min(n, start + group), cf[g], cst[g], lts[g], lint[g], gst[g],
+                                 left)  # fmt: skip
+            left -= taken
+        g += 1

@@ -64,7 +64,6 @@ from .holds import (
     HS_PENDING,
     HS_SEG_END,
     NEEDS_COMMANDS,
-    RECORDS_FULL,
     record,
     schedule_boundary,
 )
@@ -531,8 +530,8 @@ def taylor_holds_run(
             bs = BOUNDARY(P, y, tstate[0], t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 return NEEDS_COMMANDS, k
-            if bs != BOUNDARY_DONE:
-                return RECORDS_FULL, k
+            if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
+                return bs, k
             hs[HS_PENDING] = 0.0
             continue
         if k == m:

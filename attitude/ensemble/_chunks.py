@@ -164,19 +164,29 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
         import numba
 
         threads = numba.get_num_threads()
-    if threads == 1:
-        _tb.taylor_ensemble_serial(*args, max(c, 1))
-    else:
-        # About 4 groups per thread, of equal size (balance), none below TAYLOR_MIN_GROUP.
-        n_groups = max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
-        old = numba.set_parallel_chunksize(1)  # a group at a time (they are few and long)
-        try:
-            _tb.taylor_ensemble_parallel(*args, -(-c // n_groups))
-        finally:
-            numba.set_parallel_chunksize(old)
+    # About 4 groups per thread, of equal size (balance), none below TAYLOR_MIN_GROUP; one
+    # group on one thread.
+    n_groups = 1 if threads == 1 else max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
+    group = max(c, 1) if n_groups == 1 else -(-c // n_groups)
+    n_groups = -(-c // group)  # (0 for no members: nothing to run)
+    ws = _tb.new_workspaces(n_groups)
+    # Batch steps (LANES member steps each) per group and call, ENSEMBLE_STEP_BUDGET member
+    # steps per thread and call in all: the call returns to Python (Ctrl-C acts) and goes on.
+    budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * threads // (n_groups * _tb.LANES))
+    while True:
+        if threads == 1:
+            _tb.taylor_ensemble_serial(*args, group, *ws, budget)
+        else:
+            old = numba.set_parallel_chunksize(1)  # a group at a time (they are few and long)
+            try:
+                _tb.taylor_ensemble_parallel(*args, group, *ws, budget)
+            finally:
+                numba.set_parallel_chunksize(old)
+        _interrupt.check()
+        if ws[4][:, _tb.G_DONE].all():
+            break
     out["counters"][:, 1] = 0  # no right-hand side is evaluated (Taylor terms instead)
     out["t_stop"] = tstate[:, 0].copy()
-    _interrupt.check()  # Ctrl-C acts between chunks (a chunk's SIMD batches run to their end)
     return out
 
 

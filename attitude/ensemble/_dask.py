@@ -145,8 +145,9 @@ def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
         out.discard()
         raise
     except (OSError, RuntimeError) as exc:
+        err = file_error(exc, out.target)  # a full disk: before the discard frees it
         out.discard()
-        raise file_error(exc, out.target) from None
+        raise err from None
     except BaseException:
         out.discard()
         raise

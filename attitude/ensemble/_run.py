@@ -8,15 +8,14 @@ import os
 import time
 import warnings
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from .._validation import as_float_array, as_int, as_positive, as_times
+from .._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from ..body import RigidBody
-from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
+from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
 from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
@@ -286,19 +285,15 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if method not in ENSEMBLE_METHODS:
+    if not isinstance(method, str) or method not in ENSEMBLE_METHODS:
         raise AttitudeValueError(
             f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
             f"compiled parallel loops), got {method!r}; for other methods loop over "
             f"attitude.propagate"
         )
     tt = as_times(t, "t")
-    rtol = as_positive(rtol, "rtol")
+    rtol = as_rtol(rtol, "rtol")
     atol = as_positive(atol, "atol")
-    if rtol < 1e-15:
-        raise AttitudeValueError(
-            f"rtol: {rtol:g} is below what double precision can deliver; use >= 1e-15"
-        )
     if atol < ATOL_MIN:
         raise AttitudeValueError(
             f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
@@ -376,14 +371,22 @@ def propagate_ensemble(
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
 
-    out_path = None if path is None else Path(path)
-    if out_path is not None:
+    out_path = None
+    if path is not None:
         from .._files import OutputFile
 
         # checked before any work: type, a directory or device, room on the disk
-        OutputFile(path, "path").check_space(
+        target = OutputFile(path, "path")
+        if target.through:
+            raise AttitudeFileError(
+                f"path: {target.path} is a pipe or a device; an ensemble's result is opened "
+                "from the file it was written to (members are read lazily from it), so it "
+                "needs a regular file: write there and copy it"
+            )
+        target.check_space(
             float(n) * tt.shape[0] * (8 + _N_DIAG) * 8, f"{n} members x {tt.shape[0]} samples"
         )
+        out_path = target.path
 
     owned = False
     if lazy:
@@ -728,7 +731,9 @@ def run_scenario(
                 f"or 'taylor' only; remove {key} from the [integrator] table of an [ensemble] "
                 f"scenario"
             )
-    out = Path(path) if path is not None else sc.output
+    from .._files import OutputFile
+
+    out = OutputFile(path, "path").path if path is not None else sc.output
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
     pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)

@@ -16,6 +16,9 @@ from ..errors import AttitudeTypeError, AttitudeValueError
 # ------------------------------------------------------------------------------------------------
 
 
+#: The percentiles the statistics functions compute when none are given.
+DEFAULT_PERCENTILES = (5.0, 50.0, 95.0)
+
 #: Variables of a statistics-only result (``propagate_ensemble(..., output="statistics")``).
 STORED = {"pointing": "pointing_error_percentiles", "omega": "omega_norm_percentiles"}
 
@@ -162,7 +165,7 @@ def _error_angles(q, r, axis):
 def pointing_error_percentiles(
     ds: xr.Dataset,
     reference: Any = None,
-    percentiles: Any = (5.0, 50.0, 95.0),
+    percentiles: Any = DEFAULT_PERCENTILES,
     *,
     axis: Any = None,
     degrees: bool = False,
@@ -248,7 +251,7 @@ def pointing_error_percentiles(
 
 def rate_percentiles(
     ds: xr.Dataset,
-    percentiles: Any = (5.0, 50.0, 95.0),
+    percentiles: Any = DEFAULT_PERCENTILES,
     *,
     norm: bool = True,
     variable: str = "omega",
@@ -314,7 +317,7 @@ def rate_percentiles(
 
 def event_time_percentiles(
     ds: xr.Dataset,
-    percentiles: Any = (5.0, 50.0, 95.0),
+    percentiles: Any = DEFAULT_PERCENTILES,
 ) -> xr.Dataset:
     """Percentiles over members of the time of each event's first occurrence.
 

@@ -28,6 +28,7 @@ from ._models import _frame, _model_names, _orbit, _potential
 from ._scenario import Scenario
 from ._schema import (
     _EVENT_KEYS,
+    _EVENT_TYPE_KEYS,
     _EVENT_TYPES,
     _EXAMPLE,
     _FORMS,
@@ -78,7 +79,31 @@ def loads(text: str, *, name: str = "scenario", path: Path | None = None) -> Sce
     except ScenarioError:
         raise
     except AttitudeError as exc:  # a constructor rejected a value: still bad input
-        raise ScenarioError(str(exc)) from None
+        raise ScenarioError(_scenario_key(str(exc))) from None
+
+
+#: The scenario keys of the parameters the constructors name in their errors (``inertia: ...``
+#: from RigidBody is ``body.inertia`` in a scenario).
+_PARAMETER_KEYS = {
+    "inertia": "body.inertia",
+    "weight": "potential.weight",
+    "center_of_mass": "potential.center_of_mass",
+    "field": "potential.field",
+    "density": "potential.density",
+    "f107": "potential.f107",
+    "f107a": "potential.f107a",
+    "ap": "potential.ap",
+    "eclipse": "potential.eclipse",
+    "step": "potential.step",
+    "dipole": "spacecraft.dipole",
+    "tensor": "spacecraft.eddy_tensor",
+}
+
+
+def _scenario_key(message: str) -> str:
+    """A constructor's error with the parameter it names replaced by the scenario's key."""
+    name, sep, rest = message.partition(": ")
+    return f"{_PARAMETER_KEYS[name]}: {rest}" if sep and name in _PARAMETER_KEYS else message
 
 
 def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None) -> Scenario:
@@ -508,6 +533,13 @@ def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:
         typ = r.string(et, "type", where)
         if typ not in _EVENT_TYPES:
             raise _fail(f"{where}.type", f"expected one of {', '.join(_EVENT_TYPES)}, got {typ!r}")
+        own = {"type", "terminal", "samples", *_EVENT_TYPE_KEYS[typ]}
+        for k in et:
+            if k.removesuffix("_unit") not in own:
+                raise _fail(
+                    f"{where}.{k}",
+                    f"a {typ} event does not read {k!r} (its keys: {', '.join(sorted(own))})",
+                )
         kw: dict[str, Any] = {"name": name}
         if "terminal" in et:
             if not isinstance(et["terminal"], bool):

@@ -180,6 +180,15 @@ _EVENT_KEYS: dict[str, str | None] = {
     "shadow": None,
 }
 _EVENT_TYPES = ("pointing_exceeds", "rate_exceeds", "eclipse_entry", "eclipse_exit", "angle_to_sun")
+#: The keys each event type reads (besides type, terminal and samples, which all read): any
+#: other key of _EVENT_KEYS in its table is an error, not silently ignored.
+_EVENT_TYPE_KEYS: dict[str, tuple[str, ...]] = {
+    "pointing_exceeds": ("frame", "frame_q", "axis", "angle", "direction"),
+    "rate_exceeds": ("rate", "direction"),
+    "eclipse_entry": ("shadow",),
+    "eclipse_exit": ("shadow",),
+    "angle_to_sun": ("axis", "angle", "direction"),
+}
 #: Reference frames a scenario names (attitude.frames); "orbital" is the paper's p(t), rsw.
 _FRAMES = ("inertial", "orbital", "lvlh", "rsw", "vnc", "nadir", "sun_pointing")
 _REQUIRED_TABLES = ("body", "initial_state", "time")

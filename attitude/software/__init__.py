@@ -10,12 +10,13 @@ from __future__ import annotations
 
 from ._guidance import Slew
 from ._modes import After, Condition, PointingBeyond, PointingWithin, RateAbove, RateBelow
-from ._software import FlightSoftware, Measurements, Mode
+from ._software import FlightSoftware, MeasurementIndex, Measurements, Mode
 
 __all__ = [
     "After",
     "Condition",
     "FlightSoftware",
+    "MeasurementIndex",
     "Measurements",
     "Mode",
     "PointingBeyond",

@@ -6,11 +6,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from enum import IntEnum
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from .._core import fsw as _kf
+from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
 from .._validation import as_float_array, as_int, as_scalar
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
@@ -18,7 +20,7 @@ from ..errors import AttitudeTypeError, AttitudeValueError
 from ._guidance import Slew, as_guidance
 from ._modes import Condition, as_condition
 
-__all__ = ["FlightSoftware", "Measurements", "Mode", "Program", "program"]
+__all__ = ["FlightSoftware", "MeasurementIndex", "Measurements", "Mode", "Program", "program"]
 
 
 def _period(x: Any) -> float:
@@ -41,6 +43,15 @@ def _period(x: Any) -> float:
     if not v > 0 or not math.isfinite(v):
         raise AttitudeValueError(f"period: the tick interval must be positive, got {v!r} s")
     return v
+
+
+def _is_compiled(fn: Any) -> bool:
+    """Whether ``fn`` is a numba-compiled function (``numba.njit``): your compiled step."""
+    if not hasattr(fn, "py_func"):
+        return False
+    from numba.core.registry import CPUDispatcher
+
+    return isinstance(fn, CPUDispatcher)
 
 
 def _control(x: Any) -> tuple[Any, MomentumDumping | None, Callable | None]:
@@ -123,6 +134,29 @@ class Measurements(NamedTuple):
     sun: np.ndarray | None  # (3,) unit vector to the Sun
     r: np.ndarray | None  # (3,) position, km, space axes (GCRS)
     v: np.ndarray | None  # (3,) velocity, km/s, space axes
+
+
+class MeasurementIndex(IntEnum):
+    """Where each measurement sits in the array ``m`` of your compiled ``step(t, m)``.
+
+    ``m[MeasurementIndex.Q : MeasurementIndex.Q + 4]`` is the attitude, and so on (the fields of
+    :class:`Measurements`; vectors of 3 unless noted); the n_w wheel speeds start at
+    ``WHEEL_SPEEDS``, the n_w wheel momenta at ``WHEEL_SPEEDS + n_w``. NaN where unavailable (no
+    orbit: field, Sun, r, v). numba reads the members as constants.
+    """
+
+    T = _kstep.MEAS_T
+    Q = _kstep.MEAS_Q  # 4
+    OMEGA = _kstep.MEAS_OMEGA
+    Q_REF = _kstep.MEAS_QREF  # 4
+    OMEGA_REF = _kstep.MEAS_OMEGA_REF
+    SIGMA_ERROR = _kstep.MEAS_SIGMA
+    OMEGA_ERROR = _kstep.MEAS_DOMEGA
+    FIELD = _kstep.MEAS_FIELD
+    SUN = _kstep.MEAS_SUN
+    R = _kstep.MEAS_R
+    V = _kstep.MEAS_V
+    WHEEL_SPEEDS = _kstep.MEAS_WHEELS
 
 
 class FlightSoftware:
@@ -237,6 +271,7 @@ class FlightSoftware:
                 out.append((as_condition(cond) if i else None, mode))
             self.modes = out
         self.python_step = None
+        self.compiled_step = None
         steps = [_control(m.control)[2] for _, m in self.modes]
         if any(s is not None for s in steps):
             if len(self.modes) != 1:
@@ -244,7 +279,10 @@ class FlightSoftware:
                     "modes: your own step(t, measurements) runs the whole software; it does not "
                     "mix with modes of built-in laws"
                 )
-            self.python_step = steps[0]
+            if _is_compiled(steps[0]):
+                self.compiled_step = steps[0]
+            else:
+                self.python_step = steps[0]
 
     @property
     def mode_names(self) -> list[str]:
@@ -258,7 +296,10 @@ class FlightSoftware:
             law = (
                 m.control
                 if not callable(m.control) or isinstance(m.control, ControlLaw)
-                else (f"python {getattr(m.control, '__name__', 'step')}")
+                else (
+                    f"{'compiled' if _is_compiled(m.control) else 'python'} "
+                    f"{getattr(m.control, '__name__', 'step')}"
+                )
             )
             g = m.guidance.describe() if m.guidance is not None else "none"
             c = f" when {type(cond).__name__}" if cond is not None else ""
@@ -278,6 +319,7 @@ class Program:
     n_cmd: int
     rec_width: int
     python_step: Callable | None = None
+    compiled_step: Callable | None = None  # a numba function step(t, m) -> commands
     mode_names: list[str] = field(default_factory=list)
     ideal: bool = False
     frames: dict = field(default_factory=dict)
@@ -312,7 +354,8 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
     head[_kf.FW_NCMD] = ncmd
     head[_kf.FW_IDEAL] = 1.0 if ideal else 0.0
     head[_kf.FW_RECORD_EVERY] = software.record_every
-    head[_kf.FW_EXTERNAL] = 1.0 if software.python_step is not None else 0.0
+    external = software.python_step is not None or software.compiled_step is not None
+    head[_kf.FW_EXTERNAL] = 1.0 if external else 0.0
     inertia = software.inertia if software.inertia is not None else np.diag(craft.body.inertia)
     head[_kf.FW_INERTIA : _kf.FW_INERTIA + 9] = inertia.reshape(-1)
     parts: list[np.ndarray] = [head]
@@ -468,6 +511,7 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
         n_cmd=ncmd,
         rec_width=_kf.record_width(ncmd, bool(sensors) or software.estimator is not None),
         python_step=software.python_step,
+        compiled_step=software.compiled_step,
         mode_names=software.mode_names,
         ideal=ideal,
         ss0=ss0,

@@ -1,0 +1,156 @@
+"""Your own compiled flight software: the measurements it sees and the boundary that calls it.
+
+A :class:`attitude.FlightSoftware` whose step is a numba function ``step(t, m) -> commands``
+runs inside the compiled loop: at each tick where the software of :mod:`attitude._core.fsw`
+asks for commands, :func:`step_boundary_with` fills the measurement vector ``m`` (:func:`measure`,
+the layout MEAS_* below, which :class:`attitude.software.MeasurementIndex` names), calls the
+step and checks its commands before they are held.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from orbit._shared_jit import jit, jit_generic
+from orbit._state_kernels import orbit_state
+
+from .actuators import S_MTQ, S_NW, S_WHEELS, WS, state_rate, wheel_speed
+from .environment import field_body
+from .fsw import (
+    FS_ENTERED,
+    FS_MODE,
+    FS_SENSED,
+    FW_FIELD,
+    FW_MODES,
+    FW_NCMD,
+    FW_ORBIT,
+    FW_SUN,
+    _field_offset,
+    _sensed,
+    fsw_boundary,
+    guidance,
+    mrp,
+)
+from .holds import BOUNDARY_NEEDS_COMMANDS, HS_FAIL, HS_FAIL_N, HS_READY, STEP_FAILED
+from .quat import conj_mul, rotate_inverse
+
+#: Layout of the measurement vector of :func:`measure` (then n_w wheel speeds, n_w momenta).
+MEAS_T = 0
+MEAS_Q = 1
+MEAS_OMEGA = 5
+MEAS_QREF = 8
+MEAS_OMEGA_REF = 12
+MEAS_SIGMA = 15
+MEAS_DOMEGA = 18
+MEAS_FIELD = 21
+MEAS_SUN = 24
+MEAS_R = 27
+MEAS_V = 30
+MEAS_WHEELS = 33
+
+
+@jit
+def measure(t, y, params, sc, fw, fs, out):
+    """The measurements your own software sees at t (NaN where unavailable): the layout MEAS_*
+    above. The attitude, rate and field are those the built-in laws would use (the truth, or
+    the sensors' and the estimator's, as stored by :func:`fsw_boundary` at this tick); r, v
+    and the Sun's direction (in the software's body axes) from the on-board ephemerides. Runs
+    the active mode's guidance (a slew starts here)."""
+    nw = int(sc[S_NW])
+    _g, omt = state_rate(sc, y)
+    sensed = fs[FS_SENSED] != 0.0
+    if sensed:
+        q, om, bbs = _sensed(fs)
+    else:
+        q = (y[0], y[1], y[2], y[3])
+        om = omt
+    mb = int(fw[int(fw[FW_MODES]) + int(fs[FS_MODE])])
+    qR, wR_R, _dwR_R = guidance(fw, fs, mb, t, q)
+    fs[FS_ENTERED] = 1.0
+    qBR = conj_mul(qR, q)
+    sig = mrp(qBR)
+    wRN = rotate_inverse(qBR, wR_R)
+    out[MEAS_T] = t
+    for i in range(4):
+        out[MEAS_Q + i] = q[i]
+        out[MEAS_QREF + i] = qR[i]
+    for i in range(3):
+        out[MEAS_OMEGA + i] = om[i]
+        out[MEAS_OMEGA_REF + i] = wRN[i]
+        out[MEAS_SIGMA + i] = sig[i]
+        out[MEAS_DOMEGA + i] = om[i] - wRN[i]
+        out[MEAS_FIELD + i] = math.nan
+        out[MEAS_SUN + i] = math.nan
+        out[MEAS_R + i] = math.nan
+        out[MEAS_V + i] = math.nan
+    fo = int(fw[FW_FIELD])
+    if _field_offset(fw, sc) <= 0:
+        bb = (math.nan, math.nan, math.nan)
+    elif sensed:
+        bb = bbs
+    elif fo > 0:
+        bb = field_body(q, t, fw, fo)
+    else:
+        bb = field_body(q, t, sc, int(sc[S_MTQ]))
+    oo = int(fw[FW_ORBIT])
+    if oo > 0:
+        st = orbit_state(fw[oo:], t)
+        for i in range(3):
+            out[MEAS_R + i] = st[i]
+            out[MEAS_V + i] = st[3 + i]
+        so = int(fw[FW_SUN])
+        if so > 0:
+            sun = orbit_state(fw[so:], t)
+            dx = sun[0] - st[0]
+            dy = sun[1] - st[1]
+            dz = sun[2] - st[2]
+            n = math.sqrt(dx * dx + dy * dy + dz * dz)
+            sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
+            for i in range(3):
+                out[MEAS_SUN + i] = sb[i]
+    for i in range(3):
+        out[MEAS_FIELD + i] = bb[i]
+    for k in range(nw):
+        b = S_WHEELS + k * WS
+        out[MEAS_WHEELS + k] = wheel_speed(sc, b, y[8 + k], omt)  # the tachometers
+        out[MEAS_WHEELS + nw + k] = y[8 + k]
+
+
+#: Why a compiled step's commands were refused (``hs[HS_FAIL]``; ``hs[HS_FAIL_N]``: the length
+#: it returned).
+STEP_WRONG_LENGTH = 1.0
+STEP_NONFINITE = 2.0
+
+
+@jit_generic
+def step_boundary_with(step, P, y, t, t_end, ctl):
+    """:func:`fsw_boundary` with your own compiled ``step(t, m) -> commands`` (``m``: the
+    measurements of :func:`measure`, a 1-D array): called at each tick where the software asks
+    for commands; its commands are checked (length n_cmd, or 3 body-torque components without
+    actuators; finite), else the run stops with STEP_FAILED (the reason in ``hs``)."""
+    status = fsw_boundary(P, y, t, t_end, ctl)
+    if status != BOUNDARY_NEEDS_COMMANDS:
+        return status
+    hs, fw, fs, cmd = ctl[0], ctl[1], ctl[2], ctl[3]
+    sc = P[1]
+    nw = int(sc[S_NW])
+    m = np.empty(MEAS_WHEELS + 2 * nw)
+    measure(t, y, P[0], sc, fw, fs, m)
+    out = step(t, m)
+    ncmd = int(fw[FW_NCMD])
+    want = ncmd if ncmd > 0 else 3
+    if out.shape[0] != want:
+        hs[HS_FAIL] = STEP_WRONG_LENGTH
+        hs[HS_FAIL_N] = out.shape[0]
+        return STEP_FAILED
+    for i in range(want):
+        v = float(out[i])
+        if not math.isfinite(v):
+            hs[HS_FAIL] = STEP_NONFINITE
+            hs[HS_FAIL_N] = i
+            return STEP_FAILED
+        cmd[i] = v
+    hs[HS_READY] = 1.0
+    return fsw_boundary(P, y, t, t_end, ctl)

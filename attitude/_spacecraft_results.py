@@ -1,0 +1,412 @@
+"""The Dataset variables of a spacecraft and its flight software: wheels, magnetorquers and
+thrusters at every sample, and per tick the software's modes, references, errors, commands,
+sensors and estimator (docs/results.md, "Closed loop"). The schema of the attitude itself is
+:mod:`attitude.results`; these add to a Dataset it built.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from .results import SI, UnitSystem, time_attrs
+
+__all__ = ["WHEEL_LIMIT_FLAGS", "add_actuator_variables", "add_tick_variables"]
+
+
+#: CF flag masks and meanings of ``wheel_limit`` (attitude._core.actuators FLAG_*).
+WHEEL_LIMIT_FLAGS = (
+    (1, "torque_limit"),
+    (2, "speed_limit"),
+    (4, "power_limit"),
+    (8, "dead_band"),
+)
+
+
+def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) -> xr.Dataset:
+    """The actuators of a spacecraft run as variables (docs/results.md, "Actuators").
+
+    On the dimensions ``wheel``, ``magnetorquer``, ``thruster`` (labels in ``*_label``): the
+    wheels' speed relative to the body, axial momentum, command, applied motor torque,
+    friction torque and limit flags; the magnetorquers' commanded and applied dipoles; the
+    thrusters' commands and forces; the actuators' constants. The torque budget gains the
+    terms ``wheels`` (the torque of the wheels' motors and bearings on the body: internal,
+    left out of ``total``), ``magnetorquers`` and ``thrusters``.
+    """
+    craft = run.spacecraft
+    u = UnitSystem(craft.body)
+    nw, nm, nt = craft.counts
+    n = run.n_state
+    rec = d["records"]
+    wn, mn, tn = craft.names()
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    new: dict[str, xr.Variable] = {}
+    coords: dict[str, Any] = {}
+    c = 0
+    if nw:
+        w = np.arange(nw)
+        coords["wheel"] = (
+            "wheel",
+            w.astype(np.int32),
+            {"long_name": "reaction wheel index", "units": "1"},
+        )
+        coords["wheel_label"] = ("wheel", np.array(wn), {"long_name": "reaction wheel"})
+        r = rec[:, c : c + 4 * nw].reshape(-1, nw, 4)
+        new["wheel_speed"] = var(
+            ("time", "wheel"), d["wheels"][:, :, 0], u.rate, "wheel speed relative to the body"
+        )
+        new["wheel_momentum"] = var(
+            ("time", "wheel"),
+            rows[:, 8:n],
+            u.momentum,
+            "axial angular momentum of the wheel, J (a.omega + speed)",
+        )
+        new["wheel_torque_command"] = var(
+            ("time", "wheel"), r[:, :, 0], u.torque, "commanded motor torque"
+        )
+        new["wheel_torque"] = var(
+            ("time", "wheel"),
+            r[:, :, 1],
+            u.torque,
+            "applied motor torque (after the wheel's limits)",
+        )
+        new["wheel_friction"] = var(
+            ("time", "wheel"),
+            d["wheels"][:, :, 1],
+            u.torque,
+            "bearing friction torque on the wheel",
+        )
+        new["wheel_limit"] = var(
+            ("time", "wheel"),
+            r[:, :, 2].astype(np.int8),
+            None,
+            "limits acting on the wheel command",
+            flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),
+            flag_meanings=" ".join(name for _, name in WHEEL_LIMIT_FLAGS),
+        )
+        new["wheel_axis"] = var(
+            ("wheel", "axis"), craft.wheel_axes, "1", "wheel spin axis in body axes"
+        )
+        new["wheel_inertia"] = var(
+            ("wheel",), craft.wheel_inertias, u.inertia, "wheel axial moment of inertia"
+        )
+        new["wheel_max_torque"] = var(
+            ("wheel",),
+            np.array([x.max_torque for x in craft.wheels]),
+            u.torque,
+            "motor torque limit (inf: none)",
+        )
+        new["wheel_max_speed"] = var(
+            ("wheel",),
+            np.array([x.max_speed for x in craft.wheels]),
+            u.rate,
+            "wheel speed limit (inf: none)",
+        )
+        c += 4 * nw
+    if nm:
+        coords["magnetorquer"] = (
+            "magnetorquer",
+            np.arange(nm, dtype=np.int32),
+            {"long_name": "magnetorquer index", "units": "1"},
+        )
+        coords["magnetorquer_label"] = ("magnetorquer", np.array(mn), {"long_name": "magnetorquer"})
+        r = rec[:, c : c + 2 * nm].reshape(-1, nm, 2)
+        dip = "A m^2" if u.torque != "1" else "1"
+        new["dipole_command"] = var(
+            ("time", "magnetorquer"), r[:, :, 0], dip, "commanded magnetic dipole"
+        )
+        new["dipole"] = var(
+            ("time", "magnetorquer"),
+            r[:, :, 1],
+            dip,
+            "applied magnetic dipole (clipped to the rod's limit)",
+        )
+        new["magnetorquer_axis"] = var(
+            ("magnetorquer", "axis"),
+            np.array([x.axis for x in craft.magnetorquers]),
+            "1",
+            "magnetorquer axis in body axes",
+        )
+        c += 2 * nm
+    if nt:
+        coords["thruster"] = (
+            "thruster",
+            np.arange(nt, dtype=np.int32),
+            {"long_name": "thruster index", "units": "1"},
+        )
+        coords["thruster_label"] = ("thruster", np.array(tn), {"long_name": "thruster"})
+        r = rec[:, c : c + 2 * nt].reshape(-1, nt, 2)
+        fmax = np.array([x.max_thrust for x in craft.thrusters])
+        force = u.torque.replace(" m", "") if u.torque != "1" else "1"
+        new["thruster_command"] = var(
+            ("time", "thruster"), r[:, :, 0], "1", "commanded on-time fraction of the hold"
+        )
+        new["thruster_force"] = var(
+            ("time", "thruster"),
+            r[:, :, 1] * fmax,
+            force,
+            "thrust at the sample (0 when not firing)",
+        )
+        new["thruster_direction"] = var(
+            ("thruster", "axis"),
+            np.array([x.direction for x in craft.thrusters]),
+            "1",
+            "force direction in body axes",
+        )
+        new["thruster_position"] = var(
+            ("thruster", "axis"),
+            np.array([x.position for x in craft.thrusters]),
+            SI["length"] if u.torque != "1" else "1",
+            "point of application in body axes",
+        )
+    # The torque budget with the actuators.
+    terms = list(ds.model_label.values[:-1])
+    tq = d["torques"]
+    parts = [tq[:, :-1]]
+    total = tq[:, -1].copy()
+    names = list(terms)
+    ideal = bool(getattr(run, "ideal_control", False))
+    for j, (label, present) in enumerate(
+        (("wheels", nw), ("magnetorquers", nm), ("thrusters", nt), ("control", ideal))
+    ):
+        if present:
+            parts.append(d["actuators"][:, j : j + 1])
+            names.append(label)
+            if label != "wheels":
+                total = total + d["actuators"][:, j]
+    parts.append(total[:, None])
+    names.append("total")
+    out = ds.drop_vars(["torque", "model", "model_label"])
+    coords["model"] = (
+        "model",
+        np.arange(len(names), dtype=np.int32),
+        {"long_name": "torque model term index (labels in model_label)", "units": "1"},
+    )
+    coords["model_label"] = ("model", np.array(names), {"long_name": "torque model term"})
+    new["torque"] = var(
+        ("time", "model", "axis"),
+        np.concatenate(parts, axis=1),
+        u.torque,
+        "body-frame torque of each model term and actuator, and the external total "
+        "(model = total; the wheels' torque is internal and not in it)",
+    )
+    out = out.assign_coords(coords).assign(new)
+    out.attrs = dict(ds.attrs)
+    return out
+
+
+def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
+    """The flight software's records on a ``tick`` dimension (docs/flight_software.md).
+
+    ``tick`` is the time of each recorded tick (a CF time coordinate like ``time``);
+    ``mode`` (CF flags naming the modes), ``reference_q``, ``sigma_error`` (σ_BR, MRP),
+    ``error_angle``, ``rate_error`` (ω − ω_r, body axes), ``torque_request``,
+    ``dipole_request``, and per command (dimension ``command``, labels in ``command_label``)
+    ``command_sent`` (computed at the tick) and ``command_applied`` (in force from the tick:
+    after the delay and, for wheels, their limits).
+    """
+    from ._core import fsw as _kf
+
+    prog = run.program
+    rec = run.ticks if run.ticks is not None else np.zeros((0, prog.rec_width))
+    craft = run.spacecraft
+    u = UnitSystem(craft.body)
+    ncmd = prog.n_cmd
+    wn, mn, tn = craft.names()
+
+    def var(dims, data, units, long_name, **extra):
+        attrs = {"long_name": long_name, **extra}
+        if units is not None:
+            attrs = {"units": units, **attrs}
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+
+    n_modes = len(prog.mode_names)
+    new = {
+        "mode": var(
+            ("tick",),
+            rec[:, _kf.R_MODE].astype(np.int32),
+            None,
+            "active flight-software mode",
+            flag_values=np.arange(n_modes, dtype=np.int32),
+            flag_meanings=" ".join(prog.mode_names),
+        ),
+        "reference_q": var(
+            ("tick", "component"),
+            rec[:, _kf.R_QREF : _kf.R_QREF + 4],
+            "1",
+            "reference attitude quaternion (guidance), reference to space",
+        ),
+        "sigma_error": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_SIGMA : _kf.R_SIGMA + 3],
+            "1",
+            "attitude error sigma_BR (modified Rodrigues parameters)",
+        ),
+        "error_angle": var(
+            ("tick",), rec[:, _kf.R_ANGLE], "rad", "attitude error angle from the reference"
+        ),
+        "rate_error": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_DOMEGA : _kf.R_DOMEGA + 3],
+            u.rate,
+            "angular velocity error omega - omega_r, body axes",
+        ),
+        "torque_request": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_TORQUE : _kf.R_TORQUE + 3],
+            u.torque,
+            "control torque requested by the control law, body axes",
+        ),
+        "dipole_request": var(
+            ("tick", "axis"),
+            rec[:, _kf.R_DIPOLE : _kf.R_DIPOLE + 3],
+            "A m^2" if u.torque != "1" else "1",
+            "magnetic dipole requested, body axes",
+        ),
+    }
+    coords: dict[str, Any] = {}
+    if ncmd:
+        labels = [*wn, *mn, *tn]
+        units = [u.torque] * len(wn) + ["A m^2"] * len(mn) + ["1"] * len(tn)
+        c0 = _kf.R_CMD
+        new["command_sent"] = var(
+            ("tick", "command"),
+            rec[:, c0 : c0 + ncmd],
+            None,
+            "actuator commands computed at the tick (units in command_units)",
+        )
+        new["command_applied"] = var(
+            ("tick", "command"),
+            rec[:, c0 + ncmd : c0 + 2 * ncmd],
+            None,
+            "actuator commands in force from the tick (after the delay and the wheels' limits)",
+        )
+        coords["command"] = (
+            "command",
+            np.arange(ncmd, dtype=np.int32),
+            {"long_name": "actuator command index", "units": "1"},
+        )
+        coords["command_label"] = ("command", np.array(labels), {"long_name": "actuator command"})
+        coords["command_units"] = (
+            "command",
+            np.array(units),
+            {"long_name": "unit of each actuator command"},
+        )
+    if prog.sensors or prog.estimator is not None:
+        new.update(_sensor_variables(rec[:, _kf.R_CMD + 2 * ncmd :], prog, u, var, coords))
+    ta = time_attrs(u.time, ds.attrs.get("epoch"))
+    ta = {**ta, "long_name": "time of the flight-software tick"}
+    coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
+    out = ds.assign_coords({k: (d, v, a) for k, (d, v, a) in coords.items()}).assign(new)
+    out.attrs = dict(ds.attrs)
+    if prog.sensors:
+        out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
+    return out
+
+
+def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords: dict) -> dict:
+    """The sensors' measurements and the estimator's estimate at the ticks."""
+    from ._core import fsw as _kf
+    from ._core import sensors as _ks
+
+    kinds = {x.kind for x in prog.sensors}
+    out: dict[str, Any] = {}
+    if "gyro" in kinds:
+        out["gyro_rate"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_OMEGA : _ks.Z_OMEGA + 3],
+            u.rate,
+            "gyro measurement (body axes)",
+        )
+    if "star_tracker" in kinds:
+        out["star_tracker_q"] = var(
+            ("tick", "component"),
+            r[:, _ks.Z_Q : _ks.Z_Q + 4],
+            "1",
+            "star tracker attitude quaternion, body to space",
+        )
+        out["star_tracker_status"] = var(
+            ("tick",),
+            r[:, _ks.Z_ST_FLAG].astype(np.int8),
+            None,
+            "star tracker measurement status",
+            flag_values=np.array([0, 1, 2, 3], dtype=np.int8),
+            flag_meanings="valid no_update sun_exclusion earth_exclusion",
+        )
+    if "magnetometer" in kinds:
+        out["magnetometer"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_B : _ks.Z_B + 3],
+            "T",
+            "magnetometer measurement (body axes)",
+        )
+    if "sun_sensor" in kinds:
+        out["sun_direction"] = var(
+            ("tick", "axis"),
+            r[:, _ks.Z_SUN : _ks.Z_SUN + 3],
+            "1",
+            "Sun direction from the coarse Sun sensor (body axes; NaN: not enough heads lit)",
+        )
+    if kinds & {"sun_sensor", "star_tracker"}:
+        out["sunlight"] = var(
+            ("tick",), r[:, _ks.Z_ECLIPSE], "1", "fraction of the solar disk visible (0: umbra)"
+        )
+    if prog.estimator is not None:
+        e = r[:, _ks.Z_SIZE :]
+        out["estimate_q"] = var(
+            ("tick", "component"),
+            e[:, _kf.RS_Q : _kf.RS_Q + 4],
+            "1",
+            "estimated attitude quaternion (MEKF), body to space",
+        )
+        out["bias_estimate"] = var(
+            ("tick", "axis"),
+            e[:, _kf.RS_B : _kf.RS_B + 3],
+            u.rate,
+            "estimated gyro bias (body axes)",
+        )
+        out["estimation_sigma"] = var(
+            ("tick", "error_state"),
+            e[:, _kf.RS_SIGMA : _kf.RS_SIGMA + 6],
+            None,
+            "1-sigma of the error states (sqrt of the MEKF covariance"
+            " diagonal; units in error_state_units)",
+        )
+        out["estimation_error"] = var(
+            ("tick", "error_state"),
+            e[:, _kf.RS_ERR : _kf.RS_ERR + 6],
+            None,
+            "estimation error: the truth is the estimate "
+            "rotated by the first three (rad, body axes); the "
+            "true bias minus the estimate (last three)",
+        )
+        out["nees"] = var(
+            ("tick",),
+            e[:, _kf.RS_NEES],
+            "1",
+            "normalised estimation error squared (6 degrees of freedom)",
+        )
+        coords["error_state"] = (
+            "error_state",
+            np.arange(6, dtype=np.int32),
+            {"long_name": "MEKF error state index", "units": "1"},
+        )
+        coords["error_state_label"] = (
+            "error_state",
+            np.array(["attitude_x", "attitude_y", "attitude_z", "bias_x", "bias_y", "bias_z"]),
+            {"long_name": "MEKF error state"},
+        )
+        coords["error_state_units"] = (
+            "error_state",
+            np.array(["rad"] * 3 + [u.rate] * 3),
+            {"long_name": "unit of each error state"},
+        )
+    return out

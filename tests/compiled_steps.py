@@ -1,0 +1,35 @@
+"""Compiled flight-software steps of the tests (a file of their own: numba caches a function
+that lives in a source file, and the user module of a step is named after that file)."""
+
+import numpy as np
+from numba import njit
+
+from attitude.software import MeasurementIndex as M
+
+#: scenarioAttitudeFeedbackRW's inertia and the HR16 wheels' axial inertia (50 N m s at 6000 rpm)
+INERTIA = np.diag([900.0, 800.0, 600.0])
+JS = 50.0 / (6000.0 * 2.0 * np.pi / 60.0)
+
+
+@njit(cache=True)
+def mrp_feedback(t, m):
+    """Basilisk's mrpFeedback (K = 3.5, P = 30, no integral term) for three wheels on the body
+    axes: u = −G⁺(−L_r) = L_r."""
+    w = m[M.OMEGA : M.OMEGA + 3]
+    wr = m[M.OMEGA_REF : M.OMEGA_REF + 3]
+    h = JS * (w + m[M.WHEEL_SPEEDS : M.WHEEL_SPEEDS + 3])
+    lr = 3.5 * m[M.SIGMA_ERROR : M.SIGMA_ERROR + 3] + 30.0 * m[M.OMEGA_ERROR : M.OMEGA_ERROR + 3]
+    return lr - np.cross(wr, INERTIA @ w + h) + INERTIA @ np.cross(w, wr)
+
+
+@njit(cache=True)
+def too_many(t, m):
+    return np.zeros(5)
+
+
+@njit(cache=True)
+def nan_after_two_seconds(t, m):
+    out = np.zeros(3)
+    if t >= 2.0:
+        out[1] = np.nan
+    return out
