@@ -18,7 +18,7 @@ from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
-from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
+from ..propagate import ATOL_MIN, AUTO, PROJECTION_WARN, _check_max_step, choose_method
 from . import _dask, _plan
 from ._chunks import (
     _N_DIAG,
@@ -111,7 +111,7 @@ def propagate_ensemble(
     Q0: Any,
     t: Any,
     potential: Potential | Sequence[Potential] | None = None,
-    method: str = "dop853",
+    method: str = "auto",
     rtol: float = 1e-10,
     atol: float = 1e-12,
     *,
@@ -142,8 +142,10 @@ def propagate_ensemble(
     Each member is integrated independently by the compiled DOP853 loop of
     :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
     torque as the generalised force of Schwab eq. 25), with its own adaptive steps; with
-    ``method="taylor"`` by the Taylor method of ``propagate(method="taylor")``, four members
-    per SIMD instruction (each with its own steps; results bit for bit those of single runs).
+    ``method="taylor"`` (what the default ``"auto"`` picks for built-in potentials) by the Taylor
+    method of ``propagate(method="taylor")``, 4 or 8 members per SIMD instruction (the CPU's
+    width, chosen at run time; each with its own steps; results bit for bit those of single
+    runs, whatever the width).
 
     Parameters
     ----------
@@ -163,10 +165,12 @@ def propagate_ensemble(
         ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
         supported as one potential for all members (compiled into the user cache, see
         docs/potentials.md).
-    method : {"dop853", "taylor"}
-        The integrator of every member (docs/integrators.md). ``"taylor"``: built-in
-        potentials only (torque-free, heavy top, gravity gradient of a Kepler orbit), no
-        events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
+    method : {"auto", "dop853", "taylor"}
+        The integrator of every member (docs/integrators.md). ``"auto"`` (default):
+        ``"taylor"`` for built-in potentials without events, else ``"dop853"``
+        (:func:`attitude.propagate.choose_method`; attrs ``method``, ``method_requested``).
+        ``"taylor"``: built-in potentials only (torque-free, heavy top, gravity gradient of a
+        Kepler orbit), no events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
     rtol, atol : float
         Tolerances, as in ``propagate`` (DOP853: per state component; Taylor: the order and
         the step of Jorba & Zou).
@@ -285,11 +289,12 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if not isinstance(method, str) or method not in ENSEMBLE_METHODS:
+    requested = method
+    if not isinstance(method, str) or method not in (*ENSEMBLE_METHODS, AUTO):
         raise AttitudeValueError(
             f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
-            f"compiled parallel loops), got {method!r}; for other methods loop over "
-            f"attitude.propagate"
+            f"compiled parallel loops; 'auto' picks one), got {method!r}; for other methods "
+            f"loop over attitude.propagate"
         )
     tt = as_times(t, "t")
     rtol = as_rtol(rtol, "rtol")
@@ -365,6 +370,12 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
+    if method == AUTO:
+        method = "taylor"
+        for p in pots if pots is not None else (pot,):
+            method = choose_method(AUTO, p, events=events)
+            if method != "taylor":
+                break
     if method == "taylor":
         _check_taylor(pot, pots, events)
     evset = None
@@ -432,6 +443,7 @@ def propagate_ensemble(
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
+        **({"method_requested": requested} if requested != method else {}),
         "formulation": "canonical",
         "rtol": rtol,
         "atol": atol,
