@@ -28,13 +28,17 @@ from . import accessor as _accessor  # registers the ``ds.attitude`` xarray acce
 from . import (
     actuators,
     canonical,
+    control,
     errors,
+    estimation,
     events,
     exact,
     formulations,
     frames,
     potentials,
     quaternion,
+    sensors,
+    software,
 )
 from ._version import __version__
 from .actuators import CommandSchedule, Magnetorquer, ReactionWheel, Thruster
@@ -70,6 +74,7 @@ from .potentials import (
 )
 from .propagate import propagate
 from .results import Trajectory
+from .software import FlightSoftware
 from .spacecraft import Spacecraft
 
 del _accessor
@@ -84,6 +89,7 @@ __all__ = [
     "CustomTorque",
     "EddyCurrentDamping",
     "Facet",
+    "FlightSoftware",
     "GravityGradient",
     "HeavyTop",
     "MagneticDipole",
@@ -102,8 +108,10 @@ __all__ = [
     "actuators",
     "box_wing",
     "canonical",
+    "control",
     "disperse",
     "errors",
+    "estimation",
     "event_time_percentiles",
     "events",
     "exact",
@@ -116,5 +124,7 @@ __all__ = [
     "propagate_ensemble",
     "quaternion",
     "rate_percentiles",
+    "sensors",
+    "software",
     "torque_free",
 ]

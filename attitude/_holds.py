@@ -29,6 +29,7 @@ __all__ = [
     "SpacecraftRun",
     "check_taylor",
     "diagnostics",
+    "initial_state",
     "prepare",
     "run_dop853",
     "run_taylor",
@@ -75,7 +76,6 @@ def prepare(
     h_k = J_k (a_k·ω0 + Ω_k).
     """
     from .actuators.commands import CommandSchedule
-    from .quaternion import conjugate, multiply
 
     tt = np.asarray(t, dtype=np.float64)
     if tt.shape[0] > 1 and tt[-1] < tt[0]:
@@ -111,10 +111,7 @@ def prepare(
             )
         prog = program(software, spacecraft, float(tt[0]), float(tt[-1]))
     sc = spacecraft.block(np.array([tt[0], tt[-1]]))
-    g0 = 0.5 * multiply(conjugate(q0), Q0)[1:]
-    w0 = spacecraft.rate_from_momentum(g0)
-    h0 = spacecraft.wheel_momenta(w0)
-    y0 = np.concatenate([q0, Q0, h0]).astype(np.float64)
+    y0 = initial_state(spacecraft, q0, Q0)
     run = SpacecraftRun(
         spacecraft=spacecraft,
         sc=sc,
@@ -127,6 +124,18 @@ def prepare(
         software=software,
     )
     return run, y0
+
+
+def initial_state(spacecraft: Any, q0: np.ndarray, Q0: np.ndarray) -> np.ndarray:
+    """The gyrostat's initial state (q0, Q0, h0), shape (8 + n_wheels,), from a projected
+    (q0, Q0): the wheel momenta from g0 = ½ vec(q̃0∘Q0) and the wheels' initial speeds Ω_k,
+    ω0 = I⁻¹ (g0 − Σ J_k Ω_k a_k), h_k = J_k (a_k·ω0 + Ω_k)."""
+    from .quaternion import conjugate, multiply
+
+    g0 = 0.5 * multiply(conjugate(q0), Q0)[1:]
+    w0 = spacecraft.rate_from_momentum(g0)
+    h0 = spacecraft.wheel_momenta(w0)
+    return np.concatenate([q0, Q0, h0]).astype(np.float64)
 
 
 def check_taylor(spacecraft: Any, potential: Any) -> None:

@@ -92,24 +92,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),
             flag_meanings=" ".join(name for _, name in WHEEL_LIMIT_FLAGS),
         )
-        new["wheel_axis"] = var(
-            ("wheel", "axis"), craft.wheel_axes, "1", "wheel spin axis in body axes"
-        )
-        new["wheel_inertia"] = var(
-            ("wheel",), craft.wheel_inertias, u.inertia, "wheel axial moment of inertia"
-        )
-        new["wheel_max_torque"] = var(
-            ("wheel",),
-            np.array([x.max_torque for x in craft.wheels]),
-            u.torque,
-            "motor torque limit (inf: none)",
-        )
-        new["wheel_max_speed"] = var(
-            ("wheel",),
-            np.array([x.max_speed for x in craft.wheels]),
-            u.rate,
-            "wheel speed limit (inf: none)",
-        )
+        new.update(_constants(craft, u, var, "wheel"))
         c += 4 * nw
     if nm:
         coords["magnetorquer"] = (
@@ -129,12 +112,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             dip,
             "applied magnetic dipole (clipped to the rod's limit)",
         )
-        new["magnetorquer_axis"] = var(
-            ("magnetorquer", "axis"),
-            np.array([x.axis for x in craft.magnetorquers]),
-            "1",
-            "magnetorquer axis in body axes",
-        )
+        new.update(_constants(craft, u, var, "magnetorquer"))
         c += 2 * nm
     if nt:
         coords["thruster"] = (
@@ -155,18 +133,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             force,
             "thrust at the sample (0 when not firing)",
         )
-        new["thruster_direction"] = var(
-            ("thruster", "axis"),
-            np.array([x.direction for x in craft.thrusters]),
-            "1",
-            "force direction in body axes",
-        )
-        new["thruster_position"] = var(
-            ("thruster", "axis"),
-            np.array([x.position for x in craft.thrusters]),
-            SI["length"] if u.torque != "1" else "1",
-            "point of application in body axes",
-        )
+        new.update(_constants(craft, u, var, "thruster"))
     # The torque budget with the actuators.
     terms = list(ds.model_label.values[:-1])
     tq = d["torques"]
@@ -200,6 +167,73 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     )
     out = out.assign_coords(coords).assign(new)
     out.attrs = dict(ds.attrs)
+    return out
+
+
+def _constants(craft: Any, u: UnitSystem, var: Any, kind: str) -> dict[str, xr.Variable]:
+    """The constants of a spacecraft's actuators of one kind (``"wheel"``, ``"magnetorquer"``,
+    ``"thruster"``) as variables on that dimension."""
+    if kind == "wheel":
+        return {
+            "wheel_axis": var(
+                ("wheel", "axis"), craft.wheel_axes, "1", "wheel spin axis in body axes"
+            ),
+            "wheel_inertia": var(
+                ("wheel",), craft.wheel_inertias, u.inertia, "wheel axial moment of inertia"
+            ),
+            "wheel_max_torque": var(
+                ("wheel",),
+                np.array([x.max_torque for x in craft.wheels]),
+                u.torque,
+                "motor torque limit (inf: none)",
+            ),
+            "wheel_max_speed": var(
+                ("wheel",),
+                np.array([x.max_speed for x in craft.wheels]),
+                u.rate,
+                "wheel speed limit (inf: none)",
+            ),
+        }
+    if kind == "magnetorquer":
+        return {
+            "magnetorquer_axis": var(
+                ("magnetorquer", "axis"),
+                np.array([x.axis for x in craft.magnetorquers]),
+                "1",
+                "magnetorquer axis in body axes",
+            )
+        }
+    return {
+        "thruster_direction": var(
+            ("thruster", "axis"),
+            np.array([x.direction for x in craft.thrusters]),
+            "1",
+            "force direction in body axes",
+        ),
+        "thruster_position": var(
+            ("thruster", "axis"),
+            np.array([x.position for x in craft.thrusters]),
+            SI["length"] if u.torque != "1" else "1",
+            "point of application in body axes",
+        ),
+    }
+
+
+def actuator_constants(craft: Any) -> dict[str, xr.Variable]:
+    """The variables of :func:`add_actuator_variables` that hold a spacecraft's constants (axes,
+    inertias, limits; no ``time`` dimension): what differs between ensemble members."""
+    u = UnitSystem(craft.body)
+
+    def var(dims, data, units, long_name):
+        return xr.Variable(
+            dims, np.ascontiguousarray(data), {"units": units, "long_name": long_name}
+        )
+
+    nw, nm, nt = craft.counts
+    out: dict[str, xr.Variable] = {}
+    for kind, count in (("wheel", nw), ("magnetorquer", nm), ("thruster", nt)):
+        if count:
+            out.update(_constants(craft, u, var, kind))
     return out
 
 

@@ -797,36 +797,52 @@ def _one_member(ds: Any, args: argparse.Namespace) -> Any:
 
 
 def cmd_export(args: argparse.Namespace) -> int:
+    from .acm import write_acm
     from .aem import write_aem
 
-    if not args.ccsds_aem:
-        raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem")
+    if not args.ccsds_aem and not args.ccsds_acm:
+        raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem or --ccsds-acm FILE.acm")
     ds = _open(args.file)
+    written = []
     try:
         if "member" in ds.dims or args.member is not None:
             ds = _one_member(ds, args)
+        common = dict(
+            epoch=args.epoch,
+            object_name=args.object_name,
+            center_name=args.center_name,
+            ref_frame_a=args.ref_frame_a,
+            ref_frame_b=args.ref_frame_b,
+            originator=args.originator,
+            time_unit_seconds=args.time_unit_seconds,
+        )
         try:
-            path = write_aem(
-                ds,
-                args.ccsds_aem,
-                epoch=args.epoch,
-                version=args.aem_version,
-                object_name=args.object_name,
-                object_id=args.object_id,
-                center_name=args.center_name,
-                ref_frame_a=args.ref_frame_a,
-                ref_frame_b=args.ref_frame_b,
-                originator=args.originator,
-                time_unit_seconds=args.time_unit_seconds,
-                attitude_type=args.aem_type,
-            )
+            if args.ccsds_aem:
+                path = write_aem(
+                    ds,
+                    args.ccsds_aem,
+                    version=args.aem_version,
+                    object_id=args.object_id,
+                    attitude_type=args.aem_type,
+                    **common,
+                )
+                written.append(f"CCSDS AEM   {path}")
+            if args.ccsds_acm:
+                path = write_acm(
+                    ds,
+                    args.ccsds_acm,
+                    international_designator=args.object_id,
+                    cov_type=args.acm_cov_type,
+                    **common,
+                )
+                written.append(f"CCSDS ACM   {path}")
         except ValueError as exc:
             raise BadInput(str(exc)) from None
         except (OSError, RuntimeError, KeyError, IndexError, TypeError) as exc:
             raise _unreadable(args.file, exc) from None
     finally:
         ds.close()
-    print(f"CCSDS AEM   {path}")
+    print("\n".join(written))
     return EXIT_OK
 
 
@@ -991,14 +1007,27 @@ def build_parser() -> argparse.ArgumentParser:
 
     e = sub.add_parser(
         "export",
-        help="export the attitude history (CCSDS AEM)",
+        help="export the attitude history (CCSDS AEM) or the estimate (CCSDS ACM)",
         description=(
             "Write the attitude history as a CCSDS Attitude Ephemeris Message (KVN, CCSDS "
-            "504.0-B-2): quaternion from REF_FRAME_A (inertial) to REF_FRAME_B (body)."
+            "504.0-B-2): quaternion from REF_FRAME_A (inertial) to REF_FRAME_B (body); and/or "
+            "the estimator's attitude, gyro bias and covariance as a CCSDS Attitude "
+            "Comprehensive Message (ACM, 504.0-B-2 sect. 5), with the true attitude."
         ),
     )
     e.add_argument("file", metavar="OUT.nc")
     e.add_argument("--ccsds-aem", metavar="FILE.aem", help="AEM file to write")
+    e.add_argument(
+        "--ccsds-acm",
+        metavar="FILE.acm",
+        help="ACM file to write: the estimate and its covariance (a run with an estimator)",
+    )
+    e.add_argument(
+        "--acm-cov-type",
+        choices=("ANGLE_GYROBIAS", "ANGLE"),
+        default="ANGLE_GYROBIAS",
+        help="COV_TYPE of the ACM: attitude and gyro-bias variances (default) or attitude only",
+    )
     e.add_argument(
         "--aem-version",
         type=int,
@@ -1027,7 +1056,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="ensemble files: export member K (its stored samples)",
     )
     e.add_argument("--object-name")
-    e.add_argument("--object-id")
+    e.add_argument("--object-id", help="OBJECT_ID (AEM), INTERNATIONAL_DESIGNATOR (ACM)")
     e.add_argument("--center-name")
     e.add_argument("--ref-frame-a", help="inertial frame (default: the run's, else EME2000)")
     e.add_argument("--ref-frame-b", default="SC_BODY_1", help="body frame (default SC_BODY_1)")

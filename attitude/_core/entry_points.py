@@ -75,6 +75,12 @@ from attitude._core.potentials import (
     builtin_torque,
 )
 from attitude._core.rk import dop853_run
+from attitude._core.spacecraft_ensemble import (
+    fsw_ctl,
+    member_stop,
+    schedule_ctl,
+    spacecraft_member_begin,
+)
 from attitude._core.splitting import composition_run
 from attitude._core.taylor_gyrostat import taylor_holds_run
 from orbit._shared_jit import jit, parallel_jit, rebind
@@ -376,3 +382,68 @@ def ensemble_events_serial(
             i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
             rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
+
+
+# Ensembles of spacecraft with actuators (attitude.ensemble; layout in
+# attitude._core.spacecraft_ensemble). The hold driver is inlined into the parallel loop: one
+# compiled function per command source, whose members run the single run's driver (the same
+# source, statement for statement) on their own rows. (A compiled call of the single run's
+# entry point would compile a second copy of it: numba's copy for callers, without the CPython
+# wrapper; every compiled layer re-optimises the whole flight software it links.)
+
+_holds_schedule_inline = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_inline",
+    options={"inline": "always"},
+    RHS="spacecraft_rhs",
+    BOUNDARY="schedule_boundary",
+)
+_holds_fsw_inline = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_fsw_inline",
+    options={"inline": "always"},
+    RHS="spacecraft_rhs",
+    BOUNDARY="fsw_boundary",
+)
+
+
+@parallel_jit(nogil=True, _nrt=REFCOUNT)
+def spacecraft_schedule_parallel(
+    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
+    max_step, max_steps, budget,
+):  # fmt: skip
+    """All members under open-loop schedules (DOP853 through held commands), in parallel over
+    members (``prange``), each for at most ``budget`` steps."""
+    m = t.shape[0]
+    for i in numba.prange(y0.shape[0]):
+        runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
+                                                  max_steps, budget)  # fmt: skip
+        if runs:
+            P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
+            st, k = _holds_schedule_inline(
+                P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
+                atol, t[m - 1], max_step, limit, schedule_ctl(i, src),
+            )  # fmt: skip
+            member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
+
+
+@parallel_jit(nogil=True, _nrt=REFCOUNT)
+def spacecraft_fsw_parallel(
+    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
+    max_step, max_steps, budget,
+):  # fmt: skip
+    """All members under their flight software (DOP853 through its ticks), in parallel over
+    members (``prange``), each for at most ``budget`` steps."""
+    m = t.shape[0]
+    for i in numba.prange(y0.shape[0]):
+        runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
+                                                  max_steps, budget)  # fmt: skip
+        if runs:
+            P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
+            st, k = _holds_fsw_inline(
+                P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
+                atol, t[m - 1], max_step, limit, fsw_ctl(i, src),
+            )  # fmt: skip
+            member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)

@@ -39,6 +39,7 @@ from .actuators import (
     S_TAU,
     S_WHEELS,
     T_FIRING,
+    W_FRICTION,
     W_J,
     W_STRIBECK,
     W_U,
@@ -76,14 +77,19 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
     tau = (tau[0] + ta[0], tau[1] + ta[1], tau[2] + ta[2])
     a = mul_vec(q, om)
     b = mul_vec(Q, om)
-    c = mul_vec(q, tau)
     for i in range(4):
         dydt[i] = 0.5 * a[i]
-        dydt[4 + i] = 0.5 * b[i] + 2.0 * c[i]
+        dydt[4 + i] = 0.5 * b[i]
+    if tau[0] != 0.0 or tau[1] != 0.0 or tau[2] != 0.0:  # (wheels alone: no external torque)
+        c = mul_vec(q, tau)
+        for i in range(4):
+            dydt[4 + i] += 2.0 * c[i]
     for k in range(int(sc[S_NW])):
         bk = S_WHEELS + k * WS
-        Om = wheel_speed(sc, bk, y[8 + k], om)
-        dydt[8 + k] = sc[bk + W_U] + wheel_friction(sc, bk, Om)
+        u = sc[bk + W_U]
+        if sc[bk + W_FRICTION] != 0.0:  # (frictionless wheels: no speed, no call)
+            u += wheel_friction(sc, bk, wheel_speed(sc, bk, y[8 + k], om))
+        dydt[8 + k] = u
 
 
 @jit(inline="always")

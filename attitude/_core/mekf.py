@@ -90,49 +90,139 @@ def mekf_propagate(es, ep, omega_meas, dt):
     # q̂ ← q̂∘exp(ω̂ Δt/2)
     a = 0.5 * w * dt
     if w > 0.0:
-        k = math.sin(a) / w
-        dq = (math.cos(a), k * w0, k * w1, k * w2)
+        sa = math.sin(a)
+        ca = math.cos(a)
+        k = sa / w
+        dq = (ca, k * w0, k * w1, k * w2)
     else:
+        sa = 0.0
+        ca = 1.0
         dq = (1.0, 0.0, 0.0, 0.0)
     q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for i in range(4):
         es[E_Q + i] = q[i] / n
-    # Φ
+    # c1 = sin(wΔt)/w, c2 = (1 − cos(wΔt))/w², c3 = (wΔt − sin(wΔt))/w³ from the half angle
+    # a (sin 2a = 2 sin a cos a, 1 − cos 2a = 2 sin² a: no cancellation), c3 by its series
+    # below wΔt = 0.1 (truncation (wΔt)¹⁰/13! < 1e-19 relative)
     x = w * dt
-    if w > 1e-8:
-        c1 = math.sin(x) / w
-        c2 = (1.0 - math.cos(x)) / (w * w)
-        c3 = (x - math.sin(x)) / (w * w * w)
-    else:  # series
-        c1 = dt - w * w * dt * dt * dt / 6.0
-        c2 = dt * dt / 2.0 - w * w * dt**4 / 24.0
-        c3 = dt**3 / 6.0 - w * w * dt**5 / 120.0
-    # W = [ω×], W² = ω ωᵀ − w² 1
-    W = (0.0, -w2, w1, w2, 0.0, -w0, -w1, w0, 0.0)
-    ph = E_PHI
-    for i in range(6):
-        for j in range(6):
-            es[ph + 6 * i + j] = 1.0 if i == j else 0.0
-    for i in range(3):
-        for j in range(3):
-            ww = (w0, w1, w2)[i] * (w0, w1, w2)[j] - (w * w if i == j else 0.0)
-            es[ph + 6 * i + j] = (1.0 if i == j else 0.0) - W[3 * i + j] * c1 + ww * c2
-            es[ph + 6 * i + 3 + j] = W[3 * i + j] * c2 - (dt if i == j else 0.0) - ww * c3
-    # P ← Φ P Φᵀ + Q
-    tmp = E_TMP
-    for i in range(6):
-        for j in range(6):
-            s = 0.0
-            for k in range(6):
-                s += es[ph + 6 * i + k] * es[E_P + 6 * k + j]
-            es[tmp + 6 * i + j] = s
-    for i in range(6):
-        for j in range(6):
-            s = 0.0
-            for k in range(6):
-                s += es[tmp + 6 * i + k] * es[ph + 6 * j + k]
-            es[E_P + 6 * i + j] = s
+    if w > 0.0:
+        c1 = 2.0 * sa * ca / w
+        c2 = 2.0 * sa * sa / (w * w)
+    else:
+        c1 = dt
+        c2 = 0.5 * dt * dt
+    if x < 0.1:
+        x2 = x * x
+        c3 = (
+            dt
+            * dt
+            * dt
+            * (
+                1.0 / 6.0
+                - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0 - x2 * (1.0 / 362880.0 - x2 / 39916800.0)))
+            )
+        )
+    else:
+        c3 = (x - 2.0 * sa * ca) / (w * w * w)
+    # Φ₁₁ = 1 − W c1 + W² c2, Φ₁₂ = W c2 − 1 Δt − W² c3 (W = [ω×], W² = ω ωᵀ − w² 1), in
+    # the scratch block E_PHI (3 × 3 each, row-major)
+    # Φ₁₁ = 1 − W c1 + W² c2 (f), Φ₁₂ = W c2 − 1 Δt − W² c3 (g), W = [ω×], W² = ω ωᵀ − w² 1
+    d1 = 1.0 - w * w * c2
+    d2 = -dt + w * w * c3
+    f00 = d1 + w0 * w0 * c2
+    g00 = d2 - w0 * w0 * c3
+    f01 = w0 * w1 * c2 + w2 * c1
+    g01 = -w0 * w1 * c3 - w2 * c2
+    f02 = w0 * w2 * c2 - w1 * c1
+    g02 = -w0 * w2 * c3 + w1 * c2
+    f10 = w1 * w0 * c2 - w2 * c1
+    g10 = -w1 * w0 * c3 + w2 * c2
+    f11 = d1 + w1 * w1 * c2
+    g11 = d2 - w1 * w1 * c3
+    f12 = w1 * w2 * c2 + w0 * c1
+    g12 = -w1 * w2 * c3 - w0 * c2
+    f20 = w2 * w0 * c2 + w1 * c1
+    g20 = -w2 * w0 * c3 - w1 * c2
+    f21 = w2 * w1 * c2 - w0 * c1
+    g21 = -w2 * w1 * c3 + w0 * c2
+    f22 = d1 + w2 * w2 * c2
+    g22 = d2 - w2 * w2 * c3
+    # P ← Φ P Φᵀ + Q with Φ = [[Φ₁₁, Φ₁₂], [0, 1]] by blocks: [T₁ T₂] = [Φ₁₁ Φ₁₂] P (t),
+    # P_aa ← T₁ Φ₁₁ᵀ + T₂ Φ₁₂ᵀ, P_ab ← T₂, P_bb unchanged. Written out on scalars (P read
+    # once into locals): the products then run as independent chains, not through memory.
+    p00 = es[E_P + 0]
+    p01 = es[E_P + 1]
+    p02 = es[E_P + 2]
+    p03 = es[E_P + 3]
+    p04 = es[E_P + 4]
+    p05 = es[E_P + 5]
+    p11 = es[E_P + 7]
+    p12 = es[E_P + 8]
+    p13 = es[E_P + 9]
+    p14 = es[E_P + 10]
+    p15 = es[E_P + 11]
+    p22 = es[E_P + 14]
+    p23 = es[E_P + 15]
+    p24 = es[E_P + 16]
+    p25 = es[E_P + 17]
+    p33 = es[E_P + 21]
+    p34 = es[E_P + 22]
+    p35 = es[E_P + 23]
+    p44 = es[E_P + 28]
+    p45 = es[E_P + 29]
+    p55 = es[E_P + 35]
+    t00 = f00 * p00 + f01 * p01 + f02 * p02 + g00 * p03 + g01 * p04 + g02 * p05
+    t01 = f00 * p01 + f01 * p11 + f02 * p12 + g00 * p13 + g01 * p14 + g02 * p15
+    t02 = f00 * p02 + f01 * p12 + f02 * p22 + g00 * p23 + g01 * p24 + g02 * p25
+    t03 = f00 * p03 + f01 * p13 + f02 * p23 + g00 * p33 + g01 * p34 + g02 * p35
+    t04 = f00 * p04 + f01 * p14 + f02 * p24 + g00 * p34 + g01 * p44 + g02 * p45
+    t05 = f00 * p05 + f01 * p15 + f02 * p25 + g00 * p35 + g01 * p45 + g02 * p55
+    t10 = f10 * p00 + f11 * p01 + f12 * p02 + g10 * p03 + g11 * p04 + g12 * p05
+    t11 = f10 * p01 + f11 * p11 + f12 * p12 + g10 * p13 + g11 * p14 + g12 * p15
+    t12 = f10 * p02 + f11 * p12 + f12 * p22 + g10 * p23 + g11 * p24 + g12 * p25
+    t13 = f10 * p03 + f11 * p13 + f12 * p23 + g10 * p33 + g11 * p34 + g12 * p35
+    t14 = f10 * p04 + f11 * p14 + f12 * p24 + g10 * p34 + g11 * p44 + g12 * p45
+    t15 = f10 * p05 + f11 * p15 + f12 * p25 + g10 * p35 + g11 * p45 + g12 * p55
+    t20 = f20 * p00 + f21 * p01 + f22 * p02 + g20 * p03 + g21 * p04 + g22 * p05
+    t21 = f20 * p01 + f21 * p11 + f22 * p12 + g20 * p13 + g21 * p14 + g22 * p15
+    t22 = f20 * p02 + f21 * p12 + f22 * p22 + g20 * p23 + g21 * p24 + g22 * p25
+    t23 = f20 * p03 + f21 * p13 + f22 * p23 + g20 * p33 + g21 * p34 + g22 * p35
+    t24 = f20 * p04 + f21 * p14 + f22 * p24 + g20 * p34 + g21 * p44 + g22 * p45
+    t25 = f20 * p05 + f21 * p15 + f22 * p25 + g20 * p35 + g21 * p45 + g22 * p55
+    v = t00 * f00 + t01 * f01 + t02 * f02 + t03 * g00 + t04 * g01 + t05 * g02
+    es[E_P + 0] = v
+    v = t00 * f10 + t01 * f11 + t02 * f12 + t03 * g10 + t04 * g11 + t05 * g12
+    es[E_P + 1] = v
+    es[E_P + 6] = v
+    v = t00 * f20 + t01 * f21 + t02 * f22 + t03 * g20 + t04 * g21 + t05 * g22
+    es[E_P + 2] = v
+    es[E_P + 12] = v
+    v = t10 * f10 + t11 * f11 + t12 * f12 + t13 * g10 + t14 * g11 + t15 * g12
+    es[E_P + 7] = v
+    v = t10 * f20 + t11 * f21 + t12 * f22 + t13 * g20 + t14 * g21 + t15 * g22
+    es[E_P + 8] = v
+    es[E_P + 13] = v
+    v = t20 * f20 + t21 * f21 + t22 * f22 + t23 * g20 + t24 * g21 + t25 * g22
+    es[E_P + 14] = v
+    es[E_P + 3] = t03
+    es[E_P + 18] = t03
+    es[E_P + 4] = t04
+    es[E_P + 24] = t04
+    es[E_P + 5] = t05
+    es[E_P + 30] = t05
+    es[E_P + 9] = t13
+    es[E_P + 19] = t13
+    es[E_P + 10] = t14
+    es[E_P + 25] = t14
+    es[E_P + 11] = t15
+    es[E_P + 31] = t15
+    es[E_P + 15] = t23
+    es[E_P + 20] = t23
+    es[E_P + 16] = t24
+    es[E_P + 26] = t24
+    es[E_P + 17] = t25
+    es[E_P + 32] = t25
     sv2 = ep[EP_SV] * ep[EP_SV]
     su2 = ep[EP_SU] * ep[EP_SU]
     for i in range(3):
@@ -140,12 +230,6 @@ def mekf_propagate(es, ep, omega_meas, dt):
         es[E_P + 6 * i + i + 3] += -su2 * dt * dt / 2.0
         es[E_P + 6 * (i + 3) + i] += -su2 * dt * dt / 2.0
         es[E_P + 7 * (i + 3)] += su2 * dt
-    # symmetrise
-    for i in range(6):
-        for j in range(i + 1, 6):
-            v = 0.5 * (es[E_P + 6 * i + j] + es[E_P + 6 * j + i])
-            es[E_P + 6 * i + j] = v
-            es[E_P + 6 * j + i] = v
     es[E_W] = w0
     es[E_W + 1] = w1
     es[E_W + 2] = w2
@@ -232,14 +316,139 @@ def _update(es, H, y0, y1, y2, R):
                     s += ka * R[3 * a + b] * es[E_K + 3 * j + b]
             es[E_P + 6 * i + j] = s
             es[E_P + 6 * j + i] = s
-    # reset: q̂ ← q̂∘δq(δθ), β̂ ← β̂ + δβ
-    dq = (1.0, 0.5 * dx[0], 0.5 * dx[1], 0.5 * dx[2])
-    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
+    _reset(es, dx[0], dx[1], dx[2], dx[3], dx[4], dx[5])
+
+
+@jit(inline="always")
+def _reset(es, d0, d1, d2, d3, d4, d5):
+    """The reset after an update: q̂ ← q̂∘δq(δθ), β̂ ← β̂ + δβ."""
+    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), (1.0, 0.5 * d0, 0.5 * d1, 0.5 * d2))
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for i in range(4):
         es[E_Q + i] = q[i] / n
+    es[E_B] += d3
+    es[E_B + 1] += d4
+    es[E_B + 2] += d5
+
+
+@jit
+def _update_attitude(es, ep, y0, y1, y2):
+    """The update of :func:`_update` for H = [1 0] (a measurement of the attitude error, R the
+    star tracker's EP_ST_R), by blocks: S = P_aa + R, K = P[:, :3] S⁻¹ (k), and the covariance
+    P ← P − K S Kᵀ = P − K P[:3, :] (equal to the Joseph form for this optimal gain), on the
+    upper triangle, mirrored so P stays exactly symmetric; written out on scalars (P read once
+    into locals p)."""
+    S = E_S
     for i in range(3):
-        es[E_B + i] += dx[3 + i]
+        for j in range(3):
+            es[S + 3 * i + j] = es[E_P + 6 * i + j] + ep[EP_ST_R + 3 * i + j]
+    _inv3(es, S, S + 9)
+    m00, m01, m02 = es[S + 9], es[S + 10], es[S + 11]
+    m10, m11, m12 = es[S + 12], es[S + 13], es[S + 14]
+    m20, m21, m22 = es[S + 15], es[S + 16], es[S + 17]
+    p00 = es[E_P + 0]
+    p01 = es[E_P + 1]
+    p02 = es[E_P + 2]
+    p03 = es[E_P + 3]
+    p04 = es[E_P + 4]
+    p05 = es[E_P + 5]
+    p11 = es[E_P + 7]
+    p12 = es[E_P + 8]
+    p13 = es[E_P + 9]
+    p14 = es[E_P + 10]
+    p15 = es[E_P + 11]
+    p22 = es[E_P + 14]
+    p23 = es[E_P + 15]
+    p24 = es[E_P + 16]
+    p25 = es[E_P + 17]
+    p33 = es[E_P + 21]
+    p34 = es[E_P + 22]
+    p35 = es[E_P + 23]
+    p44 = es[E_P + 28]
+    p45 = es[E_P + 29]
+    p55 = es[E_P + 35]
+    k00 = p00 * m00 + p01 * m10 + p02 * m20
+    k01 = p00 * m01 + p01 * m11 + p02 * m21
+    k02 = p00 * m02 + p01 * m12 + p02 * m22
+    k10 = p01 * m00 + p11 * m10 + p12 * m20
+    k11 = p01 * m01 + p11 * m11 + p12 * m21
+    k12 = p01 * m02 + p11 * m12 + p12 * m22
+    k20 = p02 * m00 + p12 * m10 + p22 * m20
+    k21 = p02 * m01 + p12 * m11 + p22 * m21
+    k22 = p02 * m02 + p12 * m12 + p22 * m22
+    k30 = p03 * m00 + p13 * m10 + p23 * m20
+    k31 = p03 * m01 + p13 * m11 + p23 * m21
+    k32 = p03 * m02 + p13 * m12 + p23 * m22
+    k40 = p04 * m00 + p14 * m10 + p24 * m20
+    k41 = p04 * m01 + p14 * m11 + p24 * m21
+    k42 = p04 * m02 + p14 * m12 + p24 * m22
+    k50 = p05 * m00 + p15 * m10 + p25 * m20
+    k51 = p05 * m01 + p15 * m11 + p25 * m21
+    k52 = p05 * m02 + p15 * m12 + p25 * m22
+    v = p00 - (k00 * p00 + k01 * p01 + k02 * p02)
+    es[E_P + 0] = v
+    v = p01 - (k00 * p01 + k01 * p11 + k02 * p12)
+    es[E_P + 1] = v
+    es[E_P + 6] = v
+    v = p02 - (k00 * p02 + k01 * p12 + k02 * p22)
+    es[E_P + 2] = v
+    es[E_P + 12] = v
+    v = p03 - (k00 * p03 + k01 * p13 + k02 * p23)
+    es[E_P + 3] = v
+    es[E_P + 18] = v
+    v = p04 - (k00 * p04 + k01 * p14 + k02 * p24)
+    es[E_P + 4] = v
+    es[E_P + 24] = v
+    v = p05 - (k00 * p05 + k01 * p15 + k02 * p25)
+    es[E_P + 5] = v
+    es[E_P + 30] = v
+    v = p11 - (k10 * p01 + k11 * p11 + k12 * p12)
+    es[E_P + 7] = v
+    v = p12 - (k10 * p02 + k11 * p12 + k12 * p22)
+    es[E_P + 8] = v
+    es[E_P + 13] = v
+    v = p13 - (k10 * p03 + k11 * p13 + k12 * p23)
+    es[E_P + 9] = v
+    es[E_P + 19] = v
+    v = p14 - (k10 * p04 + k11 * p14 + k12 * p24)
+    es[E_P + 10] = v
+    es[E_P + 25] = v
+    v = p15 - (k10 * p05 + k11 * p15 + k12 * p25)
+    es[E_P + 11] = v
+    es[E_P + 31] = v
+    v = p22 - (k20 * p02 + k21 * p12 + k22 * p22)
+    es[E_P + 14] = v
+    v = p23 - (k20 * p03 + k21 * p13 + k22 * p23)
+    es[E_P + 15] = v
+    es[E_P + 20] = v
+    v = p24 - (k20 * p04 + k21 * p14 + k22 * p24)
+    es[E_P + 16] = v
+    es[E_P + 26] = v
+    v = p25 - (k20 * p05 + k21 * p15 + k22 * p25)
+    es[E_P + 17] = v
+    es[E_P + 32] = v
+    v = p33 - (k30 * p03 + k31 * p13 + k32 * p23)
+    es[E_P + 21] = v
+    v = p34 - (k30 * p04 + k31 * p14 + k32 * p24)
+    es[E_P + 22] = v
+    es[E_P + 27] = v
+    v = p35 - (k30 * p05 + k31 * p15 + k32 * p25)
+    es[E_P + 23] = v
+    es[E_P + 33] = v
+    v = p44 - (k40 * p04 + k41 * p14 + k42 * p24)
+    es[E_P + 28] = v
+    v = p45 - (k40 * p05 + k41 * p15 + k42 * p25)
+    es[E_P + 29] = v
+    es[E_P + 34] = v
+    v = p55 - (k50 * p05 + k51 * p15 + k52 * p25)
+    es[E_P + 35] = v
+    x0 = k00 * y0 + k01 * y1 + k02 * y2
+    x1 = k10 * y0 + k11 * y1 + k12 * y2
+    x2 = k20 * y0 + k21 * y1 + k22 * y2
+    x3 = k30 * y0 + k31 * y1 + k32 * y2
+    x4 = k40 * y0 + k41 * y1 + k42 * y2
+    x5 = k50 * y0 + k51 * y1 + k52 * y2
+    _reset(es, x0, x1, x2, x3, x4, x5)
 
 
 @jit
@@ -248,15 +457,7 @@ def mekf_update_quaternion(es, ep, qm):
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
     r = mul((q[0], -q[1], -q[2], -q[3]), (qm[0], qm[1], qm[2], qm[3]))
     s = 1.0 if r[0] >= 0.0 else -1.0
-    H = (
-        1.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-        0.0, 1.0, 0.0, 0.0, 0.0, 0.0,
-        0.0, 0.0, 1.0, 0.0, 0.0, 0.0,
-    )  # fmt: skip
-    o = EP_ST_R
-    R = (ep[o], ep[o + 1], ep[o + 2], ep[o + 3], ep[o + 4], ep[o + 5], ep[o + 6], ep[o + 7],
-         ep[o + 8])  # fmt: skip
-    _update(es, H, 2.0 * s * r[1], 2.0 * s * r[2], 2.0 * s * r[3], R)
+    _update_attitude(es, ep, 2.0 * s * r[1], 2.0 * s * r[2], 2.0 * s * r[3])
 
 
 @jit

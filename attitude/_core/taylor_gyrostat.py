@@ -379,12 +379,13 @@ def _kink(work, p, sc, pieces, nw, h):
 
 
 @jit
-def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step):
-    """One Taylor step of the gyrostat from the state in ``work[Y]`` at ``tstate[0]``, never
-    past ``seg_end``. Returns a status."""
+def step_prepare(params, sc, work, tstate, seg_end, max_step):
+    """The first half of :func:`gyrostat_step`: row 0 of the table (q, g, h, the torque's
+    auxiliary series, ω[0] and Ω[0]) from the state in ``work[Y]``, and the friction pieces
+    of the step. Returns ``(status, n, c, d)``: n = |q|², c = q·Q, d the longest step (to
+    ``seg_end``, at most ``max_step``)."""
     nw = int(sc[S_NW])
     t = tstate[0]
-    p = int(tstate[3])
     y = work[Y]
     n, c = _initial_row(work, t, params)
     if tstate[TS_HAS_G] != 0.0:
@@ -399,15 +400,26 @@ def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_s
     pieces = tstate[TS_SIZE : TS_SIZE + nw]
     d = min(seg_end - t, max_step)
     if not d > 0.0:
-        return STEP_TOO_SMALL
+        return STEP_TOO_SMALL, n, c, d
     # ω[0], Ω[0] first (the pieces depend on Ω[0])
     gyrostat_order0(work, sc, nw)
     for j in range(nw):
         if pieces[j] < 0.0:
             b = S_WHEELS + j * WS
             pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
-    pu = gyrostat_coefficients(work, p, params, sc, n, pieces, d, rtol, atol, nw)
-    counters[1] += pu
+    return SUCCESS, n, c, d
+
+
+@jit
+def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu, n, c, d):
+    """The second half of :func:`gyrostat_step`, once the table holds the orders 0..``pu``
+    (:func:`gyrostat_coefficients`): the step size, a friction kink inside the step, the new
+    state. Returns a status."""
+    nw = int(sc[S_NW])
+    t = tstate[0]
+    p = int(tstate[3])
+    y = work[Y]
+    pieces = tstate[TS_SIZE : TS_SIZE + nw]
     if pu >= p:
         rho = _jz_radius(work, p, rtol, atol, nw)
         h_abs = rho * tstate[4]
@@ -454,6 +466,22 @@ def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_s
     counters[0] += 1
     counters[4] = 1
     return SUCCESS
+
+
+@jit
+def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step):
+    """One Taylor step of the gyrostat from the state in ``work[Y]`` at ``tstate[0]``, never
+    past ``seg_end``. Returns a status. (:func:`step_prepare`, the recurrences, then
+    :func:`step_complete`; the SIMD batch of :mod:`attitude._core.gyrostat_batch` runs the
+    recurrences of several members at once between the same two halves.)"""
+    status, n, c, d = step_prepare(params, sc, work, tstate, seg_end, max_step)
+    if status != SUCCESS:
+        return status
+    nw = int(sc[S_NW])
+    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    pu = gyrostat_coefficients(work, int(tstate[3]), params, sc, n, pieces, d, rtol, atol, nw)
+    counters[1] += pu
+    return step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu, n, c, d)
 
 
 @jit(inline="always")

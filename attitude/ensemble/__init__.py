@@ -23,9 +23,11 @@ Modules, one concern each:
 ``_percentile_store``     statistics-only output: per-member scalars, exact percentiles
 ``replay``                :func:`member_initial_state`, :func:`rerun_member`
 ``dispersions``           :func:`disperse`, :class:`Dispersions` (Monte Carlo draws of the
-                          ``[ensemble]`` table, from Python too)
+                          ``[ensemble]`` table, from Python too), :func:`disperse_spacecraft`
+``_spacecraft_*``         ensembles of spacecraft with actuators and flight software
 ``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
-                          :func:`event_time_percentiles`
+                          :func:`event_time_percentiles`,
+                          :func:`error_angle_percentiles`, :func:`settling_times`
 ========================  ===================================================================
 
 The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario`; the
@@ -35,14 +37,29 @@ The ``[ensemble]`` table of a scenario file is parsed by :mod:`attitude.scenario
 from __future__ import annotations
 
 from ._run import propagate_ensemble, run_scenario
-from .dispersions import Dispersed, Dispersions, disperse
+from .dispersions import (
+    Dispersed,
+    DispersedSpacecraft,
+    Dispersions,
+    disperse,
+    disperse_spacecraft,
+)
 from .replay import member_initial_state, rerun_member
-from .statistics import event_time_percentiles, pointing_error_percentiles, rate_percentiles
+from .statistics import (
+    error_angle_percentiles,
+    event_time_percentiles,
+    pointing_error_percentiles,
+    rate_percentiles,
+    settling_times,
+)
 
 __all__ = [
     "Dispersed",
+    "DispersedSpacecraft",
     "Dispersions",
     "disperse",
+    "disperse_spacecraft",
+    "error_angle_percentiles",
     "event_time_percentiles",
     "member_initial_state",
     "pointing_error_percentiles",
@@ -50,4 +67,5 @@ __all__ = [
     "rate_percentiles",
     "rerun_member",
     "run_scenario",
+    "settling_times",
 ]

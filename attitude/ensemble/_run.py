@@ -45,6 +45,8 @@ from ._members import (
 )
 from ._output import _Assembler, _concat, _Direct, _MemberWriter, _open_result
 from ._percentile_store import _PercentileStore
+from ._spacecraft_members import is_spacecraft_ensemble
+from ._spacecraft_run import propagate_spacecraft
 from .dispersions import _Sampled
 
 #: Output bytes per chunk the default chunk size aims at (states + diagnostics, float64).
@@ -135,6 +137,9 @@ def propagate_ensemble(
     boresight: Any = None,
     max_output_size: float | str | None = _plan.MAX_OUTPUT_SIZE,
     on_estimate: Callable[[int], None] | None = None,
+    commands: Any = None,
+    software: Any = None,
+    seed: int | None = None,
     _source: Any = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
@@ -331,6 +336,22 @@ def propagate_ensemble(
     plan = _plan.make_plan(tt, output, every, percentiles, max_output_size)
     if on_estimate is not None and not callable(on_estimate):
         raise AttitudeTypeError("on_estimate: expected a callable on_estimate(nbytes)")
+    if _source is None and is_spacecraft_ensemble(body, commands, software):
+        # spacecraft with actuators or flight software (docs/ensemble.md)
+        refused = {"client": client, "lazy": lazy, "events": events, "nominal": nominal,
+                   "reference": reference, "boresight": boresight}  # fmt: skip
+        return propagate_spacecraft(
+            body, q0, Q0, tt, potential, plan, method=method, rtol=rtol, atol=atol,
+            max_step=max_step, max_steps=max_steps, chunk_size=chunk_size, path=path,
+            threads=threads, progress=progress, attrs=attrs, epoch=epoch,
+            on_estimate=on_estimate, commands=commands, software=software, seed=seed,
+            refused=refused, t_start=t_start,
+        )  # fmt: skip
+    if seed is not None:
+        raise AttitudeValueError(
+            "seed: the ensemble seed of noisy sensors, for members with flight software "
+            "(software=); draw rigid-body members with attitude.ensemble.disperse(seed=...)"
+        )
     if nominal is not None and reference is not None:
         raise AttitudeValueError("nominal, reference: give one of them (the pointing reference)")
     if plan.output == "statistics":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -16,7 +17,15 @@ from ._plan import MAX_OUTPUT_SIZE, OUTPUTS
 # ------------------------------------------------------------------------------------------------
 
 DISTRIBUTIONS = ("normal", "uniform")
-__all__ = ["DISTRIBUTIONS", "OUTPUTS", "Dispersed", "Dispersions", "disperse"]
+__all__ = [
+    "DISTRIBUTIONS",
+    "OUTPUTS",
+    "Dispersed",
+    "DispersedSpacecraft",
+    "Dispersions",
+    "disperse",
+    "disperse_spacecraft",
+]
 #: Normal inertia errors are truncated at this many standard deviations (so every member is
 #: a rigid body; checked for the worst case before any work).
 INERTIA_TRUNCATION = 3.0
@@ -388,3 +397,356 @@ class _Sampled:
         params = np.array(self.params, dtype=np.float64)
         params[0:3] = self.inertia0 if inertia is None else inertia
         return params
+
+
+# ------------------------------------------------------------------------------------------------
+# dispersions of spacecraft with actuators and flight software
+# ------------------------------------------------------------------------------------------------
+
+#: The gains of each built-in control law that ``gain_error`` disperses (each by its own
+#: factor 1 + ε).
+LAW_GAINS = {
+    "MRPFeedback": ("K", "P"),
+    "QuaternionFeedback": ("K", "C"),
+    "RateDamping": ("K",),
+    "BDot": ("gain",),
+}
+#: The noise parameters of each sensor that ``sensor_noise_error`` disperses.
+SENSOR_NOISES = {
+    "gyro": ("arw", "rrw"),
+    "star_tracker": ("noise",),
+    "magnetometer": ("noise",),
+    "sun_sensor": ("noise",),
+}
+
+
+def _copy_with(obj: Any, **changes: Any) -> Any:
+    """A copy of a frozen actuator, law or sensor with some attributes changed (values already
+    valid: the worst case is checked before drawing)."""
+    new = object.__new__(type(obj))
+    for k, v in vars(obj).items():
+        object.__setattr__(new, k, v)
+    for k, v in changes.items():
+        object.__setattr__(new, k, v)
+    return new
+
+
+def _laws(software: Any) -> list[tuple[int, Any]]:
+    """(mode index, built-in law) of every mode whose law has gains to disperse."""
+    out = []
+    for k, (_, mode) in enumerate(software.modes):
+        law = mode.control[0] if isinstance(mode.control, tuple) else mode.control
+        if type(law).__name__ in LAW_GAINS:
+            out.append((k, law))
+    return out
+
+
+class DispersedSpacecraft(NamedTuple):
+    """Ensemble members drawn by :func:`disperse_spacecraft`, in the arguments of
+    :func:`~attitude.ensemble.propagate_ensemble`::
+
+        d = disperse_spacecraft(craft, q0, omega0, 1000, software=fsw, inertia_error=0.05,
+                                rate_error=1e-3, gain_error=0.1, seed=1)
+        ds = propagate_ensemble(d.spacecraft, d.q, d.Q, t, software=d.software, seed=2)
+
+    Attributes
+    ----------
+    spacecraft : list of N Spacecraft
+        The members' spacecraft (body inertia and actuator parameters dispersed).
+    q : ndarray, shape (N, 4)
+        Initial attitudes, q_i = q0∘exp(δθ_i/2).
+    Q : ndarray, shape (N, 4)
+        Initial momenta of body and wheels (kg m² s⁻¹ for a body with units) from ω_i and the
+        member's wheel speeds.
+    software : list of N FlightSoftware, or None
+        The members' flight software (gains and sensor noise dispersed; the sensors' seeds are
+        the ensemble's, drawn by ``propagate_ensemble(seed=...)``).
+    errors : dict of ndarray, shape (N, ...)
+        The errors applied (``"attitude"``, ``"rate"``, ``"inertia"``, ``"wheel_inertia"``,
+        ``"wheel_speed"``, ``"wheel_max_torque"``, ``"magnetorquer_max_dipole"``,
+        ``"thruster_max_thrust"``, ``"gain"``, ``"sensor_noise"``, ``"gyro_bias"``: the ones
+        the spacecraft and software have).
+    """
+
+    spacecraft: list
+    q: np.ndarray
+    Q: np.ndarray
+    software: list | None
+    errors: dict
+
+
+def disperse_spacecraft(
+    spacecraft: Any,
+    q0: Any,
+    omega0: Any,
+    size: int,
+    *,
+    software: Any = None,
+    seed: int = 0,
+    attitude_error: Any = 0.0,
+    rate_error: Any = 0.0,
+    inertia_error: float = 0.0,
+    wheel_inertia_error: float = 0.0,
+    wheel_speed_error: Any = 0.0,
+    wheel_max_torque_error: float = 0.0,
+    magnetorquer_max_dipole_error: float = 0.0,
+    thruster_max_thrust_error: float = 0.0,
+    gain_error: float = 0.0,
+    sensor_noise_error: float = 0.0,
+    gyro_bias_error: Any = 0.0,
+    distribution: str = "normal",
+    start: int = 0,
+) -> DispersedSpacecraft:
+    """Monte Carlo dispersions of a spacecraft with actuators and its flight software
+    (docs/ensemble.md, "Spacecraft with actuators and flight software").
+
+    Member ``i`` gets, about the nominal spacecraft, state and software:
+
+    * attitude q_i = q0∘exp(δθ_i/2) (δθ_i in body axes, rad), body rate ω_i = ω0 + δω_i
+      (rad/s), wheel speeds Ω_k + δΩ_k (rad/s);
+    * relative errors ε (value × (1 + ε)) of the body's principal moments (per axis), each
+      wheel's axial inertia and motor torque limit, each magnetorquer's dipole limit, each
+      thruster's thrust, each gain of the software's built-in control laws (:data:`LAW_GAINS`:
+      one factor per gain, the matrix gains scaled as a whole) and each sensor's noise
+      densities (:data:`SENSOR_NOISES`, one factor per sensor);
+    * an absolute error of the gyro's bias per axis (rad/s).
+
+    Each error is ``"normal"`` (the value is the standard deviation; relative errors truncated
+    at ±3σ, :data:`INERTIA_TRUNCATION`, and their worst case checked before drawing) or
+    ``"uniform"`` (the half-width). Member i's draws are the Philox generator at counter
+    i·D/4 (D the draws per member, a multiple of 4; key from ``SeedSequence(seed)``), one
+    slot per error whether dispersed or not: they do not depend on ``size`` or on which
+    errors are zero. Q_i = 2 q_i∘(0, g_i) with g_i = I_i ω_i + Σ J_k Ω_k a_k the total
+    momentum (:func:`attitude.canonical.momenta_from_angular_velocity`).
+
+    Parameters
+    ----------
+    spacecraft : Spacecraft
+        The nominal spacecraft.
+    q0 : array_like, shape (4,)
+        The nominal initial attitude (normalised).
+    omega0 : array_like or Quantity, shape (3,)
+        The nominal body angular velocity (rad/s).
+    size : int
+    software : FlightSoftware, optional
+        The nominal flight software (needed for ``gain_error``, ``sensor_noise_error``,
+        ``gyro_bias_error``).
+    seed : int
+    attitude_error, rate_error, wheel_speed_error, gyro_bias_error : float or Quantity
+        Absolute, per axis or per wheel (rad, rad/s).
+    inertia_error, wheel_inertia_error, wheel_max_torque_error, magnetorquer_max_dipole_error,
+    thruster_max_thrust_error, gain_error, sensor_noise_error : float
+        Relative (0.05 for 5 %).
+    distribution : {"normal", "uniform"}
+    start : int
+        Index of the first member (a slice of a larger ensemble).
+
+    Returns
+    -------
+    DispersedSpacecraft
+
+    Raises
+    ------
+    AttitudeValueError
+        A dispersion of a parameter the spacecraft or software does not have (wheel errors
+        without wheels, a torque limit that is infinite, gains without a built-in law, a gyro
+        bias without a gyro...), a relative error whose worst case makes a value zero or
+        negative, or a body whose dispersed inertia is not a rigid body.
+    """
+    from astropy import units as u
+
+    from .._validation import as_float_array, as_int, as_rate
+    from ..canonical import momenta_from_angular_velocity
+    from ..errors import AttitudeTypeError
+    from ..quaternion import from_rotation_vector, multiply, normalize
+    from ..software import FlightSoftware
+    from ..spacecraft import Spacecraft
+
+    if not isinstance(spacecraft, Spacecraft):
+        raise AttitudeTypeError(
+            f"spacecraft: expected an attitude.Spacecraft, got {type(spacecraft).__name__}"
+        )
+    if software is not None and not isinstance(software, FlightSoftware):
+        raise AttitudeTypeError(
+            f"software: expected an attitude.FlightSoftware, got {type(software).__name__}"
+        )
+    size = as_int(size, "size")
+    start = as_int(start, "start", low=0)
+    seed = as_int(seed, "seed", low=0)
+    if distribution not in DISTRIBUTIONS:
+        raise AttitudeValueError(
+            f"distribution: expected one of {', '.join(map(repr, DISTRIBUTIONS))}, "
+            f"got {distribution!r}"
+        )
+    dim = not spacecraft.body.is_dimensionless
+    q0 = normalize(as_float_array(q0, "q0", trailing=4, ndim=1))
+    w0 = as_rate(omega0, "omega0", dimensional=dim, trailing=None)
+    if np.shape(w0) != (3,):
+        raise AttitudeValueError(f"omega0: expected 3 body-axis components, got {np.shape(w0)}")
+
+    def absolute(x, name, unit):
+        if isinstance(x, u.Quantity):
+            try:
+                x = x.to_value(unit, u.dimensionless_angles())
+            except u.UnitConversionError:
+                raise AttitudeValueError(f"{name}: units {x.unit} are not {unit}") from None
+        v = float(as_float_array(x, name, ndim=0))
+        if not v >= 0 or not math.isfinite(v):
+            raise AttitudeValueError(f"{name}: must be >= 0 (a standard deviation or half-width)")
+        return v
+
+    att = absolute(attitude_error, "attitude_error", u.rad)
+    rate = absolute(rate_error, "rate_error", u.rad / u.s)
+    wsp = absolute(wheel_speed_error, "wheel_speed_error", u.rad / u.s)
+    gb = absolute(gyro_bias_error, "gyro_bias_error", u.rad / u.s)
+    rel = {
+        "inertia_error": inertia_error,
+        "wheel_inertia_error": wheel_inertia_error,
+        "wheel_max_torque_error": wheel_max_torque_error,
+        "magnetorquer_max_dipole_error": magnetorquer_max_dipole_error,
+        "thruster_max_thrust_error": thruster_max_thrust_error,
+        "gain_error": gain_error,
+        "sensor_noise_error": sensor_noise_error,
+    }
+    worst = INERTIA_TRUNCATION if distribution == "normal" else 1.0
+    for name, v in list(rel.items()):
+        v = absolute(v, name, u.one)
+        rel[name] = v
+        if v * worst >= 1.0:
+            raise AttitudeValueError(
+                f"{name}: a relative error up to {v * worst:g} can make a value zero or "
+                "negative; use a smaller error"
+            )
+    # what the spacecraft and software have
+    nw, nm, nt = spacecraft.counts
+    laws = _laws(software) if software is not None else []
+    gains = [(k, law, g) for k, law in laws for g in LAW_GAINS[type(law).__name__]]
+    sensors = tuple(software.sensors or ()) if software is not None else ()
+    noisy = [j for j, s in enumerate(sensors) if s.kind in SENSOR_NOISES]
+    gyros = [j for j, s in enumerate(sensors) if s.kind == "gyro"]
+
+    def lacks(name, v, cond, what):
+        if v > 0 and cond:
+            raise AttitudeValueError(f"{name}: {what}; give 0 (or leave it out)")
+
+    lacks(
+        "wheel_inertia_error", rel["wheel_inertia_error"], nw == 0, "the spacecraft has no wheels"
+    )
+    lacks("wheel_speed_error", wsp, nw == 0, "the spacecraft has no wheels")
+    lacks("wheel_max_torque_error", rel["wheel_max_torque_error"], nw == 0,
+          "the spacecraft has no wheels")  # fmt: skip
+    lacks("wheel_max_torque_error", rel["wheel_max_torque_error"],
+          any(math.isinf(w.max_torque) for w in spacecraft.wheels),
+          "a wheel has no torque limit (max_torque = inf) to disperse")  # fmt: skip
+    lacks("magnetorquer_max_dipole_error", rel["magnetorquer_max_dipole_error"], nm == 0,
+          "the spacecraft has no magnetorquers")  # fmt: skip
+    lacks("thruster_max_thrust_error", rel["thruster_max_thrust_error"], nt == 0,
+          "the spacecraft has no thrusters")  # fmt: skip
+    lacks("gain_error", rel["gain_error"], not gains,
+          "no flight software with a built-in control law (software=, attitude.control) "
+          "whose gains could be dispersed")  # fmt: skip
+    lacks("sensor_noise_error", rel["sensor_noise_error"], not noisy,
+          "no flight software with noisy sensors (software=, attitude.sensors)")  # fmt: skip
+    lacks(
+        "gyro_bias_error", gb, not gyros, "no flight software with a gyro (attitude.sensors.Gyro)"
+    )
+    if rel["inertia_error"] > 0:
+        chk = Dispersions(size=1, inertia_error=rel["inertia_error"],
+                          inertia_distribution=distribution)  # fmt: skip
+        chk.check_body(np.asarray(spacecraft.body.inertia, dtype=float), "inertia_error")
+    # the draws: one slot per error, whatever is dispersed
+    slots = [("attitude", 3), ("rate", 3), ("inertia", 3), ("wheel_inertia", nw),
+             ("wheel_speed", nw), ("wheel_max_torque", nw), ("magnetorquer_max_dipole", nm),
+             ("thruster_max_thrust", nt), ("gain", len(gains)), ("sensor_noise", len(sensors)),
+             ("gyro_bias", 3 * len(gyros))]  # fmt: skip
+    n_draws = sum(k for _, k in slots)
+    n_draws += -n_draws % 4
+    key = np.random.SeedSequence(seed).generate_state(2, np.uint64)
+    bg = np.random.Philox(key=key, counter=start * (n_draws // 4))
+    uu = np.random.Generator(bg).random((size, n_draws)) + 2.0**-54
+    widths = {
+        "attitude": (att, None), "rate": (rate, None), "wheel_speed": (wsp, None),
+        "gyro_bias": (gb, None), "inertia": (rel["inertia_error"], INERTIA_TRUNCATION),
+        "wheel_inertia": (rel["wheel_inertia_error"], INERTIA_TRUNCATION),
+        "wheel_max_torque": (rel["wheel_max_torque_error"], INERTIA_TRUNCATION),
+        "magnetorquer_max_dipole": (rel["magnetorquer_max_dipole_error"], INERTIA_TRUNCATION),
+        "thruster_max_thrust": (rel["thruster_max_thrust_error"], INERTIA_TRUNCATION),
+        "gain": (rel["gain_error"], INERTIA_TRUNCATION),
+        "sensor_noise": (rel["sensor_noise_error"], INERTIA_TRUNCATION),
+    }  # fmt: skip
+    errors: dict[str, np.ndarray] = {}
+    at = 0
+    for name, k in slots:
+        width, trunc = widths[name]
+        errors[name] = Dispersions._transform(uu[:, at : at + k], width, distribution, trunc)
+        at += k
+    errors["gyro_bias"] = errors["gyro_bias"].reshape(size, len(gyros), 3)
+    # the members
+    from ..body import RigidBody
+
+    body = spacecraft.body
+    q = multiply(q0, from_rotation_vector(errors["attitude"]))
+    crafts, sws, Qs = [], [] if software is not None else None, np.empty((size, 4))
+    for i in range(size):
+        b = body
+        if rel["inertia_error"] > 0:
+            b = RigidBody(np.asarray(body.inertia) * (1.0 + errors["inertia"][i]),
+                          units=body.units)  # fmt: skip
+        wheels = [
+            _copy_with(w, inertia=w.inertia * (1.0 + errors["wheel_inertia"][i, k]),
+                       speed=w.speed + errors["wheel_speed"][i, k],
+                       max_torque=w.max_torque * (1.0 + errors["wheel_max_torque"][i, k]))
+            for k, w in enumerate(spacecraft.wheels)
+        ]  # fmt: skip
+        mags = [
+            _copy_with(m, max_dipole=m.max_dipole * (1.0 + errors["magnetorquer_max_dipole"][i, k]))
+            for k, m in enumerate(spacecraft.magnetorquers)
+        ]
+        thr = [
+            _copy_with(x, max_thrust=x.max_thrust * (1.0 + errors["thruster_max_thrust"][i, k]))
+            for k, x in enumerate(spacecraft.thrusters)
+        ]
+        craft = Spacecraft(
+            b, wheels, mags, thr, spacecraft.orbit,
+            center_of_mass=spacecraft.center_of_mass, field=spacecraft.field,
+        )  # fmt: skip
+        crafts.append(craft)
+        Qs[i] = momenta_from_angular_velocity(q[i], w0 + errors["rate"][i], craft)
+        if software is not None:
+            sws.append(_software_member(software, gains, sensors, gyros, errors, i))
+    return DispersedSpacecraft(crafts, q, Qs, sws, errors)
+
+
+def _software_member(software, gains, sensors, gyros, errors, i):
+    """Member ``i``'s flight software: the laws' gains and the sensors' noise scaled, the
+    gyros' biases shifted (the rest, and the objects not dispersed, shared)."""
+    import copy
+
+    from ..software._software import Mode
+
+    new = copy.copy(software)
+    if gains:
+        modes = list(software.modes)
+        scaled: dict[int, dict[str, Any]] = {}
+        for j, (k, _, g) in enumerate(gains):
+            scaled.setdefault(k, {})[g] = 1.0 + errors["gain"][i, j]
+        for k, factors in scaled.items():
+            cond, mode = modes[k]
+            law = mode.control[0] if isinstance(mode.control, tuple) else mode.control
+            law = _copy_with(law, **{g: getattr(law, g) * f for g, f in factors.items()})
+            control = (law, *mode.control[1:]) if isinstance(mode.control, tuple) else law
+            modes[k] = (cond, Mode(mode.guidance, control, mode.allocation, mode.name))
+        new.modes = modes
+    if sensors:
+        out = []
+        for j, s in enumerate(sensors):
+            changes: dict[str, Any] = {}
+            f = 1.0 + errors["sensor_noise"][i, j]
+            for name in SENSOR_NOISES.get(s.kind, ()):
+                v = getattr(s, name)
+                changes[name] = tuple(x * f for x in v) if isinstance(v, tuple) else v * f
+            if j in gyros:
+                changes["bias"] = s.bias + errors["gyro_bias"][i, gyros.index(j)]
+            out.append(_copy_with(s, **changes) if changes else s)
+        new.sensors = tuple(out)
+    return new

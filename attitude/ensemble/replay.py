@@ -97,12 +97,28 @@ def member_initial_state(source: Any, k: int) -> tuple[RigidBody, np.ndarray, np
         return _initial(ds, _member(ds, k))
 
 
-def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.Dataset:
+def rerun_member(
+    source: Any,
+    k: int,
+    potential: Potential | None = None,
+    *,
+    spacecraft: Any = None,
+    software: Any = None,
+    commands: Any = None,
+) -> xr.Dataset:
     """Integrate member ``k`` of an ensemble result alone; its samples bit for bit.
 
     A one-member :func:`propagate_ensemble` from the member's stored body and initial state,
     with the run's method and tolerances, over its integration span (``integration_start`` ..
     ``integration_stop``), evaluated at the result's stored times.
+
+    An ensemble of spacecraft with actuators or flight software (a result with the attr
+    ``spacecraft``) stores neither the spacecraft nor the software (objects, not numbers): give
+    member ``k``'s (``spacecraft=``, ``software=`` or ``commands=``, as passed to
+    ``propagate_ensemble``, the member's own for per-member ones). The member is then the single
+    run ``attitude.propagate(spacecraft, q0, Q0, t, potential, software=software with the
+    member's sensor seeds (variable sensor_seed))``, which equals its ensemble samples and tick
+    records bit for bit.
 
     Parameters
     ----------
@@ -115,6 +131,12 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
         The potential the ensemble ran with (member ``k``'s, for per-member potentials).
         Needed unless it was torque-free. For a file written from a scenario:
         ``attitude.scenario.loads(ds.attrs["scenario_toml"]).potential``.
+    spacecraft : Spacecraft, optional
+        Member ``k``'s spacecraft (spacecraft ensembles only).
+    software : FlightSoftware, optional
+        Member ``k``'s flight software (its sensors are reseeded with the stored seeds).
+    commands : CommandSchedule, optional
+        Member ``k``'s open-loop schedule.
 
     Returns
     -------
@@ -128,6 +150,14 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
 
     with _opened(source) as ds:
         i = _member(ds, k)
+        if "spacecraft" in ds.attrs:
+            return _rerun_spacecraft(ds, i, potential, spacecraft, software, commands)
+        for name, v in (("spacecraft", spacecraft), ("software", software),
+                        ("commands", commands)):  # fmt: skip
+            if v is not None:
+                raise AttitudeValueError(
+                    f"{name}: this ensemble ran rigid bodies without actuators or software"
+                )
         body, q0, Q0 = _initial(ds, i)
         a = dict(ds.attrs)
         if potential is None:
@@ -164,3 +194,55 @@ def rerun_member(source: Any, k: int, potential: Potential | None = None) -> xr.
     )
     out = one.isel(member=0, time=rows).assign_coords(member=member)
     return out
+
+
+def _rerun_spacecraft(ds, i, potential, spacecraft, software, commands) -> xr.Dataset:
+    """Member ``i`` of a spacecraft ensemble as its single run (see :func:`rerun_member`)."""
+    from ..actuators.commands import CommandSchedule
+    from ..propagate import propagate
+    from ..software import FlightSoftware
+    from ..spacecraft import Spacecraft
+
+    a = dict(ds.attrs)
+    if not isinstance(spacecraft, Spacecraft):
+        raise AttitudeValueError(
+            "spacecraft: an ensemble of spacecraft stores no spacecraft; pass member k's "
+            f"attitude.Spacecraft (the run's: {a['spacecraft'][:120]})"
+        )
+    if "software" in a and not isinstance(software, FlightSoftware):
+        raise AttitudeValueError(
+            "software: this ensemble ran flight software; pass member k's attitude.FlightSoftware"
+        )
+    if "software" not in a and software is not None:
+        raise AttitudeValueError("software: this ensemble ran without flight software")
+    if commands is not None and not isinstance(commands, CommandSchedule):
+        raise AttitudeTypeError("commands: expected an attitude.CommandSchedule")
+    if potential is None:
+        if str(a.get("potential_name", "torque_free")) != "torque_free":
+            raise AttitudeValueError(
+                f"potential: the ensemble ran with {a.get('potential', a['potential_name'])}; "
+                "pass that potential"
+            )
+        potential = TorqueFree()
+    if software is not None and "sensor_seed" in ds:
+        seeds = [int(s) for s in np.asarray(ds["sensor_seed"].isel(member=i).values)]
+        software = software.with_sensor_seeds(seeds)
+    q0 = np.asarray(ds["initial_q"].isel(member=i).values, dtype=np.float64)
+    Q0 = np.asarray(ds["initial_Q"].isel(member=i).values, dtype=np.float64)
+    t = np.asarray(ds.attitude.quantity("time").value, dtype=np.float64)
+    span = [a["integration_start"], a["integration_stop"]] if "integration_stop" in a else []
+    grid = np.unique(np.concatenate([t, np.asarray(span, dtype=np.float64)]))
+    rows = np.searchsorted(grid, t)
+    kw: dict[str, Any] = {
+        "method": str(a.get("method", "dop853")),
+        "rtol": float(a.get("rtol", 1e-10)),
+        "atol": float(a.get("atol", 1e-12)),
+    }
+    if "max_step" in a:
+        kw["max_step"] = float(a["max_step"])
+    if a.get("epoch"):
+        kw["epoch"] = a["epoch"]
+    member = int(ds["member"].values[i])
+    one = propagate(spacecraft, q0, Q0, grid, potential, software=software, commands=commands,
+                    **kw)  # fmt: skip
+    return one.isel(time=rows).assign_coords(member=member)

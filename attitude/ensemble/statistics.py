@@ -398,3 +398,119 @@ def _to_degrees(da: xr.DataArray, units: str) -> xr.DataArray:
     if units == "1":
         out.attrs["comment"] = "degrees per time unit (a dimensionless run)"
     return out
+
+
+# ------------------------------------------------------------------------------------------------
+# closed loop: the flight software's pointing error per tick
+# ------------------------------------------------------------------------------------------------
+
+
+def _error_angle(ds: Any, variable: str) -> xr.DataArray:
+    da = _check_ensemble(ds, variable)
+    if da.dims != ("member", "tick"):
+        raise AttitudeValueError(
+            f"variable: {variable!r} is not a (member, tick) variable of an ensemble with flight "
+            "software (error_angle: the software's attitude error from its guidance)"
+        )
+    return da
+
+
+def error_angle_percentiles(
+    ds: xr.Dataset,
+    percentiles: Any = DEFAULT_PERCENTILES,
+    *,
+    variable: str = "error_angle",
+    degrees: bool = False,
+) -> xr.DataArray:
+    """Percentiles over members of the flight software's pointing error at every tick.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ensemble result with flight software (``propagate_ensemble(..., software=...)``).
+    percentiles : sequence of float
+        Percentiles in [0, 100].
+    variable : str
+        A (member, tick) variable: ``"error_angle"`` (default; the angle between the attitude
+        the software acts on and its reference, rad) or another.
+    degrees : bool
+        In degrees instead of radians (``error_angle``).
+
+    Returns
+    -------
+    xarray.DataArray, dims (percentile, tick)
+    """
+    degrees = as_bool(degrees, "degrees")
+    _error_angle(ds, variable)
+    ds = _successful(ds)
+    da = ds[variable]
+    p = _percentiles(percentiles)
+    out = _over_members(da, p)
+    out.attrs = {"units": da.attrs.get("units", ""),
+                 "long_name": f"percentiles over members of {variable}"}  # fmt: skip
+    if degrees:
+        out = _to_degrees(out, str(da.attrs.get("units", "1")))
+    return out.rename(f"{variable}_percentiles")
+
+
+def settling_times(
+    ds: xr.Dataset, threshold: Any, *, variable: str = "error_angle", after: Any = None
+) -> xr.DataArray:
+    """Each member's settling time: the first recorded tick from which ``variable`` stays
+    at or below ``threshold`` to the end of the run.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        An ensemble result with flight software.
+    threshold : float or Quantity
+        In the variable's units (rad for ``error_angle``; an angle Quantity is converted).
+    variable : str
+        A (member, tick) variable (default ``"error_angle"``).
+    after : float, optional
+        Only ticks at or after this time count (e.g. after a slew's start; default all).
+
+    Returns
+    -------
+    xarray.DataArray, dims (member,)
+        The tick's time (the ``tick`` coordinate's values: seconds, or datetime for a dated
+        run) relative to the run's first tick, in seconds; NaN for a member that has not
+        settled by its last recorded tick (or failed before it, or whose variable is NaN at
+        the last tick).
+    """
+    from astropy import units as u
+
+    da = _error_angle(ds, variable)
+    if isinstance(threshold, u.Quantity):
+        try:
+            threshold = threshold.to_value(u.rad)
+        except u.UnitConversionError:
+            raise AttitudeValueError(
+                f"threshold: units {threshold.unit} are not an angle"
+            ) from None
+    thr = float(as_float_array(threshold, "threshold", ndim=0))
+    if not thr > 0:
+        raise AttitudeValueError(f"threshold: expected a positive value, got {thr!r}")
+    from ..results import time_values
+
+    tick = np.asarray(time_values(ds, "tick"), dtype=np.float64)
+    x = np.asarray(da.transpose("member", "tick").values, dtype=np.float64)
+    use = np.ones(tick.shape, dtype=bool) if after is None else tick >= float(after)
+    if not use.any():
+        raise AttitudeValueError(f"after: no recorded tick at or after {after!r}")
+    x = x[:, use]
+    tt = tick[use]
+    bad = ~(x <= thr)  # above the threshold, or NaN
+    # the last tick above the threshold; settled at the next one
+    last_bad = np.where(bad.any(axis=1), x.shape[1] - 1 - np.argmax(bad[:, ::-1], axis=1), -1)
+    settled = last_bad + 1
+    out = np.full(x.shape[0], np.nan)
+    ok = settled < x.shape[1]
+    out[ok] = tt[settled[ok]] - tick[0]
+    return xr.DataArray(
+        out,
+        dims=("member",),
+        coords={"member": ds["member"].values},
+        attrs={"units": "s", "long_name": f"settling time: {variable} <= {thr:g} from then on"},
+        name="settling_time",
+    )

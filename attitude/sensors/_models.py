@@ -74,6 +74,28 @@ class Sensor:
     seed: int
     kind: str = "sensor"
 
+    def with_seed(self, seed: Any) -> Sensor:
+        """The same sensor drawing from the stream of ``seed`` (an integer in [0, 2**64);
+        None: a fresh one from the operating system)."""
+        new = object.__new__(type(self))
+        for k, v in vars(self).items():
+            object.__setattr__(new, k, v)
+        object.__setattr__(new, "seed", _seed(seed))
+        return new
+
+    @property
+    def stream_extra(self) -> int:
+        """Slots of the sensor's state after its random stream (the gyro's drift memory)."""
+        return 7 if self.kind == "gyro" else 0
+
+
+def stream_state(sensor: Sensor) -> np.ndarray:
+    """The initial state of a sensor in the sensor state ``ss``: its random stream seeded from
+    ``sensor.seed`` (SplitMix64), then its memory (zeros)."""
+    st = np.zeros(_rng.RNG_SIZE + sensor.stream_extra)
+    _rng.seed_stream(st, 0, np.uint64(sensor.seed))
+    return st
+
 
 @dataclass(frozen=True, init=False)
 class Gyro(Sensor):
@@ -330,10 +352,9 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
         size[0] += parts[-1].size
         return at
 
-    def stream(seed, extra=0):
+    def stream(sensor):
         at = ss_size[0]
-        st = np.zeros(_rng.RNG_SIZE + extra)
-        _rng.seed_stream(st, 0, np.uint64(seed))
+        st = stream_state(sensor)
         states.append(st)
         ss_size[0] += st.size
         return at
@@ -348,7 +369,7 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
             r[_ks.G_C : _ks.G_C + 9] = s.matrix.reshape(-1)
             r[_ks.G_QUANT] = s.quantization
             r[_ks.G_SAT] = s.saturation
-            r[_ks.G_STATE] = stream(s.seed, 7)
+            r[_ks.G_STATE] = stream(s)
             head[_ks.SN_GYRO] = append(r)
         elif isinstance(s, StarTracker):
             r = np.zeros(_ks.T_SIZE)
@@ -366,7 +387,7 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
             r[_ks.T_EVERY] = every
             r[_ks.T_SUN_EXCL] = s.sun_exclusion
             r[_ks.T_EARTH_EXCL] = s.earth_exclusion
-            r[_ks.T_STATE] = stream(s.seed)
+            r[_ks.T_STATE] = stream(s)
             head[_ks.SN_ST] = append(r)
             needs_sky = needs_sky or s.sun_exclusion > 0 or s.earth_exclusion >= 0
         elif isinstance(s, Magnetometer):
@@ -378,13 +399,13 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
             r = np.zeros(_ks.M_SIZE)
             r[_ks.M_SIGMA] = s.noise
             r[_ks.M_BIAS : _ks.M_BIAS + 3] = s.bias
-            r[_ks.M_STATE] = stream(s.seed)
+            r[_ks.M_STATE] = stream(s)
             head[_ks.SN_MAG] = append(r)
         elif isinstance(s, SunSensor):
             r = np.zeros(_ks.S_NORMALS + 3 * s.normals.shape[0])
             r[_ks.S_NHEADS] = s.normals.shape[0]
             r[_ks.S_SIGMA] = s.noise
-            r[_ks.S_STATE] = stream(s.seed)
+            r[_ks.S_STATE] = stream(s)
             r[_ks.S_NORMALS :] = s.normals.reshape(-1)
             head[_ks.SN_SUN] = append(r)
             needs_sky = True

@@ -284,6 +284,23 @@ class FlightSoftware:
             else:
                 self.python_step = steps[0]
 
+    def with_sensor_seeds(self, seeds: Sequence[int]) -> FlightSoftware:
+        """The same software whose sensors draw from the streams of ``seeds`` (one integer per
+        sensor, in the order of ``self.sensors``): what an ensemble member runs
+        (:func:`attitude.ensemble.propagate_ensemble` draws the seeds from its ``seed``)."""
+        import copy
+
+        sensors = self.sensors or ()
+        if len(seeds) != len(sensors):
+            raise AttitudeValueError(
+                f"seeds: {len(seeds)} seeds for the software's {len(sensors)} sensors"
+            )
+        new = copy.copy(self)
+        new.sensors = tuple(x.with_seed(s) for x, s in zip(sensors, seeds, strict=True))
+        if self.sensors is None:
+            new.sensors = None
+        return new
+
     @property
     def mode_names(self) -> list[str]:
         return [m.name or f"mode{i}" for i, (_, m) in enumerate(self.modes)]

@@ -17,7 +17,15 @@ It writes, beside this file, from ``attitude_q.aem``, ``attitude_angvel.aem`` an
   XML without the ``<segment>`` element (a form ccsds-ndm-py refuses);
 * ``orekit_attitude_q_tai.aem``, ``orekit_attitude_q_gps.aem``: the attitude of
   ``attitude_q.aem`` written by Orekit in KVN with ``TIME_SYSTEM = TAI`` and ``GPS``: the same
-  instants under two labels (GPS = TAI - 19 s), for the time-system test.
+  instants under two labels (GPS = TAI - 19 s), for the time-system test;
+* from ``estimate.acm`` (an ACM of the MEKF's estimate, CCSDS 504.0-B-2 sect. 5):
+  ``orekit_estimate.acm``, the message as Orekit's ``AcmWriter`` writes it again (KVN), and
+  ``orekit_estimate_acm.txt``, the values Orekit's ``AcmParser`` read, in SI units (the
+  elements of every attitude and covariance line; tests/test_acm.py compares them with ours).
+
+``python orekit_convert.py --acm FILE.acm`` prints that table for any ACM (tests/test_acm.py
+runs it when ``ATTITUDE_OREKIT_PYTHON`` names this environment's interpreter, or when
+``orekit_jpype`` can be imported).
 
 Orekit needs the UTC-TAI history to read UTC epochs: it is written from astropy's leap-second
 table to a temporary directory (``tai-utc.dat``, the USNO format Orekit reads); no other Orekit
@@ -51,10 +59,12 @@ def _leap_seconds(directory: Path) -> None:
 
 
 def main() -> None:
+    import sys
+
     import orekit_jpype as orekit
 
     orekit.initVM()
-    with tempfile.TemporaryDirectory() as tmp:
+    with tempfile.TemporaryDirectory() as tmp:  # Orekit reads it lazily: kept until the end
         _leap_seconds(Path(tmp))
         from java.io import File
         from org.orekit.data import DataContext, DirectoryCrawler
@@ -62,7 +72,10 @@ def main() -> None:
         manager = DataContext.getDefault().getDataProvidersManager()
         manager.addProvider(DirectoryCrawler(File(tmp)))
         _earth_without_ephemerides()
-        _convert()
+        if sys.argv[1:2] == ["--acm"]:
+            print(acm_values(Path(sys.argv[2])), end="")
+        else:
+            _convert()
 
 
 def _earth_without_ephemerides() -> None:
@@ -143,9 +156,50 @@ def _convert() -> None:
         for seg in msg.getSegments():
             seg.getMetadata().setTimeSystem(getattr(TimeSystem, system))
         _write("Aem", msg, HERE / f"orekit_attitude_q_{system.lower()}.aem", xml=False)
+    acm = _parse("Acm", HERE / "estimate.acm")
+    _write("Acm", acm, HERE / "orekit_estimate.acm", xml=False)
+    (HERE / "orekit_estimate_acm.txt").write_text(acm_values(HERE / "estimate.acm"))
+    print("written orekit_estimate_acm.txt")
     msg = _parse("Oem", HERE / "orbit.oem")
     _write("Oem", msg, HERE / "orekit_orbit.xml.oem", xml=True)
     _write_streaming_oem(msg, HERE / "orekit_orbit_stream.xml.oem")
+
+
+def acm_values(path: Path) -> str:
+    """What Orekit's AcmParser reads from an ACM, as text: a line per attitude state
+    (``ATT <ATT_ID> <s since EPOCH_TZERO> <elements in SI>``: quaternion Q1 Q2 Q3 QC, then the
+    rates in rad/s) and per covariance line (``COV <COV_ID> <s> <diagonal in SI>``: rad², then
+    (rad/s)²), numbers as Java prints doubles (they read back exactly)."""
+    msg = _parse("Acm", path)
+    seg = msg.getSegments().get(0)
+    t0 = seg.getMetadata().getEpochT0()
+    data = seg.getData()
+    out = [
+        f"# Orekit AcmParser values of {path.name}: OBJECT_NAME {seg.getMetadata().getObjectName()}"
+        f", EPOCH_TZERO {t0}, TIME_SYSTEM {seg.getMetadata().getTimeSystem()}"
+    ]
+    for block in data.getAttitudeBlocks():
+        m = block.getMetadata()
+        a, b = m.getEndpoints().getFrameA().getName(), m.getEndpoints().getFrameB().getName()
+        rate = m.getRateType()  # None: no RATE_TYPE line
+        out.append(f"# ATT {m.getAttID()} {a} -> {b} {m.getAttitudeType().name()} "
+                   f"{rate.name() if rate is not None else 'NONE'}")  # fmt: skip
+        for st in block.getAttitudeStates():
+            vals = " ".join(str(x) for x in st.getElements())
+            out.append(f"ATT {m.getAttID()} {st.getDate().durationFrom(t0)} {vals}")
+    for block in data.getCovarianceBlocks():
+        m = block.getMetadata()
+        out.append(f"# COV {m.getCovID()} {m.getCovType().name()} "
+                   f"{m.getCovReferenceFrame().getName()}")  # fmt: skip
+        for c in block.getCovariances():
+            mat = c.getMatrix()
+            vals = " ".join(str(mat.getEntry(i, i)) for i in range(mat.getRowDimension()))
+            out.append(f"COV {m.getCovID()} {c.getDate().durationFrom(t0)} {vals}")
+    ad = data.getAttitudeDeterminationBlock()
+    if ad is not None:
+        out.append(f"# AD {ad.getMethod().name()} {ad.getAttitudeStates().name()} "
+                   f"{ad.getCovarianceType().name()} {ad.getRateStates().name()}")  # fmt: skip
+    return "\n".join(out) + "\n"
 
 
 def _write_streaming_oem(oem, path: Path) -> None:

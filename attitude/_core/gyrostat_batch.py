@@ -1,0 +1,664 @@
+"""The Taylor method on LANES spacecraft with wheels at once (structure of arrays, SIMD).
+
+:mod:`attitude._core.taylor_gyrostat` integrates one gyrostat through held commands; here a
+*batch* of LANES members (:data:`attitude._core.lanes.LANES`, the lane count of
+:mod:`attitude._core.taylor_batch`) shares one coefficient table ``cf[k, column, lane]``, so the
+automatic-differentiation recurrences of the gyrostat (the Cauchy products, ω = M (g − ℓ), the
+wheels' momenta and the built-in torque's series) run as SIMD instructions over the members
+(:func:`gyrostat_coefficients_lanes`, the lane-wise mirror of
+:func:`attitude._core.taylor_gyrostat.gyrostat_coefficients`, statement for statement:
+multiply–adds as explicit fused operations, :mod:`attitude._core.fma`, nothing contracted or
+reassociated).
+
+Everything else is per member, by the single run's own kernels on the member's own rows of the
+arrays of :mod:`attitude._core.spacecraft_ensemble`: the hold boundaries (the open-loop schedule
+or the flight software's ticks, :data:`BOUNDARY`), the output samples and their records, the
+first row of a step and its friction pieces (:func:`attitude._core.taylor_gyrostat.
+step_prepare`) and the step from the table (:func:`attitude._core.taylor_gyrostat.
+step_complete`: the order, the radius, a friction kink, the new state). Between the two halves
+of a step the lane's orders 0..p of the state's blocks (q, g, h and Ω) are copied from the
+batch table into the member's own table, where the second half reads them. So every lane keeps
+its own time, holds, ticks and step sizes, and stops the recurrences at its own order (the
+order follows the hold: the lanes' recurrences run until every lane has the order it needs); a
+member computes, operation for operation, what it computes alone with
+``propagate(spacecraft, ..., method="taylor")``, and its results are bit for bit those of its
+single run (tests/test_ensemble_closed_loop.py).
+
+Lanes hold no state between steps: a lane takes any member that needs a step, and a member
+paused at its step budget, or at full tick records, goes on in whatever lane is free when it is
+called again. A lane without a member idles (its recurrences run on stale numbers, unused).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from orbit import _state_kernels as _SK
+from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
+
+from . import lanes as V
+from .actuators import S_MINV, S_TAU, S_WHEELS, W_AXIS, W_INVJ, W_U, WS
+from .ensemble import NOT_STARTED, RUNNING, member_begin
+from .fsw import fsw_boundary  # noqa: F401 (bound by name)
+from .holds import (
+    BOUNDARY_DONE,
+    BOUNDARY_NEEDS_COMMANDS,
+    HS_HOLD_END,
+    HS_NEXT,
+    HS_PENDING,
+    HS_SEG_END,
+    NEEDS_COMMANDS,
+    RECORDS_FULL,
+    record,
+    schedule_boundary,
+)
+from .lanes import LANES
+from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .rk import SUCCESS, TOO_MANY_STEPS
+from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
+    RECORDS_WAIT,
+    fsw_ctl,
+    member_stop,
+    schedule_ctl,
+)
+from .taylor import CA, CG, CR2, CU3, CU5, CV, CW, CX, NCOL, WORK_ROWS, Y, set_order
+from .taylor_gyrostat import (
+    CH,
+    ORDER_MARGIN,
+    PIECE_FREE,
+    PMIN,
+    TS_SIZE,
+    _block3,
+    _block4,
+    _blockh,
+    _piece_coefficients,
+    dense_state,
+    order_from_tolerance,
+    step_complete,
+    step_prepare,
+)
+
+__all__ = ["LANES", "fsw_parallel", "new_workspaces", "schedule_parallel"]
+
+# Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
+K_M = 0  # M = Ĩ⁻¹ (9, row-major)
+K_N = 9  # n = |q|²
+K_W = 10  # heavy top: weight
+K_CM = 11  # heavy top: centre of mass (3)
+K_MU = 14  # gravity gradient: μ
+K_D = 15  # gravity gradient: I3 − I2, I1 − I3, I2 − I1
+K_TAU = 18  # the thrusters' held torque (3)
+K_WHEEL = 21  # per wheel: axis (3), 1/J, friction slope c₁, friction offset c₀, motor torque u
+KW = 7
+# Per-lane numbers of the step's order control (columns of ``lf``).
+LF_D = 0  # the longest step d
+LF_TQ = 1  # ORDER_MARGIN rtol S_q
+LF_TG = 2  # ORDER_MARGIN rtol S_g
+LF_TH = 3  # ORDER_MARGIN rtol S_h
+LF_DK = 4  # d^k
+LF_PREV = 5  # 1: the last order's terms were below the tolerances
+LF_N = 6  # n of the step
+LF_C = 7  # c of the step
+NLF = 8
+# Per-lane integers (columns of ``lint``).
+L_MEMBER = 0  # the member in the lane (−1: none)
+L_K = 1  # its next output sample
+L_LIMIT = 2  # its step limit in this call
+L_STOP = 3  # the order its recurrences stop at (−1: not yet)
+L_STEP = 4  # 1: it takes a step in this round
+NLI = 5
+
+
+def n_constants(nw: int) -> int:
+    """Rows of ``cst`` for ``nw`` wheels."""
+    return K_WHEEL + KW * nw
+
+
+def new_workspaces(groups: int, nw: int) -> tuple[np.ndarray, ...]:
+    """The arrays of ``groups`` batch integrators: ``(cf, cst, lf, lint)``, one row each (made
+    by the caller: the parallel loop runs without numba's reference counting)."""
+    return (
+        np.zeros((groups, WORK_ROWS, NCOL + 2 * nw, LANES)),
+        np.zeros((groups, K_WHEEL + KW * nw, LANES)),
+        np.zeros((groups, LANES, NLF)),
+        np.zeros((groups, LANES, NLI), dtype=np.int64),
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# the recurrences on lane tuples
+# ------------------------------------------------------------------------------------------------
+
+
+@jit(inline="always")
+def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
+    """:func:`attitude._core.taylor.torque_series` on lane tuples, statement for statement."""
+    Z = V.ZERO
+    t0 = t1 = t2 = Z
+    inv = 1.0 / (k + 1.0)
+    if kind == KIND_HEAVY_TOP:
+        s0 = V.load(cf, k, CA)
+        s1 = V.load(cf, k, CA + 1)
+        s2 = V.load(cf, k, CA + 2)
+        t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
+        t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
+        t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
+        b0 = b1 = b2 = Z
+        for j in range(k + 1):
+            s0 = V.load(cf, j, CA)
+            s1 = V.load(cf, j, CA + 1)
+            s2 = V.load(cf, j, CA + 2)
+            w0 = V.load(cf, k - j, CW)
+            w1 = V.load(cf, k - j, CW + 1)
+            w2 = V.load(cf, k - j, CW + 2)
+            b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
+            b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
+            b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
+        V.store(cf, k + 1, CA, V.smul(inv, b0))
+        V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
+        V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
+    elif kind == KIND_GRAVITY_GRADIENT:
+        s = x0 = x1 = x2 = Z
+        for j in range(k + 1):
+            r0 = V.load(cf, j, CA)
+            r1 = V.load(cf, j, CA + 1)
+            r2 = V.load(cf, j, CA + 2)
+            u0 = V.load(cf, k - j, CA)
+            u1 = V.load(cf, k - j, CA + 1)
+            u2 = V.load(cf, k - j, CA + 2)
+            s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
+            x0 = V.fma(r1, u2, x0)
+            x1 = V.fma(r2, u0, x1)
+            x2 = V.fma(r0, u1, x2)
+        V.store(cf, k, CR2, s)
+        V.store(cf, k, CX, V.mul(D0, x0))
+        V.store(cf, k, CX + 1, V.mul(D1, x1))
+        V.store(cf, k, CX + 2, V.mul(D2, x2))
+        s00 = V.load(cf, 0, CR2)
+        if k == 0:
+            for ln in range(LANES):
+                r2s = cf[0, CR2, ln]
+                cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
+                cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
+        else:
+            acc = Z
+            for j in range(k):
+                coef = -1.5 * (k - j) - j
+                acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
+            V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
+            acc = V.load(cf, k, CU3)
+            for j in range(1, k + 1):
+                acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
+            V.store(cf, k, CU5, V.div(acc, s00))
+        b0 = b1 = b2 = Z
+        d0 = d1 = d2 = Z
+        f0 = f1 = f2 = Z
+        for j in range(k + 1):
+            u5 = V.load(cf, j, CU5)
+            u3 = V.load(cf, j, CU3)
+            w0 = V.load(cf, k - j, CW)
+            w1 = V.load(cf, k - j, CW + 1)
+            w2 = V.load(cf, k - j, CW + 2)
+            r0 = V.load(cf, j, CA)
+            r1 = V.load(cf, j, CA + 1)
+            r2 = V.load(cf, j, CA + 2)
+            v0 = V.load(cf, j, CV)
+            v1 = V.load(cf, j, CV + 1)
+            v2 = V.load(cf, j, CV + 2)
+            t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
+            t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
+            t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
+            b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
+            b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
+            b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
+            d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
+            d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
+            d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
+            f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
+            f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
+            f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
+        t0 = V.mul(t0, mu3)
+        t1 = V.mul(t1, mu3)
+        t2 = V.mul(t2, mu3)
+        V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
+        V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
+        V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
+        V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
+        V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
+        V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
+    return t0, t1, t2
+
+
+@jit(inline="always")
+def _lane_block3(cf, k, c0, lane):
+    """:func:`attitude._core.taylor_gyrostat._block3` of ``lane`` (the same expression)."""
+    return max(abs(cf[k, c0, lane]), max(abs(cf[k, c0 + 1, lane]), abs(cf[k, c0 + 2, lane])))
+
+
+@jit(inline="always")
+def _lane_block4(cf, k, c0, lane):
+    """:func:`attitude._core.taylor_gyrostat._block4` of ``lane``."""
+    return max(
+        max(abs(cf[k, c0, lane]), abs(cf[k, c0 + 1, lane])),
+        max(abs(cf[k, c0 + 2, lane]), abs(cf[k, c0 + 3, lane])),
+    )
+
+
+@jit(inline="always")
+def _lane_blockh(cf, k, nw, lane):
+    """:func:`attitude._core.taylor_gyrostat._blockh` of ``lane``."""
+    m = 0.0
+    for j in range(nw):
+        a = abs(cf[k, CH + j, lane])
+        if a > m:
+            m = a
+    return m
+
+
+@slp_vectorized
+@jit
+def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
+    """Rows 1.. of the table of every lane taking a step (``lint[:, L_STEP]``) from its row 0:
+    the recurrences of :func:`attitude._core.taylor_gyrostat.gyrostat_coefficients`, statement
+    for statement, on lane tuples. Each lane stops at its own order (that function's test, on
+    its own numbers): its order in ``lint[:, L_STOP]``, its rows 0..order (ω and Ω also at
+    that order) as that function fills them; the recurrences run until every lane is done."""
+    Z = V.ZERO
+    m00 = V.load_row(cst, K_M)
+    m01 = V.load_row(cst, K_M + 1)
+    m02 = V.load_row(cst, K_M + 2)
+    m10 = V.load_row(cst, K_M + 3)
+    m11 = V.load_row(cst, K_M + 4)
+    m12 = V.load_row(cst, K_M + 5)
+    m20 = V.load_row(cst, K_M + 6)
+    m21 = V.load_row(cst, K_M + 7)
+    m22 = V.load_row(cst, K_M + 8)
+    n = V.load_row(cst, K_N)
+    mW = V.neg(V.load_row(cst, K_W))
+    cx = V.load_row(cst, K_CM)
+    cy = V.load_row(cst, K_CM + 1)
+    cz = V.load_row(cst, K_CM + 2)
+    mu = V.load_row(cst, K_MU)
+    mu3 = V.smul(3.0, mu)
+    mmu = V.neg(mu)
+    D0 = V.load_row(cst, K_D)
+    D1 = V.load_row(cst, K_D + 1)
+    D2 = V.load_row(cst, K_D + 2)
+    tau0 = V.load_row(cst, K_TAU)
+    tau1 = V.load_row(cst, K_TAU + 1)
+    tau2 = V.load_row(cst, K_TAU + 2)
+    for lane in range(LANES):
+        lint[lane, L_STOP] = -1 if lint[lane, L_STEP] != 0 else 0
+        lf[lane, LF_DK] = 1.0
+        lf[lane, LF_PREV] = 0.0
+    CO = CH + nw
+    k = 0
+    while True:
+        # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
+        l0 = l1 = l2 = Z
+        for j in range(nw):
+            h = V.load(cf, k, CH + j)
+            r = K_WHEEL + KW * j
+            l0 = V.fma(h, V.load_row(cst, r), l0)
+            l1 = V.fma(h, V.load_row(cst, r + 1), l1)
+            l2 = V.fma(h, V.load_row(cst, r + 2), l2)
+        e0 = V.sub(V.load(cf, k, CG), l0)
+        e1 = V.sub(V.load(cf, k, CG + 1), l1)
+        e2 = V.sub(V.load(cf, k, CG + 2), l2)
+        w0 = V.fma(m02, e2, V.fma(m01, e1, V.mul(m00, e0)))
+        w1 = V.fma(m12, e2, V.fma(m11, e1, V.mul(m10, e0)))
+        w2 = V.fma(m22, e2, V.fma(m21, e1, V.mul(m20, e0)))
+        V.store(cf, k, CW, w0)
+        V.store(cf, k, CW + 1, w1)
+        V.store(cf, k, CW + 2, w2)
+        for j in range(nw):
+            r = K_WHEEL + KW * j
+            aw = V.fma(
+                V.load_row(cst, r + 2),
+                w2,
+                V.fma(V.load_row(cst, r + 1), w1, V.mul(V.load_row(cst, r), w0)),
+            )
+            V.store(cf, k, CO + j, V.fma(V.load(cf, k, CH + j), V.load_row(cst, r + 3), V.neg(aw)))
+        if k == p:
+            break
+        done = True
+        for lane in range(LANES):
+            if lint[lane, L_STOP] < 0:
+                done = False
+        if done:
+            break
+        # Cauchy products over j = 0..k: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
+        b00 = b10 = b20 = b30 = Z
+        b01 = b11 = b21 = b31 = Z
+        b02 = b12 = b22 = b32 = Z
+        p0 = p1 = p2 = Z
+        for j in range(k + 1):
+            q0 = V.load(cf, j, 0)
+            q1 = V.load(cf, j, 1)
+            q2 = V.load(cf, j, 2)
+            q3 = V.load(cf, j, 3)
+            o0 = V.load(cf, k - j, CW)
+            o1 = V.load(cf, k - j, CW + 1)
+            o2 = V.load(cf, k - j, CW + 2)
+            g0 = V.load(cf, j, CG)
+            g1 = V.load(cf, j, CG + 1)
+            g2 = V.load(cf, j, CG + 2)
+            b00 = V.fma(V.neg(q1), o0, b00)
+            b10 = V.fma(q0, o0, b10)
+            b20 = V.fma(q3, o0, b20)
+            b30 = V.fma(V.neg(q2), o0, b30)
+            b01 = V.fma(V.neg(q2), o1, b01)
+            b11 = V.fma(V.neg(q3), o1, b11)
+            b21 = V.fma(q0, o1, b21)
+            b31 = V.fma(q1, o1, b31)
+            b02 = V.fma(V.neg(q3), o2, b02)
+            b12 = V.fma(q2, o2, b12)
+            b22 = V.fma(V.neg(q1), o2, b22)
+            b32 = V.fma(q0, o2, b32)
+            p0 = V.fma(g1, o2, V.fma(V.neg(g2), o1, p0))
+            p1 = V.fma(g2, o0, V.fma(V.neg(g0), o2, p1))
+            p2 = V.fma(g0, o1, V.fma(V.neg(g1), o0, p2))
+        inv = 1.0 / (k + 1.0)
+        hh = 0.5 * inv
+        V.store(cf, k + 1, 0, V.smul(hh, V.add(V.add(b00, b01), b02)))
+        V.store(cf, k + 1, 1, V.smul(hh, V.add(V.add(b10, b11), b12)))
+        V.store(cf, k + 1, 2, V.smul(hh, V.add(V.add(b20, b21), b22)))
+        V.store(cf, k + 1, 3, V.smul(hh, V.add(V.add(b30, b31), b32)))
+        t0, t1, t2 = _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2)
+        if k == 0:
+            t0 = V.add(t0, tau0)
+            t1 = V.add(t1, tau1)
+            t2 = V.add(t2, tau2)
+        V.store(cf, k + 1, CG, V.smul(inv, V.fma(n, t0, p0)))
+        V.store(cf, k + 1, CG + 1, V.smul(inv, V.fma(n, t1, p1)))
+        V.store(cf, k + 1, CG + 2, V.smul(inv, V.fma(n, t2, p2)))
+        for j in range(nw):
+            r = K_WHEEL + KW * j
+            v = V.mul(V.neg(V.load_row(cst, r + 4)), V.load(cf, k, CO + j))
+            if k == 0:
+                v = V.add(v, V.sub(V.load_row(cst, r + 6), V.load_row(cst, r + 5)))
+            V.store(cf, k + 1, CH + j, V.smul(inv, v))
+        k += 1
+        # each lane's own test: the last two terms over its d below its tolerances
+        for lane in range(LANES):
+            if lint[lane, L_STOP] >= 0:
+                continue
+            dk = lf[lane, LF_DK] * lf[lane, LF_D]
+            lf[lane, LF_DK] = dk
+            ok = (
+                _lane_block4(cf, k, 0, lane) * dk <= lf[lane, LF_TQ]
+                and _lane_block3(cf, k, CG, lane) * dk <= lf[lane, LF_TG]
+                and _lane_blockh(cf, k, nw, lane) * dk <= lf[lane, LF_TH]
+            )
+            if ok and lf[lane, LF_PREV] != 0.0 and k >= PMIN:
+                lint[lane, L_STOP] = k
+            lf[lane, LF_PREV] = 1.0 if ok else 0.0
+    for lane in range(LANES):
+        if lint[lane, L_STOP] < 0:
+            lint[lane, L_STOP] = p
+
+
+# ------------------------------------------------------------------------------------------------
+# one lane: load a member's step, copy its table back
+# ------------------------------------------------------------------------------------------------
+
+
+@jit(inline="always")
+def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol, atol, nw):
+    """Put the step of a member (its ``params`` row, spacecraft block ``sc``, table ``work``
+    after :func:`~attitude._core.taylor_gyrostat.step_prepare`) into ``lane``."""
+    for col in range(4):
+        cf[0, col, lane] = work[0, col]
+    for j in range(3):
+        cf[0, CG + j, lane] = work[0, CG + j]
+        cf[0, CA + j, lane] = work[0, CA + j]
+        cf[0, CV + j, lane] = work[0, CV + j]
+    for j in range(nw):
+        cf[0, CH + j, lane] = work[0, CH + j]
+    for r in range(9):
+        cst[K_M + r, lane] = sc[S_MINV + r]
+    cst[K_N, lane] = n
+    kind = int(params[P_KIND])
+    if kind == KIND_HEAVY_TOP:
+        cst[K_W, lane] = params[P0]
+        cst[K_CM, lane] = params[P0 + 1]
+        cst[K_CM + 1, lane] = params[P0 + 2]
+        cst[K_CM + 2, lane] = params[P0 + 3]
+    elif kind == KIND_GRAVITY_GRADIENT:
+        cst[K_MU, lane] = params[P0 + _SK.MU]
+        cst[K_D, lane] = params[2] - params[1]
+        cst[K_D + 1, lane] = params[0] - params[2]
+        cst[K_D + 2, lane] = params[1] - params[0]
+    for j in range(3):
+        cst[K_TAU + j, lane] = sc[S_TAU + j]
+    for j in range(nw):
+        b = S_WHEELS + j * WS
+        r = K_WHEEL + KW * j
+        cst[r, lane] = sc[b + W_AXIS]
+        cst[r + 1, lane] = sc[b + W_AXIS + 1]
+        cst[r + 2, lane] = sc[b + W_AXIS + 2]
+        cst[r + 3, lane] = sc[b + W_INVJ]
+        c1, c0 = _piece_coefficients(sc, b, int(tstate[TS_SIZE + j]))
+        cst[r + 4, lane] = c1
+        cst[r + 5, lane] = c0
+        cst[r + 6, lane] = sc[b + W_U]
+    # the tolerances of gyrostat_coefficients' order test, from row 0
+    floor = atol / rtol
+    sq = max(_block4(work, 0, 0), floor)
+    sg = max(_block3(work, 0, CG), floor)
+    sh = max(_blockh(work, 0, nw), floor)
+    lf[lane, LF_TQ] = ORDER_MARGIN * rtol * sq
+    lf[lane, LF_TG] = ORDER_MARGIN * rtol * sg
+    lf[lane, LF_TH] = ORDER_MARGIN * rtol * sh
+    lf[lane, LF_D] = d
+    lf[lane, LF_N] = n
+    lf[lane, LF_C] = c
+    lint[lane, L_STEP] = 1
+
+
+@jit(inline="always")
+def _unload_lane(cf, lane, pu, work, nw):
+    """The lane's orders 0..pu of q, g, h and Ω into the member's table (what
+    :func:`~attitude._core.taylor_gyrostat.step_complete` reads)."""
+    CO = CH + nw
+    for k in range(pu + 1):
+        for col in range(4):
+            work[k, col] = cf[k, col, lane]
+        for j in range(3):
+            work[k, CG + j] = cf[k, CG + j, lane]
+        for j in range(nw):
+            work[k, CH + j] = cf[k, CH + j, lane]
+            work[k, CO + j] = cf[k, CO + j, lane]
+
+
+# ------------------------------------------------------------------------------------------------
+# one group of members through one batch integrator
+# ------------------------------------------------------------------------------------------------
+
+#: The command source of a member (as :data:`attitude._core.holds.BOUNDARY`) and its ``ctl``
+#: tuple from the source arrays (:mod:`attitude._core.spacecraft_ensemble`): the open-loop
+#: schedule here; :data:`fsw_group` rebinds both to the flight software's.
+BOUNDARY = schedule_boundary
+CTL = schedule_ctl
+
+#: Results of :func:`_advance`.
+_NEEDS_STEP = -100
+
+
+@jit_generic
+def _advance(boundary, k, limit, n, params, sc, t, y_out, work, tstate, counters, ctl):
+    """A member up to its next step (:func:`~attitude._core.taylor_gyrostat.taylor_holds_run`
+    between two steps): its output samples from ``k`` on, its boundary (``boundary``, the
+    command source). Returns (``_NEEDS_STEP`` or a final or pausing status, the next output
+    sample)."""
+    hs = ctl[0]
+    m = t.shape[0]
+    y = work[Y]
+    nw = n - 8
+    t_end = t[m - 1]
+    P = (params, sc)
+    while True:
+        while k < m:
+            to = t[k]
+            tt = tstate[0]
+            if to == tt:
+                if hs[HS_PENDING] != 0.0:
+                    break
+                for j in range(n):
+                    y_out[k, j] = y[j]
+            elif counters[4] == 1 and to >= tstate[2] and tt > to:
+                dense_state(work, tstate, to - tstate[2], y_out[k], nw)
+            else:
+                break
+            record(sc, y_out[k], n)
+            k += 1
+        if hs[HS_PENDING] != 0.0:
+            bs = boundary(P, y, tstate[0], t_end, ctl)
+            if bs == BOUNDARY_NEEDS_COMMANDS:
+                return NEEDS_COMMANDS, k
+            if bs != BOUNDARY_DONE:
+                return RECORDS_FULL, k
+            hs[HS_PENDING] = 0.0
+            continue
+        if k == m:
+            return SUCCESS, k
+        if counters[0] >= limit:
+            return TOO_MANY_STEPS, k
+        return _NEEDS_STEP, k
+
+
+@jit(inline="always")
+def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
+                   n_done, rtol, atol, max_step, max_steps, budget, start, stop, cf, cst, lf,
+                   lint):  # fmt: skip
+    """Members ``start..stop-1`` through one batch integrator of LANES lanes (the workspace
+    ``cf, cst, lf, lint``: a row of :func:`new_workspaces`), each for at most ``budget``
+    steps. Inlined into the parallel loops (no reference counting: the views of the members'
+    rows cost nothing there)."""
+    m = t.shape[0]
+    t_end = t[m - 1]
+    n = y0.shape[1]
+    nw = n - 8
+    p = order_from_tolerance(rtol)
+    kind = int(params[start, P_KIND])
+    for lane in range(LANES):
+        lint[lane, L_MEMBER] = -1
+        lint[lane, L_STEP] = 0
+    nxt = start
+    while True:
+        stepping = 0
+        for lane in range(LANES):
+            lint[lane, L_STEP] = 0
+            while True:  # until the lane holds a member that takes a step (or none is left)
+                i = lint[lane, L_MEMBER]
+                if i < 0:
+                    if nxt >= stop:
+                        break
+                    i = nxt
+                    nxt += 1
+                    fresh = status[i] == NOT_STARTED
+                    if status[i] == RECORDS_WAIT:  # given more rows
+                        status[i] = RUNNING
+                    runs, k0, limit = member_begin(
+                        i, status, n_done, work, tstate, counters, max_steps, budget
+                    )
+                    if not runs:
+                        continue
+                    if fresh:  # taylor_holds_run's start
+                        hs = CTL(i, src)[0]
+                        w = work[i]
+                        for j in range(n):
+                            w[Y, j] = y0[i, j]
+                        ts = tstate[i]
+                        ts[0] = t[0]
+                        ts[1] = 0.0
+                        ts[2] = t[0]
+                        set_order(ts, p)
+                        for j in range(nw):
+                            ts[TS_SIZE + j] = PIECE_FREE
+                        hs[HS_NEXT] = 0.0
+                        hs[HS_PENDING] = 1.0
+                        hs[HS_HOLD_END] = math.nan
+                        counters[i, 3] = 1
+                        counters[i, 4] = 0
+                    lint[lane, L_MEMBER] = i
+                    lint[lane, L_K] = k0
+                    lint[lane, L_LIMIT] = limit
+                ctl = CTL(i, src)
+                blk = sc[sc_at[i] : sc_at[i + 1]]
+                st, k = _advance(BOUNDARY, lint[lane, L_K], lint[lane, L_LIMIT], n, params[i],
+                                 blk, t, y_out[i], work[i], tstate[i], counters[i],
+                                 ctl)  # fmt: skip
+                lint[lane, L_K] = k
+                if st == _NEEDS_STEP:
+                    st, nn, cc, d = step_prepare(params[i], blk, work[i], tstate[i],
+                                                 ctl[0][HS_SEG_END], max_step)  # fmt: skip
+                    if st == SUCCESS:
+                        _load_lane(cf, cst, lf, lint, lane, params[i], blk, work[i], tstate[i],
+                                   nn, cc, d, rtol, atol, nw)  # fmt: skip
+                        stepping += 1
+                        break
+                member_stop(i, st, k, lint[lane, L_LIMIT], max_steps, y_out, status, n_done)
+                lint[lane, L_MEMBER] = -1
+        if stepping == 0:
+            return
+        gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint)
+        for lane in range(LANES):
+            if lint[lane, L_STEP] == 0:
+                continue
+            i = lint[lane, L_MEMBER]
+            pu = lint[lane, L_STOP]
+            w = work[i]
+            _unload_lane(cf, lane, pu, w, nw)
+            counters[i, 1] += pu
+            blk = sc[sc_at[i] : sc_at[i + 1]]
+            hs = CTL(i, src)[0]
+            seg_end = hs[HS_SEG_END]
+            st = step_complete(blk, w, tstate[i], counters[i], rtol, atol, seg_end, max_step, pu,
+                               lf[lane, LF_N], lf[lane, LF_C], lf[lane, LF_D])  # fmt: skip
+            if st != SUCCESS:
+                member_stop(i, st, lint[lane, L_K], lint[lane, L_LIMIT], max_steps, y_out,
+                            status, n_done)  # fmt: skip
+                lint[lane, L_MEMBER] = -1
+                continue
+            if tstate[i, 0] == seg_end and seg_end < t_end:
+                hs[HS_PENDING] = 1.0
+
+
+#: The same group driver with the flight software as the members' command source.
+fsw_group = rebind(gyrostat_group, globals(), "fsw", BOUNDARY="fsw_boundary", CTL="fsw_ctl")
+
+
+# No reference counting in the parallel loops (numba's _nrt=False): every array is made by the
+# caller, and each member's rows are views taken at every step and boundary.
+@parallel_jit(nogil=True, _nrt=False)
+def schedule_parallel(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
+                      n_done, rtol, atol, max_step, max_steps, budget, group, cf, cst, lf,
+                      lint):  # fmt: skip
+    """All members under open-loop schedules, ``group`` members per batch integrator (the
+    workspaces ``cf, cst, lf, lint`` of :func:`new_workspaces`, one per group), the groups in
+    parallel (``prange``)."""
+    c = y0.shape[0]
+    n_groups = (c + group - 1) // group
+    for g in numba.prange(n_groups):
+        start = g * group
+        gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
+                       n_done, rtol, atol, max_step, max_steps, budget, start,
+                       min(c, start + group), cf[g], cst[g], lf[g], lint[g])  # fmt: skip
+
+
+@parallel_jit(nogil=True, _nrt=False)
+def fsw_parallel(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
+                 rtol, atol, max_step, max_steps, budget, group, cf, cst, lf,
+                 lint):  # fmt: skip
+    """All members under their flight software, in groups (as :func:`schedule_parallel`)."""
+    c = y0.shape[0]
+    n_groups = (c + group - 1) // group
+    for g in numba.prange(n_groups):
+        start = g * group
+        fsw_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
+                  rtol, atol, max_step, max_steps, budget, start, min(c, start + group), cf[g],
+                  cst[g], lf[g], lint[g])  # fmt: skip
