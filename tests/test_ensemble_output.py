@@ -372,10 +372,12 @@ def test_rerun_member_alone_bit_for_bit(output, tmp_path):
     # a one-member ensemble from member_initial_state: the same bits
     body, q0, Q0 = member_initial_state(path, 9)
     np.testing.assert_array_equal(body.inertia, full.inertia.sel(member=9).values)
-    one = propagate_ensemble(body, q0[None], Q0[None], sc.t, pot, nominal=None)
+    # (the scenario's method, dop853, named: the default "auto" would pick taylor)
+    assert full.attrs["method"] == sc.method == "dop853"
+    one = propagate_ensemble(body, q0[None], Q0[None], sc.t, pot, sc.method, nominal=None)
     _same(one.isel(member=0), full.sel(member=9), TRAJ)
     # attitude.propagate projects the state its own way: the same to round-off only
-    single = propagate(body, q0, Q0, sc.t, pot)
+    single = propagate(body, q0, Q0, sc.t, pot, sc.method)
     np.testing.assert_allclose(single.q.values, full.q.sel(member=9).values, atol=1e-13)
     with pytest.raises(AttitudeValueError, match=r"^potential: the ensemble ran with"):
         rerun_member(path, 0)
