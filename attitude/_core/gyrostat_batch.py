@@ -40,7 +40,7 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
 
 from . import lanes as V
-from .actuators import S_MINV, S_TAU, S_WHEELS, W_AXIS, W_INVJ, W_U, WS
+from .actuators import S_IDEAL, S_MINV, S_TAU, S_WHEELS, W_AXIS, W_INVJ, W_U, WS
 from .ensemble import NOT_STARTED, RUNNING, member_begin
 from .fsw import fsw_boundary  # noqa: F401 (bound by name)
 from .holds import (
@@ -433,7 +433,7 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
         cst[K_D + 1, lane] = params[0] - params[2]
         cst[K_D + 2, lane] = params[1] - params[0]
     for j in range(3):
-        cst[K_TAU + j, lane] = sc[S_TAU + j]
+        cst[K_TAU + j, lane] = sc[S_TAU + j] + sc[S_IDEAL + j]  # thrusters' + ideal control
     for j in range(nw):
         b = S_WHEELS + j * WS
         r = K_WHEEL + KW * j

@@ -42,6 +42,7 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit
 
 from .actuators import (
+    S_IDEAL,
     S_NW,
     S_TAU,
     S_WHEELS,
@@ -256,10 +257,10 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k + 1, 2] = hh * (b20 + b21 + b22)
         cf[k + 1, 3] = hh * (b30 + b31 + b32)
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
-        if k == 0:
-            t0 += sc[S_TAU]
-            t1 += sc[S_TAU + 1]
-            t2 += sc[S_TAU + 2]
+        if k == 0:  # the held torques: thrusters' and the ideal control torque (as in
+            t0 += sc[S_TAU] + sc[S_IDEAL]  # actuators.actuator_torque)
+            t1 += sc[S_TAU + 1] + sc[S_IDEAL + 1]
+            t2 += sc[S_TAU + 2] + sc[S_IDEAL + 2]
         cf[k + 1, CG] = F(n, t0, p0) * inv
         cf[k + 1, CG + 1] = F(n, t1, p1) * inv
         cf[k + 1, CG + 2] = F(n, t2, p2) * inv
