@@ -18,7 +18,7 @@ from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
-from ..propagate import ATOL_MIN, AUTO, PROJECTION_WARN, _check_max_step, choose_method
+from ..propagate import ATOL_MIN, AUTO, PROJECTION_WARN, _check_max_step
 from . import _dask, _plan
 from ._chunks import (
     _N_DIAG,
@@ -37,6 +37,7 @@ from ._dask import (
 )
 from ._members import (
     _body_units,
+    _ensemble_method,
     _member_inertia,
     _member_potentials,
     _member_states,
@@ -147,10 +148,9 @@ def propagate_ensemble(
     Each member is integrated independently by the compiled DOP853 loop of
     :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
     torque as the generalised force of Schwab eq. 25), with its own adaptive steps; with
-    ``method="taylor"`` (what the default ``"auto"`` picks for built-in potentials) by the Taylor
-    method of ``propagate(method="taylor")``, 4 or 8 members per SIMD instruction (the CPU's
-    width, chosen at run time; each with its own steps; results bit for bit those of single
-    runs, whatever the width).
+    ``method="taylor"`` (what ``"auto"`` picks for built-in potentials) by the Taylor method of
+    ``propagate(method="taylor")``, 4 or 8 members per SIMD instruction (the CPU's width,
+    chosen at run time; results bit for bit those of single runs, whatever the width).
 
     Parameters
     ----------
@@ -391,14 +391,7 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
-    if method == AUTO:
-        method = "taylor"
-        for p in pots if pots is not None else (pot,):
-            method = choose_method(AUTO, p, events=events)
-            if method != "taylor":
-                break
-    if method == "taylor":
-        _check_taylor(pot, pots, events)
+    method = _ensemble_method(method, pot, pots, events)
     evset = None
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
@@ -643,19 +636,6 @@ def propagate_ensemble(
         )
         raise PropagationError(f"{failure}{where}", time=failure.time, partial=result)
     return result
-
-
-def _check_taylor(pot: Potential, pots: Any, events: Any) -> None:
-    """``method="taylor"``: built-in potentials it expands, no events (as ``propagate``)."""
-    from ..taylor import check_potential
-
-    if events is not None:
-        raise AttitudeValueError(
-            "events: method='taylor' does not locate events (neither does "
-            "propagate(method='taylor')); use method='dop853' for an ensemble with events"
-        )
-    for p in pots if pots is not None else (pot,):
-        check_potential(p)
 
 
 def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:
