@@ -22,6 +22,7 @@ import numpy as np
 from ._core import holds as _kh
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
+from ._validation import as_float_array
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
@@ -259,7 +260,7 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
                     f"{where} returned the key {k!r}; expected {', '.join(sorted(allowed))}"
                 )
             c0, cn = allowed[k]
-            a = np.asarray(v, dtype=np.float64).reshape(-1)
+            a = as_float_array(v, f"{where} returned {k}").reshape(-1)
             if a.shape != (cn,):
                 raise AttitudeValueError(
                     f"{where} returned {k} of shape {a.shape}, expected ({cn},)"
@@ -267,8 +268,8 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
             res[c0 : c0 + cn] = a
     else:
         try:
-            a = np.asarray(out, dtype=np.float64).reshape(-1)
-        except (TypeError, ValueError):
+            a = as_float_array(out, f"{where} returned {type(out).__name__}").reshape(-1)
+        except AttitudeTypeError:
             raise AttitudeTypeError(
                 f"{where} returned {type(out).__name__}; expected an array of commands or a dict"
             ) from None

@@ -16,6 +16,19 @@ from .results import SI, UnitSystem, time_attrs
 __all__ = ["WHEEL_LIMIT_FLAGS", "add_actuator_variables", "add_tick_variables"]
 
 
+def _indexed(dim: str, labels: Any, name: str) -> dict[str, tuple]:
+    """The numeric index coordinate of ``dim`` (0..n-1, CF: dimension coordinates are numeric)
+    and its auxiliary label coordinate ``<dim>_label``."""
+    return {
+        dim: (
+            dim,
+            np.arange(len(labels), dtype=np.int32),
+            {"long_name": f"{name} index", "units": "1"},
+        ),
+        f"{dim}_label": (dim, np.array(labels), {"long_name": name}),
+    }
+
+
 #: CF flag masks and meanings of ``wheel_limit`` (attitude._core.actuators FLAG_*).
 WHEEL_LIMIT_FLAGS = (
     (1, "torque_limit"),
@@ -52,13 +65,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     coords: dict[str, Any] = {}
     c = 0
     if nw:
-        w = np.arange(nw)
-        coords["wheel"] = (
-            "wheel",
-            w.astype(np.int32),
-            {"long_name": "reaction wheel index", "units": "1"},
-        )
-        coords["wheel_label"] = ("wheel", np.array(wn), {"long_name": "reaction wheel"})
+        coords.update(_indexed("wheel", wn, "reaction wheel"))
         r = rec[:, c : c + 4 * nw].reshape(-1, nw, 4)
         new["wheel_speed"] = var(
             ("time", "wheel"), d["wheels"][:, :, 0], u.rate, "wheel speed relative to the body"
@@ -95,12 +102,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         new.update(_constants(craft, u, var, "wheel"))
         c += 4 * nw
     if nm:
-        coords["magnetorquer"] = (
-            "magnetorquer",
-            np.arange(nm, dtype=np.int32),
-            {"long_name": "magnetorquer index", "units": "1"},
-        )
-        coords["magnetorquer_label"] = ("magnetorquer", np.array(mn), {"long_name": "magnetorquer"})
+        coords.update(_indexed("magnetorquer", mn, "magnetorquer"))
         r = rec[:, c : c + 2 * nm].reshape(-1, nm, 2)
         dip = "A m^2" if u.torque != "1" else "1"
         new["dipole_command"] = var(
@@ -115,12 +117,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         new.update(_constants(craft, u, var, "magnetorquer"))
         c += 2 * nm
     if nt:
-        coords["thruster"] = (
-            "thruster",
-            np.arange(nt, dtype=np.int32),
-            {"long_name": "thruster index", "units": "1"},
-        )
-        coords["thruster_label"] = ("thruster", np.array(tn), {"long_name": "thruster"})
+        coords.update(_indexed("thruster", tn, "thruster"))
         r = rec[:, c : c + 2 * nt].reshape(-1, nt, 2)
         fmax = np.array([x.max_thrust for x in craft.thrusters])
         force = u.torque.replace(" m", "") if u.torque != "1" else "1"
@@ -201,7 +198,13 @@ def _constants(craft: Any, u: UnitSystem, var: Any, kind: str) -> dict[str, xr.V
                 np.array([x.axis for x in craft.magnetorquers]),
                 "1",
                 "magnetorquer axis in body axes",
-            )
+            ),
+            "magnetorquer_max_dipole": var(
+                ("magnetorquer",),
+                np.array([x.max_dipole for x in craft.magnetorquers], dtype=np.float64),
+                "A m^2" if u.torque != "1" else "1",
+                "magnetorquer dipole limit (the command is clipped to +-it)",
+            ),
         }
     return {
         "thruster_direction": var(
@@ -215,6 +218,12 @@ def _constants(craft: Any, u: UnitSystem, var: Any, kind: str) -> dict[str, xr.V
             np.array([x.position for x in craft.thrusters]),
             SI["length"] if u.torque != "1" else "1",
             "point of application in body axes",
+        ),
+        "thruster_max_thrust": var(
+            ("thruster",),
+            np.array([x.max_thrust for x in craft.thrusters], dtype=np.float64),
+            u.torque.replace(" m", "") if u.torque != "1" else "1",
+            "thrust when firing",
         ),
     }
 
@@ -323,12 +332,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
             None,
             "actuator commands in force from the tick (after the delay and the wheels' limits)",
         )
-        coords["command"] = (
-            "command",
-            np.arange(ncmd, dtype=np.int32),
-            {"long_name": "actuator command index", "units": "1"},
-        )
-        coords["command_label"] = ("command", np.array(labels), {"long_name": "actuator command"})
+        coords.update(_indexed("command", labels, "actuator command"))
         coords["command_units"] = (
             "command",
             np.array(units),

@@ -84,13 +84,30 @@ _BEGIN = "# --- model: begin (replaced in user modules) ---"
 _END = "# --- model: end ---"
 
 #: How each kind of user term builds its torque from the injected functions (``{k}``: the
-#: term's number): CustomTorque gives tau(q, t) or tau(q, omega, t), with or without U(q, t);
-#: CustomPotential gives U(q, t) and its torque by complex-step differentiation.
+#: term's number): CustomTorque gives tau(q, t) or tau(q, omega, t), with or without U(q, t),
+#: and with an orbit tau(q, t, env) or tau(q, omega, t, env) (``{env}``: the number of the term
+#: among those reading the environment, whose blocks attitude._core.potentials.user_env_base
+#: finds); CustomPotential gives U(q, t) and its torque by complex-step differentiation.
 TORQUE_EXPR = {
     "torque": "user_torque(USER_TORQUE_{k}, q, w, t)",
     "torque_rates": "user_torque_rates(USER_TORQUE_{k}, q, w, t)",
+    "torque_env": "user_torque_env(USER_TORQUE_{k}, q, w, t, params, {env})",
+    "torque_rates_env": "user_torque_rates_env(USER_TORQUE_{k}, q, w, t, params, {env})",
     "potential": "complex_step_torque(USER_POTENTIAL_{k}, q, w, t)",
 }
+
+#: The kinds of user terms that read the environment (a block of their own in ``params``).
+ENV_KINDS = ("torque_env", "torque_rates_env")
+
+
+def _torque_exprs(terms: tuple) -> list[str]:
+    """The torque expression of each term, environment blocks numbered in order."""
+    out, e = [], 0
+    for k, (kind, _, _) in enumerate(terms):
+        out.append(TORQUE_EXPR[kind].format(k=k, env=e))
+        e += kind in ENV_KINDS
+    return out
+
 
 #: A user term: (kind, torque function or None, potential function or None).
 UserTerm = tuple[str, Any, Any]
@@ -148,16 +165,21 @@ def _model_block(terms: tuple[UserTerm, ...], events: tuple = (), step: bool = F
     """The ``model`` block of a user module: the built-in part (``params``) plus the terms, the
     user's event functions and the user's compiled flight-software step."""
     n = len(terms)
+    exprs = _torque_exprs(terms)
     lines = [
         "REFCOUNT = True  # a user's kernels may allocate (numba's reference counting on)",
         "from attitude._core.potentials import ZERO3, complex_step_torque  # noqa: F401",
         "from attitude._core.potentials import user_torque, user_torque_rates  # noqa: F401",
-        "",
-        "# the user's functions, injected before anything compiles",
     ]
+    if any(kind in ENV_KINDS for kind, _, _ in terms):
+        lines += [
+            "from attitude._core.potentials import user_torque_env  # noqa: F401",
+            "from attitude._core.potentials import user_torque_rates_env  # noqa: F401",
+        ]
+    lines += ["", "# the user's functions, injected before anything compiles"]
     for k in range(n):
         lines += [f"USER_TORQUE_{k} = None", f"USER_POTENTIAL_{k} = None"]
-    parts = [f"    b{k} = {TORQUE_EXPR[kind].format(k=k)}" for k, (kind, _, _) in enumerate(terms)]
+    parts = [f"    b{k} = {exprs[k]}" for k in range(n)]
     sums = [" + ".join([f"a[{i}]"] + [f"b{k}[{i}]" for k in range(n)]) for i in range(3)]
     lines += [
         "",
@@ -181,8 +203,8 @@ def _model_block(terms: tuple[UserTerm, ...], events: tuple = (), step: bool = F
         "    if j < nb:",
         "        return builtin_term_torque(j, q, w, t, params)",
     ]
-    for k, (kind, _, _) in enumerate(terms):
-        lines += [f"    if j == nb + {k}:", f"        return {TORQUE_EXPR[kind].format(k=k)}"]
+    for k in range(n):
+        lines += [f"    if j == nb + {k}:", f"        return {exprs[k]}"]
     lines += [
         "    return ZERO3",
         "",

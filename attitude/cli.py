@@ -968,7 +968,11 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "A run with an orbit or a reference frame: pointing error and roll/pitch/yaw "
             "against the frame, body rates in deg/s, the Earth's shadow and the events on a "
-            "time axis in s, min, h or days. The paper's layout (q left, Q right, angular "
+            "time axis in s, min, h or days. A run with actuators or flight software: the "
+            "attitude error at every tick (or |omega| for rate damping), wheel speeds in rpm "
+            "with their limits and saturation, motor torques, dipoles and thrust with their "
+            "limits, the flight-software modes, the estimation error inside its 3-sigma "
+            "bounds and the gyro bias. The paper's layout (q left, Q right, angular "
             "velocity and energy: Figs. 1-3) with --layout paper (the paper's scenarios ask "
             "for it). Ensembles: percentile bands over the members."
         ),
@@ -986,7 +990,8 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("auto", "engineer", "paper"),
         default="auto",
         help="engineer (pointing, angles, rates...) or paper (q, Q, omega, energy); default: "
-        "the scenario's plot_layout, else engineer for a run with an orbit",
+        "the scenario's plot_layout, else engineer for a run with an orbit, actuators or "
+        "flight software",
     )
     pl.add_argument(
         "--frame",
@@ -997,7 +1002,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument(
         "--panels",
         metavar="P1,P2,...",
-        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, torque",
+        help="engineer's panels, in order: pointing, angles, rates, rates_relative, energy, "
+        "torque; closed loop: control_error, rate_norm, wheel_speeds, wheel_torque, dipoles, "
+        "thrust, estimation, gyro_bias",
     )
     pl.set_defaults(func=cmd_plot)
 

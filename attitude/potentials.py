@@ -24,6 +24,7 @@ the compiled integrators.
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from typing import Any, ClassVar
 
 import numpy as np
@@ -45,6 +46,7 @@ __all__ = [
     "CustomPotential",
     "CustomTorque",
     "EddyCurrentDamping",
+    "EnvironmentIndex",
     "Facet",
     "GravityGradient",
     "HeavyTop",
@@ -84,10 +86,20 @@ class Potential:
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         """Parameter vector for the compiled kernels (inertia first, see _core.potentials)."""
         kind = _kp.KIND_USER if self._kind is None else self._kind
-        return np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
+        head = np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
+        env = self._user_env_blocks()
+        if not env:
+            return head
+        # a user model alone: the environment's directory at P0 (_core.potentials)
+        assert kind == _kp.KIND_USER and head.shape[0] == _kp.P0
+        return np.concatenate([head, _user_environment(_kp.P0, env)])
 
     def _user_terms(self) -> tuple:
         """The user terms (kind, torque, potential) compiled into a user module; () if none."""
+        return ()
+
+    def _user_env_blocks(self) -> tuple[np.ndarray, ...]:
+        """The environment blocks of the user terms that read it, in order; () if none."""
         return ()
 
     def _entry_points(self):
@@ -422,6 +434,135 @@ class CustomPotential(Potential):
         return f"CustomPotential({getattr(self._U, '__name__', 'U')}, name={self.name!r})"
 
 
+class EnvironmentIndex(IntEnum):
+    """Where each quantity sits in the array ``env`` a :class:`CustomTorque` with an orbit reads.
+
+    ``env[EnvironmentIndex.FIELD : EnvironmentIndex.FIELD + 3]`` is the geomagnetic field, and so
+    on (vectors of 3 unless noted; NaN where unavailable: the field with ``field=None``, the
+    Sun's entries for an orbit without an epoch). numba reads the members as constants.
+
+    ============  ==========================================================================
+    FIELD         geomagnetic field B [T], body axes (the table of :class:`MagneticDipole`)
+    SUN           unit vector from the spacecraft to the Sun, body axes
+    R             position [km], space axes (GCRS)
+    V             velocity [km/s], space axes
+    Q_RSW         4: the orbital frame (x radial, y along-track, z orbit normal; the frame
+                  :func:`attitude.frames.rsw`) → space quaternion, scalar first
+    SUN_DISTANCE  distance from the spacecraft to the Sun [km]
+    SHADOW        fraction of the Sun's disk seen past the Earth (conical shadow with penumbra,
+                  Montenbruck & Gill 2000): 1 sunlit, 0 umbra
+    ============  ==========================================================================
+
+    ``len(env)`` is :data:`ENVIRONMENT_SIZE`. The field and the Sun's direction are those of the
+    flight software's measurements (:class:`attitude.software.MeasurementIndex` FIELD, SUN, R,
+    V), computed from the same tables.
+    """
+
+    FIELD = _ke.ENV_FIELD
+    SUN = _ke.ENV_SUN
+    R = _ke.ENV_R
+    V = _ke.ENV_V
+    Q_RSW = _ke.ENV_Q_RSW  # 4
+    SUN_DISTANCE = _ke.ENV_SUN_DISTANCE  # 1
+    SHADOW = _ke.ENV_SHADOW  # 1
+
+
+#: Length of the environment vector ``env`` of a :class:`CustomTorque` with an orbit.
+ENVIRONMENT_SIZE = _ke.ENV_SIZE
+
+
+def _probe_environment() -> np.ndarray:
+    """A plausible environment (LEO, lit) to compile and check a user's torque with."""
+    env = np.zeros(_ke.ENV_SIZE)
+    env[_ke.ENV_FIELD : _ke.ENV_FIELD + 3] = (1.0e-5, -2.0e-5, 3.0e-5)
+    env[_ke.ENV_SUN : _ke.ENV_SUN + 3] = (0.6, 0.0, 0.8)
+    env[_ke.ENV_R : _ke.ENV_R + 3] = (7000.0, 0.0, 0.0)
+    env[_ke.ENV_V : _ke.ENV_V + 3] = (0.0, 7.5, 0.0)
+    env[_ke.ENV_Q_RSW] = 1.0
+    env[_ke.ENV_SUN_DISTANCE] = 1.496e8
+    env[_ke.ENV_SHADOW] = 1.0
+    return env
+
+
+def _user_environment(start: int, blocks: tuple[np.ndarray, ...]) -> np.ndarray:
+    """The environment blocks of the user terms placed at ``params[start]``: their offsets
+    (absolute, in the order of the terms), then the blocks (the layout of
+    :mod:`attitude._core.potentials`); empty without blocks."""
+    if not blocks:
+        return np.zeros(0)
+    offsets, at = [], start + len(blocks)
+    for b in blocks:
+        offsets.append(at)
+        at += b.shape[0]
+    return np.concatenate([np.array(offsets, dtype=np.float64), *blocks])
+
+
+class _TorqueEnvironment:
+    """The tables a user torque's ``env`` reads, over a run's span (built once per span).
+
+    The field is the table of a :class:`MagneticDipole` on the same orbit (field model and
+    step), the orbit its ``kernel_data()``, the Sun the table of :class:`orbit.sun.SunTable`
+    over the span with the flight software's one-minute margins; the block layout is in
+    :mod:`attitude._core.environment` (``environment_vector``).
+    """
+
+    def __init__(self, orbit: Any, field: Any, step: Any):
+        self.orbit = orbit
+        self.field = field
+        # the field's table is a magnetic dipole's (a zero dipole: only its table is read)
+        self._field = None
+        if field is not None:
+            self._field = MagneticDipole(orbit, np.zeros(3), field, step=step)
+        self._orbit_data = np.ascontiguousarray(orbit.kernel_data(), dtype=np.float64)
+        self._block: np.ndarray | None = None
+        self._covers: tuple[float, float] | None = None
+
+    def prepare(self, t: Any) -> None:
+        arr = np.asarray(t, dtype=np.float64).reshape(-1)
+        if arr.size == 0:
+            return
+        lo, hi = float(np.min(arr)), float(np.max(arr))
+        c = self._covers
+        if self._block is not None and c is not None and c[0] <= lo and hi <= c[1]:
+            return
+        self.orbit.check_times(arr, "t")
+        span = np.array([lo, hi])
+        parts: list[np.ndarray] = []
+        head = np.zeros(_ke.E_HEAD)
+        at = _ke.E_HEAD
+        if self._field is not None:
+            self._field.prepare(span)
+            fb = self._field._kernel_params(span)
+            head[_ke.E_FIELD] = at
+            parts.append(fb)
+            at += fb.shape[0]
+        head[_ke.E_ORBIT] = at
+        parts.append(self._orbit_data)
+        at += self._orbit_data.shape[0]
+        epoch = getattr(self.orbit, "epoch", None)
+        if epoch is not None:
+            from orbit import sun as _sun
+
+            sun = np.asarray(_sun.SunTable(epoch, lo - 60.0, hi + 60.0).kernel_data(), np.float64)
+            head[_ke.E_SUN] = at
+            parts.append(sun)
+        self._block = np.concatenate([head, *parts])
+        self._covers = (lo, hi)
+
+    def block(self, what: str) -> np.ndarray:
+        if self._block is None:
+            lo, hi = self.orbit.time_span
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise AttitudeValueError(
+                    f"t: the environment tables of {what} cover the times of a run; "
+                    "attitude.propagate prepares them, and torque() for the times it is given; "
+                    "to build the parameters yourself call model.prepare(t) first"
+                )
+            self.prepare(np.array([lo, hi]))
+        assert self._block is not None
+        return self._block
+
+
 class CustomTorque(Potential):
     """A user torque τ_B given directly (optionally with its potential, for energies).
 
@@ -432,9 +573,23 @@ class CustomTorque(Potential):
         returning the body-frame torque (3 numbers, tuple or array; N·m for a body in SI
         units). ``q`` is the unit attitude quaternion (length-4 array, body → space),
         ``omega`` the body angular velocity (length-3 array, rad/s, body axes), ``t`` the time
-        (s). Numba-compilable (a plain function is jitted for you).
+        (s). With ``orbit=``, the environment at t comes last: ``tau(q, t, env)`` or
+        ``tau(q, omega, t, env)``, ``env`` a 1-D array laid out by :class:`EnvironmentIndex`
+        (field and Sun direction in body axes, r, v, the orbital frame, the Sun's distance and
+        the Earth's shadow). Numba-compilable (a plain function is jitted for you).
     potential : callable, optional
         ``U(q, t) -> float`` (J); without it results report the kinetic energy only.
+    orbit : orbit.Orbit, optional
+        The orbit whose environment ``env`` holds, computed inside the compiled kernels from
+        tables built once per run (as :class:`MagneticDipole` and the flight software build
+        them); in a sum with environment models it must be theirs (the same epoch). The
+        field and the Sun need a dated orbit (``epoch=``); without an epoch, give
+        ``field=None`` or a constant field, and the Sun's entries are NaN.
+    field : {"igrf", "dipole"}, array_like (3,) or None
+        The field in ``env`` (as :class:`MagneticDipole`): IGRF-14, its tilted dipole, a
+        constant space-frame field [T], or None (no field: NaN). Only with ``orbit``.
+    step : float or Quantity, optional
+        Node spacing of the field table [s] (as :class:`MagneticDipole`). Only with ``orbit``.
     name : str, optional
         Names the torque in results (``torque`` variable, ``model`` dimension).
     time_dependent : bool
@@ -447,13 +602,25 @@ class CustomTorque(Potential):
     >>> def damping(q, omega, t):                                     # doctest: +SKIP
     ...     return -1e-3 * omega
     >>> attitude.CustomTorque(damping, name="damper")                  # doctest: +SKIP
+
+    A magnetorquer dipole along body z, τ = m × B_B, reading the field from ``env``:
+
+    >>> F = attitude.potentials.EnvironmentIndex.FIELD                  # doctest: +SKIP
+    >>> def rod(q, t, env):                                           # doctest: +SKIP
+    ...     return np.cross(np.array([0.0, 0.0, 0.2]), env[F : F + 3])
+    >>> attitude.CustomTorque(rod, orbit=o)                            # doctest: +SKIP
     """
+
+    orbit: Any = None
 
     def __init__(
         self,
         torque: Any,
         potential: Any = None,
         *,
+        orbit: Any = None,
+        field: Any = "igrf",
+        step: Any = None,
         name: str = "custom_torque",
         time_dependent: bool = True,
     ):
@@ -462,19 +629,47 @@ class CustomTorque(Potential):
                 f"name: expected a short identifier such as 'damper' (it names the torque in "
                 f"results), got {name!r}"
             )
-        n_args = _arity(torque, "torque", (2, 3), "tau(q, t) or tau(q, omega, t)")
+        with_env = orbit is not None
+        if with_env:
+            forms = "tau(q, t, env) or tau(q, omega, t, env) (with orbit=)"
+            n_args = _arity(torque, "torque", (3, 4), forms)
+        else:
+            n_args = _arity(torque, "torque", (2, 3, 4), "tau(q, t) or tau(q, omega, t)")
+            if n_args == 4:
+                raise AttitudeTypeError(
+                    "orbit: a torque tau(q, omega, t, env) reads the environment along an orbit; "
+                    "give CustomTorque(tau, orbit=o) (an orbit.KeplerOrbit, SecularJ2Orbit or "
+                    "EphemerisOrbit, dated for the field and the Sun), or write tau(q, t) or "
+                    "tau(q, omega, t)"
+                )
+            default_field = isinstance(field, str) and field == "igrf"
+            if not default_field or step is not None:
+                what = "field" if not default_field else "step"
+                raise AttitudeValueError(
+                    f"{what}: sets the environment of a torque that reads it; give orbit= too "
+                    "(CustomTorque(tau, orbit=o, ...), with tau taking env last)"
+                )
         tau = _compile_user(torque, "torque")
         U = None if potential is None else _compile_user(potential, "potential")
         self.name = name
         self.time_dependent = bool(time_dependent)
-        self.rate_dependent = n_args == 3
+        self.rate_dependent = n_args == (4 if with_env else 3)
         self.has_potential = U is not None
         self._tau = tau
         self._U = U
+        self._env: _TorqueEnvironment | None = None
+        if with_env:
+            self.orbit = _torque_orbit(orbit, field)
+            self._env = _TorqueEnvironment(self.orbit, field, step)
         q = np.array([1.0, 0.0, 0.0, 0.0])
-        form = "tau(q, omega, t)" if self.rate_dependent else "tau(q, t)"
+        args: tuple = (q, np.zeros(3), 0.0) if self.rate_dependent else (q, 0.0)
+        if with_env:
+            args = (*args, _probe_environment())
+        form = ("tau(q, omega, t" if self.rate_dependent else "tau(q, t") + (
+            ", env)" if with_env else ")"
+        )
         try:
-            r = tau(q, np.zeros(3), 0.0) if self.rate_dependent else tau(q, 0.0)
+            r = tau(*args)
             if len(r) != 3 or not all(math.isfinite(float(x)) for x in r):
                 raise ValueError("it must return three finite numbers")
         except Exception as exc:
@@ -485,10 +680,87 @@ class CustomTorque(Potential):
             ) from None
 
     def _user_terms(self) -> tuple:
-        return (("torque_rates" if self.rate_dependent else "torque", self._tau, self._U),)
+        kind = "torque_rates" if self.rate_dependent else "torque"
+        if self._env is not None:
+            kind += "_env"
+        return ((kind, self._tau, self._U),)
+
+    def _user_env_blocks(self) -> tuple[np.ndarray, ...]:
+        return () if self._env is None else (self._env.block(self.name),)
+
+    def prepare(self, t: Any) -> Potential:
+        if self._env is not None:
+            self._env.prepare(t)
+        return self
+
+    def check_times(self, t: Any, name: str = "t") -> None:
+        if self.orbit is not None:
+            try:
+                self.orbit.check_times(t, name)
+            except ValueError as exc:
+                raise AttitudeValueError(str(exc)) from None
+
+    def environment(self, t: Any, q: Any = (1.0, 0.0, 0.0, 0.0)) -> np.ndarray:
+        """The environment vector ``env`` the torque sees at times ``t`` and attitudes ``q``.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Times [s since the orbit's epoch].
+        q : array_like, shape (..., 4)
+            Unit attitude quaternions (body → space; broadcast against t); the body-axis
+            entries (field, Sun) depend on it.
+
+        Returns
+        -------
+        env : ndarray, shape (..., ENVIRONMENT_SIZE)
+            Laid out by :class:`EnvironmentIndex`.
+        """
+        if self._env is None:
+            raise AttitudeValueError(
+                "orbit: this CustomTorque reads no environment; build it with orbit= "
+                "(CustomTorque(tau, orbit=o) with tau taking env last)"
+            )
+        qa = as_quaternion(q, "q")
+        if np.any(np.abs(np.linalg.norm(qa, axis=-1) - 1.0) > 1e-6):
+            raise AttitudeValueError("q: the environment is evaluated at unit quaternions")
+        tt = as_float_array(t, "t", unit="s")
+        shape = np.broadcast_shapes(qa.shape[:-1], tt.shape)
+        qf = np.ascontiguousarray(np.broadcast_to(qa, (*shape, 4)).reshape(-1, 4))
+        tf = np.ascontiguousarray(np.broadcast_to(tt, shape).reshape(-1), dtype=np.float64)
+        self.check_times(tf, "t")
+        self._env.prepare(tf)
+        block = self._env.block(self.name)
+        out = np.empty((tf.shape[0], _ke.ENV_SIZE))
+        _ke.environment_loop(qf, tf, block, 0, out)
+        return out.reshape((*shape, _ke.ENV_SIZE))
 
     def __repr__(self) -> str:
-        return f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r})"
+        head = f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r}"
+        if self._env is None:
+            return head + ")"
+        f = self._env.field
+        f = f.tolist() if isinstance(f, np.ndarray) else f
+        return head + f", orbit={self.orbit!r}, field={f!r})"
+
+
+def _torque_orbit(orbit: Any, field: Any) -> Any:
+    """The orbit of a CustomTorque's environment, checked (dated when the field needs it)."""
+    if not hasattr(orbit, "kernel_data"):
+        raise AttitudeTypeError(
+            "orbit: the environment of a CustomTorque is that of an orbit (orbit.KeplerOrbit, "
+            f"orbit.SecularJ2Orbit, orbit.EphemerisOrbit), got {type(orbit).__name__}"
+        )
+    if isinstance(field, str) and getattr(orbit, "epoch", None) is None:
+        if field in ("igrf", "dipole"):
+            raise AttitudeValueError(
+                f"orbit: the environment's field (field={field!r}) is evaluated at the orbit's "
+                "Earth-fixed positions and date, so it needs a dated orbit: build the orbit "
+                "with epoch='2024-03-20T12:00:00' (an astropy Time or ISO 8601 string; TLE "
+                "and OEM orbits carry their own), or give field=None (no field) or a constant "
+                "field vector (T, space axes)"
+            )
+    return orbit
 
 
 def _common_orbit(terms: list[Potential]) -> Any:
@@ -585,19 +857,25 @@ class Sum(Potential):
 
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         # [I1, I2, I3, KIND_SUM, n, offsets (n), blocks]: _core.potentials
+        # the environment blocks of user terms (if any) between the offsets and the blocks
         n = len(self._builtin)
+        env = _user_environment(_kp.P_OFFSETS + n if n else _kp.P0, self._user_env_blocks())
         if n == 0:
-            return np.array([*inertia, _kp.KIND_USER], dtype=np.float64)
+            return np.concatenate([np.array([*inertia, _kp.KIND_USER], dtype=np.float64), env])
         blocks = [[t._kind, *t._potential_params()] for t in self._builtin]
-        offsets, at = [], _kp.P_OFFSETS + n
+        offsets, at = [], _kp.P_OFFSETS + n + env.shape[0]
         for b in blocks:
             offsets.append(at)
             at += len(b)
         flat = [x for b in blocks for x in b]
-        return np.array([*inertia, _kp.KIND_SUM, n, *offsets, *flat], dtype=np.float64)
+        head = np.array([*inertia, _kp.KIND_SUM, n, *offsets], dtype=np.float64)
+        return np.concatenate([head, env, np.array(flat, dtype=np.float64)])
 
     def _user_terms(self) -> tuple:
         return tuple(u for t in self._user for u in t._user_terms())
+
+    def _user_env_blocks(self) -> tuple[np.ndarray, ...]:
+        return tuple(b for t in self._user for b in t._user_env_blocks())
 
     def check_times(self, t: Any, name: str = "t") -> None:
         for term in self._terms:

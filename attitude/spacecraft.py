@@ -190,11 +190,9 @@ class Spacecraft:
 
     def with_wheel_speeds(self, speeds: Any) -> Spacecraft:
         """The same spacecraft with its wheels starting at ``speeds`` (n_wheels, rad/s)."""
-        from astropy import units as u
+        from .actuators._common import speeds_value
 
-        if isinstance(speeds, u.Quantity):
-            speeds = speeds.to_value(u.rad / u.s, u.dimensionless_angles())
-        sp = as_float_array(speeds, "speeds")
+        sp = as_float_array(speeds_value(speeds, "speeds"), "speeds")
         if sp.shape != (len(self.wheels),):
             raise AttitudeValueError(
                 f"speeds: expected {len(self.wheels)} wheel speeds, got shape {sp.shape}"

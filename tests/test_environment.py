@@ -928,9 +928,9 @@ def test_cubesat_scenario_runs_and_plots_its_torque_budget(tmp_path, capsys):
             "potential.models",
             "twice",
         ),
-        (("f107 = 150.0", "f107 = 500.0"), "f107", "[50, 400]"),
-        (('density = "msis"', 'density = "jb2008"'), "density", "msis"),
-        (('eclipse = "conical"', 'eclipse = "partial"'), "eclipse", "conical"),
+        (("f107 = 150.0", "f107 = 500.0"), "potential.f107", "[50, 400]"),
+        (('density = "msis"', 'density = "jb2008"'), "potential.density", "msis"),
+        (('eclipse = "conical"', 'eclipse = "partial"'), "potential.eclipse", "conical"),
         (('dipole_unit = "A m2"', 'dipole_unit = "T"'), "spacecraft.dipole_unit", "dipole"),
         (
             ("normal = [0.0, 1.0, 0.0]", "normal = [0.0, 2.0, 0.0]"),

@@ -290,3 +290,57 @@ def test_bad_sensor_parameters_are_refused():
             [0.0, 1.0],
             software=FlightSoftware(0.1, sensors=[Magnetometer(1e-7)]),
         )
+
+
+def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
+    """The filter's covariance steps, written by blocks on scalars, against the dense textbook
+    formulas in numpy: propagation P ← Φ P Φᵀ + Q with Φ = expm(F Δt) of the error dynamics
+    F = [[−[ω×], −1], [0, 0]] (scipy, independent of the closed form), and the star tracker's
+    update in Joseph form (1 − KH) P (1 − KH)ᵀ + K R Kᵀ, K = P Hᵀ (H P Hᵀ + R)⁻¹, H = [1 0]."""
+    from scipy.linalg import expm
+
+    from attitude._core import mekf as M
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(6, 6)) * np.array([1e-3] * 3 + [1e-6] * 3)[:, None]
+    P0 = A @ A.T + np.diag([1e-6] * 3 + [1e-12] * 3)
+    ep = np.zeros(M.EP_SIZE)
+    ep[M.EP_SV], ep[M.EP_SU] = 3e-6, 2e-9
+    R = np.diag([4e-10, 4e-10, 9e-9])
+    ep[M.EP_ST_R : M.EP_ST_R + 9] = R.ravel()
+    es = np.zeros(M.E_SIZE)
+    M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), (1e-5, -2e-5, 3e-5))
+    es[M.E_P : M.E_P + 36] = P0.ravel()
+    om, dt = np.array([0.02, -0.05, 0.03]), 0.1
+    M.mekf_propagate(es, ep, om, dt)
+    w = om - np.array([1e-5, -2e-5, 3e-5])
+    W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    F = np.zeros((6, 6))
+    F[:3, :3], F[:3, 3:] = -W, -np.eye(3)
+    Phi = expm(F * dt)
+    sv2, su2 = ep[M.EP_SV] ** 2, ep[M.EP_SU] ** 2
+    Q = np.zeros((6, 6))
+    Q[:3, :3] = (sv2 * dt + su2 * dt**3 / 3) * np.eye(3)
+    Q[:3, 3:] = Q[3:, :3] = -su2 * dt**2 / 2 * np.eye(3)
+    Q[3:, 3:] = su2 * dt * np.eye(3)
+    P1 = Phi @ P0 @ Phi.T + Q
+    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    np.testing.assert_array_equal(got, got.T)
+    np.testing.assert_allclose(got, P1, rtol=1e-12, atol=1e-12 * np.abs(P1).max())
+    q_before = es[M.E_Q : M.E_Q + 4].copy()
+    b_before = es[M.E_B : M.E_B + 3].copy()
+    qm = qt.multiply(q_before, qt.from_rotation_vector([2e-5, -1e-5, 3e-5]))
+    M.mekf_update_quaternion(es, ep, tuple(qm))
+    H = np.hstack([np.eye(3), np.zeros((3, 3))])
+    K = P1 @ H.T @ np.linalg.inv(H @ P1 @ H.T + R)
+    IKH = np.eye(6) - K @ H
+    P2 = IKH @ P1 @ IKH.T + K @ R @ K.T
+    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    np.testing.assert_array_equal(got, got.T)
+    np.testing.assert_allclose(got, P2, rtol=1e-9, atol=1e-9 * np.abs(P2).max())
+    r = qt.multiply(qt.conjugate(q_before), qm)
+    dx = K @ (2.0 * np.sign(r[0]) * r[1:])
+    np.testing.assert_allclose(es[M.E_B : M.E_B + 3], b_before + dx[3:], rtol=1e-12, atol=1e-20)
+    dq = np.concatenate([[1.0], 0.5 * dx[:3]])
+    want_q = qt.multiply(q_before, dq / np.linalg.norm(dq))
+    np.testing.assert_allclose(es[M.E_Q : M.E_Q + 4], want_q, rtol=0, atol=1e-15)

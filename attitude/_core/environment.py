@@ -51,7 +51,8 @@ import math
 import numpy as np
 
 from orbit._shared_jit import jit
-from orbit.sun import conical_shadow
+from orbit._state_kernels import frame_from_state, orbit_state
+from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
 from .quat import cross, rotate_inverse
 
@@ -500,3 +501,75 @@ def table_loop(t, params, o, out):
     """Every component of the table at ``o`` at each of the times ``t`` into ``out`` (m, ncomp)."""
     for i in range(t.shape[0]):
         table_eval(params, o, t[i], out[i])
+
+
+# The environment a user torque sees ---------------------------------------------------------
+# A CustomTorque given an orbit reads the environment at t through a vector ``env`` (the layout
+# ENV_* below, which attitude.potentials.EnvironmentIndex names), filled here from a block of
+# ``params`` holding the same tables the built-in models and the flight software read:
+#
+#     [field offset, orbit offset, Sun offset, blocks...]   (offsets relative to the block; 0:
+#                                                            none)
+#     field block: a magnetic dipole's [kind, tab, m (3), table: B (3, T, space axes)]
+#     orbit: the orbit's kernel_data() (orbit._state_kernels)
+#     Sun: the Sun's table (orbit.sun.SunTable.kernel_data(), geocentric GCRS km)
+
+#: The environment vector (body axes unless noted; NaN where unavailable).
+ENV_FIELD = 0  # 3, geomagnetic field, T, body axes
+ENV_SUN = 3  # 3, unit vector from the spacecraft to the Sun, body axes
+ENV_R = 6  # 3, position, km, space axes (GCRS)
+ENV_V = 9  # 3, velocity, km/s, space axes
+ENV_Q_RSW = 12  # 4, orbital frame (radial, along-track, normal) → space, scalar first
+ENV_SUN_DISTANCE = 16  # km, spacecraft to Sun
+ENV_SHADOW = 17  # fraction of the Sun's disk seen (conical shadow with penumbra): 1 lit, 0 umbra
+ENV_SIZE = 18
+
+E_FIELD = 0
+E_ORBIT = 1
+E_SUN = 2
+E_HEAD = 3
+
+
+@jit
+def environment_vector(q, t, params, base, out):
+    """The environment at t seen by a body at attitude ``q`` into ``out`` (ENV_SIZE): the
+    field as :func:`field_body` (the magnetic dipole's kernel), r and v from the orbit's
+    dispatcher, the Sun's direction (as the flight software's measurements), the RSW frame from
+    r and v, the Sun's distance and the Earth's conical shadow."""
+    for i in range(ENV_SIZE):
+        out[i] = _NAN
+    fo = int(params[base + E_FIELD])
+    if fo > 0:
+        b = field_body(q, t, params, base + fo)
+        for i in range(3):
+            out[ENV_FIELD + i] = b[i]
+    st = orbit_state(params[base + int(params[base + E_ORBIT]) :], t)
+    for i in range(3):
+        out[ENV_R + i] = st[i]
+        out[ENV_V + i] = st[3 + i]
+    _r, p0, p1, p2, p3 = frame_from_state(st[0], st[1], st[2], st[3], st[4], st[5])
+    out[ENV_Q_RSW] = p0
+    out[ENV_Q_RSW + 1] = p1
+    out[ENV_Q_RSW + 2] = p2
+    out[ENV_Q_RSW + 3] = p3
+    so = int(params[base + E_SUN])
+    if so > 0:
+        sun = orbit_state(params[base + so :], t)
+        dx = sun[0] - st[0]
+        dy = sun[1] - st[1]
+        dz = sun[2] - st[2]
+        n = math.sqrt(dx * dx + dy * dy + dz * dz)
+        sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
+        for i in range(3):
+            out[ENV_SUN + i] = sb[i]
+        out[ENV_SUN_DISTANCE] = n
+        out[ENV_SHADOW] = conical_shadow(
+            st[0], st[1], st[2], sun[0], sun[1], sun[2], R_EARTH, R_SUN
+        )[0]
+
+
+@jit
+def environment_loop(q, t, params, base, out):
+    """:func:`environment_vector` at each (q[i], t[i]) into ``out`` (m, ENV_SIZE)."""
+    for i in range(t.shape[0]):
+        environment_vector(q[i], t[i], params, base, out[i])

@@ -334,120 +334,37 @@ def _reset(es, d0, d1, d2, d3, d4, d5):
 @jit
 def _update_attitude(es, ep, y0, y1, y2):
     """The update of :func:`_update` for H = [1 0] (a measurement of the attitude error, R the
-    star tracker's EP_ST_R), by blocks: S = P_aa + R, K = P[:, :3] S⁻¹ (k), and the covariance
-    P ← P − K S Kᵀ = P − K P[:3, :] (equal to the Joseph form for this optimal gain), on the
-    upper triangle, mirrored so P stays exactly symmetric; written out on scalars (P read once
-    into locals p)."""
+    star tracker's EP_ST_R), by blocks: S = P_aa + R, K = P[:, :3] S⁻¹, and the covariance
+    P ← P − K S Kᵀ = P − K P[:3, :] (equal to the Joseph form for this optimal gain), computed
+    on the upper triangle and mirrored so P stays exactly symmetric."""
     S = E_S
     for i in range(3):
         for j in range(3):
             es[S + 3 * i + j] = es[E_P + 6 * i + j] + ep[EP_ST_R + 3 * i + j]
     _inv3(es, S, S + 9)
-    m00, m01, m02 = es[S + 9], es[S + 10], es[S + 11]
-    m10, m11, m12 = es[S + 12], es[S + 13], es[S + 14]
-    m20, m21, m22 = es[S + 15], es[S + 16], es[S + 17]
-    p00 = es[E_P + 0]
-    p01 = es[E_P + 1]
-    p02 = es[E_P + 2]
-    p03 = es[E_P + 3]
-    p04 = es[E_P + 4]
-    p05 = es[E_P + 5]
-    p11 = es[E_P + 7]
-    p12 = es[E_P + 8]
-    p13 = es[E_P + 9]
-    p14 = es[E_P + 10]
-    p15 = es[E_P + 11]
-    p22 = es[E_P + 14]
-    p23 = es[E_P + 15]
-    p24 = es[E_P + 16]
-    p25 = es[E_P + 17]
-    p33 = es[E_P + 21]
-    p34 = es[E_P + 22]
-    p35 = es[E_P + 23]
-    p44 = es[E_P + 28]
-    p45 = es[E_P + 29]
-    p55 = es[E_P + 35]
-    k00 = p00 * m00 + p01 * m10 + p02 * m20
-    k01 = p00 * m01 + p01 * m11 + p02 * m21
-    k02 = p00 * m02 + p01 * m12 + p02 * m22
-    k10 = p01 * m00 + p11 * m10 + p12 * m20
-    k11 = p01 * m01 + p11 * m11 + p12 * m21
-    k12 = p01 * m02 + p11 * m12 + p12 * m22
-    k20 = p02 * m00 + p12 * m10 + p22 * m20
-    k21 = p02 * m01 + p12 * m11 + p22 * m21
-    k22 = p02 * m02 + p12 * m12 + p22 * m22
-    k30 = p03 * m00 + p13 * m10 + p23 * m20
-    k31 = p03 * m01 + p13 * m11 + p23 * m21
-    k32 = p03 * m02 + p13 * m12 + p23 * m22
-    k40 = p04 * m00 + p14 * m10 + p24 * m20
-    k41 = p04 * m01 + p14 * m11 + p24 * m21
-    k42 = p04 * m02 + p14 * m12 + p24 * m22
-    k50 = p05 * m00 + p15 * m10 + p25 * m20
-    k51 = p05 * m01 + p15 * m11 + p25 * m21
-    k52 = p05 * m02 + p15 * m12 + p25 * m22
-    v = p00 - (k00 * p00 + k01 * p01 + k02 * p02)
-    es[E_P + 0] = v
-    v = p01 - (k00 * p01 + k01 * p11 + k02 * p12)
-    es[E_P + 1] = v
-    es[E_P + 6] = v
-    v = p02 - (k00 * p02 + k01 * p12 + k02 * p22)
-    es[E_P + 2] = v
-    es[E_P + 12] = v
-    v = p03 - (k00 * p03 + k01 * p13 + k02 * p23)
-    es[E_P + 3] = v
-    es[E_P + 18] = v
-    v = p04 - (k00 * p04 + k01 * p14 + k02 * p24)
-    es[E_P + 4] = v
-    es[E_P + 24] = v
-    v = p05 - (k00 * p05 + k01 * p15 + k02 * p25)
-    es[E_P + 5] = v
-    es[E_P + 30] = v
-    v = p11 - (k10 * p01 + k11 * p11 + k12 * p12)
-    es[E_P + 7] = v
-    v = p12 - (k10 * p02 + k11 * p12 + k12 * p22)
-    es[E_P + 8] = v
-    es[E_P + 13] = v
-    v = p13 - (k10 * p03 + k11 * p13 + k12 * p23)
-    es[E_P + 9] = v
-    es[E_P + 19] = v
-    v = p14 - (k10 * p04 + k11 * p14 + k12 * p24)
-    es[E_P + 10] = v
-    es[E_P + 25] = v
-    v = p15 - (k10 * p05 + k11 * p15 + k12 * p25)
-    es[E_P + 11] = v
-    es[E_P + 31] = v
-    v = p22 - (k20 * p02 + k21 * p12 + k22 * p22)
-    es[E_P + 14] = v
-    v = p23 - (k20 * p03 + k21 * p13 + k22 * p23)
-    es[E_P + 15] = v
-    es[E_P + 20] = v
-    v = p24 - (k20 * p04 + k21 * p14 + k22 * p24)
-    es[E_P + 16] = v
-    es[E_P + 26] = v
-    v = p25 - (k20 * p05 + k21 * p15 + k22 * p25)
-    es[E_P + 17] = v
-    es[E_P + 32] = v
-    v = p33 - (k30 * p03 + k31 * p13 + k32 * p23)
-    es[E_P + 21] = v
-    v = p34 - (k30 * p04 + k31 * p14 + k32 * p24)
-    es[E_P + 22] = v
-    es[E_P + 27] = v
-    v = p35 - (k30 * p05 + k31 * p15 + k32 * p25)
-    es[E_P + 23] = v
-    es[E_P + 33] = v
-    v = p44 - (k40 * p04 + k41 * p14 + k42 * p24)
-    es[E_P + 28] = v
-    v = p45 - (k40 * p05 + k41 * p15 + k42 * p25)
-    es[E_P + 29] = v
-    es[E_P + 34] = v
-    v = p55 - (k50 * p05 + k51 * p15 + k52 * p25)
-    es[E_P + 35] = v
-    x0 = k00 * y0 + k01 * y1 + k02 * y2
-    x1 = k10 * y0 + k11 * y1 + k12 * y2
-    x2 = k20 * y0 + k21 * y1 + k22 * y2
-    x3 = k30 * y0 + k31 * y1 + k32 * y2
-    x4 = k40 * y0 + k41 * y1 + k42 * y2
-    x5 = k50 * y0 + k51 * y1 + k52 * y2
+    for i in range(6):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                s += es[E_P + 6 * i + k] * es[S + 9 + 3 * k + j]
+            es[E_K + 3 * i + j] = s
+    x0 = es[E_K] * y0 + es[E_K + 1] * y1 + es[E_K + 2] * y2
+    x1 = es[E_K + 3] * y0 + es[E_K + 4] * y1 + es[E_K + 5] * y2
+    x2 = es[E_K + 6] * y0 + es[E_K + 7] * y1 + es[E_K + 8] * y2
+    x3 = es[E_K + 9] * y0 + es[E_K + 10] * y1 + es[E_K + 11] * y2
+    x4 = es[E_K + 12] * y0 + es[E_K + 13] * y1 + es[E_K + 14] * y2
+    x5 = es[E_K + 15] * y0 + es[E_K + 16] * y1 + es[E_K + 17] * y2
+    for i in range(6):  # (into the scratch: every entry reads the old P[:3, :])
+        for j in range(i, 6):
+            s = es[E_P + 6 * i + j]
+            for k in range(3):
+                s -= es[E_K + 3 * i + k] * es[E_P + 6 * k + j]
+            es[E_TMP + 6 * i + j] = s
+    for i in range(6):
+        for j in range(i, 6):
+            v = es[E_TMP + 6 * i + j]
+            es[E_P + 6 * i + j] = v
+            es[E_P + 6 * j + i] = v
     _reset(es, x0, x1, x2, x3, x4, x5)
 
 

@@ -40,7 +40,15 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
 
-from .environment import drag_torque, eddy_torque, magnetic_potential, magnetic_torque, solar_torque
+from .environment import (
+    ENV_SIZE,
+    drag_torque,
+    eddy_torque,
+    environment_vector,
+    magnetic_potential,
+    magnetic_torque,
+    solar_torque,
+)
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
@@ -304,6 +312,22 @@ def model_n_terms(params):
 
 # User models ----------------------------------------------------------------------------------
 # The bodies of the user kernels of attitude._user_kernels (CustomTorque, CustomPotential).
+# A CustomTorque with an orbit reads the environment from a block of its own in ``params``
+# (attitude._core.environment.environment_vector), one per user term that reads it. Their
+# offsets, in the order of the terms, then the blocks, sit where the built-in kernels never
+# look: at P0 in a model of user terms only (kind KIND_USER), right after the term offsets in
+# a sum (params[P_OFFSETS + n + e] is the offset of the e-th; the built-in blocks follow them,
+# found through their own offsets). The end of ``params`` stays free for the formulations'
+# scratch (attitude._core.formulations).
+
+
+@jit(_nrt=False)
+def user_env_base(params, e):
+    """Offset of the environment block of the ``e``-th user term that reads the environment."""
+    if int(params[P_KIND]) == KIND_SUM:
+        return int(params[P_OFFSETS + int(params[P_NTERMS]) + e])
+    return int(params[P0 + e])
+
 
 #: Complex-step size: derivatives are exact to round-off for any h this small
 #: (Squire & Trapp, SIAM Rev. 40, 110, 1998): Im U(q + i h e_k) / h = ∂U/∂q_k + O(h²).
@@ -321,6 +345,25 @@ def user_torque(tau_fn, q, w, t):
 def user_torque_rates(tau_fn, q, w, t):
     """A user's rate-dependent ``tau(q, omega, t)``; ``omega`` a length-3 array (body axes)."""
     tau = tau_fn(q, np.array((w[0], w[1], w[2])), t)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def user_torque_env(tau_fn, q, w, t, params, e):
+    """A user's ``tau(q, t, env)``: ``env`` the environment at t (:func:`environment_vector`
+    on the block of the ``e``-th user term reading it), a 1-D array of ENV_SIZE floats."""
+    env = np.empty(ENV_SIZE)
+    environment_vector(q, t, params, user_env_base(params, e), env)
+    tau = tau_fn(q, t, env)
+    return (float(tau[0]), float(tau[1]), float(tau[2]))
+
+
+@jit_generic
+def user_torque_rates_env(tau_fn, q, w, t, params, e):
+    """A user's ``tau(q, omega, t, env)`` (:func:`user_torque_rates` with the environment)."""
+    env = np.empty(ENV_SIZE)
+    environment_vector(q, t, params, user_env_base(params, e), env)
+    tau = tau_fn(q, np.array((w[0], w[1], w[2])), t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
 
 

@@ -76,6 +76,20 @@ def _scalar(x: Any, name: str, unit: str) -> float:
     return as_scalar(x, name)
 
 
+def speeds_value(x: Any, name: str) -> Any:
+    """Wheel speeds from rad/s numbers or angular-rate Quantities (rpm: ``u.cycle / u.min``)."""
+    from astropy import units as u
+
+    if isinstance(x, u.Quantity):
+        try:
+            return x.to_value(u.rad / u.s, u.dimensionless_angles())
+        except u.UnitConversionError:
+            raise AttitudeTypeError(
+                f"{name}: units {x.unit} are not an angular rate (rad/s, or rpm as u.cycle / u.min)"
+            ) from None
+    return x
+
+
 def optional_name(name: Any, what: str) -> str | None:
     """A label for results (``None``: numbered by position)."""
     if name is None:

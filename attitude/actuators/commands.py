@@ -143,6 +143,8 @@ class CommandSchedule:
                 f"path: expected a file name (str or pathlib.Path), got {type(path).__name__}"
             )
         p = Path(path)
+        if "\x00" in str(p):
+            raise AttitudeFileError(f"path: {str(p)!r} holds a NUL byte; no file has that name")
         try:
             text = p.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError) as exc:
@@ -161,6 +163,8 @@ class CommandSchedule:
                     f"{p}: unknown column {h!r}; columns are time, wheel_torque_<k>, "
                     "dipole_<k>, thrust_<k> (k from 1)"
                 )
+            if int(mt.group(2)) in kinds[mt.group(1)]:
+                raise AttitudeValueError(f"{p}: the column {h!r} is given twice")
             kinds[mt.group(1)][int(mt.group(2))] = c
         rows = []
         for i, ln in enumerate(lines[1:], start=2):
@@ -184,7 +188,7 @@ class CommandSchedule:
                 cols[kind] = None
                 continue
             n = max(idx)
-            if sorted(idx) != list(range(1, n + 1)):
+            if n != len(idx):  # numbers 1..n, each once (checked above)
                 raise AttitudeValueError(
                     f"{p}: the {kind} columns must be numbered 1 to {n} without gaps"
                 )

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_scalar
-from ..errors import AttitudeValueError
-from ._common import limit, nonnegative, optional_name, unit_axis
+from ..errors import AttitudeTypeError, AttitudeValueError
+from ._common import limit, nonnegative, optional_name, speeds_value, unit_axis
 
 __all__ = ["ISOTROPIC_ELEVATION", "ReactionWheel", "pyramid", "wheel_record"]
 
@@ -104,8 +104,6 @@ class ReactionWheel:
         limit_cycle_speed: Any = DEFAULT_LIMIT_CYCLE,
         name: str | None = None,
     ):
-        from astropy import units as u
-
         s = object.__setattr__
         s(self, "axis", unit_axis(axis, "axis"))
         J = limit(inertia, "inertia", "kg m2", "axial moment of inertia")
@@ -114,12 +112,7 @@ class ReactionWheel:
         s(self, "inertia", J)
         s(self, "max_torque", limit(max_torque, "max_torque", "N m", "torque limit"))
         s(self, "max_speed", limit(max_speed, "max_speed", "rad / s", "speed limit"))
-        sp = (
-            speed.to_value(u.rad / u.s, u.dimensionless_angles())
-            if isinstance(speed, u.Quantity)
-            else speed
-        )
-        s(self, "speed", as_scalar(sp, "speed"))
+        s(self, "speed", as_scalar(speeds_value(speed, "speed"), "speed"))
         s(self, "min_torque", nonnegative(min_torque, "min_torque", "N m", "dead band"))
         s(self, "max_power", limit(max_power, "max_power", "W", "power limit"))
         s(
@@ -167,14 +160,7 @@ class ReactionWheel:
     def with_speed(self, speed: Any) -> ReactionWheel:
         """The same wheel starting at another speed (rad/s, or a Quantity)."""
         new = replace(self)
-        from astropy import units as u
-
-        sp = (
-            speed.to_value(u.rad / u.s, u.dimensionless_angles())
-            if isinstance(speed, u.Quantity)
-            else speed
-        )
-        object.__setattr__(new, "speed", as_scalar(sp, "speed"))
+        object.__setattr__(new, "speed", as_scalar(speeds_value(speed, "speed"), "speed"))
         return new
 
     def friction(self, speed: Any, stribeck: bool = False) -> np.ndarray:
@@ -273,8 +259,18 @@ def pyramid(
     e2 = np.cross(e3, e1)
     if speeds is None:
         speeds = [0.0] * 4
-    if len(speeds) != 4:
-        raise AttitudeValueError(f"speeds: expected 4 initial speeds, got {len(speeds)}")
+    if isinstance(speeds, u.Quantity):
+        speeds = list(speeds) if not speeds.isscalar else [speeds]
+    try:
+        if isinstance(speeds, (str, bytes, dict)):
+            raise TypeError
+        n_speeds = len(speeds)
+    except TypeError:
+        raise AttitudeTypeError(
+            f"speeds: expected 4 initial speeds (rad/s), got {type(speeds).__name__}"
+        ) from None
+    if n_speeds != 4:
+        raise AttitudeValueError(f"speeds: expected 4 initial speeds, got {n_speeds}")
     out = []
     for k in range(4):
         a = math.radians(90.0 * k)

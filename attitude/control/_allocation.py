@@ -39,11 +39,9 @@ class WheelAllocation:
                                                      allow_zero=True))  # fmt: skip
         sp = None
         if null_speeds is not None:
-            from astropy import units as u
+            from ..actuators._common import speeds_value
 
-            if isinstance(null_speeds, u.Quantity):
-                null_speeds = null_speeds.to_value(u.rad / u.s, u.dimensionless_angles())
-            sp = as_float_array(null_speeds, "null_speeds")
+            sp = as_float_array(speeds_value(null_speeds, "null_speeds"), "null_speeds")
             if sp.ndim != 1:
                 raise AttitudeValueError("null_speeds: expected one speed per wheel")
         object.__setattr__(self, "null_speeds", sp)

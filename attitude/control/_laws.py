@@ -51,7 +51,8 @@ def _matrix_gain(x: Any, name: str) -> np.ndarray:
         raise AttitudeValueError(
             f"{name}: expected a number, 3 diagonal entries or a 3 x 3 matrix, got shape {a.shape}"
         )
-    sym = 0.5 * (m + m.T)
+    scale = float(np.max(np.abs(m)))
+    sym = 0.5 * (m / scale + m.T / scale) if scale > 0 else m  # no overflow at 1e308
     if not np.all(np.linalg.eigvalsh(sym) > 0):
         raise AttitudeValueError(f"{name}: the gain matrix must be positive definite")
     return m
@@ -232,8 +233,17 @@ class BDot(ControlLaw):
         n = math.sqrt(mu / a**3)
         tilt = math.radians(9.6)
         xi = max(abs(math.sin(inc + tilt)), abs(math.sin(inc - tilt)))
-        inertia = np.asarray(getattr(inertia, "inertia", inertia), dtype=np.float64)
-        return 2.0 * n * (1.0 + xi) * float(np.min(inertia))
+        body = inertia.body if hasattr(inertia, "body") else inertia  # a Spacecraft's body
+        if hasattr(body, "inertia"):
+            moments = np.asarray(body.inertia, dtype=np.float64)
+        else:
+            moments = as_float_array(inertia, "inertia", unit="kg m2")
+            if moments.shape != (3,) or not np.all(moments > 0):
+                raise AttitudeValueError(
+                    "inertia: expected 3 positive principal moments (kg m²), a RigidBody or a "
+                    f"Spacecraft, got {moments.tolist()!r}"
+                )
+        return 2.0 * n * (1.0 + xi) * float(np.min(moments))
 
     def _gains(self):
         return self.gain, np.zeros((3, 3)), 0.0, 0.0, 1.0 if self.normalized else 0.0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +27,11 @@ def _sigma(x: Any, name: str, unit: str) -> float:
     v = as_scalar(x, name)
     if not v > 0 or not math.isfinite(v):
         raise AttitudeValueError(f"{name}: must be a positive 1-sigma value, got {v!r}")
+    if not (v * v >= sys.float_info.min and math.isfinite(v * v)):
+        raise AttitudeValueError(
+            f"{name}: {v!r} {unit} squared ({v * v!r}) is not a usable variance (the initial "
+            "covariance would be singular or infinite); give a 1-sigma between 1e-150 and 1e150"
+        )
     return v
 
 

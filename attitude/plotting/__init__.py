@@ -13,7 +13,8 @@
 Modules: ``_common`` (time axis in s/min/h/days, decimation, events, eclipses), ``_reference``
 (the reference frame of a run: by name on its orbit, rebuilt from the file's scenario, or the
 stored orbital frame), ``_panels`` (the panel functions and their registry), ``_paper``,
-``_torques``, ``_ensemble``.
+``_torques``, ``_ensemble``, ``_closed_loop`` (the attitude error of the flight
+software, the actuators with their limits, the estimator in its 3σ bounds).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from ._closed_loop import CLOSED_LOOP_PANELS, closed_loop_defaults, is_closed_loop, mark_modes
 from ._common import (
     MAX_POINTS,
     TimeAxis,
@@ -42,6 +44,7 @@ from ._reference import FRAME_NAMES, default_frame, reference
 from ._torques import plot_torque_budget
 
 __all__ = [
+    "CLOSED_LOOP_PANELS",
     "DEFAULT_PANELS",
     "FRAME_NAMES",
     "LAYOUTS",
@@ -69,7 +72,7 @@ def _layout(ds: xr.Dataset, layout: str, frame: Any, orbit: Any) -> str:
         return layout
     if ds.attrs.get("plot_layout") in ("paper", "engineer"):  # the scenario's choice
         return str(ds.attrs["plot_layout"])
-    if frame is not None or orbit is not None:
+    if frame is not None or orbit is not None or is_closed_loop(ds):
         return "engineer"
     return "engineer" if default_frame(ds) is not None else "paper"
 
@@ -150,7 +153,7 @@ def plot_result(
     ref = reference(d, t, frame, orbit)
     ctx = PlotContext(d, t, axis, ref, run_events(ds))
     if names is None:
-        names = default_panels(ctx)
+        names = closed_loop_defaults(ctx) if is_closed_loop(d) else default_panels(ctx)
     missing = [p for p in names if not available(ctx, p)]
     if missing:
         raise AttitudeValueError(
@@ -171,6 +174,7 @@ def plot_result(
     tv = ctx.t
     shaded = shade_eclipses(axes, ctx.shadow, axis)
     mark_events(axes, ctx.events, axis)
+    moded = mark_modes(axes, d, axis)
     axes[-1].set_xlabel(axis.text)
     axes[-1].set_xlim(float(np.nanmin(tv)), float(np.nanmax(tv)))
     notes = []
@@ -178,6 +182,8 @@ def plot_result(
         notes.append("grey: the Earth's shadow (light: penumbra, dark: umbra)")
     if ctx.events:
         notes.append("dotted: events")
+    if moded:
+        notes.append("coloured bands and dashed lines: flight-software modes")
     sub = f"\n{'; '.join(notes)}" if notes else ""
     fig.suptitle(f"{title}{sub}", fontsize=11)
     return save(fig, path, dpi)

@@ -56,6 +56,27 @@ class PlotContext:
         return self.axis.values(self.t_seconds)
 
     @cached_property
+    def tick_index(self) -> np.ndarray:
+        """The flight-software ticks drawn: every one, or a stride of them (the last kept) on a
+        run with more than ``MAX_POINTS``."""
+        from ._common import MAX_POINTS
+
+        n = self.ds.sizes.get("tick", 0)
+        idx = np.arange(0, n, max(1, -(-n // MAX_POINTS)))
+        if n and idx[-1] != n - 1:
+            idx = np.append(idx, n - 1)
+        return idx
+
+    @cached_property
+    def tick_seconds(self) -> np.ndarray:
+        """The times of those ticks, seconds since the epoch (as ``t_seconds``)."""
+        from ..results import time_values
+
+        if "tick" not in self.ds.variables:
+            return np.zeros(0)
+        return time_values(self.ds, "tick")[self.tick_index]
+
+    @cached_property
     def q(self) -> np.ndarray:
         return np.asarray(self.ds["q"].values, dtype=np.float64)
 
@@ -303,7 +324,8 @@ TUMBLING_PANELS = ("pointing", "rates", "energy", "torque")
 
 
 def default_panels(ctx: PlotContext) -> list[str]:
-    """The panels drawn when none are asked for."""
+    """The panels drawn when none are asked for (a run with actuators or flight software
+    gets the closed-loop ones instead: ``_closed_loop.closed_loop_defaults``)."""
     names = TUMBLING_PANELS if ctx.tumbling else DEFAULT_PANELS
     out = [p for p in names if available(ctx, p)]
     if "torque" in out and ctx.ds.sizes.get("model", 0) < 3:  # one term and its total

@@ -107,9 +107,11 @@ def spacecraft(r: _Reader, sc: Mapping[str, Any], body: Any, orbit: Any, field: 
             except AttitudeError as exc:
                 raise ScenarioError(f"{where}.{exc}") from None
         built.append(items)
+    if "center_of_mass" in sc and not built[2]:
+        raise _fail(
+            "spacecraft.center_of_mass", "given without thrusters (their lever arms use it)"
+        )
     if not any(built):
-        if "center_of_mass" in sc:
-            raise _fail("spacecraft.center_of_mass", "given without thrusters")
         return None
     cm = None
     if "center_of_mass" in sc:

@@ -240,6 +240,13 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [ensemble]
     ensemble = None
     if "ensemble" in data:
+        if craft is not None:  # the ensemble runner takes rigid bodies: they were dropped
+            raise _fail(
+                "ensemble",
+                "a scenario with actuators, [commands] or [software] does not run as an "
+                "ensemble yet (its members would be the rigid body alone); remove [ensemble] "
+                "or run the closed-loop scenario singly",
+            )
         ensemble = _dispersions(r, r.table("ensemble"), body)
 
     # [events]
@@ -392,7 +399,8 @@ def _times(r: _Reader, tt: Mapping[str, Any]) -> tuple[TimeGrid, str, float]:
             raise _fail("time.unit", f"missing: the time unit, e.g. {_EXAMPLE['time']}")
         tt2 = {"x": 1.0, "x_unit": tt["unit"]}
         try:
-            scale = r.value(tt2, "x", "time", "time")
+            scale = float(r.value(tt2, "x", "time", "time"))  # plain floats: an overflow is
+            # inf, checked below (numpy's scalars warned "overflow encountered")
         except ScenarioError as exc:
             raise ScenarioError(str(exc).replace("time.x_unit", "time.unit")) from None
         tunit = "s"

@@ -146,9 +146,17 @@ def _orbit(
                 )
             from astropy.time import Time, TimeDelta
 
-            e0 = Time(epoch.rstrip("Z"), scale="utc")
-            start = e0 + TimeDelta(float(t[0]), format="sec")
-            stop = e0 + TimeDelta(float(t[-1]), format="sec")
+            from orbit.timescales import check_dates, quiet_erfa
+
+            with quiet_erfa():  # the dates are checked here, before astropy's arithmetic
+                e0 = Time(epoch.rstrip("Z"), scale="utc")
+            try:  # (epoch + 1e308 s overflowed in astropy, 1e12 s warned "dubious year")
+                check_dates(e0, [float(t[0]), float(t[-1])], "time")
+            except O.OrbitError as exc:
+                raise _fail("time", str(exc).removeprefix("time: ")) from None
+            with quiet_erfa():
+                start = e0 + TimeDelta(float(t[0]), format="sec")
+                stop = e0 + TimeDelta(float(t[-1]), format="sec")
             try:
                 orb = O.EphemerisOrbit.from_tle(l1, l2, start, stop, step, epoch=e0, mu=mu_q)
             except O.OrbitError as exc:
@@ -359,6 +367,8 @@ def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
     if name != "inertial" and name not in F.NAMED:
         raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
+        if q is not None and name != "inertial":  # the frame turned by q (inertial(q) is too)
+            return F.by_name(name, orbit).offset(q)
         return F.by_name(name, orbit, q)
     except ValueError as exc:
         raise _fail(key, str(exc)) from None

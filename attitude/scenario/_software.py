@@ -63,15 +63,59 @@ _CONTROLS = ("mrp_feedback", "quaternion_feedback", "rate_damping", "bdot", "non
 _CONDITIONS = ("rate_below", "rate_above", "pointing_within", "pointing_beyond", "after")
 
 
+#: Keys that are not quantities: a ``<key>_unit`` beside them is an error, not ignored.
+_UNITLESS = frozenset({
+    "delay", "record_every", "modes", "sensors", "estimator", "name", "condition",
+    "condition_frame", "condition_axis", "guidance", "guidance_q", "control", "normalized",
+    "type", "seed", "boresight", "normals", "use_magnetometer", "use_sun_sensor",
+})  # fmt: skip
+#: The keys each control law reads (besides name, condition..., guidance, dumping, null_gain).
+_CONTROL_KEYS: dict[str, tuple[str, ...]] = {
+    "mrp_feedback": ("K", "P", "Ki", "integral_limit"),
+    "quaternion_feedback": ("K", "C"),
+    "rate_damping": ("C",),
+    "bdot": ("gain", "normalized"),
+    "none": (),
+}
+_GAIN_KEYS = frozenset(k for keys in _CONTROL_KEYS.values() for k in keys)
+
+
 def _check(t: Mapping[str, Any], keys: Mapping[str, str | None], where: str) -> None:
-    allowed = set(keys) | {f"{k}_unit" for k in keys}
+    allowed = set(keys) | {f"{k}_unit" for k in keys if k not in _UNITLESS}
     for k in t:
         if k not in allowed:
+            if k.endswith("_unit") and k[:-5] in _UNITLESS:
+                raise _fail(f"{where}.{k}", f"{where}.{k[:-5]} takes no unit")
             close = difflib.get_close_matches(k, sorted(allowed), n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise _fail(
                 f"{where}.{k}", f"unknown key{hint} (allowed: {', '.join(sorted(allowed))})"
             )
+    for k in t:
+        if k.endswith("_unit") and k[:-5] not in t:
+            raise _fail(f"{where}.{k}", f"given without {where}.{k[:-5]}")
+
+
+def _unused(t: Mapping[str, Any], where: str, ctrl: str, cond: str | None) -> None:
+    """Keys of a mode the chosen control law and condition do not read: errors (they would
+    be ignored silently, e.g. ``K`` with ``control = "rate_damping"``)."""
+    for k in sorted(_GAIN_KEYS - set(_CONTROL_KEYS[ctrl])):
+        if k in t:
+            takes = ", ".join(_CONTROL_KEYS[ctrl]) or "no gains"
+            raise _fail(f"{where}.{k}", f"not used with control = {ctrl!r} (which takes: {takes})")
+    if cond is None and "threshold" in t:
+        raise _fail(f"{where}.threshold", "given without a condition")
+    if cond not in ("pointing_within", "pointing_beyond"):
+        for k in ("condition_frame", "condition_axis"):
+            if k in t:
+                raise _fail(f"{where}.{k}", "used only by the pointing_within and "
+                            "pointing_beyond conditions")  # fmt: skip
+    if "guidance" not in t:
+        for k in ("guidance_q", "slew_rate"):
+            if k in t:
+                raise _fail(f"{where}.{k}", f"given without {where}.guidance")
+    if "slew_accel" in t and "slew_rate" not in t:
+        raise _fail(f"{where}.slew_accel", f"given without {where}.slew_rate")
 
 
 def _quantity(r: _Reader, t: Mapping[str, Any], key: str, where: str, unit: str) -> Any:
@@ -149,6 +193,7 @@ def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool)
     ctrl = r.string(t, "control", where, "none")
     if ctrl not in _CONTROLS:
         raise _fail(f"{where}.control", f"expected one of {', '.join(_CONTROLS)}, got {ctrl!r}")
+    _unused(t, where, ctrl, t.get("condition"))
 
     def need(key, unit):
         if key not in t:
@@ -278,7 +323,7 @@ def _sensors(r: _Reader, spec: Any) -> list:
             elif k in ("boresight",):
                 kw[k] = r.array(t, k, where, 3)
             elif k == "normals":
-                kw[k] = np.array(t[k], dtype=np.float64)
+                kw[k] = t[k]  # checked by SunSensor (an array of (n, 3) finite numbers)
             elif k == "noise":
                 unit = {"gyro": None, "star_tracker": "rad", "magnetometer": "T",
                         "sun_sensor": "1"}[kind]  # fmt: skip

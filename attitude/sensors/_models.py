@@ -44,6 +44,8 @@ def _q(x: Any, name: str, unit: str, *, allow_zero: bool = True, allow_inf: bool
         raise AttitudeValueError(
             f"{name}: must be {'>= 0' if allow_zero else 'positive'}, got {v!r} ({unit})"
         )
+    if not math.isfinite(v * v):  # noise densities are squared (variances): 1e308 overflows
+        raise AttitudeValueError(f"{name}: {v!r} ({unit}) is too large: its square overflows")
     return v
 
 
@@ -156,6 +158,11 @@ class Gyro(Sensor):
         s(self, "quantization", _q(quantization, "quantization", "rad / s"))
         s(self, "saturation", _q(saturation, "saturation", "rad / s", allow_zero=False,
                                  allow_inf=True))  # fmt: skip
+        if np.any(np.abs(self.bias) >= self.saturation):
+            raise AttitudeValueError(
+                f"bias: {self.bias.tolist()!r} rad/s reaches the saturation {self.saturation!r} "
+                "rad/s: the gyro would read its saturation only; give a bias below it"
+            )
         s(self, "seed", _seed(seed))
 
     @property
@@ -221,6 +228,11 @@ class StarTracker(Sensor):
                 _q(items[0], "noise", "rad", allow_zero=False),
                 _q(items[1], "noise", "rad", allow_zero=False),
             )
+        if max(n) >= math.pi:
+            raise AttitudeValueError(
+                f"noise: a 1-sigma attitude noise of {max(n)!r} rad (>= 180°) measures nothing; "
+                "expected arcseconds (e.g. 6 * u.arcsec)"
+            )
         s(self, "noise", n)
         b = as_float_array(boresight, "boresight")
         if b.shape != (3,) or not float(np.linalg.norm(b)) > 0:
@@ -228,8 +240,14 @@ class StarTracker(Sensor):
         s(self, "boresight", b / np.linalg.norm(b))
         s(self, "rate", None if rate is None else _q(rate, "rate", "Hz", allow_zero=False))
         sun = 0.0 if sun_exclusion is None else _q(sun_exclusion, "sun_exclusion", "rad")
-        s(self, "sun_exclusion", sun)
         earth = -1.0 if earth_exclusion is None else _q(earth_exclusion, "earth_exclusion", "rad")
+        for name, angle in (("sun_exclusion", sun), ("earth_exclusion", earth)):
+            if angle >= math.pi:
+                raise AttitudeValueError(
+                    f"{name}: a half-angle of {angle!r} rad (>= 180°) blinds the star tracker "
+                    "in every attitude; expected an angle below 180° (e.g. 30 * u.deg)"
+                )
+        s(self, "sun_exclusion", sun)
         s(self, "earth_exclusion", earth)
         s(self, "seed", _seed(seed))
 
@@ -378,7 +396,7 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
             every = 1
             if s.rate is not None:
                 k = 1.0 / (s.rate * period)
-                every = round(k)
+                every = round(k) if math.isfinite(k) and k < 2**53 else 0
                 if every < 1 or abs(every - k) > 1e-9 * k:
                     raise AttitudeValueError(
                         f"sensors: the star tracker's rate {s.rate:g} Hz is not the software's "
