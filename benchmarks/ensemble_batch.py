@@ -148,9 +148,9 @@ def heyoka_side(hy, data, tols, repeat, n_err, reference):
             ref[i] = np.asarray(ta.propagate_grid(t.astype(ld))[-1][:, :8], dtype=float)
         res["reference"] = ref
         res["reference_note"] = f"heyoka long double, tol 1e-19, order {ta.order}"
-    for B, label, length in ((B, lab, ln) for B in (4, 8)
-                             for lab, ln in ((f"heyoka batch {B}", 1.0),
-                                             (f"heyoka batch {B} (r/a)", A))):  # fmt: skip
+    for B, label, length in ((b, lab, ln) for b in (4, 8)
+                             for lab, ln in ((f"heyoka batch {b}", 1.0),
+                                             (f"heyoka batch {b} (r/a)", A))):  # fmt: skip
         nb = -(-n // B)
         sys_ = _heyoka_system(hy, length, mu)
         s0 = np.concatenate([y0, np.tile(rv0 / length, (n, 1))], axis=1)
@@ -288,9 +288,8 @@ def main(argv=None):
     print(f"reference: {ref_note}; error over the first {n_err} members\n")
 
     rows = []  # (method, setting, threads, error, wall, cpu, steps/member)
-    from attitude.ensemble._members import _member_potentials, _Members
-
     from attitude._core.lanes import WIDTHS, simd_lanes
+    from attitude.ensemble._members import _member_potentials, _Members
 
     host = simd_lanes()
     runs = [(m, None) for m in methods if m != "taylor"]
@@ -342,7 +341,8 @@ def main(argv=None):
           "two threads: wall time):\n")  # fmt: skip
     hy1 = [v for (m, th), v in best.items() if m.startswith("heyoka batch") and th == 1]
     hyb = min(hy1, key=lambda v: v[2]) if hy1 else None  # heyoka's best batch size
-    print(f"(this CPU: {host} lanes by default; heyoka's best batch mode: {hyb[0] if hyb else '–'})\n")
+    best_mode = hyb[0] if hyb else "–"
+    print(f"(this CPU: {host} lanes by default; heyoka's best batch mode: {best_mode})\n")
     print("| method | threads | setting | error | time [s] | µs / member | time / heyoka's best |")
     print("| --- | ---: | --- | ---: | ---: | ---: | ---: |")
     for (_, th), (m, s, tc, e) in sorted(best.items(), key=lambda kv: kv[1][2]):
