@@ -253,11 +253,11 @@ def main(argv=None):
     methods = args.methods.split(",")
     if args.quick:
         settings = {"dop853": [1e-10, 1e-11], "taylor": [2e-8, 1e-8, 1e-10],
-                    "heyoka": [1e-8, 1e-12, 1e-13]}  # fmt: skip
+                    "heyoka": [2e-8, 1e-8, 1e-12, 1e-13]}  # fmt: skip
     else:
         settings = {"dop853": [1e-10, 1e-11, 1e-12, 1e-13],
                     "taylor": [2e-8, 1e-8, 1e-9, 1e-10, 1e-12],
-                    "heyoka": [1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-15]}  # fmt: skip
+                    "heyoka": [2e-8, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-15]}  # fmt: skip
 
     hy_res = None
     hy_note = "heyoka not available (pass --heyoka-python): its rows are skipped"

@@ -319,7 +319,7 @@ def main(argv=None):
         tols = [1e-9, 1e-12, 1e-15]
         settings = {"taylor": tols, "dop853": [1e-10, 1e-12, 1e-13], "heyoka": tols}
     else:
-        tols = [1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15]
+        tols = [2e-8, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15]
         settings = {"taylor": tols, "dop853": [1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14],
                     "heyoka": tols}  # fmt: skip
     results = {}

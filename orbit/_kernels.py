@@ -560,6 +560,19 @@ def mean_anomaly(el, t):
 
 
 @jit
+def _true_from_half_angles(M, Er, Mr, k, c, s):
+    """True anomaly f from the reduced solution ``(Er, Mr, k)`` of :func:`_kepler_E_reduced`
+    and its half-angle parts ``c``, ``s`` (:func:`_elliptic_half_angles`): f_r = 2 atan2(s, c)
+    (c = sqrt(1 − e) cos(E_r/2) >= 0: no branch cut), continuous in M as
+    :func:`true_from_eccentric_scalar` (f = E + (f_r − E_r)); the sine and cosine of E_r/2
+    are the half-angle parts' (before, they were taken again of E reduced once more)."""
+    fr = 2.0 * math.atan2(s, c)
+    if k == 0.0:
+        return fr
+    return _continuous_E(M, Er, Mr, k) + (fr - Er)
+
+
+@jit
 def _elliptic_half_angles(e, Er, k):
     """(c, s, sign) of :func:`_half_angle_parts` from E reduced to ``Er`` = E − 2πk."""
     h = 0.5 * Er
@@ -601,7 +614,7 @@ def half_angles_and_true_anomaly(el, t):
     if ELLIPTIC_ONLY or e < 1.0:
         Er, Mr, k = _kepler_E_reduced(M, e)
         c, s, sign = _elliptic_half_angles(e, Er, k)
-        return c, s, sign, true_from_eccentric_scalar(_continuous_E(M, Er, Mr, k), e)
+        return c, s, sign, _true_from_half_angles(M, Er, Mr, k, c, s)
     H = kepler_H(M, e)
     c, s, sign = _hyperbolic_half_angles(e, H)
     return c, s, sign, true_from_hyperbolic_scalar(H, e)
@@ -842,7 +855,9 @@ def true_anomaly(el, t):
     e = el[ECC]
     M = mean_anomaly(el, t)
     if ELLIPTIC_ONLY or e < 1.0:
-        return true_from_eccentric_scalar(kepler_E(M, e), e)
+        Er, Mr, k = _kepler_E_reduced(M, e)
+        c, s, _ = _elliptic_half_angles(e, Er, k)
+        return _true_from_half_angles(M, Er, Mr, k, c, s)
     return true_from_hyperbolic_scalar(kepler_H(M, e), e)
 
 
