@@ -253,6 +253,40 @@ def test_auto_is_bit_for_bit_the_method_it_picks(paper_state):
         propagate(I_PAPER, q0, Q0, t, method="automatic")
 
 
+def test_auto_is_bit_for_bit_the_method_it_picks_with_sensors_and_the_mekf():
+    """method="auto" (the default) on a closed loop with wheels, a gyro, a star tracker and the
+    MEKF picks taylor and is that run bit for bit (every variable, the sensors' and the
+    estimator's included)."""
+    from astropy import units as u
+    from test_software import hr16_spacecraft
+
+    from attitude import frames
+    from attitude.control import MRPFeedback
+    from attitude.estimation import MEKF
+    from attitude.sensors import Gyro, StarTracker
+    from attitude.software import FlightSoftware
+
+    def run(**kw):
+        craft = hr16_spacecraft()
+        q0 = qt.from_mrp([0.02, -0.01, 0.03])
+        Q0 = C.momenta_from_angular_velocity(q0, [0.001, 0.0, -0.002], craft)
+        fsw = FlightSoftware(
+            0.5,
+            guidance=frames.inertial(),
+            control=MRPFeedback(3.5, 30.0),
+            sensors=[Gyro(0.05 * u.deg / u.hour**0.5, seed=4), StarTracker(6 * u.arcsec, seed=5)],
+            estimator=MEKF(initial_attitude=q0),
+            record_every=1,
+        )
+        t = np.linspace(0.0, 6.0, 4)
+        return attitude.propagate(craft, q0, Q0, t, software=fsw, rtol=1e-12, **kw)
+
+    auto = run()
+    assert auto.attrs["method"] == "taylor" and auto.attrs["method_requested"] == "auto"
+    assert "estimation_error" in auto and "nees" in auto
+    _same_run(auto, run(method="taylor"))
+
+
 def test_units_follow_the_body(paper_state):
     from astropy import units as u
 

@@ -224,34 +224,6 @@ def _mekf_run(t_end, seed, q_err_deg=10.0, period=0.5):
     )
 
 
-def test_auto_is_bit_for_bit_the_method_it_picks_with_sensors_and_the_mekf():
-    """method="auto" (the default) on a closed loop with wheels, a gyro, a star tracker and the
-    MEKF picks taylor and is that run bit for bit (every variable, the sensors' and the
-    estimator's included)."""
-    from test_propagate import _same_run
-    from test_software import hr16_spacecraft
-
-    def run(**kw):
-        craft = hr16_spacecraft()
-        q0 = qt.from_mrp([0.02, -0.01, 0.03])
-        Q0 = C.momenta_from_angular_velocity(q0, [0.001, 0.0, -0.002], craft)
-        fsw = FlightSoftware(
-            0.5,
-            guidance=frames.inertial(),
-            control=MRPFeedback(3.5, 30.0),
-            sensors=[Gyro(0.05 * u.deg / u.hour**0.5, seed=4), StarTracker(6 * u.arcsec, seed=5)],
-            estimator=MEKF(initial_attitude=q0),
-            record_every=1,
-        )
-        t = np.linspace(0.0, 6.0, 4)
-        return attitude.propagate(craft, q0, Q0, t, software=fsw, rtol=1e-12, **kw)
-
-    auto = run()
-    assert auto.attrs["method"] == "taylor" and auto.attrs["method_requested"] == "auto"
-    assert "estimation_error" in auto and "nees" in auto
-    _same_run(auto, run(method="taylor"))
-
-
 def test_mekf_converges_from_ten_degrees_and_is_consistent():
     """From a 10° initial error the MEKF converges; afterwards the NEES lies in its 95 %
     chi-square interval (6 dof) at about 95 % of the ticks, the estimation errors stay within
