@@ -290,6 +290,7 @@ def slp_vectorized(dispatcher):
     vectorising(dispatcher)
     if isinstance(dispatcher, Kernel):
         vectorising(dispatcher.dispatcher)
+    dispatcher._attitude_slp = True  # specialise() vectorises its copies too
     return dispatcher
 
 
@@ -336,6 +337,8 @@ def specialise(module, tag: str, names=None, **bindings):
         g.__module__ = f.__module__
         g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
         ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
+        if getattr(obj, "_attitude_slp", False):
+            ns[key] = slp_vectorized(ns[key])
     for key, (template, rtag, rnames, cache, options) in rebound:
         ns[key] = rebind(template, ns, rtag, cache=cache, options=options, **rnames)
     return copy
