@@ -158,6 +158,9 @@ def _step_block() -> list[str]:
         "@jit",
         "def fsw_boundary(P, y, t, t_end, ctl):",
         "    return step_boundary_with(USER_STEP, P, y, t, t_end, ctl)",
+        "",
+        "",
+        "fsw_boundary_inline = fsw_boundary  # (the single-run drivers bind this name)",
     ]
 
 

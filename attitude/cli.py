@@ -904,7 +904,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="OUT.nc",
         help="output file (default: the scenario's output.path, else NAME.nc)",
     )
-    r.add_argument("--method", help="integration method (dop853, scipy:DOP853, ...)")
+    r.add_argument("--method", help="integration method (auto, taylor, dop853, scipy:DOP853, ...)")
     r.add_argument("--rtol", type=float, help="relative tolerance")
     r.add_argument(
         "--dt", type=float, help="step of the fixed-step methods (nosquish, splitting), time unit"

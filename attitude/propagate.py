@@ -31,6 +31,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from orbit._state_kernels import TYPE_EPHEMERIS
+
+from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
 from ._spacecraft_results import add_actuator_variables, add_tick_variables
@@ -41,12 +44,12 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import Trajectory, add_event_variables, build_dataset
+from .results import Trajectory, add_event_variables, build_dataset, dataset_from_samples
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
 
-__all__ = ["METHODS", "Problem", "RunResult", "propagate"]
+__all__ = ["AUTO", "METHODS", "Problem", "RunResult", "choose_method", "propagate"]
 
 #: Relative defect of the initial state above which a projection warns.
 PROJECTION_WARN = 1e-12
@@ -90,6 +93,61 @@ METHODS: dict[str, Callable[..., RunResult]] = {
     "splitting": run_splitting,
     "taylor": run_taylor,
 }
+
+
+#: The default method: the fastest one that supports the model (:func:`choose_method`).
+AUTO = "auto"
+
+
+def choose_method(
+    method: str,
+    potential: Any,
+    *,
+    spacecraft: Any = None,
+    formulation: Any = "canonical",
+    events: Any = None,
+) -> str:
+    """The method a run with ``method`` takes: ``method`` itself unless it is ``"auto"``, which
+    is ``"taylor"`` wherever the model supports it and ``"dop853"`` otherwise.
+
+    ``taylor`` expands the built-in potentials (torque-free, heavy top, the gravity gradient of
+    a Kepler orbit) and a spacecraft's wheels and thrusters (open or closed loop), in
+    canonical variables without events (:func:`attitude.taylor.check_potential`,
+    :func:`attitude._holds.check_taylor`); it takes several times fewer operations than
+    ``dop853`` to the same accuracy (benchmarks/taylor.py). Everything else (user potentials,
+    environment models, tabulated orbits, magnetorquers, events, other formulations) runs
+    ``dop853``. A run with ``"auto"`` is bit for bit the run with the method it picks; the
+    Dataset's attrs record both (``method``, ``method_requested``).
+
+    Parameters
+    ----------
+    method : str
+        The requested method.
+    potential : Potential
+        The bound potential of the run.
+    spacecraft : Spacecraft, optional
+        The spacecraft with actuators, if any.
+    formulation : str or Formulation
+        The run's formulation.
+    events : list, optional
+        The run's events.
+    """
+    if method != AUTO:
+        return method
+    if events is not None or not (isinstance(formulation, str) and formulation == "canonical"):
+        return "dop853"
+    try:
+        if spacecraft is not None:
+            from ._holds import check_taylor
+
+            check_taylor(spacecraft, potential)
+        else:
+            from .taylor import check_potential
+
+            check_potential(potential)
+    except AttitudeValueError:
+        return "dop853"
+    return "taylor"
 
 
 def _lookup_method(method: str) -> tuple[Callable[..., RunResult], dict[str, Any]]:
@@ -159,7 +217,7 @@ def propagate(
     Q0: Any,
     t: Any,
     potential: Potential | None = None,
-    method: str = "dop853",
+    method: str = AUTO,
     rtol: float = 1e-10,
     atol: float = 1e-12,
     dt: float | None = None,
@@ -202,7 +260,10 @@ def propagate(
         ``TorqueFree()`` (default), ``HeavyTop``, ``GravityGradient``, ``CustomPotential``,
         ``CustomTorque``.
     method : str
-        ``"dop853"`` (default), ``"scipy:<solver>"``, and where available ``"exact"``,
+        ``"auto"`` (default): ``"taylor"`` wherever the model supports it (built-in
+        potentials, wheels and thrusters, flight software; no events, canonical formulation),
+        else ``"dop853"`` (:func:`choose_method`; attrs ``method`` and ``method_requested``).
+        Or ``"dop853"``, ``"scipy:<solver>"``, and where available ``"exact"``,
         ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables);
@@ -293,6 +354,8 @@ def propagate(
         craft = body if isinstance(body, Spacecraft) else Spacecraft(body)
     body = _as_body(body)
     pot = as_potential(potential).bind(body)
+    requested = method
+    method = choose_method(method, pot, spacecraft=craft, formulation=formulation, events=events)
     runner, extra = _lookup_method(method)
     if craft is not None:
         runner = _spacecraft_runner(craft, method, formulation, events, output, pot)
@@ -420,6 +483,8 @@ def propagate(
     try:
         if streaming:
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
+            if requested != method:
+                chunk_attrs["method_requested"] = requested
 
             def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
                 part, n_ok = _finish(problem, y, chunk_attrs, first=first, t_last=t_last)
@@ -451,6 +516,7 @@ def propagate(
     attrs: dict[str, Any] = {
         **run_attrs,
         "method": method,
+        **({"method_requested": requested} if requested != method else {}),
         "formulation": formulation,
         "initial_projection": float(correction),
         **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
@@ -655,18 +721,40 @@ def _finish(
             t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
         )
         return add_actuator_variables(ds, problem.spacecraft, y, d), None
-    diag = np.empty((n, 13))
-    n_terms = len(problem.potential.terms)
-    torques = np.empty((n, n_terms + 1, 3))
+    # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
+    # buffer whose blocks become the Dataset's variables without copies.
+    pot = problem.potential
+    n_terms = len(pot.terms)
+    orbit = getattr(pot, "orbit", None)
+    od = orbit.kernel_data() if orbit is not None else _NO_ORBIT
+    buf = np.empty(_kd.buffer_size(n, n_terms))
+    y = np.ascontiguousarray(y, dtype=np.float64)
     for i in range(0, n, SAMPLE_BUDGET):  # bounded compiled calls: Ctrl-C acts in between
         j = min(n, i + SAMPLE_BUDGET)
-        problem.entry.diagnostics(t[i:j], y[i:j], problem.params, diag[i:j])
-        problem.entry.term_torques(t[i:j], y[i:j], problem.params, torques[i:j])
-    n_ok = None
-    if not (np.isfinite(diag).all() and np.isfinite(torques).all()):
-        ok = np.isfinite(diag).all(axis=1) & np.isfinite(torques).all(axis=(1, 2))
-        n_ok = int(np.argmin(ok))
-    if not problem.potential.has_potential:
+        problem.entry.samples(t, y, problem.params, od, orbit is not None, buf, i, j)
+    if orbit is not None and int(od[0]) == TYPE_EPHEMERIS and n:
+        # the osculating true anomaly of a table: the orbit's own (numpy) formula, bit for bit
+        buf[_kd.O_F * n : (_kd.O_F + 1) * n] = orbit.true_anomaly(t)
+    n_ok = _finite_prefix(buf, n, n_terms)
+    if not pot.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    ds = build_dataset(t, y, diag, problem.body, problem.potential, attrs, torques=torques)
+    ds = dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
     return ds, n_ok
+
+
+def _finite_prefix(buf: np.ndarray, n: int, n_terms: int) -> int | None:
+    """The number of leading samples whose diagnostics (ω … q·Q) and torques in the buffer of
+    :func:`attitude._core.diagnostics.samples_with` are finite, when a later one's are not
+    (None: all are)."""
+    diag = buf[_kd.O_OMEGA * n : _kd.O_R * n]
+    torques = buf[_kd.SAMPLE_WIDTH * n :]
+    if np.isfinite(diag).all() and np.isfinite(torques).all():
+        return None
+    ok = np.isfinite(torques.reshape(n, -1)).all(axis=1)
+    for _, off, w in _kd.BLOCKS:
+        if _kd.O_OMEGA <= off < _kd.O_R:
+            ok &= np.isfinite(buf[off * n : (off + w) * n].reshape(n, w)).all(axis=1)
+    return int(np.argmin(ok))
+
+
+_NO_ORBIT = np.zeros(1)

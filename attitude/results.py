@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import xarray as xr
 
+from ._core import diagnostics as _kd
 from ._version import __version__
 from .body import RigidBody
 
@@ -29,6 +30,7 @@ __all__ = [
     "UnitSystem",
     "add_event_variables",
     "build_dataset",
+    "dataset_from_samples",
     "instant_attrs",
     "set_time_attrs",
     "time_attrs",
@@ -320,7 +322,7 @@ def build_dataset(
     attrs: dict[str, Any],
     torques: np.ndarray | None = None,
 ) -> xr.Dataset:
-    """Assemble the result Dataset.
+    """Assemble the result Dataset from the states and their diagnostics.
 
     Parameters
     ----------
@@ -336,74 +338,130 @@ def build_dataset(
         Run description (method, tolerances, statistics...).
     torques : ndarray, shape (m, n_terms + 1, 3), optional
         Body torque of each term of the model and their sum (``_core.dynamics.term_torques_with``).
+
+    The orbit's variables (``r``, ``f``, ``p``) are computed here by the orbit's methods;
+    :func:`dataset_from_samples` takes everything from one compiled pass instead.
     """
-    u = UnitSystem(body)
 
-    def var(dims, data, units, long_name, **extra):
-        data = np.ascontiguousarray(data, dtype=np.float64)
-        attrs = {"units": units, "long_name": long_name, **extra}
-        return xr.Variable(dims, data, attrs, fastpath=True)
+    def c(a: Any) -> np.ndarray:
+        return np.ascontiguousarray(a, dtype=np.float64)
 
-    data_vars = {
-        "q": var(
-            ("time", "component"),
-            y[:, :4],
-            "1",
-            "attitude quaternion (Euler parameters), body to space, scalar first",
-        ),
-        "Q": var(
-            ("time", "component"),
-            y[:, 4:],
-            u.momentum,
-            "conjugate momenta of the Euler parameters, Q = 2 q o (0, g)",
-        ),
-        "omega": var(("time", "axis"), diag[:, 0:3], u.rate, "angular velocity in body axes"),
-        "g": var(("time", "axis"), diag[:, 3:6], u.momentum, "angular momentum in body axes"),
-        "G": var(("time", "axis"), diag[:, 6:9], u.momentum, "angular momentum in space axes"),
-        "energy": var(("time",), diag[:, 9], u.energy, "total energy H = T + U"),
-        "potential_energy": var(("time",), diag[:, 12], u.energy, "potential energy U"),
-        "norm_error": var(("time",), diag[:, 10], "1", "|q| - 1"),
-        "qQ": var(("time",), diag[:, 11], u.momentum, "q . Q (zero on the constraint manifold)"),
+    blocks = {
+        "q": c(y[:, :4]),
+        "Q": c(y[:, 4:]),
+        "omega": c(diag[:, 0:3]),
+        "g": c(diag[:, 3:6]),
+        "G": c(diag[:, 6:9]),
+        "energy": c(diag[:, 9]),
+        "potential_energy": c(diag[:, 12]),
+        "norm_error": c(diag[:, 10]),
+        "qQ": c(diag[:, 11]),
     }
     orbit = getattr(potential, "orbit", None)
     if orbit is not None:
         # The orbit module works in km and s whatever the body's unit system.
-        data_vars["r"] = var(
-            ("time",), _plain(orbit.radius(t), "km"), SI["orbit_length"], "orbit radius"
-        )
-        data_vars["f"] = var(("time",), _plain(orbit.true_anomaly(t), "rad"), "rad", "true anomaly")
+        blocks["r"] = c(_plain(orbit.radius(t), "km"))
+        blocks["f"] = c(_plain(orbit.true_anomaly(t), "rad"))
+        blocks["p"] = c(_plain(orbit.frame_quaternion(t), None))
+    if torques is not None:
+        blocks["torque"] = c(torques)
+    return _assemble(np.asarray(t, dtype=np.float64), blocks, body, potential, attrs)
+
+
+def dataset_from_samples(
+    t: np.ndarray,
+    buf: np.ndarray,
+    n_terms: int,
+    body: RigidBody,
+    potential: Any,
+    attrs: dict[str, Any],
+    has_orbit: bool,
+) -> xr.Dataset:
+    """Assemble the result Dataset from the buffer of one compiled pass over the samples.
+
+    Parameters
+    ----------
+    t : ndarray, shape (m,)
+        Output times.
+    buf : ndarray, shape (m * (27 + 3 (n_terms + 1)),)
+        Every per-sample variable, one contiguous block each (layout in
+        :mod:`attitude._core.diagnostics`, written by the entry point ``samples``); the
+        Dataset's variables are views of it.
+    n_terms : int
+        Number of terms of the model.
+    body, potential, attrs
+        As :func:`build_dataset`.
+    has_orbit : bool
+        Whether the orbit blocks were written (the potential has an orbit).
+    """
+    m = t.shape[0]
+    blocks = {}
+    for name, off, width in _kd.BLOCKS:
+        if name in _ORBIT_BLOCKS and not has_orbit:
+            continue
+        v = buf[off * m : (off + width) * m]
+        blocks[name] = v.reshape(m, width) if width > 1 else v
+    w3 = 3 * (n_terms + 1)
+    o = _kd.SAMPLE_WIDTH * m
+    blocks["torque"] = buf[o : o + w3 * m].reshape(m, n_terms + 1, 3)
+    return _assemble(t, blocks, body, potential, attrs)
+
+
+_ORBIT_BLOCKS = ("r", "f", "p")
+
+
+def _assemble(
+    t: np.ndarray, b: dict[str, np.ndarray], body: RigidBody, potential: Any, attrs: dict
+) -> xr.Dataset:
+    """The Dataset of the contiguous float64 arrays ``b`` (one per variable)."""
+    u = UnitSystem(body)
+
+    def var(dims, data, units, long_name):
+        return _variable(dims, data, {"units": units, "long_name": long_name})
+
+    tc = ("time", "component")
+    ta = ("time", "axis")
+    t1 = ("time",)
+    data_vars = {
+        "q": var(
+            tc, b["q"], "1", "attitude quaternion (Euler parameters), body to space, scalar first"
+        ),
+        "Q": var(
+            tc,
+            b["Q"],
+            u.momentum,
+            "conjugate momenta of the Euler parameters, Q = 2 q o (0, g)",
+        ),
+        "omega": var(ta, b["omega"], u.rate, "angular velocity in body axes"),
+        "g": var(ta, b["g"], u.momentum, "angular momentum in body axes"),
+        "G": var(ta, b["G"], u.momentum, "angular momentum in space axes"),
+        "energy": var(t1, b["energy"], u.energy, "total energy H = T + U"),
+        "potential_energy": var(t1, b["potential_energy"], u.energy, "potential energy U"),
+        "norm_error": var(t1, b["norm_error"], "1", "|q| - 1"),
+        "qQ": var(t1, b["qQ"], u.momentum, "q . Q (zero on the constraint manifold)"),
+    }
+    if "r" in b:
+        data_vars["r"] = var(t1, b["r"], SI["orbit_length"], "orbit radius")
+        data_vars["f"] = var(t1, b["f"], "rad", "true anomaly")
         data_vars["p"] = var(
-            ("time", "component"),
-            _plain(orbit.frame_quaternion(t), None),
+            tc,
+            b["p"],
             "1",
             "orbital-frame quaternion p: x_S = p o x_O o conj(p) (x_O radial, y_O along-track, "
             "z_O orbit normal), scalar first",
         )
-    extra_coords = {}
-    if torques is not None:
-        names = [*potential.term_names(), "total"]
+    names = None
+    if "torque" in b:
+        names = (*potential.term_names(), "total")
         data_vars["torque"] = var(
             ("time", "model", "axis"),
-            torques,
+            b["torque"],
             u.torque,
             "body-frame torque of each model term and their sum (model = total)",
         )
-        extra_coords = {
-            "model": (
-                "model",
-                np.arange(len(names), dtype=np.int32),
-                {"long_name": "torque model term index (labels in model_label)", "units": "1"},
-            ),
-            "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
-        }
         missing = getattr(potential, "terms_without_potential", None)
         if missing:
             attrs = {**attrs, "terms_without_potential": ", ".join(missing)}
-    coords = {
-        "time": ("time", np.asarray(t, dtype=np.float64), time_attrs(u.time, attrs.get("epoch"))),
-        **index_coords(),
-        **extra_coords,
-    }
     base = {
         "Conventions": "CF-1.11",
         "title": "attitude propagation",
@@ -419,7 +477,105 @@ def build_dataset(
         ),
     }
     base.update(attrs)
-    return _dataset(data_vars, coords, base)
+    return _result_dataset(data_vars, t, time_attrs(u.time, attrs.get("epoch")), names, base)
+
+
+def _model_coords(names: tuple[str, ...]) -> dict[str, Any]:
+    """The ``model``/``model_label`` coordinates of the torque terms ``names``."""
+    return {
+        "model": (
+            "model",
+            np.arange(len(names), dtype=np.int32),
+            {"long_name": "torque model term index (labels in model_label)", "units": "1"},
+        ),
+        "model_label": ("model", np.array(names), {"long_name": "torque model term"}),
+    }
+
+
+def _result_dataset(
+    data_vars: dict[str, xr.Variable],
+    t: np.ndarray,
+    tattrs: dict,
+    names: tuple[str, ...] | None,
+    attrs: dict,
+) -> xr.Dataset:
+    """The result Dataset of ``data_vars`` on the times ``t`` (attrs ``tattrs``), with the
+    ``component``, ``axis`` and (torque terms ``names``) ``model`` coordinates: the constant
+    coordinates and their indexes built once per set of names, copied with their own attrs."""
+
+    def coords() -> dict[str, tuple]:
+        c = {"time": ("time", t, tattrs), **index_coords()}
+        return c if names is None else {**c, **_model_coords(names)}
+
+    try:
+        const = _CONSTANT_COORDS.get(names)
+        if const is None:
+            ds = _dataset({}, {k: v for k, v in coords().items() if k != "time"}, {})
+            for v in ds.variables.values():  # shared by every result: read-only
+                if isinstance(v._data, np.ndarray):
+                    v._data.setflags(write=False)
+            const = _CONSTANT_COORDS[names] = (dict(ds.variables), dict(ds.xindexes))
+        cvars, cidx = const
+        import pandas as pd
+        from xarray.core.indexes import PandasIndex
+
+        pidx = pd.Index(t, name="time", copy=False)
+        tidx = PandasIndex(pidx, "time", coord_dtype=t.dtype, fastpath=True)
+        tvar = tidx.create_variables()["time"]
+        tvar.attrs = tattrs
+        variables = {**data_vars, "time": tvar}
+        for k, v in cvars.items():
+            variables[k] = _shallow_copy(v)
+        indexes = {"time": tidx, **cidx}
+        dims = {"time": t.shape[0], "component": 4, "axis": 3}
+        if names is not None:
+            dims["model"] = len(names)
+        return xr.Dataset._construct_direct(variables, {"time", *cvars}, dims, attrs, indexes)
+    except (ImportError, AttributeError, TypeError):  # pragma: no cover - xarray internals moved
+        return _dataset(data_vars, coords(), attrs)
+
+
+# The constant coordinates of the result Datasets (variables and indexes) by torque terms.
+_CONSTANT_COORDS: dict[Any, tuple[dict, dict]] = {}
+
+
+def _shallow_copy(v: xr.Variable) -> xr.Variable:
+    """``v.copy(deep=False)`` (same data, own attrs and encoding) without its overhead."""
+    if not _RAW_VARIABLES:
+        return v.copy(deep=False)
+    w = _new_variable(type(v))
+    w._dims = v._dims
+    w._data = v._data
+    w._attrs = None if v._attrs is None else dict(v._attrs)
+    w._encoding = None if v._encoding is None else dict(v._encoding)
+    return w
+
+
+def _variable(dims: tuple, data: np.ndarray, attrs: dict) -> xr.Variable:
+    """``xr.Variable(dims, data, attrs, fastpath=True)`` for a numpy array whose dims match its
+    shape, without the constructor's checks (a fifth of its cost: the Dataset has twenty
+    variables); the public constructor on an xarray whose Variable is laid out otherwise."""
+    if not _RAW_VARIABLES:
+        return xr.Variable(dims, data, attrs, fastpath=True)
+    v = _new_variable(xr.Variable)
+    v._dims = dims
+    v._data = data
+    v._attrs = attrs
+    v._encoding = None
+    return v
+
+
+_new_variable = object.__new__
+_RAW_VARIABLES = set(getattr(xr.Variable, "__slots__", ())) == {
+    "_attrs",
+    "_data",
+    "_dims",
+    "_encoding",
+} and all(
+    getattr(c, "__new__", object.__new__) is object.__new__
+    for c in xr.Variable.__mro__
+    if c is not object and "__new__" in vars(c)
+)
 
 
 def _dataset(
@@ -444,18 +600,10 @@ def _dataset(
         for name, (dim, values, vattrs) in coords.items():
             values = np.asarray(values)
             if name != dim:  # an auxiliary (label) coordinate: no index
-                coord_vars[name] = xr.Variable((dim,), values, dict(vattrs))
+                coord_vars[name] = _variable((dim,), values, dict(vattrs))
                 continue
-            const = values.dtype.kind in "iU"  # the index coordinates (component, axis, model)
-            key = (name, tuple(values.tolist()), tuple(vattrs.items())) if const else None
-            if key is not None and key in _COORD_CACHE:
-                idx, cvar = _COORD_CACHE[key]
-                cvar = cvar.copy(deep=False)  # own attrs dict; the index is immutable
-            else:
-                idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
-                cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
-                if key is not None:
-                    _COORD_CACHE[key] = (idx, cvar.copy(deep=False))
+            idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
+            cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
             coord_vars[name] = cvar
             indexes[name] = idx
         variables = {**data_vars, **coord_vars}  # the public constructor's order
@@ -467,10 +615,6 @@ def _dataset(
         return xr.Dataset(
             data_vars, coords={k: (d, v, a) for k, (d, v, a) in coords.items()}, attrs=attrs
         )
-
-
-# Default indexes of the constant index coordinates ("component", "axis", "model"), reused.
-_COORD_CACHE: dict[tuple, Any] = {}
 
 
 def add_event_variables(

@@ -76,7 +76,7 @@ n = int(sys.argv[1])
 q0, Q0, _ = project_state(sc.q0, sc.Q0)
 q, Q, inertia = sc.ensemble.sample(q0, Q0, sc.body.inertia, 0, n)
 pot = sc.potential
-kw = dict(rtol=1e-10, atol=1e-12)
+kw = dict(rtol=1e-10, atol=1e-12, method=sc.method)  # the scenario's dop853, as above
 body_q = inertia * u.Unit("kg km2")
 E.propagate_ensemble(body_q[:64], q[:64], Q[:64], t, pot, **kw)       # warm-up
 res = {}

@@ -148,9 +148,10 @@ def heyoka_side(hy, data, tols, repeat, n_err, reference):
             ref[i] = np.asarray(ta.propagate_grid(t.astype(ld))[-1][:, :8], dtype=float)
         res["reference"] = ref
         res["reference_note"] = f"heyoka long double, tol 1e-19, order {ta.order}"
-    B = 4
-    nb = -(-n // B)
-    for label, length in (("heyoka batch", 1.0), ("heyoka batch (r/a)", A)):
+    for B, label, length in ((b, lab, ln) for b in (4, 8)
+                             for lab, ln in ((f"heyoka batch {b}", 1.0),
+                                             (f"heyoka batch {b} (r/a)", A))):  # fmt: skip
+        nb = -(-n // B)
         sys_ = _heyoka_system(hy, length, mu)
         s0 = np.concatenate([y0, np.tile(rv0 / length, (n, 1))], axis=1)
         s0 = np.concatenate([s0, np.tile(s0[-1:], (nb * B - n, 1))])  # pad the last batch
@@ -160,7 +161,7 @@ def heyoka_side(hy, data, tols, repeat, n_err, reference):
             ta = hy.taylor_adaptive_batch(sys_, s0[:B].T.copy(), tol=tol, pars=pars[:B].T.copy())
             ys = np.empty((nb * B, t.size, 8))
 
-            def run(ta=ta, s0=s0, pars=pars, grid=grid, ys=ys):
+            def run(ta=ta, s0=s0, pars=pars, grid=grid, ys=ys, B=B, nb=nb):
                 for b in range(nb):
                     ta.set_time(0.0)
                     ta.state[:] = s0[b * B : (b + 1) * B].T
@@ -252,11 +253,11 @@ def main(argv=None):
     methods = args.methods.split(",")
     if args.quick:
         settings = {"dop853": [1e-10, 1e-11], "taylor": [2e-8, 1e-8, 1e-10],
-                    "heyoka": [1e-8, 1e-12, 1e-13]}  # fmt: skip
+                    "heyoka": [2e-8, 1e-8, 1e-12, 1e-13]}  # fmt: skip
     else:
         settings = {"dop853": [1e-10, 1e-11, 1e-12, 1e-13],
                     "taylor": [2e-8, 1e-8, 1e-9, 1e-10, 1e-12],
-                    "heyoka": [1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-15]}  # fmt: skip
+                    "heyoka": [2e-8, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-15]}  # fmt: skip
 
     hy_res = None
     hy_note = "heyoka not available (pass --heyoka-python): its rows are skipped"
@@ -287,9 +288,17 @@ def main(argv=None):
     print(f"reference: {ref_note}; error over the first {n_err} members\n")
 
     rows = []  # (method, setting, threads, error, wall, cpu, steps/member)
+    from attitude._core.lanes import WIDTHS, simd_lanes
     from attitude.ensemble._members import _member_potentials, _Members
 
-    for method in methods:
+    host = simd_lanes()
+    runs = [(m, None) for m in methods if m != "taylor"]
+    if "taylor" in methods:  # the CPU's width (the default) and the other one
+        runs += [("taylor", host)] + [("taylor", w) for w in WIDTHS if w != host]
+    for method, lanes in runs:
+        if lanes is not None:
+            os.environ["ATTITUDE_SIMD_LANES"] = str(lanes)
+        name = method if lanes is None else f"{method} ({lanes} lanes)"
         for rtol in settings[method]:
             kw = {"method": method, "rtol": rtol, "atol": rtol}
             ds = propagate_ensemble(inertia[:n_err], y0[:n_err, :4], y0[:n_err, 4:], t, pot, **kw)
@@ -304,14 +313,15 @@ def main(argv=None):
                 )
                 steps = float(ds.attrs["n_steps"]) / n
                 cpu = cpu if threads == 1 else math.nan  # (summed over threads)
-                rows.append((method, f"rtol={rtol:.0e}", threads, err, wall, cpu, steps))
+                rows.append((name, f"rtol={rtol:.0e}", threads, err, wall, cpu, steps))
             # the compiled loop alone (one chunk, one thread, diagnostics included)
             _, params1, _ = _member_potentials(pot, n, inertia)
             params, _, _, _ = _Members(y0[:, :4], y0[:, 4:], inertia, params1, n).block(0, n)
             setup = _Setup(t, rtol, rtol, math.inf, 100_000_000, method=method)
             wall, cpu, _ = best_time(lambda setup=setup, params=params: _compute_chunk(
                 setup, params, y0, parallel=False), repeat)  # fmt: skip
-            rows.append((method + " core", f"rtol={rtol:.0e}", 1, err, wall, cpu, steps))
+            rows.append((name + " core", f"rtol={rtol:.0e}", 1, err, wall, cpu, steps))
+        os.environ.pop("ATTITUDE_SIMD_LANES", None)
     if hy_res is not None:
         for r in hy_res["rows"]:
             e = error(r["y"], ref)
@@ -329,8 +339,11 @@ def main(argv=None):
             best[key] = (m, s, cost, e)
     print(f"\nCheapest setting with error <= {TARGET:g} (one thread: CPU time, i.e. per core; "
           "two threads: wall time):\n")  # fmt: skip
-    hyb = best.get(("heyoka batch", 1))
-    print("| method | threads | setting | error | time [s] | µs / member | time / heyoka batch |")
+    hy1 = [v for (m, th), v in best.items() if m.startswith("heyoka batch") and th == 1]
+    hyb = min(hy1, key=lambda v: v[2]) if hy1 else None  # heyoka's best batch size
+    best_mode = hyb[0] if hyb else "–"
+    print(f"(this CPU: {host} lanes by default; heyoka's best batch mode: {best_mode})\n")
+    print("| method | threads | setting | error | time [s] | µs / member | time / heyoka's best |")
     print("| --- | ---: | --- | ---: | ---: | ---: | ---: |")
     for (_, th), (m, s, tc, e) in sorted(best.items(), key=lambda kv: kv[1][2]):
         ratio = f"{tc / hyb[2]:.2f}" if hyb else "–"

@@ -86,6 +86,7 @@ __all__ = [
     "radius_and_frame",
     "radius_and_radial_unit",
     "state",
+    "true_anomaly",
     "true_from_eccentric_scalar",
     "true_from_hyperbolic_scalar",
 ]
@@ -394,6 +395,12 @@ def kepler_E(M, e):
     Continuous in M: E(M + 2π) = E(M) + 2π up to rounding of the sum.
     """
     Er, Mr, k = _kepler_E_reduced(M, e)
+    return _continuous_E(M, Er, Mr, k)
+
+
+@jit
+def _continuous_E(M, Er, Mr, k):
+    """E from the reduced solution ``(Er, Mr, k)`` of :func:`_kepler_E_reduced`."""
     if k == 0.0:
         return Er
     # E − M = e sin E is 2π-periodic: E = M + (E_r − M_r), one rounding only.
@@ -553,6 +560,35 @@ def mean_anomaly(el, t):
 
 
 @jit
+def _true_from_half_angles(M, Er, Mr, k, c, s):
+    """True anomaly f from the reduced solution ``(Er, Mr, k)`` of :func:`_kepler_E_reduced`
+    and its half-angle parts ``c``, ``s`` (:func:`_elliptic_half_angles`): f_r = 2 atan2(s, c)
+    (c = sqrt(1 − e) cos(E_r/2) >= 0: no branch cut), continuous in M as
+    :func:`true_from_eccentric_scalar` (f = E + (f_r − E_r)); the sine and cosine of E_r/2
+    are the half-angle parts' (before, they were taken again of E reduced once more)."""
+    fr = 2.0 * math.atan2(s, c)
+    if k == 0.0:
+        return fr
+    return _continuous_E(M, Er, Mr, k) + (fr - Er)
+
+
+@jit
+def _elliptic_half_angles(e, Er, k):
+    """(c, s, sign) of :func:`_half_angle_parts` from E reduced to ``Er`` = E − 2πk."""
+    h = 0.5 * Er
+    c = math.sqrt(1.0 - e) * math.cos(h)
+    s = math.sqrt(1.0 + e) * math.sin(h)
+    return c, s, 1.0 - 2.0 * (abs(k) % 2.0)
+
+
+@jit
+def _hyperbolic_half_angles(e, H):
+    """(c, s, sign) of :func:`_half_angle_parts` from the hyperbolic anomaly H."""
+    h = 0.5 * H
+    return math.sqrt(e - 1.0) * math.cosh(h), math.sqrt(e + 1.0) * math.sinh(h), 1.0
+
+
+@jit
 def _half_angle_parts(el, t):
     """(c, s, sign): c ∝ cos(f/2), s ∝ sin(f/2), with c² + s² = r/|a|.
 
@@ -564,22 +600,38 @@ def _half_angle_parts(el, t):
     M = mean_anomaly(el, t)
     if ELLIPTIC_ONLY or e < 1.0:  # a constant True prunes the hyperbolic branch at compile time
         Er, _, k = _kepler_E_reduced(M, e)
-        h = 0.5 * Er
-        c = math.sqrt(1.0 - e) * math.cos(h)
-        s = math.sqrt(1.0 + e) * math.sin(h)
-        sign = 1.0 - 2.0 * (abs(k) % 2.0)
-        return c, s, sign
+        return _elliptic_half_angles(e, Er, k)
+    return _hyperbolic_half_angles(e, kepler_H(M, e))
+
+
+@jit
+def half_angles_and_true_anomaly(el, t):
+    """(c, s, sign, f): :func:`_half_angle_parts` and the true anomaly of
+    :func:`true_anomaly_loop` at time t, from one solve of Kepler's equation (bit for bit
+    both)."""
+    e = el[ECC]
+    M = mean_anomaly(el, t)
+    if ELLIPTIC_ONLY or e < 1.0:
+        Er, Mr, k = _kepler_E_reduced(M, e)
+        c, s, sign = _elliptic_half_angles(e, Er, k)
+        return c, s, sign, _true_from_half_angles(M, Er, Mr, k, c, s)
     H = kepler_H(M, e)
-    h = 0.5 * H
-    return math.sqrt(e - 1.0) * math.cosh(h), math.sqrt(e + 1.0) * math.sinh(h), 1.0
+    c, s, sign = _hyperbolic_half_angles(e, H)
+    return c, s, sign, true_from_hyperbolic_scalar(H, e)
+
+
+@jit
+def radius_cos_sin_f(el, c, s):
+    """(r, cos f, sin f) from the half-angle parts c, s of :func:`_half_angle_parts`."""
+    n2 = c * c + s * s
+    return abs(el[A]) * n2, (c - s) * (c + s) / n2, 2.0 * c * s / n2
 
 
 @jit
 def _radius_cos_sin_f(el, t):
     """(r, cos f, sin f) at time t."""
     c, s, _ = _half_angle_parts(el, t)
-    n2 = c * c + s * s
-    return abs(el[A]) * n2, (c - s) * (c + s) / n2, 2.0 * c * s / n2
+    return radius_cos_sin_f(el, c, s)
 
 
 @jit
@@ -798,14 +850,21 @@ def eccentric_anomaly_loop(el, t, out):
 
 
 @jit
-def true_anomaly_loop(el, t, out):
+def true_anomaly(el, t):
+    """True anomaly f(t) [rad], continuous in t."""
     e = el[ECC]
+    M = mean_anomaly(el, t)
+    if ELLIPTIC_ONLY or e < 1.0:
+        Er, Mr, k = _kepler_E_reduced(M, e)
+        c, s, _ = _elliptic_half_angles(e, Er, k)
+        return _true_from_half_angles(M, Er, Mr, k, c, s)
+    return true_from_hyperbolic_scalar(kepler_H(M, e), e)
+
+
+@jit
+def true_anomaly_loop(el, t, out):
     for i in range(t.size):
-        M = mean_anomaly(el, t[i])
-        if ELLIPTIC_ONLY or e < 1.0:
-            out[i] = true_from_eccentric_scalar(kepler_E(M, e), e)
-        else:
-            out[i] = true_from_hyperbolic_scalar(kepler_H(M, e), e)
+        out[i] = true_anomaly(el, t[i])
 
 
 @jit
@@ -840,6 +899,8 @@ ELLIPTIC = specialise(
     "elliptic",
     names=(
         "_half_angle_parts",
+        "half_angles_and_true_anomaly",
+        "true_anomaly",
         "_radius_cos_sin_f",
         "radius_and_radial_unit",
         "_perifocal",

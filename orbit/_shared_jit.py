@@ -290,6 +290,7 @@ def slp_vectorized(dispatcher):
     vectorising(dispatcher)
     if isinstance(dispatcher, Kernel):
         vectorising(dispatcher.dispatcher)
+    dispatcher._attitude_slp = True  # specialise() vectorises its copies too
     return dispatcher
 
 
@@ -322,8 +323,9 @@ def specialise(module, tag: str, names=None, **bindings):
         if key in bindings or (names is not None and key not in names):
             continue
         if hasattr(obj, "_attitude_rebind"):  # a rebind() of the module: redone in the copy
-            rebound.append((key, obj._attitude_rebind))
-            continue
+            if all(n in ns for n in obj._attitude_rebind[2].values()):
+                rebound.append((key, obj._attitude_rebind))
+            continue  # (else another module's, imported: shared as it is)
         f = getattr(obj, "py_func", obj) if not JIT_DISABLED else obj
         if not isinstance(f, types.FunctionType) or f.__module__ != module.__name__:
             continue
@@ -335,6 +337,8 @@ def specialise(module, tag: str, names=None, **bindings):
         g.__module__ = f.__module__
         g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
         ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
+        if getattr(obj, "_attitude_slp", False):
+            ns[key] = slp_vectorized(ns[key])
     for key, (template, rtag, rnames, cache, options) in rebound:
         ns[key] = rebind(template, ns, rtag, cache=cache, options=options, **rnames)
     return copy

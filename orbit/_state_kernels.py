@@ -111,8 +111,10 @@ __all__ = [
     "orbit_acceleration",
     "orbit_frame",
     "orbit_radial",
+    "orbit_sample",
     "orbit_state",
     "radial_kernel",
+    "sample_kernel",
     "table_interval",
 ]
 
@@ -319,6 +321,12 @@ def hermite4(d, toff, roff, ncomp, n, h, t, c):
 def _kepler_radial(d, t):
     el = d[K_EL : K_EL + _k.NEL]
     r, cf, sf = _k._radius_cos_sin_f(el, t)
+    return _kepler_radial_from(d, r, cf, sf)
+
+
+@jit
+def _kepler_radial_from(d, r, cf, sf):
+    """(r, r̂) from r, cos f, sin f."""
     cO = d[K_TRIG]
     sO = d[K_TRIG + 1]
     ci = d[K_TRIG + 2]
@@ -352,6 +360,12 @@ def _kepler_state(d, t):
 def _kepler_frame(d, t):
     el = d[K_EL : K_EL + _k.NEL]
     c, s, sign = _k._half_angle_parts(el, t)
+    return _kepler_frame_from(d, c, s, sign)
+
+
+@jit
+def _kepler_frame_from(d, c, s, sign):
+    """(r, p) from the half-angle parts of orbit._kernels._half_angle_parts."""
     n2 = c * c + s * s
     nrm = sign / math.sqrt(n2)
     ch = c * nrm  # cos(f/2)
@@ -558,6 +572,67 @@ def orbit_frame(d, t):
 
 
 # ---------------------------------------------------------------------------------------------
+# Everything an attitude run records about the orbit at a sample, in one call.
+@jit
+def _kepler_sample(d, t):
+    el = d[K_EL : K_EL + _k.NEL]
+    c, s, sign, f = _k.half_angles_and_true_anomaly(el, t)
+    r, cf, sf = _k.radius_cos_sin_f(el, c, s)
+    _, ux, uy, uz = _kepler_radial_from(d, r, cf, sf)
+    _, p0, p1, p2, p3 = _kepler_frame_from(d, c, s, sign)
+    return r, ux, uy, uz, f, p0, p1, p2, p3
+
+
+@jit
+def _j2_sample(d, t):
+    r, ux, uy, uz = _j2_radial(d, t)
+    f = _k.true_anomaly(d[J_EL : J_EL + _k.NEL], t)
+    x, y, z, vx, vy, vz = _j2_state(d, t)
+    _, p0, p1, p2, p3 = frame_from_state(x, y, z, vx, vy, vz)
+    return r, ux, uy, uz, f, p0, p1, p2, p3
+
+
+@jit
+def _eph_sample(d, t):
+    r, ux, uy, uz = _eph_radial(d, t)
+    x, y, z, vx, vy, vz = _eph_state(d, t, True)
+    _, p0, p1, p2, p3 = frame_from_state(x, y, z, vx, vy, vz)
+    return r, ux, uy, uz, _NAN, p0, p1, p2, p3
+
+
+@jit
+def orbit_sample(d, t):
+    """(r, ux, uy, uz, f, p0, p1, p2, p3): :func:`orbit_radial`, the true anomaly of the
+    orbit's ``true_anomaly`` method and :func:`orbit_frame` at t, bit for bit each; a Kepler
+    orbit's from one solve of Kepler's equation.
+
+    f is NaN for a tabulated orbit: its osculating true anomaly is computed by its method in
+    numpy, whose summation order (``einsum``) a kernel cannot promise to reproduce. The
+    orbital-frame quaternion is the kernel's: the public ``frame_quaternion`` of a secular-J2
+    or tabulated orbit also makes its signs continuous along an array (p and −p are the same
+    rotation)."""
+    kind = int(d[TYPE])
+    if kind == TYPE_KEPLER:
+        return _kepler_sample(d, t)
+    if kind == TYPE_SECULAR_J2:
+        return _j2_sample(d, t)
+    return _eph_sample(d, t)
+
+
+def sample_kernel(d) -> tuple[str, Any]:
+    """(tag, kernel): the kernel :func:`orbit_sample` runs for the orbit ``d`` (its type's; an
+    elliptic Kepler orbit's without the hyperbolic solver), as :func:`radial_kernel`."""
+    kind = int(d[TYPE])
+    if kind == TYPE_KEPLER:
+        if d[K_EL + _k.ECC] < 1.0:
+            return "kepler_elliptic", _ELLIPTIC._kepler_sample
+        return "kepler", _kepler_sample
+    if kind == TYPE_SECULAR_J2:
+        return "j2", _j2_sample
+    return "ephemeris", _eph_sample
+
+
+# ---------------------------------------------------------------------------------------------
 # Acceleration: d²r/dt² of each model (the rotation rate of local orbital frames needs it).
 @jit
 def _j2_acceleration(d, t):
@@ -705,4 +780,6 @@ def acceleration_loop(d, t, out):
 
 
 # The Kepler radial kernel of an elliptic orbit (radial_kernel): on orbit._kernels.ELLIPTIC.
-_ELLIPTIC = specialise(sys.modules[__name__], "elliptic", names=("_kepler_radial",), _k=_k.ELLIPTIC)
+_ELLIPTIC = specialise(
+    sys.modules[__name__], "elliptic", names=("_kepler_radial", "_kepler_sample"), _k=_k.ELLIPTIC
+)

@@ -506,6 +506,19 @@ class KeplerOrbit(ClassicalElements, OrbitBase):
                 )
         return flat, ta.shape
 
+    def check_times(self, t: Any, name: str = "t") -> None:
+        """Raise :class:`OrbitValueError` (naming ``name``) for times that are not finite, or
+        (an ellipse) where the mean anomaly exceeds 2**50 rad, which the methods refuse."""
+        super().check_times(t, name)
+        arr = np.asarray(t, dtype=np.float64)
+        if not self.is_hyperbolic and arr.size:
+            m = self.M0 + self.mean_motion * (arr - self.t0)
+            if np.max(np.abs(m)) > MAX_MEAN_ANOMALY:
+                raise OrbitValueError(
+                    f"{name}: the mean anomaly M0 + n (t − t0) exceeds 2**50 rad at some t; "
+                    "times that far from t0 have no accuracy left modulo one revolution"
+                )
+
     @staticmethod
     def _shape(out: np.ndarray, shape: tuple[int, ...]) -> Any:
         if shape == ():

@@ -14,6 +14,8 @@ before the hub integrates to the next one).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 NANO = 1_000_000_000
@@ -144,7 +146,11 @@ def mrp_to_quaternion(sigma):
 
 
 def rw_feedback_scenario(
-    dt: float = 0.1, duration: float = 600.0, record_every: int = 1, dyn_dt: float | None = None
+    dt: float = 0.1,
+    duration: float = 600.0,
+    record_every: int = 1,
+    dyn_dt: float | None = None,
+    sensors: bool = False,
 ):
     """Basilisk's ``scenarioAttitudeFeedbackRW`` (balanced wheels, no voltage interface):
     a 900/800/600 kg m² hub, three Honeywell HR16 wheels (50 N m s) on the body axes at 100,
@@ -154,7 +160,10 @@ def rw_feedback_scenario(
     0.03) rad/s, everything at the task period ``dt`` (0.1 s in the scenario), the hub
     integrated by RK4 at that period (or, with ``dyn_dt``, the dynamics and the wheels in a
     task of that period and the flight software in one of period ``dt``: the same closed loop,
-    a finer integration).
+    a finer integration). With ``sensors``, Basilisk's gyro (``imuSensor``: white rate noise
+    of 0.05°/√h ARW at the tick, a 3°/h bias, its Gauss–Markov walk) at the tick and its star
+    tracker (``starTracker``: 6″/6″/45″ about its axes) in a 2 Hz task run beside the loop,
+    which stays on the truth navigation (Basilisk has no MEKF): for timing the sensors' cost.
 
     Returns
     -------
@@ -223,6 +232,26 @@ def rw_feedback_scenario(
     alloc.rwParamsInMsg.subscribeTo(rw_params)
     alloc.vehControlInMsg.subscribeTo(ctl.cmdTorqueOutMsg)
     rw.rwMotorCmdInMsg.subscribeTo(alloc.rwMotorTorqueOutMsg)
+    if sensors:
+        from Basilisk.simulation import imuSensor, starTracker
+
+        imu = imuSensor.ImuSensor()
+        imu.ModelTag = "imu"
+        imu.setBodyToPlatformDCM(0.0, 0.0, 0.0)
+        arw = math.radians(0.05) / 60.0  # rad/√s
+        imu.PMatrixGyro = np.eye(3) * (arw / math.sqrt(dt))
+        imu.setErrorBoundsGyro(np.array([1e-3] * 3))
+        imu.senRotBias = np.radians([3.0, -2.0, 1.5]) / 3600.0
+        imu.scStateInMsg.subscribeTo(sc.scStateOutMsg)
+        sim.AddModelToTask("t", imu)
+        proc.addTask(sim.CreateNewTask("st", _nanos(0.5)))
+        st = starTracker.StarTracker()
+        st.ModelTag = "st"
+        arcsec = math.radians(1.0 / 3600.0)
+        st.PMatrix = np.diag([6 * arcsec, 6 * arcsec, 45 * arcsec]) / 4.0  # (MRP ≈ angle/4)
+        st.setWalkBounds(np.array([1e-2] * 3))
+        st.scStateInMsg.subscribeTo(sc.scStateOutMsg)
+        sim.AddModelToTask("st", st)
     every = step * record_every
     logs = {
         "state": sc.scStateOutMsg.recorder(every),

@@ -182,7 +182,7 @@ def test_members_are_single_runs(gg_case):
     """Each member is the compiled single-run loop from its own projected state, bit for bit,
     and agrees with attitude.propagate."""
     sc, q, Q, t = gg_case
-    ds = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=5)
+    ds = propagate_ensemble(sc.body, q, Q, t, sc.potential, method="dop853", chunk_size=5)
     params = sc.potential.bind(sc.body)._params(sc.body.inertia)
     for i in range(q.shape[0]):
         y0 = np.concatenate([ds.q.values[i, 0], ds.Q.values[i, 0]])  # t[0] is an output
@@ -195,7 +195,7 @@ def test_members_are_single_runs(gg_case):
         assert y.tobytes() == np.concatenate([ds.q.values[i], ds.Q.values[i]], 1).tobytes()
         assert int(counters[0]) == int(ds.member_n_steps[i])
     for i in (0, 7):
-        single = propagate(sc.body, q[i], Q[i], t, sc.potential)
+        single = propagate(sc.body, q[i], Q[i], t, sc.potential, method="dop853")
         np.testing.assert_allclose(ds.q.values[i], single.q.values, rtol=0, atol=1e-13)
         np.testing.assert_allclose(
             ds.energy.values[i], single.energy.values, rtol=1e-12, atol=1e-16
@@ -208,9 +208,10 @@ def test_members_are_single_runs(gg_case):
 
 def test_result_independent_of_chunks_threads_and_driver(gg_case):
     sc, q, Q, t = gg_case
-    ref = propagate_ensemble(sc.body, q, Q, t, sc.potential, chunk_size=q.shape[0], threads=1)
+    ref = propagate_ensemble(sc.body, q, Q, t, sc.potential, method="dop853",
+                             chunk_size=q.shape[0], threads=1)  # fmt: skip
     for kw in ({"chunk_size": 1}, {"chunk_size": 5, "threads": 2}, {"threads": 2}):
-        ds = propagate_ensemble(sc.body, q, Q, t, sc.potential, **kw)
+        ds = propagate_ensemble(sc.body, q, Q, t, sc.potential, method="dop853", **kw)
         assert same(ref, ds), kw
     # the serial driver (what Dask workers run)
     setup = _Setup(t, 1e-10, 1e-12, np.inf, 10**8)
@@ -220,7 +221,7 @@ def test_result_independent_of_chunks_threads_and_driver(gg_case):
     assert out["y"][:, :, :4].tobytes() == ref.q.values.tobytes()
     assert out["diag"][:, :, 9].tobytes() == ref.energy.values.tobytes()
     # a member alone gives the same bits as inside the ensemble
-    one = propagate_ensemble(sc.body, q[5:6], Q[5:6], t, sc.potential)
+    one = propagate_ensemble(sc.body, q[5:6], Q[5:6], t, sc.potential, method="dop853")
     assert one.q.values.tobytes() == ref.q.values[5:6].tobytes()
 
 

@@ -120,6 +120,28 @@ def test_open_loop_taylor_ensemble_in_simd_lanes_equals_single_runs():
     assert (ds.wheel_limit.values != 0).any()  # some members saturate
 
 
+def test_auto_picks_for_the_ensemble_what_the_single_runs_pick():
+    """``method="auto"`` (the default) resolves as each member's single run resolves it: a
+    member whose wheel has a Stribeck regime (which taylor does not expand) makes the whole
+    ensemble dop853, and every member is then bit for bit its single run with "auto"."""
+    stribeck = ReactionWheel([1.0, 0.0, 0.0], JS, speed=SPEEDS[0], coulomb_friction=1e-3,
+                             static_friction=2e-3, stribeck_speed=0.01)  # fmt: skip
+    plain, c = craft(), craft()
+    rough = attitude.Spacecraft(c.body, [stribeck, *c.wheels[1:]])
+    crafts = [plain, rough]
+    q0 = np.tile([1.0, 0.0, 0.0, 0.0], (2, 1))
+    Q0 = np.tile(C.momenta_from_angular_velocity(q0[0], [0.01, 0.0, 0.0], plain), (2, 1))
+    sched = attitude.CommandSchedule([0.0, 2.0], wheel_torque=[[0.1, 0.0, 0.0], [0.0, 0.1, 0.0]])
+    t = np.linspace(0.0, 4.0, 3)
+    ds = propagate_ensemble(crafts, q0, Q0, t, commands=sched)
+    assert ds.attrs["method"] == "dop853" and ds.attrs["method_requested"] == "auto"
+    one = attitude.propagate(rough, q0[1], Q0[1], t, commands=sched)
+    assert one.attrs["method"] == "dop853"
+    _same(ds.isel(member=1), one, ["q", "Q", "wheel_speed", "wheel_torque"])
+    with pytest.raises(AttitudeValueError, match="Stribeck"):
+        propagate_ensemble(crafts, q0, Q0, t, commands=sched, method="taylor")
+
+
 def test_draws_do_not_depend_on_the_ensemble_size_or_on_what_is_dispersed():
     big = disperse_spacecraft(craft(), [1.0, 0, 0, 0], [0, 0, 0], 8, software=software(),
                               seed=2, inertia_error=0.05, gain_error=0.1)  # fmt: skip
@@ -195,7 +217,10 @@ def test_closed_loop_statistics_of_pointing_error_and_settling_time():
         craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=4,
         rate_error=np.radians(0.005), inertia_error=0.05, gain_error=0.1,
     )  # fmt: skip
-    ds = propagate_ensemble(d.spacecraft, d.q, d.Q, [0.0, 120.0], software=d.software)
+    # dop853 named: "auto" would pick taylor here, whose SIMD gyrostat lanes compile for
+    # minutes in a fresh cache (its members are tested bit for bit in the slow tests above)
+    ds = propagate_ensemble(d.spacecraft, d.q, d.Q, [0.0, 120.0], software=d.software,
+                            method="dop853")  # fmt: skip
     e = ds.error_angle.values
     tick = ds.tick.values
     K = 100.0 * (1 + d.errors["gain"][:, 0])
@@ -228,7 +253,8 @@ def _covariance_run(n, t_end):
     q0 = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
     Q0 = np.tile(C.momenta_from_angular_velocity(q0[0], [0.0, 0.0, 0.0], c), (n, 1))
     fs = software(record_every=100)
-    ds = propagate_ensemble(c, q0, Q0, [0.0, t_end], software=fs, seed=1)
+    # dop853 named: "auto" would pick taylor (slow to compile in a fresh cache)
+    ds = propagate_ensemble(c, q0, Q0, [0.0, t_end], software=fs, seed=1, method="dop853")
     q = ds.q.isel(time=-1).values
     theta = 2.0 * q[:, 1:] * np.sign(q[:, :1])  # the true pointing error (rotation vector)
     sc, sb = 10 * ARCSEC, 30 * ARCSEC

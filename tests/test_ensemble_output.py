@@ -62,6 +62,46 @@ def _same(a: xr.Dataset, b: xr.Dataset, names) -> None:
         assert x.shape == y.shape and x.tobytes() == y.tobytes(), v
 
 
+def test_invariant_maxima_are_numpys_over_the_stored_members(gg):
+    """The attrs max_abs_norm_error, max_abs_qQ, max_rel_qQ, max_rel_energy_variation (one
+    compiled pass over each chunk) are numpy's maxima over the stored members, to the bit; and
+    the kernel's torque-free and heavy-top maxima (G, G_z) are numpy's on random data with NaN
+    samples and members left out."""
+    from attitude._core import ensemble as ke
+
+    full = gg[-1]
+    E = full.energy.values
+    G = full.G.values
+    want = {
+        "max_abs_norm_error": np.abs(full.norm_error.values).max(),
+        "max_abs_qQ": np.abs(full.qQ.values).max(),
+        "max_rel_qQ": (
+            np.abs(full.qQ.values) / np.maximum(2.0 * np.linalg.norm(G, axis=-1), 1e-308)
+        ).max(),
+        "max_rel_energy_variation": (np.abs(E - E[:, :1]) / np.abs(E[:, :1])).max(),
+    }
+    for k, v in want.items():
+        assert full.attrs[k] == v, k
+    rng = np.random.default_rng(28)
+    d = rng.normal(size=(9, 7, 13)) * np.exp(3.0 * rng.normal(size=(9, 7, 13)))
+    d[2, 4:] = np.nan  # a member ended by a terminal event
+    ok = np.ones(9, dtype=bool)
+    ok[5] = False  # a failed member
+    dd = d[ok]
+    G = dd[:, :, 6:9]
+    sG = np.linalg.norm(G[:, :1], axis=-1)
+    for kind, ref in (
+        (ke.INVARIANTS_TORQUE_FREE, np.linalg.norm(G - G[:, :1], axis=-1) / sG),
+        (ke.INVARIANTS_HEAVY_TOP, np.abs(G[:, :, 2] - G[:, :1, 2]) / sG),
+    ):
+        mx = np.zeros(5)
+        ke.invariant_maxima(d, ok, kind, mx)
+        assert mx[4] == np.nanmax(ref)
+        assert mx[0] == np.nanmax(np.abs(dd[:, :, 10]))
+        E = dd[:, :, 9]
+        assert mx[3] == np.nanmax(np.abs(E - E[:, :1]) / np.abs(E[:, :1]))
+
+
 # ------------------------------------------------------------------------------------------------
 # every k-th sample, final state only
 # ------------------------------------------------------------------------------------------------
@@ -372,10 +412,12 @@ def test_rerun_member_alone_bit_for_bit(output, tmp_path):
     # a one-member ensemble from member_initial_state: the same bits
     body, q0, Q0 = member_initial_state(path, 9)
     np.testing.assert_array_equal(body.inertia, full.inertia.sel(member=9).values)
-    one = propagate_ensemble(body, q0[None], Q0[None], sc.t, pot, nominal=None)
+    # (the scenario's method, dop853, named: the default "auto" would pick taylor)
+    assert full.attrs["method"] == sc.method == "dop853"
+    one = propagate_ensemble(body, q0[None], Q0[None], sc.t, pot, sc.method, nominal=None)
     _same(one.isel(member=0), full.sel(member=9), TRAJ)
     # attitude.propagate projects the state its own way: the same to round-off only
-    single = propagate(body, q0, Q0, sc.t, pot)
+    single = propagate(body, q0, Q0, sc.t, pot, sc.method)
     np.testing.assert_allclose(single.q.values, full.q.sel(member=9).values, atol=1e-13)
     with pytest.raises(AttitudeValueError, match=r"^potential: the ensemble ran with"):
         rerun_member(path, 0)

@@ -105,6 +105,21 @@ def test_members_are_single_taylor_runs_bit_for_bit(gg_case):
     assert np.max(np.abs(ds.q.values - ref.q.values)) < 1e-10
 
 
+@pytest.mark.parametrize("lanes", [4, 8])
+def test_members_are_single_runs_at_every_simd_width(gg_case, lanes, monkeypatch):
+    """The batch width follows the CPU (attitude._core.lanes.simd_lanes); whatever it is, each
+    member is its single run bit for bit. And method="auto" (the default) runs this batch."""
+    from attitude._core import taylor_batch as tb
+
+    sc, q, Q, t = gg_case
+    monkeypatch.setenv("ATTITUDE_SIMD_LANES", str(lanes))
+    assert tb.batch().LANES == lanes
+    ds = propagate_ensemble(sc.body, q, Q, t, sc.potential, rtol=RTOL, atol=RTOL, chunk_size=6)
+    assert ds.attrs["method"] == "taylor" and ds.attrs["method_requested"] == "auto"
+    n = q.shape[0]
+    assert_members_are_single_runs(ds, [sc.body] * n, [sc.potential] * n, t)
+
+
 def test_per_member_orbits_and_heavy_tops_bit_for_bit(gg_case):
     import orbit
 

@@ -83,8 +83,10 @@ def test_disperse_draws_the_scenario_members_and_its_nominal_run(ens_scenario, t
     np.testing.assert_array_equal(d.inertia.to_value("kg m2"), ref.inertia.values)
     np.testing.assert_array_equal(d.errors["inertia"], ref.dispersion_inertia.values)
     # the same run from Python, nominal run included (dispersed bodies: nominal=(q0, Q0, body))
-    ds = propagate_ensemble(d.inertia, d.q, d.Q, sc.t, sc.potential, rtol=1e-10, atol=1e-12,
-                            nominal=d.nominal)  # fmt: skip
+    # (the scenario's method, dop853, named: the default "auto" would pick taylor)
+    assert ref.attrs["method"] == sc.method == "dop853"
+    ds = propagate_ensemble(d.inertia, d.q, d.Q, sc.t, sc.potential, sc.method, rtol=1e-10,
+                            atol=1e-12, nominal=d.nominal)  # fmt: skip
     np.testing.assert_array_equal(ds.q.values, ref.q.values)
     np.testing.assert_array_equal(ds.reference_q.values, ref.reference_q.values)
     # a slice of members is the same members

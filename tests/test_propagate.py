@@ -196,7 +196,95 @@ def test_dataset_schema(paper_state):
     assert list(ds.component_label.values) == ["w", "x", "y", "z"]
     assert ds.axis.values.tolist() == [0, 1, 2]
     assert list(ds.axis_label.values) == ["x", "y", "z"]
-    assert ds.attrs["method"] == "dop853" and ds.attrs["rtol"] == 1e-10
+    # the default "auto" picks taylor for a built-in potential and says so
+    assert ds.attrs["method"] == "taylor" and ds.attrs["method_requested"] == "auto"
+    assert ds.attrs["rtol"] == 1e-10
+
+
+def _same_run(a, b):
+    """Every variable and coordinate of two results equal bit for bit (attrs aside)."""
+    assert sorted(a.variables) == sorted(b.variables)
+    for name in a.variables:
+        assert a[name].values.tobytes() == b[name].values.tobytes(), name
+
+
+def test_auto_is_bit_for_bit_the_method_it_picks(paper_state):
+    """method="auto" (the default): taylor wherever the model supports it, dop853 otherwise;
+    the run is the picked method's, bit for bit, and the attrs record both."""
+    import orbit
+    from attitude import ReactionWheel, Spacecraft
+    from attitude.events import RateExceeds
+    from attitude.potentials import GravityGradient
+    from attitude.propagate import choose_method
+
+    q0, Q0 = paper_state
+    t = np.linspace(0.0, 50.0, 11)
+    o = orbit.KeplerOrbit(7000.0, 0.2, 0.5, 0.8, 0.3, f0=0.0)
+
+    def tau(q, t):
+        return (0.0, 0.0, 0.02)
+
+    cases = [  # (potential, keyword arguments, the method auto must pick)
+        (TorqueFree(), {}, "taylor"),
+        (HeavyTop(0.5, [1.0, 0.0, 0.0]), {}, "taylor"),
+        (GravityGradient(o), {}, "taylor"),
+        (CustomTorque(tau), {}, "dop853"),  # a user's torque: no series
+        (HeavyTop(0.5, [1.0, 0.0, 0.0]), {"events": [RateExceeds(10.0)]}, "dop853"),
+        (TorqueFree(), {"formulation": "euler_angles"}, "dop853"),
+    ]
+    for pot, kw, picked in cases:
+        auto = propagate(I_PAPER, q0, Q0, t, pot, **kw)
+        assert auto.attrs["method"] == picked and auto.attrs["method_requested"] == "auto"
+        explicit = propagate(I_PAPER, q0, Q0, t, pot, picked, **kw)
+        assert "method_requested" not in explicit.attrs
+        _same_run(auto, explicit)
+        arrays = propagate(I_PAPER, q0, Q0, t, pot, output="arrays", **kw) if not kw else None
+        if arrays is not None:
+            assert arrays.q.tobytes() == explicit.q.values.tobytes()
+    # a spacecraft with a wheel: taylor (its friction is piecewise affine)
+    craft = Spacecraft(RigidBody(I_PAPER), wheels=[ReactionWheel([1.0, 0.0, 0.0], 0.01)])
+    assert choose_method("auto", TorqueFree(), spacecraft=craft) == "taylor"
+    auto = propagate(craft, q0, Q0, t)
+    assert auto.attrs["method"] == "taylor"
+    _same_run(auto, propagate(craft, q0, Q0, t, method="taylor"))
+    # an explicit method is never changed
+    assert choose_method("dop853", TorqueFree()) == "dop853"
+    with pytest.raises(AttitudeValueError, match="method"):
+        propagate(I_PAPER, q0, Q0, t, method="automatic")
+
+
+def test_auto_is_bit_for_bit_the_method_it_picks_with_sensors_and_the_mekf():
+    """method="auto" (the default) on a closed loop with wheels, a gyro, a star tracker and the
+    MEKF picks taylor and is that run bit for bit (every variable, the sensors' and the
+    estimator's included)."""
+    from astropy import units as u
+    from test_software import hr16_spacecraft
+
+    from attitude import frames
+    from attitude.control import MRPFeedback
+    from attitude.estimation import MEKF
+    from attitude.sensors import Gyro, StarTracker
+    from attitude.software import FlightSoftware
+
+    def run(**kw):
+        craft = hr16_spacecraft()
+        q0 = qt.from_mrp([0.02, -0.01, 0.03])
+        Q0 = C.momenta_from_angular_velocity(q0, [0.001, 0.0, -0.002], craft)
+        fsw = FlightSoftware(
+            0.5,
+            guidance=frames.inertial(),
+            control=MRPFeedback(3.5, 30.0),
+            sensors=[Gyro(0.05 * u.deg / u.hour**0.5, seed=4), StarTracker(6 * u.arcsec, seed=5)],
+            estimator=MEKF(initial_attitude=q0),
+            record_every=1,
+        )
+        t = np.linspace(0.0, 6.0, 4)
+        return attitude.propagate(craft, q0, Q0, t, software=fsw, rtol=1e-12, **kw)
+
+    auto = run()
+    assert auto.attrs["method"] == "taylor" and auto.attrs["method_requested"] == "auto"
+    assert "estimation_error" in auto and "nees" in auto
+    _same_run(auto, run(method="taylor"))
 
 
 def test_units_follow_the_body(paper_state):

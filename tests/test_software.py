@@ -69,7 +69,7 @@ def test_reaction_wheel_scenario_against_basilisk():
         assert sat.sum() > 1000  # the scenario saturates for minutes
 
 
-def _axis_run(period, K, P, theta0, t_end, I3=10.0, method="dop853"):
+def _axis_run(period, K, P, theta0, t_end, I3=10.0, method="auto"):
     """A rotation about the principal axis b3 under MRPFeedback with an ideal torque."""
     body = attitude.RigidBody([12.0, 11.0, I3], units="kg m2")
     q0 = qt.from_rotation_vector([0.0, 0.0, theta0])
@@ -107,7 +107,7 @@ def test_fast_pd_control_matches_the_second_order_response():
 def test_slow_pd_control_is_the_exact_zero_order_hold_discretisation(method):
     """At a slow tick the samples follow x_{k+1} = Φ x_k + Γ u_k of the linearised plant
     (Φ = e^{AT}, Γ = ∫ e^{As} ds B), u_k = −(K/4) θ_k − P θ̇_k: the hold, not the continuous law.
-    Both methods apply the ideal control torque (taylor ignored it before)."""
+    Both methods apply the ideal control torque ("auto" picks taylor here)."""
     I3, K, P, T = 10.0, 4.0, 1.2, 2.0
     th0 = 1e-3
     t, th, ds = _axis_run(T, K, P, th0, 200.0, I3, method)
@@ -691,3 +691,35 @@ def test_mode_conditions_switch_at_the_first_tick_the_closed_form_says(sign):
     assert (t1, t2, t3) == (10.5, 58.0, 70.5)
     want = (t >= t1).astype(int) + (t >= t2) + (t >= t3)
     np.testing.assert_array_equal(ds["mode"].values, want)
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_sparse_tick_records_are_the_dense_ones_subsampled(method):
+    """record_every = 3 over more records than the first tick buffer holds (4 096): every
+    tick variable equals the every-tick run's at the kept ticks, bit for bit (an unrecorded
+    tick once wrote its record over the last kept row of a full buffer). The sensors and the
+    MEKF's record (estimation error, NEES) included."""
+    from attitude.estimation import MEKF
+    from attitude.sensors import Gyro, StarTracker
+
+    craft = hr16_spacecraft()
+    q0 = qt.from_mrp([0.1, 0.2, -0.3])
+    Q0 = C.momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
+
+    def fsw(every):
+        sensors = [
+            Gyro(0.05 * u.deg / u.hour**0.5, 2e-9 * u.rad / u.s**1.5, seed=1),
+            StarTracker([6 * u.arcsec, 45 * u.arcsec], [0.0, 0.6, 0.8], rate=2.0, seed=2),
+        ]
+        return FlightSoftware(0.1, frames.inertial(), MRPFeedback(3.5, 30.0), sensors=sensors,
+                              estimator=MEKF(), record_every=every)  # fmt: skip
+
+    t = np.array([0.0, 1300.0])
+    dense = attitude.propagate(craft, q0, Q0, t, software=fsw(1), method=method, rtol=1e-12)
+    sparse = attitude.propagate(craft, q0, Q0, t, software=fsw(3), method=method, rtol=1e-12)
+    assert sparse.sizes["tick"] == -(-dense.sizes["tick"] // 3) > 4096
+    names = [v for v in dense.variables if "tick" in dense[v].dims]
+    assert {"error_angle", "command_sent", "estimation_error"} <= set(names)
+    for v in names:
+        np.testing.assert_array_equal(sparse[v].values, dense[v].values[::3], err_msg=v)
+    np.testing.assert_array_equal(sparse.q.values, dense.q.values)

@@ -83,6 +83,22 @@ def test_run_with_field_torque_is_the_magnetic_dipole_run(leo):
     assert "rods" in list(x.model_label.values)
 
 
+def test_auto_picks_dop853_for_an_environment_torque_bit_for_bit(leo):
+    """taylor has no series for a user's torque: method="auto" (the default) runs dop853 with
+    CustomTorque(..., orbit=o), alone and beside the gravity gradient, bit for bit."""
+    from test_propagate import _same_run
+
+    t = np.linspace(0.0, 600.0, 7)
+    q0 = aq.normalize([1.0, 0.2, -0.1, 0.3])
+    Q0 = momenta_from_angular_velocity(q0, [0.01, -0.02, 0.03], INERTIA)
+    ct = CustomTorque(et.dipole_torque, orbit=leo)
+    for pot in (ct, GravityGradient(leo) + ct):
+        auto = attitude.propagate(INERTIA, q0, Q0, t, potential=pot, rtol=1e-12, atol=1e-14)
+        assert auto.attrs["method"] == "dop853" and auto.attrs["method_requested"] == "auto"
+        kw = dict(potential=pot, method="dop853", rtol=1e-12, atol=1e-14)
+        _same_run(auto, attitude.propagate(INERTIA, q0, Q0, t, **kw))
+
+
 def test_splitting_with_field_torque_is_the_magnetic_dipole_run(leo):
     """The composition methods take a torque tau(q, t, env) (not rate-dependent) like any user
     torque: the same trajectory as MagneticDipole's."""

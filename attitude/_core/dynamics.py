@@ -58,6 +58,15 @@ def diagnostics_row(y, k, U, params, out):
     """Row ``k`` of :func:`diagnostics_with` given the potential energy ``U`` of that sample."""
     q = (y[k, 0], y[k, 1], y[k, 2], y[k, 3])  # tuples, not array views (no reference counting)
     Q = (y[k, 4], y[k, 5], y[k, 6], y[k, 7])
+    d = diagnostic_values(q, Q, U, params)
+    for i in range(13):
+        out[k, i] = d[i]
+
+
+@jit(inline="always")
+def diagnostic_values(q, Q, U, params):
+    """The 13 diagnostics of the state (q, Q) with potential energy U, as a tuple: ω (3),
+    g (3), G (3), energy, |q| − 1, q·Q, U."""
     w = conj_mul(q, Q)
     g = (0.5 * w[1], 0.5 * w[2], 0.5 * w[3])
     om = (g[0] / params[0], g[1] / params[1], g[2] / params[2])
@@ -67,20 +76,11 @@ def diagnostics_row(y, k, U, params, out):
     G3 = 0.5 * (-Q[0] * q[3] - Q[1] * q[2] + Q[2] * q[1] + Q[3] * q[0])
     T = 0.5 * (g[0] * om[0] + g[1] * om[1] + g[2] * om[2])
     nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
-    out[k, 0] = om[0]
-    out[k, 1] = om[1]
-    out[k, 2] = om[2]
-    out[k, 3] = g[0]
-    out[k, 4] = g[1]
-    out[k, 5] = g[2]
-    out[k, 6] = G1
-    out[k, 7] = G2
-    out[k, 8] = G3
-    out[k, 9] = T + U
     # |q| − 1 = (|q|² − 1)/(|q| + 1) without cancellation in the square root.
-    out[k, 10] = (nq - 1.0) / (1.0 + math.sqrt(nq))
-    out[k, 11] = w[0]
-    out[k, 12] = U
+    return (
+        om[0], om[1], om[2], g[0], g[1], g[2], G1, G2, G3,
+        T + U, (nq - 1.0) / (1.0 + math.sqrt(nq)), w[0], U,
+    )  # fmt: skip
 
 
 @jit_generic

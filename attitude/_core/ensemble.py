@@ -41,6 +41,7 @@ __all__ = [
     "RUNNING",
     "WORK_ROWS",
     "fresh_state",
+    "invariant_maxima",
     "member_begin",
     "member_end",
     "member_run",
@@ -158,3 +159,58 @@ def split_samples(y, diag, q, Q, omega, g, G, energy, norm_error, qQ, potential_
             norm_error[i, k] = diag[i, k, 10]
             qQ[i, k] = diag[i, k, 11]
             potential_energy[i, k] = diag[i, k, 12]
+
+
+#: ``kind`` of :func:`invariant_maxima`: which conserved quantities the model has.
+INVARIANTS_NONE = 0
+INVARIANTS_TORQUE_FREE = 1
+INVARIANTS_HEAVY_TOP = 2
+#: Smallest positive normal double (numpy's ``finfo(float).tiny``).
+_TINY = 2.2250738585072014e-308
+
+
+@jit(nogil=True)
+def invariant_maxima(diag, ok, kind, inv):
+    """The invariant maxima over the members ``i`` with ``ok[i]`` of ``diag`` (N, m, 13), in
+    one pass, raised into ``inv`` (5,): max |norm_error|, max |q·Q|, max |q·Q| / max(2 |G|,
+    tiny), the relative energy variation max |E − E₀| / max(|E₀|, tiny), and (``kind``) the
+    relative change of G (torque-free: max |G − G₀| / max(|G₀|, 1e-300)) or of G_z (heavy top,
+    same scale). NaN samples (after a terminal event) are skipped; every value is the one the
+    numpy expressions of ``_Assembler.account`` give (the same operations per sample; the
+    maxima are exact)."""
+    for i in range(diag.shape[0]):
+        if not ok[i]:
+            continue
+        e0 = diag[i, 0, 9]
+        se = max(abs(e0), _TINY)
+        g0 = diag[i, 0, 6]
+        g1 = diag[i, 0, 7]
+        g2 = diag[i, 0, 8]
+        sg = max(np.sqrt(g0 * g0 + g1 * g1 + g2 * g2), 1e-300)
+        for k in range(diag.shape[1]):
+            a = abs(diag[i, k, 10])
+            if a > inv[0]:
+                inv[0] = a
+            x0 = diag[i, k, 6]
+            x1 = diag[i, k, 7]
+            x2 = diag[i, k, 8]
+            a = abs(diag[i, k, 11])
+            if a > inv[1]:
+                inv[1] = a
+            a = a / max(2.0 * np.sqrt(x0 * x0 + x1 * x1 + x2 * x2), _TINY)
+            if a > inv[2]:
+                inv[2] = a
+            a = abs(diag[i, k, 9] - e0) / se
+            if a > inv[3]:
+                inv[3] = a
+            if kind == INVARIANTS_TORQUE_FREE:
+                d0 = x0 - g0
+                d1 = x1 - g1
+                d2 = x2 - g2
+                a = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) / sg
+                if a > inv[4]:
+                    inv[4] = a
+            elif kind == INVARIANTS_HEAVY_TOP:
+                a = abs(x2 - g2) / sg
+                if a > inv[4]:
+                    inv[4] = a

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import numba
 
+from attitude._core.diagnostics import samples_with
 from attitude._core.dynamics import (
     canonical_rhs_with,
     diagnostics_with,
@@ -64,7 +65,7 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
-from attitude._core.fsw import fsw_boundary  # noqa: F401 (bound by name)
+from attitude._core.fsw import fsw_boundary, fsw_boundary_inline  # noqa: F401 (bound by name)
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
 from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
@@ -83,6 +84,7 @@ from attitude._core.spacecraft_ensemble import (
 from attitude._core.splitting import composition_run
 from attitude._core.taylor_gyrostat import taylor_holds_run
 from orbit._shared_jit import jit, parallel_jit, rebind
+from orbit._state_kernels import orbit_sample as _any_orbit_sample
 
 # --- model: begin (replaced in user modules) ---
 # The built-in models allocate nothing: their hot loops compile without reference counting
@@ -121,6 +123,36 @@ def diagnostics(t, y, params, out):
 def term_torques(t, y, params, out):
     """Torque of every term (m, n_terms + 1, 3; the last row their sum) at canonical states."""
     term_torques_with(term_torque, n_terms(params), t, y, params, out)
+
+
+#: The orbit of the model's Dataset variables, looked up once per sample by :func:`samples`
+#: (``orbit._state_kernels.orbit_sample``; attitude._core.models binds the kernel of the
+#: orbit's type, or none for a model without an orbit).
+orbit_sample = _any_orbit_sample
+
+
+@jit(_nrt=REFCOUNT)
+def potential_at(q, t, params, orb):
+    """The model's potential energy given the orbit sample ``orb`` (here unused: the model
+    looks its orbit up itself; the gravity gradient alone reads it from ``orb``)."""
+    return potential(q, t, params)
+
+
+@jit(_nrt=REFCOUNT)
+def term_torque_at(j, q, w, t, params, orb):
+    """The torque of term ``j`` given the orbit sample ``orb`` (as :func:`potential_at`)."""
+    return term_torque(j, q, w, t, params)
+
+
+@jit(_nrt=REFCOUNT)
+def samples(t, y, params, od, has_orbit, out, k0, k1):
+    """Every per-sample variable of the result Dataset for the samples ``k0 .. k1 − 1``, in
+    one pass, into the flat buffer ``out`` (layout in :mod:`attitude._core.diagnostics`;
+    ``od`` the kernel data of the Dataset's orbit when ``has_orbit``)."""
+    samples_with(
+        potential_at, term_torque_at, orbit_sample, n_terms(params), t, y, params, od,
+        has_orbit, out, k0, k1,
+    )  # fmt: skip
 
 
 # Canonical equations (Arribas et al. eq. 7) ----------------------------------------------------
@@ -206,13 +238,13 @@ dop853_spacecraft_fsw = rebind(
     "spacecraft_fsw",
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
-    BOUNDARY="fsw_boundary",
+    BOUNDARY="fsw_boundary_inline",
 )
 
 #: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
 #: software as its command source (in a user module: with the user's compiled step).
 taylor_spacecraft_fsw = rebind(
-    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary"
+    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary_inline"
 )
 
 #: The same under an open-loop schedule.

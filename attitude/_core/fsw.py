@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import jit, rebind
 
 from .actuators import (
     S_IDEAL,
@@ -478,16 +478,16 @@ def _field_offset(fw, sc):
 
 
 @jit
-def _sense(t, y, sc, fw, fs, rec_row):
+def _sense(t, y, sc, fw, fs, rec_row, keep):
     """The truth at t, then what the software measures or estimates of it: (q, ω, B_body);
-    the sensors' and the estimator's record written into ``rec_row``."""
+    the sensors' and the estimator's record written into ``rec_row`` if ``keep``."""
     qt = (y[0], y[1], y[2], y[3])
     _g, omt = state_rate(sc, y)
     fo = _field_offset(fw, sc)
     bbt = (0.0, 0.0, 0.0)
     if fo > 0:
         bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
-    at = R_CMD + 2 * int(fw[FW_NCMD])
+    at = R_CMD + 2 * int(fw[FW_NCMD]) if keep else -1
     return sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, at)
 
 
@@ -501,9 +501,11 @@ def _sensed(fs):
 
 
 @jit
-def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
+def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row, keep):
     """One tick of the flight software at t from the state y: the commands to apply into
-    ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``."""
+    ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row`` if ``keep`` (an
+    unrecorded tick writes nothing there and skips what only the record needs: the error
+    angle, the estimation error and its NEES)."""
     nw = int(sc[S_NW])
     nm = int(sc[S_NM])
     ncmd = int(fw[FW_NCMD])
@@ -512,7 +514,7 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
         q, om, bb = _sensed(fs)
         fs[FS_SENSED] = 0.0
     else:
-        q, om, bb = _sense(t, y, sc, fw, fs, rec_row)
+        q, om, bb = _sense(t, y, sc, fw, fs, rec_row, keep)
     # modes: forward to the next one when its condition holds
     mode = int(fs[FS_MODE])
     nmodes = int(fw[FW_NMODES])
@@ -535,8 +537,6 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     wRN = rotate_inverse(qBR, wR_R)
     dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
-    sq = _short(qBR)
-    ang = 2.0 * math.atan2(math.sqrt(sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]), sq[0])
     # wheel momentum in body axes Σ J (a·ω + Ω) a = Σ h a (h the state)
     hw0 = hw1 = hw2 = 0.0
     for k in range(nw):
@@ -673,18 +673,21 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row):
     sc[S_IDEAL + 1] = ideal[1]
     sc[S_IDEAL + 2] = ideal[2]
     # record what was computed, then the delay
-    rec_row[R_T] = t
-    rec_row[R_MODE] = mode
-    for i in range(4):
-        rec_row[R_QREF + i] = qR[i]
-    for i in range(3):
-        rec_row[R_SIGMA + i] = sig[i]
-        rec_row[R_DOMEGA + i] = dw[i]
-        rec_row[R_TORQUE + i] = L[i]
-        rec_row[R_DIPOLE + i] = m[i]
-    rec_row[R_ANGLE] = ang
-    for i in range(ncmd):
-        rec_row[R_CMD + i] = out[i]
+    if keep:
+        rec_row[R_T] = t
+        rec_row[R_MODE] = mode
+        for i in range(4):
+            rec_row[R_QREF + i] = qR[i]
+        for i in range(3):
+            rec_row[R_SIGMA + i] = sig[i]
+            rec_row[R_DOMEGA + i] = dw[i]
+            rec_row[R_TORQUE + i] = L[i]
+            rec_row[R_DIPOLE + i] = m[i]
+        sq = _short(qBR)
+        s2 = sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]
+        rec_row[R_ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
+        for i in range(ncmd):
+            rec_row[R_CMD + i] = out[i]
     delay = int(fw[FW_DELAY])
     if delay > 0:
         k = int(fs[FS_TICK])
@@ -723,12 +726,12 @@ def fsw_boundary(P, y, t, t_end, ctl):
         keep = k % every == 0
         if keep and rc[0] >= rec.shape[0]:
             return RECORDS_FULL
-        row = rec[int(rc[0])] if keep else rec[rec.shape[0] - 1]
+        row = rec[int(rc[0]) if keep else 0]  # (an unrecorded tick writes nothing there)
         if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
             # your own step: measure once (its record in this tick's row), then ask for the
             # commands; measure() hands these measurements to the step
             if fs[FS_SENSED] == 0.0:
-                q, om, bb = _sense(t, y, sc, fw, fs, row)
+                q, om, bb = _sense(t, y, sc, fw, fs, row, keep)
                 for i in range(4):
                     fs[FS_SQ + i] = q[i]
                 for i in range(3):
@@ -737,7 +740,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
                 fs[FS_SENSED] = 1.0
             return BOUNDARY_NEEDS_COMMANDS
         hs[HS_READY] = 0.0
-        fsw_tick(t, y, params, sc, fw, fs, cmd, row)
+        fsw_tick(t, y, params, sc, fw, fs, cmd, row, keep)
         t_next = fw[FW_T0] + (k + 1) * per
         configure_hold(sc, y, cmd, t, t_next)
         # the applied commands of the tick (after the wheels' limits)
@@ -755,3 +758,34 @@ def fsw_boundary(P, y, t, t_end, ctl):
     thrusters_off_at(sc, t)
     hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
     return BOUNDARY_DONE
+
+
+# The tick inlined into the single-run drivers (numba's IR inliner; entry_points binds them):
+# passing the tick's arrays through three calls (seven arguments an array) cost ~10 % of a
+# 10 Hz closed-loop tick. The ensemble drivers keep the calls (numba's parallel array analysis
+# rejects the inlined tick).
+_INLINE = {"inline": "always"}
+_sense_inline = rebind(_sense, globals(), "inline", options=_INLINE)
+_guidance_inline = rebind(guidance, globals(), "inline", options=_INLINE)
+_configure_hold_inline = rebind(configure_hold, globals(), "inline", options=_INLINE)
+_thrusters_off_at_inline = rebind(thrusters_off_at, globals(), "inline", options=_INLINE)
+_next_thruster_off_inline = rebind(next_thruster_off, globals(), "inline", options=_INLINE)
+fsw_tick_inline = rebind(
+    fsw_tick,
+    globals(),
+    "inline",
+    options=_INLINE,
+    _sense="_sense_inline",
+    guidance="_guidance_inline",
+)
+fsw_boundary_inline = rebind(
+    fsw_boundary,
+    globals(),
+    "inline",
+    options=_INLINE,
+    fsw_tick="fsw_tick_inline",
+    _sense="_sense_inline",
+    configure_hold="_configure_hold_inline",
+    thrusters_off_at="_thrusters_off_at_inline",
+    next_thruster_off="_next_thruster_off_inline",
+)

@@ -9,9 +9,14 @@ mirrors. LLVM's SLP vectoriser (on for the kernels that use these helpers:
 :func:`orbit._shared_jit.slp_vectorized`) turns each helper into one SIMD instruction
 (LANES = 4 doubles: one AVX2 register) and keeps the tuples of a loop's accumulators in
 registers. Lanes never mix: no helper reduces across lanes.
+
+:mod:`attitude._core.lanes8` is the same at 8 doubles (one AVX-512 register);
+:func:`simd_lanes` says which width this CPU takes (chosen at run time, never at import).
 """
 
 from __future__ import annotations
+
+import os
 
 from orbit._shared_jit import jit
 
@@ -21,6 +26,34 @@ from .fma import fma as _fma
 LANES = 4
 
 ZERO = (0.0, 0.0, 0.0, 0.0)
+
+#: Lane widths with a module of helpers (this one and :mod:`attitude._core.lanes8`).
+WIDTHS = (4, 8)
+
+_HOST: list[int] = []
+
+
+def simd_lanes() -> int:
+    """Doubles per SIMD register of this CPU, as the batch integrator's lane count: 8 with
+    AVX-512 (``avx512f``), else 4 (AVX2, or the width LLVM splits for older CPUs).
+
+    ``ATTITUDE_SIMD_LANES=4`` or ``8`` overrides it (read at every call: tests compare the
+    widths). A width changes speed only, never a result.
+    """
+    env = os.environ.get("ATTITUDE_SIMD_LANES", "").strip()
+    if env:
+        if int(env) not in WIDTHS:
+            raise ValueError(f"ATTITUDE_SIMD_LANES={env!r}: must be one of {WIDTHS}")
+        return int(env)
+    if not _HOST:
+        try:
+            import llvmlite.binding as llb
+
+            avx512 = bool(llb.get_host_cpu_features().get("avx512f"))
+        except Exception:  # pragma: no cover - no feature list (another architecture)
+            avx512 = False
+        _HOST.append(8 if avx512 else 4)
+    return _HOST[0]
 
 
 @jit(inline="always")

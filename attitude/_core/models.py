@@ -24,8 +24,9 @@ from __future__ import annotations
 from typing import Any
 
 from orbit._shared_jit import specialise
-from orbit._state_kernels import radial_kernel
+from orbit._state_kernels import radial_kernel, sample_kernel
 
+from . import diagnostics as _diagnostics
 from . import entry_points as _generic
 from . import potentials as _kp
 
@@ -61,8 +62,10 @@ _ENVIRONMENT = {
 }
 
 
-def _model(tag: str, torque: Any, potential: Any) -> Any:
-    """The entry points with ``torque``/``potential`` of one model alone (cached per process)."""
+def _model(tag: str, torque: Any, potential: Any, orbit_sample: Any, **more: Any) -> Any:
+    """The entry points with ``torque``/``potential`` of one model alone (cached per process),
+    ``orbit_sample`` the kernel of its orbit's type (:func:`_diagnostics.no_orbit_sample`
+    without one), and ``more`` other globals bound."""
     if tag not in _CACHE:
         term = specialise(_kp, tag, names=("model_term_torque",), MODEL_TORQUE=torque)
         _CACHE[tag] = specialise(
@@ -72,27 +75,49 @@ def _model(tag: str, torque: Any, potential: Any) -> Any:
             potential=potential,
             term_torque=term.model_term_torque,
             n_terms=_kp.model_n_terms,
+            orbit_sample=orbit_sample,
+            **more,
         )
     return _CACHE[tag]
 
 
 def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
     """The compiled entry points of a built-in model of kind ``kind`` (``KIND_*`` of
-    :mod:`attitude._core.potentials`; a gravity gradient also gives its orbit's
+    :mod:`attitude._core.potentials`; a model with an orbit also gives the orbit's
     ``kernel_data()``): specialised to that model alone where there is a specialisation, else
     the generic module.
     """
     if kind == _kp.KIND_TORQUE_FREE:
-        return _model("torque_free", _kp.torque_free_torque, _kp.torque_free_potential)
+        return _model(
+            "torque_free",
+            _kp.torque_free_torque,
+            _kp.torque_free_potential,
+            _diagnostics.no_orbit_sample,
+        )
     if kind == _kp.KIND_HEAVY_TOP:
-        return _model("heavy_top", _kp.heavy_top_torque, _kp.heavy_top_potential)
+        return _model(
+            "heavy_top", _kp.heavy_top_torque, _kp.heavy_top_potential, _diagnostics.no_orbit_sample
+        )
     if kind in _ENVIRONMENT:
-        return _model(*_ENVIRONMENT[kind])
+        tag, torque, potential = _ENVIRONMENT[kind]
+        if orbit_data is None:
+            return _model(tag, torque, potential, _diagnostics.no_orbit_sample)
+        orbit_tag, sample = sample_kernel(orbit_data)
+        return _model(f"{tag}_{orbit_tag}", torque, potential, sample)
     if kind == _kp.KIND_GRAVITY_GRADIENT and orbit_data is not None:
         orbit_tag, radial = radial_kernel(orbit_data)
         tag = f"gravity_gradient_{orbit_tag}"
         if tag not in _CACHE:
             gg = specialise(_kp, tag, names=_GG_KERNELS, orbit_radial=radial)
-            return _model(tag, gg.gravity_gradient_torque, gg.gravity_gradient_potential)
+            # The Dataset's orbit is the model's: its potential and torque read the orbit
+            # sample that the diagnostics pass looks up anyway (one Kepler solve a sample).
+            return _model(
+                tag,
+                gg.gravity_gradient_torque,
+                gg.gravity_gradient_potential,
+                sample_kernel(orbit_data)[1],
+                potential_at=_kp.gravity_gradient_potential_at,
+                term_torque_at=_kp.gravity_gradient_term_torque_at,
+            )
         return _CACHE[tag]
     return _generic

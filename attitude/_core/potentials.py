@@ -141,6 +141,25 @@ def gravity_gradient_potential(q, t, params, base=P_KIND):
 
 
 @jit(_nrt=False)
+def gravity_gradient_potential_at(q, t, params, orb):
+    """The gravity gradient alone: its potential energy given its orbit's sample ``orb``
+    (``orbit._state_kernels.orbit_sample``: r, r̂ first), bit for bit
+    :func:`gravity_gradient_potential`."""
+    mu = params[P0 + ORBIT_MU]
+    return gravity_gradient_potential_radial(q, orb[0], orb[1], orb[2], orb[3], mu, params)
+
+
+@jit(_nrt=False)
+def gravity_gradient_term_torque_at(j, q, w, t, params, orb):
+    """The gravity gradient alone: its torque given its orbit's sample ``orb``, bit for bit
+    :func:`gravity_gradient_torque`."""
+    mu = params[P0 + ORBIT_MU]
+    k, xb, ixb = gravity_gradient_terms_radial(q, orb[0], orb[1], orb[2], orb[3], mu, params)
+    c = cross(xb, ixb)
+    return (k * c[0], k * c[1], k * c[2])
+
+
+@jit(_nrt=False)
 def term_torque(q, w, t, params, base):
     """Body-frame torque of the built-in model whose block starts at ``params[base]``."""
     kind = int(params[base])

@@ -4,12 +4,15 @@ Each noisy sensor owns a stream: a xoshiro256** generator (Blackman & Vigna, "Sc
 pseudorandom number generators", ACM TOMS 47, 2021) whose four 64-bit words live in a float64
 slot array as their bit patterns (so a stream is part of the sensor's state, copied, stored and
 resumed bit for bit), seeded by SplitMix64 from the sensor's seed as the authors recommend.
-Normal deviates by the polar method of Marsaglia (two uniforms per pair, the second kept).
-Integer arithmetic is exact, so a seed gives the same numbers on every machine and in every
-thread, whatever else runs.
+Normal deviates by the ziggurat method (Marsaglia & Tsang, "The ziggurat method for
+generating random variables", J. Stat. Softw. 5(8), 2000) in the form NumPy's
+``Generator.standard_normal`` uses: 256 layers, one 64-bit word per deviate on 99 % of draws
+(8 bits choose the layer, 1 the sign, 52 the abscissa), the wedges and the tail (Marsaglia's
+exponential method beyond r) on the rest. It replaced the polar method (5x faster: a gyro draws
+6 deviates a tick). Integer arithmetic is exact and the tables are fixed numbers, so a seed
+gives the same numbers on every machine and in every thread, whatever else runs.
 
-Layout of a stream (RNG_SIZE floats): the four state words (uint64 bits), a cached normal
-deviate and a flag saying it is valid.
+Layout of a stream (RNG_SIZE floats): the four state words (uint64 bits).
 """
 
 from __future__ import annotations
@@ -20,11 +23,15 @@ import numpy as np
 
 from orbit._shared_jit import JIT_DISABLED, jit
 
-RNG_SIZE = 6
-_CACHE = 4
-_HAS = 5
+RNG_SIZE = 4
 
 _M64 = np.uint64(0xFFFFFFFFFFFFFFFF)
+
+#: The ziggurat's tail edge r and layer area v for 256 layers (Marsaglia & Tsang 2000; v =
+#: r f(r) + √(π/2) erfc(r/√2) with f(x) = exp(−x²/2), as NumPy's tables).
+ZIG_R = 3.6541528853610088
+ZIG_INV_R = 1.0 / ZIG_R
+ZIG_V = 0.0049286732339746519
 
 
 @jit(inline="always")
@@ -59,8 +66,6 @@ def seed_stream(st, o, seed):
     for i in range(4):
         x, z = splitmix64(x)
         _store(st, o, i, z)
-    st[o + _CACHE] = 0.0
-    st[o + _HAS] = 0.0
 
 
 @jit
@@ -91,22 +96,54 @@ def uniform(st, o):
     return float(next_u64(st, o) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
+def ziggurat_tables(n: int = 256, r: float = ZIG_R, v: float = ZIG_V):
+    """The ziggurat's layers for f(x) = exp(−x²/2): ``(k, w, f)`` (n,) each.
+
+    The layer edges x_n−1 = r > ... > x_1 > x_0 = 0 satisfy x_{i−1} = f⁻¹(f(x_i) + v/x_i)
+    (every layer has the area v of the base strip, r f(r) plus the tail). Layer i draws x =
+    j w_i for a 52-bit j (w_i = x_i / 2⁵²; the base strip w_0 = v / f(r) / 2⁵²) and accepts it
+    at once if j < k_i (x under the next layer's edge: k_i = 2⁵² x_{i−1}/x_i; k_0 = 2⁵² r
+    f(r)/v); f_i = f(x_i) bound the wedge tests.
+    """
+    f = lambda x: math.exp(-0.5 * x * x)  # noqa: E731
+    x = np.zeros(n)
+    x[n - 1] = r
+    for i in range(n - 2, 0, -1):
+        x[i] = math.sqrt(-2.0 * math.log(f(x[i + 1]) + v / x[i + 1]))
+    scale = 2.0**52
+    k = np.zeros(n, np.uint64)
+    k[1:] = np.round(x[:-1] / x[1:] * scale).astype(np.uint64)
+    k[0] = np.uint64(round(r * f(r) / v * scale))
+    w = x / scale
+    w[0] = v / f(r) / scale
+    fx = np.exp(-0.5 * x * x)
+    return k, w, fx
+
+
+_ZK, _ZW, _ZF = ziggurat_tables()  # read by the kernels as compile-time constants
+
+
 @jit
 def normal(st, o):
-    """A standard normal deviate (Marsaglia's polar method; pairs, the second cached)."""
-    if st[o + _HAS] != 0.0:
-        st[o + _HAS] = 0.0
-        return st[o + _CACHE]
+    """A standard normal deviate (the ziggurat: see the module docstring)."""
     while True:
-        u = 2.0 * uniform(st, o) - 1.0
-        v = 2.0 * uniform(st, o) - 1.0
-        s = u * u + v * v
-        if 0.0 < s < 1.0:
-            break
-    f = math.sqrt(-2.0 * math.log(s) / s)
-    st[o + _CACHE] = v * f
-    st[o + _HAS] = 1.0
-    return u * f
+        r = next_u64(st, o)
+        idx = int(r & np.uint64(0xFF))
+        r = r >> np.uint64(8)
+        j = (r >> np.uint64(1)) & np.uint64(0x000FFFFFFFFFFFFF)
+        x = float(j) * _ZW[idx]
+        if r & np.uint64(1):
+            x = -x
+        if j < _ZK[idx]:
+            return x  # inside the layer's rectangle: 99 % of draws
+        if idx == 0:  # the tail beyond r (Marsaglia 1964): x = r + e₁/r while 2 e₂ > (e₁/r)²
+            while True:
+                xx = -ZIG_INV_R * math.log1p(-uniform(st, o))
+                yy = -math.log1p(-uniform(st, o))
+                if yy + yy > xx * xx:
+                    return -(ZIG_R + xx) if (j >> np.uint64(8)) & np.uint64(1) else ZIG_R + xx
+        elif (_ZF[idx - 1] - _ZF[idx]) * uniform(st, o) + _ZF[idx] < math.exp(-0.5 * x * x):
+            return x  # under the density in the layer's wedge
 
 
 @jit

@@ -39,17 +39,18 @@ them in the machine code).
 from __future__ import annotations
 
 import math
+import sys
 
 import numba
 import numpy as np
 
 from orbit import _state_kernels as _SK
-from orbit._shared_jit import jit, parallel_jit, slp_vectorized
+from orbit._shared_jit import jit, parallel_jit, slp_vectorized, specialise
 
 from . import lanes as V
 from .dynamics import diagnostics_row, diagnostics_with
 from .fma import fma as F
-from .lanes import LANES
+from .lanes import LANES, simd_lanes
 from .potentials import (
     KIND_GRAVITY_GRADIENT,
     KIND_HEAVY_TOP,
@@ -78,7 +79,37 @@ from .taylor import (
     step_end,
 )
 
-__all__ = ["LANES", "new_workspaces", "taylor_ensemble_parallel", "taylor_ensemble_serial"]
+__all__ = [
+    "LANES",
+    "batch",
+    "new_workspaces",
+    "taylor_ensemble_parallel",
+    "taylor_ensemble_serial",
+]
+
+_BATCHES: dict[int, object] = {}
+
+
+def batch(width: int | None = None):
+    """The batch integrator at ``width`` lanes (default: :func:`attitude._core.lanes.simd_lanes`,
+    the CPU's, chosen at run time): this module for 4, else its copy bound to
+    :mod:`attitude._core.lanes8` (:func:`orbit._shared_jit.specialise`, compiled and cached on
+    first use under its own name). Every width gives the same results, bit for bit: lanes never
+    mix, and each computes the scalar kernel's operations in its order."""
+    width = simd_lanes() if width is None else int(width)
+    if width == LANES:
+        return sys.modules[__name__]
+    mod = _BATCHES.get(width)
+    if mod is None:
+        if width != 8:
+            raise ValueError(f"batch width {width}: 4 or 8 lanes")
+        from . import lanes8
+
+        mod = _BATCHES[width] = specialise(
+            sys.modules[__name__], "lanes8", V=lanes8, LANES=lanes8.LANES
+        )
+    return mod
+
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
 K_II = 0  # 1/I1, 1/I2, 1/I3
@@ -513,15 +544,16 @@ G_DONE = 1
 GST = 2
 
 
-def new_workspaces(n_groups):
-    """The arrays of ``n_groups`` batch integrators, ``(cf, cst, lts, lint, gst)``, each with
-    a leading group axis; ``gst[:, G_NEXT] = -1``: not begun. They persist between the calls
-    of a run that is paused at its step budget."""
+def new_workspaces(n_groups, lanes=LANES):
+    """The arrays of ``n_groups`` batch integrators of ``lanes`` lanes (the ``LANES`` of the
+    :func:`batch` that runs them), ``(cf, cst, lts, lint, gst)``, each with a leading group
+    axis; ``gst[:, G_NEXT] = -1``: not begun. They persist between the calls of a run that is
+    paused at its step budget."""
     gst = np.zeros((n_groups, GST), dtype=np.int64)
     for g in range(n_groups):
         gst[g, G_NEXT] = -1
-    return (np.zeros((n_groups, WORK_ROWS, NCOL, LANES)), np.zeros((n_groups, NCONST, LANES)),
-            np.zeros((n_groups, LANES, 5)), np.zeros((n_groups, LANES, LINT), dtype=np.int64),
+    return (np.zeros((n_groups, WORK_ROWS, NCOL, lanes)), np.zeros((n_groups, NCONST, lanes)),
+            np.zeros((n_groups, lanes, 5)), np.zeros((n_groups, lanes, LINT), dtype=np.int64),
             gst)  # fmt: skip
 
 

@@ -144,8 +144,10 @@ TAYLOR_MIN_GROUP = 32
 def _compute_chunk_taylor(setup, params, y0, out, parallel):
     """:func:`_compute_chunk` with ``method="taylor"``: members in SIMD batches
     (:mod:`attitude._core.taylor_batch`), in groups run in parallel."""
-    from .._core import taylor_batch as _tb
+    from .._core import taylor_batch as _tb0
     from .._core.potentials import KIND_GRAVITY_GRADIENT, P0, P_KIND
+
+    _tb = _tb0.batch()  # lanes sized to the CPU (same results at any width)
 
     c = y0.shape[0]
     tstate = np.empty((c, 5))
@@ -169,7 +171,7 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
     n_groups = 1 if threads == 1 else max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
     group = max(c, 1) if n_groups == 1 else -(-c // n_groups)
     n_groups = -(-c // group)  # (0 for no members: nothing to run)
-    ws = _tb.new_workspaces(n_groups)
+    ws = _tb.new_workspaces(n_groups, _tb.LANES)
     # Batch steps (LANES member steps each) per group and call, ENSEMBLE_STEP_BUDGET member
     # steps per thread and call in all: the call returns to Python (Ctrl-C acts) and goes on.
     budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * threads // (n_groups * _tb.LANES))

@@ -250,3 +250,26 @@ def _member_potentials(potential: Any, n: int, inertia: np.ndarray):
         )
     ref = inertia if inertia.ndim == 1 else inertia[0]
     return pot, pot._params(ref), None
+
+
+def _ensemble_method(method: str, pot: Potential, pots: Any, events: Any) -> str:
+    """The method of every member: ``"auto"`` is ``"taylor"`` if each member's potential picks
+    it (:func:`attitude.propagate.choose_method`), else ``"dop853"``; ``"taylor"`` is checked:
+    built-in potentials it expands, no events (as ``propagate``)."""
+    from ..propagate import AUTO, choose_method
+    from ..taylor import check_potential
+
+    every = pots if pots is not None else (pot,)
+    if method == AUTO:
+        picks = {choose_method(AUTO, p, events=events) for p in every}
+        return "taylor" if picks == {"taylor"} else "dop853"
+    if method != "taylor":
+        return method
+    if events is not None:
+        raise AttitudeValueError(
+            "events: method='taylor' does not locate events (neither does "
+            "propagate(method='taylor')); use method='dop853' for an ensemble with events"
+        )
+    for p in every:
+        check_potential(p)
+    return method

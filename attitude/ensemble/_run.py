@@ -18,7 +18,7 @@ from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
-from ..propagate import ATOL_MIN, PROJECTION_WARN, _check_max_step
+from ..propagate import ATOL_MIN, AUTO, PROJECTION_WARN, _check_max_step
 from . import _dask, _plan
 from ._chunks import (
     _N_DIAG,
@@ -37,6 +37,7 @@ from ._dask import (
 )
 from ._members import (
     _body_units,
+    _ensemble_method,
     _member_inertia,
     _member_potentials,
     _member_states,
@@ -113,7 +114,7 @@ def propagate_ensemble(
     Q0: Any,
     t: Any,
     potential: Potential | Sequence[Potential] | None = None,
-    method: str = "dop853",
+    method: str = "auto",
     rtol: float = 1e-10,
     atol: float = 1e-12,
     *,
@@ -147,8 +148,9 @@ def propagate_ensemble(
     Each member is integrated independently by the compiled DOP853 loop of
     :func:`attitude.propagate` (Hamilton's equations in (q, Q), Arribas et al. eq. 7, with the
     torque as the generalised force of Schwab eq. 25), with its own adaptive steps; with
-    ``method="taylor"`` by the Taylor method of ``propagate(method="taylor")``, four members
-    per SIMD instruction (each with its own steps; results bit for bit those of single runs).
+    ``method="taylor"`` (what ``"auto"`` picks for built-in potentials) by the Taylor method of
+    ``propagate(method="taylor")``, 4 or 8 members per SIMD instruction (the CPU's width,
+    chosen at run time; results bit for bit those of single runs, whatever the width).
 
     Parameters
     ----------
@@ -168,10 +170,12 @@ def propagate_ensemble(
         ``HeavyTop`` with per-member weights). ``CustomPotential``/``CustomTorque`` are
         supported as one potential for all members (compiled into the user cache, see
         docs/potentials.md).
-    method : {"dop853", "taylor"}
-        The integrator of every member (docs/integrators.md). ``"taylor"``: built-in
-        potentials only (torque-free, heavy top, gravity gradient of a Kepler orbit), no
-        events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
+    method : {"auto", "dop853", "taylor"}
+        The integrator of every member (docs/integrators.md). ``"auto"`` (default):
+        ``"taylor"`` for built-in potentials without events, else ``"dop853"``
+        (:func:`attitude.propagate.choose_method`; attrs ``method``, ``method_requested``).
+        ``"taylor"``: built-in potentials only (torque-free, heavy top, gravity gradient of a
+        Kepler orbit), no events; ``member_n_rhs`` is 0 and the order is the attr ``taylor_order``.
     rtol, atol : float
         Tolerances, as in ``propagate`` (DOP853: per state component; Taylor: the order and
         the step of Jorba & Zou).
@@ -290,11 +294,12 @@ def propagate_ensemble(
     """
     body = bodies_or_body
     t_start = time.perf_counter()
-    if not isinstance(method, str) or method not in ENSEMBLE_METHODS:
+    requested = method
+    if not isinstance(method, str) or method not in (*ENSEMBLE_METHODS, AUTO):
         raise AttitudeValueError(
             f"method: propagate_ensemble runs {' or '.join(map(repr, ENSEMBLE_METHODS))} (the "
-            f"compiled parallel loops), got {method!r}; for other methods loop over "
-            f"attitude.propagate"
+            f"compiled parallel loops; 'auto' picks one), got {method!r}; for other methods "
+            f"loop over attitude.propagate"
         )
     tt = as_times(t, "t")
     rtol = as_rtol(rtol, "rtol")
@@ -386,8 +391,7 @@ def propagate_ensemble(
         members, unit, pot, pots = _source
         n = members.n
     user = pot if pot._user_terms() else None
-    if method == "taylor":
-        _check_taylor(pot, pots, events)
+    method = _ensemble_method(method, pot, pots, events)
     evset = None
     if events is not None:
         evset = _ensemble_events(events, tt, pot, epoch)
@@ -453,6 +457,7 @@ def propagate_ensemble(
     run_attrs: dict[str, Any] = {
         "title": "attitude ensemble propagation",
         "method": method,
+        **({"method_requested": requested} if requested != method else {}),
         "formulation": "canonical",
         "rtol": rtol,
         "atol": atol,
@@ -631,19 +636,6 @@ def propagate_ensemble(
         )
         raise PropagationError(f"{failure}{where}", time=failure.time, partial=result)
     return result
-
-
-def _check_taylor(pot: Potential, pots: Any, events: Any) -> None:
-    """``method="taylor"``: built-in potentials it expands, no events (as ``propagate``)."""
-    from ..taylor import check_potential
-
-    if events is not None:
-        raise AttitudeValueError(
-            "events: method='taylor' does not locate events (neither does "
-            "propagate(method='taylor')); use method='dop853' for an ensemble with events"
-        )
-    for p in pots if pots is not None else (pot,):
-        check_potential(p)
 
 
 def _ensemble_events(events: Any, t: np.ndarray, pot: Potential, epoch: Any) -> Any:

@@ -357,7 +357,7 @@ class CraftMembers:
             states.append(fs)
         fs_at = np.zeros(c + 1, dtype=np.int64)
         fs_at[1:] = np.cumsum([s.shape[0] for s in states])
-        n_rows = self.tick_times().shape[0] + 1  # the last row: scratch of unrecorded ticks
+        n_rows = self.tick_times().shape[0] + 1  # one spare row (unrecorded ticks write nothing)
         rec = np.full((c, n_rows, prog.rec_width), np.nan)
         out["src"] = (
             hs,

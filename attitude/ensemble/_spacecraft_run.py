@@ -90,9 +90,11 @@ def propagate_spacecraft(
 ) -> xr.Dataset:
     """The spacecraft ensemble of :func:`attitude.ensemble.propagate_ensemble` (its arguments,
     validated there except those of spacecraft)."""
+    requested = method
     members, pot, run_attrs = _validate(
         body, q0, Q0, tt, potential, plan, method, epoch, commands, software, seed, refused
     )
+    method = members.method  # "auto" resolved as the single runs resolve it
     n = members.n
     threads_n = _threads(threads)
     csize = chunk_size or max(1, min(MAX_CHUNK, max(-(-n // 20), 16 * threads_n)))
@@ -101,6 +103,7 @@ def propagate_spacecraft(
         {
             "title": "attitude ensemble propagation",
             "method": method,
+            **({"method_requested": requested} if requested != method else {}),
             "formulation": "canonical",
             "rtol": rtol,
             "atol": atol,
@@ -156,6 +159,20 @@ def _threads(threads: int | None) -> int:
     return numba.get_num_threads()
 
 
+def _choose(method: str, crafts: Any, pot: Any) -> str:
+    """The method of every member: ``"auto"`` is ``"taylor"`` when every member's single run
+    would pick it (:func:`attitude.propagate.choose_method` with its spacecraft), else
+    ``"dop853"`` for all (one method runs the whole ensemble)."""
+    from ..propagate import AUTO, choose_method
+
+    if method != AUTO:
+        return method
+    for craft in crafts if isinstance(crafts, list) else [crafts]:
+        if choose_method(AUTO, pot, spacecraft=craft) != "taylor":
+            return "dop853"
+    return "taylor"
+
+
 def _validate(body, q0, Q0, tt, potential, plan, method, epoch, commands, software, seed,
               refused):  # fmt: skip
     """(CraftMembers, prepared potential, attrs): every input checked before any work."""
@@ -208,6 +225,7 @@ def _validate(body, q0, Q0, tt, potential, plan, method, epoch, commands, softwa
         _project(rows(q), rows(Q), start)
     first = crafts[0] if isinstance(crafts, list) else crafts
     pot = as_potential(potential).bind(first.body)
+    method = _choose(method, crafts, pot)
     span = np.array([tt[0], tt[-1]], dtype=np.float64)
     run_attrs = _epoch_attrs(pot, epoch)
     try:

@@ -190,7 +190,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
 
     # [integrator]
     nt = r.table("integrator")
-    method = r.string(nt, "method", "integrator", "dop853")
+    method = r.string(nt, "method", "integrator", "auto")
     rtol = r.number(nt, "rtol", "integrator", 1e-10)
     atol = r.number(nt, "atol", "integrator", 1e-12)
     for k, v in (("rtol", rtol), ("atol", atol)):
@@ -207,7 +207,8 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     from ..propagate import _lookup_method
 
     try:
-        _lookup_method(method)
+        if method != "auto":  # (the run picks taylor or dop853: propagate.choose_method)
+            _lookup_method(method)
     except AttitudeValueError as exc:
         raise _fail("integrator.method", str(exc).split(": ", 1)[-1]) from None
     dt = None
@@ -223,7 +224,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
 
     if formulation != "canonical":
         try:
-            get_formulation(formulation, method)
+            get_formulation(formulation, "dop853" if method == "auto" else method)
         except AttitudeValueError as exc:
             raise _fail("integrator.formulation", str(exc).split(": ", 1)[-1]) from None
 

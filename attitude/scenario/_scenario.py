@@ -42,7 +42,7 @@ class Scenario:
     t: Any  # output times: a TimeGrid (generated a chunk at a time) or an array
     time_unit: str
     time_scale: float = 1.0  # internal time units per unit of the [time] table
-    method: str = "dop853"
+    method: str = "auto"  # taylor where the model supports it, else dop853
     rtol: float = 1e-10
     atol: float = 1e-12
     max_step: float = math.inf
