@@ -82,7 +82,7 @@ from attitude._core.spacecraft_ensemble import (
     spacecraft_member_begin,
 )
 from attitude._core.splitting import composition_run
-from attitude._core.taylor_gyrostat import taylor_holds_run
+from attitude._core.taylor_gyrostat import gyrostat_step_inline, taylor_holds_run  # noqa: F401
 from orbit._shared_jit import jit, parallel_jit, rebind
 from orbit._state_kernels import orbit_sample as _any_orbit_sample
 
@@ -244,7 +244,12 @@ dop853_spacecraft_fsw = rebind(
 #: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
 #: software as its command source (in a user module: with the user's compiled step).
 taylor_spacecraft_fsw = rebind(
-    taylor_holds_run, globals(), "fsw", options={"_nrt": REFCOUNT}, BOUNDARY="fsw_boundary_inline"
+    taylor_holds_run,
+    globals(),
+    "fsw",
+    options={"_nrt": REFCOUNT},
+    BOUNDARY="fsw_boundary_inline",
+    gyrostat_step="gyrostat_step_inline",
 )
 
 #: The same under an open-loop schedule.

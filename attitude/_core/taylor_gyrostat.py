@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 
 from orbit import _state_kernels as _SK
-from orbit._shared_jit import jit
+from orbit._shared_jit import jit, rebind
 
 from .actuators import (
     S_IDEAL,
@@ -505,6 +505,21 @@ def gyrostat_order0(cf, sc, nw):
         b = S_WHEELS + j * WS
         aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
         cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + W_INVJ], -aw)
+
+
+# One step inlined whole into the single-run driver (entry_points binds it; the SIMD batch
+# keeps the calls): the step's halves pass their arrays as seven arguments each.
+_INLINE = {"inline": "always"}
+_step_prepare_inline = rebind(step_prepare, globals(), "inline", options=_INLINE)
+_step_complete_inline = rebind(step_complete, globals(), "inline", options=_INLINE)
+gyrostat_step_inline = rebind(
+    gyrostat_step,
+    globals(),
+    "inline",
+    options=_INLINE,
+    step_prepare="_step_prepare_inline",
+    step_complete="_step_complete_inline",
+)
 
 
 #: The command source of :func:`taylor_holds_run` (as :data:`attitude._core.holds.BOUNDARY`):
