@@ -420,12 +420,28 @@ def test_bad_sensor_parameters_are_refused():
         )
 
 
+def _dense_transition(w, dt, sv, su):
+    """The MEKF's error-state transition Φ = expm(F Δt), F = [[−[w×], −I], [0, 0]], and its
+    discrete process noise Q (Farrenkopf; Markley & Crassidis 2014, Sect. 6.2), as dense
+    matrices."""
+    from scipy.linalg import expm
+
+    W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    F = np.zeros((6, 6))
+    F[:3, :3], F[:3, 3:] = -W, -np.eye(3)
+    sv2, su2 = sv**2, su**2
+    Q = np.zeros((6, 6))
+    Q[:3, :3] = (sv2 * dt + su2 * dt**3 / 3) * np.eye(3)
+    Q[:3, 3:] = Q[3:, :3] = -su2 * dt**2 / 2 * np.eye(3)
+    Q[3:, 3:] = su2 * dt * np.eye(3)
+    return expm(F * dt), Q
+
+
 def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     """The filter's covariance steps, written by blocks on scalars, against the dense textbook
     formulas in numpy: propagation P ← Φ P Φᵀ + Q with Φ = expm(F Δt) of the error dynamics
     F = [[−[ω×], −1], [0, 0]] (scipy, independent of the closed form), and the star tracker's
     update in Joseph form (1 − KH) P (1 − KH)ᵀ + K R Kᵀ, K = P Hᵀ (H P Hᵀ + R)⁻¹, H = [1 0]."""
-    from scipy.linalg import expm
 
     from attitude._core import mekf as M
 
@@ -442,15 +458,7 @@ def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     om, dt = np.array([0.02, -0.05, 0.03]), 0.1
     M.mekf_propagate(es, ep, om, dt)
     w = om - np.array([1e-5, -2e-5, 3e-5])
-    W = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
-    F = np.zeros((6, 6))
-    F[:3, :3], F[:3, 3:] = -W, -np.eye(3)
-    Phi = expm(F * dt)
-    sv2, su2 = ep[M.EP_SV] ** 2, ep[M.EP_SU] ** 2
-    Q = np.zeros((6, 6))
-    Q[:3, :3] = (sv2 * dt + su2 * dt**3 / 3) * np.eye(3)
-    Q[:3, 3:] = Q[3:, :3] = -su2 * dt**2 / 2 * np.eye(3)
-    Q[3:, 3:] = su2 * dt * np.eye(3)
+    Phi, Q = _dense_transition(w, dt, ep[M.EP_SV], ep[M.EP_SU])
     P1 = Phi @ P0 @ Phi.T + Q
     got = es[M.E_P : M.E_P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
@@ -589,7 +597,6 @@ def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
     switches to the series of (wΔt − sin wΔt)/w³ (wΔt < 0.1) and above it, and at ω = 0; and,
     from P = 0, the process noise Q alone, every entry to 1e-12 relative (its terms are far
     below the rest of P otherwise): σ_v² Δt + σ_u² Δt³/3, −σ_u² Δt²/2, σ_u² Δt (Farrenkopf)."""
-    from scipy.linalg import expm
 
     from attitude._core import mekf as M
 
@@ -601,16 +608,7 @@ def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
     bias = np.array([1e-3, -2e-3, 3e-3]) * (rate > 0)
     om = bias + rate * np.array([0.6, -0.48, 0.64])
     dt = 2.0
-    W = np.array([[0, -rate * 0.64, -rate * 0.48], [rate * 0.64, 0, -rate * 0.6],
-                  [rate * 0.48, rate * 0.6, 0]])  # fmt: skip
-    F = np.zeros((6, 6))
-    F[:3, :3], F[:3, 3:] = -W, -np.eye(3)
-    Phi = expm(F * dt)
-    sv2, su2 = ep[M.EP_SV] ** 2, ep[M.EP_SU] ** 2
-    Q = np.zeros((6, 6))
-    Q[:3, :3] = (sv2 * dt + su2 * dt**3 / 3) * np.eye(3)
-    Q[:3, 3:] = Q[3:, :3] = -su2 * dt**2 / 2 * np.eye(3)
-    Q[3:, 3:] = su2 * dt * np.eye(3)
+    Phi, Q = _dense_transition(rate * np.array([0.6, -0.48, 0.64]), dt, ep[M.EP_SV], ep[M.EP_SU])
     for P, want in ((P0, Phi @ P0 @ Phi.T + Q), (np.zeros((6, 6)), Q)):
         es = np.zeros(M.E_SIZE)
         M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
