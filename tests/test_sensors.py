@@ -420,6 +420,14 @@ def test_bad_sensor_parameters_are_refused():
         )
 
 
+def _joseph_update(P, H, R):
+    """The Kalman gain K = P Hᵀ (H P Hᵀ + R)⁻¹ and the updated covariance in Joseph form
+    (1 − KH) P (1 − KH)ᵀ + K R Kᵀ, as dense matrices."""
+    K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
+    IKH = np.eye(P.shape[0]) - K @ H
+    return K, IKH @ P @ IKH.T + K @ R @ K.T
+
+
 def _dense_transition(w, dt, sv, su):
     """The MEKF's error-state transition Φ = expm(F Δt), F = [[−[w×], −I], [0, 0]], and its
     discrete process noise Q (Farrenkopf; Markley & Crassidis 2014, Sect. 6.2), as dense
@@ -468,9 +476,7 @@ def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     qm = qt.multiply(q_before, qt.from_rotation_vector([2e-5, -1e-5, 3e-5]))
     M.mekf_update_quaternion(es, ep, tuple(qm))
     H = np.hstack([np.eye(3), np.zeros((3, 3))])
-    K = P1 @ H.T @ np.linalg.inv(H @ P1 @ H.T + R)
-    IKH = np.eye(6) - K @ H
-    P2 = IKH @ P1 @ IKH.T + K @ R @ K.T
+    K, P2 = _joseph_update(P1, H, R)
     got = es[M.E_P : M.E_P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
     np.testing.assert_allclose(got, P2, rtol=1e-9, atol=1e-9 * np.abs(P2).max())
@@ -516,9 +522,7 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
     bm = body(np.array([0.01, -0.02, 0.015])) + np.array([1e-3, -2e-3, 5e-4])
     M.mekf_update_vector(es, *bm, *r, sigma)
     R = sigma**2 * np.eye(3)
-    K = P0 @ H.T @ np.linalg.inv(H @ P0 @ H.T + R)
-    IKH = np.eye(6) - K @ H
-    P1 = IKH @ P0 @ IKH.T + K @ R @ K.T
+    K, P1 = _joseph_update(P0, H, R)
     got = es[M.E_P : M.E_P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
     np.testing.assert_allclose(got, P1, rtol=1e-8, atol=1e-8 * np.abs(P1).max())
