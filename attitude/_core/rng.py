@@ -50,31 +50,22 @@ def splitmix64(x):
 
 
 @jit
-def _load(st, o, i):
-    return st[o + i : o + i + 1].view(np.uint64)[0]
-
-
-@jit
-def _store(st, o, i, v):
-    st[o + i : o + i + 1].view(np.uint64)[0] = v
-
-
-@jit
 def seed_stream(st, o, seed):
     """Seed the stream at ``st[o:o+RNG_SIZE]`` from an integer ``seed`` (SplitMix64)."""
     x = np.uint64(seed)
     for i in range(4):
         x, z = splitmix64(x)
-        _store(st, o, i, z)
+        st.view(np.uint64)[o + i] = z
 
 
-@jit
+@jit(inline="always")
 def next_u64(st, o):
     """The next 64-bit output of xoshiro256**."""
-    s0 = _load(st, o, 0)
-    s1 = _load(st, o, 1)
-    s2 = _load(st, o, 2)
-    s3 = _load(st, o, 3)
+    v = st.view(np.uint64)  # one view a draw: a view costs ~2 ns (a one-element slice's, 7)
+    s0 = v[o]
+    s1 = v[o + 1]
+    s2 = v[o + 2]
+    s3 = v[o + 3]
     result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
     t = s1 << np.uint64(17)
     s2 ^= s0
@@ -83,10 +74,10 @@ def next_u64(st, o):
     s0 ^= s3
     s2 ^= t
     s3 = _rotl(s3, 45)
-    _store(st, o, 0, s0)
-    _store(st, o, 1, s1)
-    _store(st, o, 2, s2)
-    _store(st, o, 3, s3)
+    v[o] = s0
+    v[o + 1] = s1
+    v[o + 2] = s2
+    v[o + 3] = s3
     return result
 
 
@@ -123,19 +114,24 @@ def ziggurat_tables(n: int = 256, r: float = ZIG_R, v: float = ZIG_V):
 _ZK, _ZW, _ZF = ziggurat_tables()  # read by the kernels as compile-time constants
 
 
+@jit(inline="always")
+def _layer_draw(st, o):
+    """One draw of the ziggurat: (layer index, 52-bit abscissa j, x, accepted at once)."""
+    r = next_u64(st, o)
+    idx = int(r & np.uint64(0xFF))
+    r = r >> np.uint64(8)
+    j = (r >> np.uint64(1)) & np.uint64(0x000FFFFFFFFFFFFF)
+    x = float(np.int64(j)) * _ZW[idx]  # j < 2⁵²: the signed conversion is one instruction
+    if r & np.uint64(1):
+        x = -x
+    return idx, j, x, j < _ZK[idx]
+
+
 @jit
-def normal(st, o):
-    """A standard normal deviate (the ziggurat: see the module docstring)."""
+def _normal_rest(st, o, idx, j, x):
+    """The ziggurat past a draw outside its layer's rectangle (1 % of draws): the tail or
+    the wedge, then new draws until one is accepted."""
     while True:
-        r = next_u64(st, o)
-        idx = int(r & np.uint64(0xFF))
-        r = r >> np.uint64(8)
-        j = (r >> np.uint64(1)) & np.uint64(0x000FFFFFFFFFFFFF)
-        x = float(j) * _ZW[idx]
-        if r & np.uint64(1):
-            x = -x
-        if j < _ZK[idx]:
-            return x  # inside the layer's rectangle: 99 % of draws
         if idx == 0:  # the tail beyond r (Marsaglia 1964): x = r + e₁/r while 2 e₂ > (e₁/r)²
             while True:
                 xx = -ZIG_INV_R * math.log1p(-uniform(st, o))
@@ -144,6 +140,19 @@ def normal(st, o):
                     return -(ZIG_R + xx) if (j >> np.uint64(8)) & np.uint64(1) else ZIG_R + xx
         elif (_ZF[idx - 1] - _ZF[idx]) * uniform(st, o) + _ZF[idx] < math.exp(-0.5 * x * x):
             return x  # under the density in the layer's wedge
+        idx, j, x, inside = _layer_draw(st, o)
+        if inside:
+            return x
+
+
+@jit(inline="always")
+def normal(st, o):
+    """A standard normal deviate (the ziggurat: see the module docstring). The rectangle's
+    draw is inlined where it is called; the rest is a call."""
+    idx, j, x, inside = _layer_draw(st, o)
+    if inside:
+        return x  # inside the layer's rectangle: 99 % of draws
+    return _normal_rest(st, o, idx, j, x)
 
 
 @jit
