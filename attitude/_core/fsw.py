@@ -389,7 +389,7 @@ def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
     scratch = fs[zo + Z_SIZE :]
     tick = int(fs[FS_TICK])
     dt = fw[FW_PERIOD]
-    measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch)
+    measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch)
     qu = q
     wu = om
     bu = bb

@@ -32,6 +32,7 @@ import math
 
 from orbit._shared_jit import jit
 
+from .fma import fma as F
 from .quat import mul, rotate_inverse
 
 E_Q = 0  # q̂ (4)
@@ -86,37 +87,25 @@ def mekf_propagate(es, ep, omega_meas, dt):
     w0 = omega_meas[0] - es[E_B]
     w1 = omega_meas[1] - es[E_B + 1]
     w2 = omega_meas[2] - es[E_B + 2]
-    w = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-    # q̂ ← q̂∘exp(ω̂ Δt/2)
-    a = 0.5 * w * dt
-    if w > 0.0:
-        sa = math.sin(a)
-        ca = math.cos(a)
-        k = sa / w
-        dq = (ca, k * w0, k * w1, k * w2)
-    else:
-        sa = 0.0
-        ca = 1.0
-        dq = (1.0, 0.0, 0.0, 0.0)
-    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    for i in range(4):
-        es[E_Q + i] = q[i] / n
-    # c1 = sin(wΔt)/w, c2 = (1 − cos(wΔt))/w², c3 = (wΔt − sin(wΔt))/w³ from the half angle
-    # a (sin 2a = 2 sin a cos a, 1 − cos 2a = 2 sin² a: no cancellation), c3 by its series
-    # below wΔt = 0.1 (truncation (wΔt)¹⁰/13! < 1e-19 relative)
-    x = w * dt
-    if w > 0.0:
-        c1 = 2.0 * sa * ca / w
-        c2 = 2.0 * sa * sa / (w * w)
-    else:
-        c1 = dt
-        c2 = 0.5 * dt * dt
-    if x < 0.1:
-        x2 = x * x
+    ww = w0 * w0 + w1 * w1 + w2 * w2  # w²
+    # q̂ ← q̂∘exp(ω̂ Δt/2). On the usual tick (half angle a = wΔt/2 < 0.05) sin a / w, cos a
+    # and c3 by their series in a² and (wΔt)², with no square root, sine or division on the
+    # way: truncations a¹⁰/11!, a¹²/12!, (wΔt)¹⁰/13! < 3e-21 relative (round-off). The
+    # coefficients c1 = sin(wΔt)/w = 2 sin a cos a / w, c2 = (1 − cos(wΔt))/w² = 2 (sin a / w)²
+    # come from the half angle (no cancellation), c3 = (wΔt − sin(wΔt))/w³.
+    dt2 = dt * dt
+    a2 = 0.25 * ww * dt2
+    if a2 < 0.0025:
+        sinc = 1.0 - a2 / 6.0 * (1.0 - a2 / 20.0 * (1.0 - a2 / 42.0 * (1.0 - a2 / 72.0)))
+        ca = 1.0 - 0.5 * a2 * (
+            1.0 - a2 / 12.0 * (1.0 - a2 / 30.0 * (1.0 - a2 / 56.0 * (1.0 - a2 / 90.0)))
+        )
+        k = 0.5 * dt * sinc  # sin a / w
+        c1 = 2.0 * k * ca
+        c2 = 2.0 * k * k
+        x2 = 4.0 * a2  # (wΔt)²
         c3 = (
-            dt
-            * dt
+            dt2
             * dt
             * (
                 1.0 / 6.0
@@ -124,12 +113,26 @@ def mekf_propagate(es, ep, omega_meas, dt):
             )
         )
     else:
-        c3 = (x - 2.0 * sa * ca) / (w * w * w)
-    # Φ₁₁ = 1 − W c1 + W² c2, Φ₁₂ = W c2 − 1 Δt − W² c3 (W = [ω×], W² = ω ωᵀ − w² 1), in
-    # the scratch block E_PHI (3 × 3 each, row-major)
+        w = math.sqrt(ww)
+        a = 0.5 * w * dt
+        sa = math.sin(a)
+        ca = math.cos(a)
+        k = sa / w
+        c1 = 2.0 * sa * ca / w
+        c2 = 2.0 * sa * sa / ww
+        c3 = (w * dt - c1 * w) / (ww * w)  # c1 w = sin(wΔt)
+    dq = (ca, k * w0, k * w1, k * w2)
+    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
+    nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
+    # 1/√n: q̂ and dq are unit to round-off, so n = 1 + e with |e| ~ 1e-16 and 1 − e/2 is
+    # 1/√n to round-off (the next term, 3e²/8, is below 4e-17 while |e| < 1e-8)
+    e = nq - 1.0
+    inv_n = 1.0 - 0.5 * e if abs(e) < 1e-8 else 1.0 / math.sqrt(nq)
+    for i in range(4):
+        es[E_Q + i] = q[i] * inv_n
     # Φ₁₁ = 1 − W c1 + W² c2 (f), Φ₁₂ = W c2 − 1 Δt − W² c3 (g), W = [ω×], W² = ω ωᵀ − w² 1
-    d1 = 1.0 - w * w * c2
-    d2 = -dt + w * w * c3
+    d1 = 1.0 - ww * c2
+    d2 = -dt + ww * c3
     f00 = d1 + w0 * w0 * c2
     g00 = d2 - w0 * w0 * c3
     f01 = w0 * w1 * c2 + w2 * c1
@@ -172,38 +175,38 @@ def mekf_propagate(es, ep, omega_meas, dt):
     p44 = es[E_P + 28]
     p45 = es[E_P + 29]
     p55 = es[E_P + 35]
-    t00 = f00 * p00 + f01 * p01 + f02 * p02 + g00 * p03 + g01 * p04 + g02 * p05
-    t01 = f00 * p01 + f01 * p11 + f02 * p12 + g00 * p13 + g01 * p14 + g02 * p15
-    t02 = f00 * p02 + f01 * p12 + f02 * p22 + g00 * p23 + g01 * p24 + g02 * p25
-    t03 = f00 * p03 + f01 * p13 + f02 * p23 + g00 * p33 + g01 * p34 + g02 * p35
-    t04 = f00 * p04 + f01 * p14 + f02 * p24 + g00 * p34 + g01 * p44 + g02 * p45
-    t05 = f00 * p05 + f01 * p15 + f02 * p25 + g00 * p35 + g01 * p45 + g02 * p55
-    t10 = f10 * p00 + f11 * p01 + f12 * p02 + g10 * p03 + g11 * p04 + g12 * p05
-    t11 = f10 * p01 + f11 * p11 + f12 * p12 + g10 * p13 + g11 * p14 + g12 * p15
-    t12 = f10 * p02 + f11 * p12 + f12 * p22 + g10 * p23 + g11 * p24 + g12 * p25
-    t13 = f10 * p03 + f11 * p13 + f12 * p23 + g10 * p33 + g11 * p34 + g12 * p35
-    t14 = f10 * p04 + f11 * p14 + f12 * p24 + g10 * p34 + g11 * p44 + g12 * p45
-    t15 = f10 * p05 + f11 * p15 + f12 * p25 + g10 * p35 + g11 * p45 + g12 * p55
-    t20 = f20 * p00 + f21 * p01 + f22 * p02 + g20 * p03 + g21 * p04 + g22 * p05
-    t21 = f20 * p01 + f21 * p11 + f22 * p12 + g20 * p13 + g21 * p14 + g22 * p15
-    t22 = f20 * p02 + f21 * p12 + f22 * p22 + g20 * p23 + g21 * p24 + g22 * p25
-    t23 = f20 * p03 + f21 * p13 + f22 * p23 + g20 * p33 + g21 * p34 + g22 * p35
-    t24 = f20 * p04 + f21 * p14 + f22 * p24 + g20 * p34 + g21 * p44 + g22 * p45
-    t25 = f20 * p05 + f21 * p15 + f22 * p25 + g20 * p35 + g21 * p45 + g22 * p55
-    v = t00 * f00 + t01 * f01 + t02 * f02 + t03 * g00 + t04 * g01 + t05 * g02
+    t00 = F(g02, p05, F(g01, p04, F(g00, p03, F(f02, p02, F(f01, p01, f00 * p00)))))
+    t01 = F(g02, p15, F(g01, p14, F(g00, p13, F(f02, p12, F(f01, p11, f00 * p01)))))
+    t02 = F(g02, p25, F(g01, p24, F(g00, p23, F(f02, p22, F(f01, p12, f00 * p02)))))
+    t03 = F(g02, p35, F(g01, p34, F(g00, p33, F(f02, p23, F(f01, p13, f00 * p03)))))
+    t04 = F(g02, p45, F(g01, p44, F(g00, p34, F(f02, p24, F(f01, p14, f00 * p04)))))
+    t05 = F(g02, p55, F(g01, p45, F(g00, p35, F(f02, p25, F(f01, p15, f00 * p05)))))
+    t10 = F(g12, p05, F(g11, p04, F(g10, p03, F(f12, p02, F(f11, p01, f10 * p00)))))
+    t11 = F(g12, p15, F(g11, p14, F(g10, p13, F(f12, p12, F(f11, p11, f10 * p01)))))
+    t12 = F(g12, p25, F(g11, p24, F(g10, p23, F(f12, p22, F(f11, p12, f10 * p02)))))
+    t13 = F(g12, p35, F(g11, p34, F(g10, p33, F(f12, p23, F(f11, p13, f10 * p03)))))
+    t14 = F(g12, p45, F(g11, p44, F(g10, p34, F(f12, p24, F(f11, p14, f10 * p04)))))
+    t15 = F(g12, p55, F(g11, p45, F(g10, p35, F(f12, p25, F(f11, p15, f10 * p05)))))
+    t20 = F(g22, p05, F(g21, p04, F(g20, p03, F(f22, p02, F(f21, p01, f20 * p00)))))
+    t21 = F(g22, p15, F(g21, p14, F(g20, p13, F(f22, p12, F(f21, p11, f20 * p01)))))
+    t22 = F(g22, p25, F(g21, p24, F(g20, p23, F(f22, p22, F(f21, p12, f20 * p02)))))
+    t23 = F(g22, p35, F(g21, p34, F(g20, p33, F(f22, p23, F(f21, p13, f20 * p03)))))
+    t24 = F(g22, p45, F(g21, p44, F(g20, p34, F(f22, p24, F(f21, p14, f20 * p04)))))
+    t25 = F(g22, p55, F(g21, p45, F(g20, p35, F(f22, p25, F(f21, p15, f20 * p05)))))
+    v = F(t05, g02, F(t04, g01, F(t03, g00, F(t02, f02, F(t01, f01, t00 * f00)))))
     es[E_P + 0] = v
-    v = t00 * f10 + t01 * f11 + t02 * f12 + t03 * g10 + t04 * g11 + t05 * g12
+    v = F(t05, g12, F(t04, g11, F(t03, g10, F(t02, f12, F(t01, f11, t00 * f10)))))
     es[E_P + 1] = v
     es[E_P + 6] = v
-    v = t00 * f20 + t01 * f21 + t02 * f22 + t03 * g20 + t04 * g21 + t05 * g22
+    v = F(t05, g22, F(t04, g21, F(t03, g20, F(t02, f22, F(t01, f21, t00 * f20)))))
     es[E_P + 2] = v
     es[E_P + 12] = v
-    v = t10 * f10 + t11 * f11 + t12 * f12 + t13 * g10 + t14 * g11 + t15 * g12
+    v = F(t15, g12, F(t14, g11, F(t13, g10, F(t12, f12, F(t11, f11, t10 * f10)))))
     es[E_P + 7] = v
-    v = t10 * f20 + t11 * f21 + t12 * f22 + t13 * g20 + t14 * g21 + t15 * g22
+    v = F(t15, g22, F(t14, g21, F(t13, g20, F(t12, f22, F(t11, f21, t10 * f20)))))
     es[E_P + 8] = v
     es[E_P + 13] = v
-    v = t20 * f20 + t21 * f21 + t22 * f22 + t23 * g20 + t24 * g21 + t25 * g22
+    v = F(t25, g22, F(t24, g21, F(t23, g20, F(t22, f22, F(t21, f21, t20 * f20)))))
     es[E_P + 14] = v
     es[E_P + 3] = t03
     es[E_P + 18] = t03

@@ -59,7 +59,16 @@ G_QUANT = 14  # quantisation step (rad/s; 0: none)
 G_SAT = 15  # saturation (rad/s; inf: none)
 G_STATE = 16  # offset of its state in ss: stream, β (3), the true rate at the last tick (3),
 # and a flag saying it is set
-G_SIZE = 17
+G_SD = 17  # σ of the rate noise over a tick, (σ_v²/Δt + σ_u² Δt/12)^½ (rad/s)
+G_SQ = 18  # σ of the drift's step over a tick, σ_u √Δt (rad/s)
+G_SIZE = 19
+
+
+def gyro_tick_sigmas(sv: float, su: float, dt: float) -> tuple[float, float]:
+    """(σ of the rate noise, σ of the drift's step) over a tick ``dt`` (eqs. 6.93–6.94 of
+    Markley & Crassidis), computed once when the sensor program is built."""
+    return math.sqrt(sv * sv / dt + su * su * dt / 12.0), su * math.sqrt(dt)
+
 
 # star tracker record
 T_SC = 0  # σ cross-boresight (rad)
@@ -107,16 +116,15 @@ def _mv3(a, o, v0, v1, v2):
 
 
 @jit
-def gyro_measure(sn, g, ss, om, dt, z):
+def gyro_measure(sn, g, ss, om, z):
     """The gyro's rate at this tick into z[Z_OMEGA:]: the mean rate over the last interval
-    (trapezoidal from the true rates at its ends), its drift advanced over ``dt``."""
+    (trapezoidal from the true rates at its ends), its drift advanced over the tick (the
+    noise deviations of the tick in the record: :func:`gyro_tick_sigmas`)."""
     so = int(sn[g + G_STATE])
-    sv = sn[g + G_SV]
-    su = sn[g + G_SU]
     b = so + RNG_SIZE
     w_prev = b + 3
-    sd = math.sqrt(sv * sv / dt + su * su * dt / 12.0)
-    sq = su * math.sqrt(dt)
+    sd = sn[g + G_SD]
+    sq = sn[g + G_SQ]
     # the interval's mean rate (an integrating gyro), from the true rate at both ends
     if ss[w_prev + 3] == 0.0:
         a0, a1, a2 = om[0], om[1], om[2]
@@ -287,14 +295,14 @@ def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
 
 
 @jit
-def measure_sensors(sn, ss, t, tick, dt, q, om, bb, z, scratch):
-    """All the sensors of the program at tick ``tick`` (time t, interval ``dt`` since the last
-    tick) from the true attitude q, rate ω and body field bb, into the measurement vector z."""
+def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch):
+    """All the sensors of the program at tick ``tick`` (time t) from the true attitude q, rate
+    ω and body field bb, into the measurement vector z."""
     for i in range(Z_SIZE):
         z[i] = 0.0
     g = int(sn[SN_GYRO])
     if g > 0:
-        gyro_measure(sn, g, ss, om, dt, z)
+        gyro_measure(sn, g, ss, om, z)
     r, s, nu = sun_and_earth(sn, t)
     o = int(sn[SN_ST])
     if o > 0:
