@@ -77,6 +77,7 @@ from .mekf import (
     estimation_error,
     mekf_init,
     mekf_propagate,
+    mekf_propagate_inline,  # noqa: F401 (bound by name)
     mekf_update_quaternion,
     mekf_update_vector,
 )
@@ -96,6 +97,7 @@ from .sensors import (
     Z_SUN,
     Z_SUN_OK,
     measure_sensors,
+    measure_sensors_inline,  # noqa: F401 (bound by name)
     sun_and_earth,
 )
 
@@ -422,7 +424,8 @@ def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
             for i in range(3):
                 es[ES_OMEGA_PREV + i] = wu[i]
             mekf_propagate(es, ep, es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt)
-            _updates(es, ep, z, q, bb, sn, t)
+            if z[Z_ST_OK] != 0.0 or z[Z_MAG_OK] != 0.0 or z[Z_SUN_OK] != 0.0:
+                _updates(es, ep, z, q, bb, sn, t)
         if es[E_INIT] != 0.0:
             qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
             wu = (wu[0] - es[E_B], wu[1] - es[E_B + 1], wu[2] - es[E_B + 2])
@@ -765,7 +768,17 @@ def fsw_boundary(P, y, t, t_end, ctl):
 # 10 Hz closed-loop tick. The ensemble drivers keep the calls (numba's parallel array analysis
 # rejects the inlined tick).
 _INLINE = {"inline": "always"}
-_sense_inline = rebind(_sense, globals(), "inline", options=_INLINE)
+_sense_and_estimate_inline = rebind(
+    sense_and_estimate,
+    globals(),
+    "inline",
+    options=_INLINE,
+    measure_sensors="measure_sensors_inline",
+    mekf_propagate="mekf_propagate_inline",
+)
+_sense_inline = rebind(
+    _sense, globals(), "inline", options=_INLINE, sense_and_estimate="_sense_and_estimate_inline"
+)
 _guidance_inline = rebind(guidance, globals(), "inline", options=_INLINE)
 _configure_hold_inline = rebind(configure_hold, globals(), "inline", options=_INLINE)
 _thrusters_off_at_inline = rebind(thrusters_off_at, globals(), "inline", options=_INLINE)

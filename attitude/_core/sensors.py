@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import jit, rebind
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
@@ -178,16 +178,10 @@ def sun_and_earth(sn, t):
 
 
 @jit
-def star_tracker_measure(sn, o, ss, q, tick, r, s, nu, z):
-    """The star tracker's quaternion at this tick (and its validity) into z."""
-    every = int(sn[o + T_EVERY])
+def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
+    """The star tracker's quaternion at an update tick (and its validity) into z (the noise
+    is drawn at every update, valid or not: the stream does not depend on the geometry)."""
     so = int(sn[o + T_STATE])
-    # noise drawn at every tick of an update, valid or not (the stream does not depend on
-    # the geometry)
-    if tick % every != 0:
-        z[Z_ST_OK] = 0.0
-        z[Z_ST_FLAG] = 1.0
-        return
     n0 = sn[o + T_SC] * normal(ss, so)
     n1 = sn[o + T_SC] * normal(ss, so)
     n2 = sn[o + T_SB] * normal(ss, so)
@@ -297,21 +291,35 @@ def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
 @jit
 def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch):
     """All the sensors of the program at tick ``tick`` (time t) from the true attitude q, rate
-    ω and body field bb, into the measurement vector z."""
+    ω and body field bb, into the measurement vector z (the star tracker's model only at its
+    update ticks)."""
     for i in range(Z_SIZE):
         z[i] = 0.0
     g = int(sn[SN_GYRO])
     if g > 0:
         gyro_measure(sn, g, ss, om, z)
+    ot = int(sn[SN_ST])
+    os_ = int(sn[SN_SUN])
+    st_update = ot > 0 and tick % int(sn[ot + T_EVERY]) == 0
     r, s, nu = sun_and_earth(sn, t)
-    o = int(sn[SN_ST])
-    if o > 0:
-        star_tracker_measure(sn, o, ss, q, tick, r, s, nu, z)
+    if st_update:
+        star_tracker_measure(sn, ot, ss, q, r, s, nu, z)
+    elif ot > 0:
+        z[Z_ST_OK] = 0.0
+        z[Z_ST_FLAG] = 1.0
     o = int(sn[SN_MAG])
     if o > 0:
         magnetometer_measure(sn, o, ss, bb, z)
-    o = int(sn[SN_SUN])
-    if o > 0:
-        sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch)
+    if os_ > 0:
+        sun_sensor_measure(sn, os_, ss, q, s, nu, z, scratch)
     else:
         z[Z_ECLIPSE] = nu
+
+
+# The gyro's model inlined into the copy of :func:`measure_sensors` the single-run drivers
+# inline (:mod:`attitude._core.fsw`): a call passes each array as seven arguments.
+_INLINE = {"inline": "always"}
+_gyro_measure_inline = rebind(gyro_measure, globals(), "inline", options=_INLINE)
+measure_sensors_inline = rebind(
+    measure_sensors, globals(), "inline", options=_INLINE, gyro_measure="_gyro_measure_inline"
+)

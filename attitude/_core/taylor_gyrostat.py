@@ -312,16 +312,37 @@ def _horner(cf, p, col, tau):
 @jit
 def dense_state(work, tstate, tau, out, nw):
     """The state (q, Q, h) at ``tau`` = t − t_old of the last step into ``out``:
-    q, g, h from their polynomials, Q = q∘(c, 2g)/|q|²."""
+    q, g, h from their polynomials, Q = q∘(c, 2g)/|q|². Returns g (3).
+
+    The polynomials are evaluated by Horner's rule all at once, order by order (the same
+    operations per column as one column at a time, so the same bits): the columns' chains of
+    dependent multiply–adds then overlap instead of running one after the other (measured
+    50 → 20 ns at order 5 with three wheels)."""
     p = int(tstate[TS_P_USED])
     c = tstate[TS_C]
-    q0 = _horner(work, p, 0, tau)
-    q1 = _horner(work, p, 1, tau)
-    q2 = _horner(work, p, 2, tau)
-    q3 = _horner(work, p, 3, tau)
-    g0 = 2.0 * _horner(work, p, CG, tau)
-    g1 = 2.0 * _horner(work, p, CG + 1, tau)
-    g2 = 2.0 * _horner(work, p, CG + 2, tau)
+    q0 = work[p, 0]
+    q1 = work[p, 1]
+    q2 = work[p, 2]
+    q3 = work[p, 3]
+    h0 = work[p, CG]
+    h1 = work[p, CG + 1]
+    h2 = work[p, CG + 2]
+    for j in range(nw):
+        out[8 + j] = work[p, CH + j]
+    for i in range(p):
+        k = p - 1 - i
+        q0 = F(q0, tau, work[k, 0])
+        q1 = F(q1, tau, work[k, 1])
+        q2 = F(q2, tau, work[k, 2])
+        q3 = F(q3, tau, work[k, 3])
+        h0 = F(h0, tau, work[k, CG])
+        h1 = F(h1, tau, work[k, CG + 1])
+        h2 = F(h2, tau, work[k, CG + 2])
+        for j in range(nw):
+            out[8 + j] = F(out[8 + j], tau, work[k, CH + j])
+    g0 = 2.0 * h0
+    g1 = 2.0 * h1
+    g2 = 2.0 * h2
     # Q = q∘(c, 2g)/|q|² with |q|² of this q: g = ½ vec(q̃∘Q) and c = q·Q hold exactly (the
     # start's n would scale g by |q|²/n at every step, a drift of the truncation error of |q|)
     inv_n = 1.0 / (q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3)
@@ -334,8 +355,7 @@ def dense_state(work, tstate, tau, out, nw):
     out[5] = (c * q1 + q0 * g0 + q2 * g2 - q3 * g1) * inv_n
     out[6] = (c * q2 + q0 * g1 - q1 * g2 + q3 * g0) * inv_n
     out[7] = (c * q3 + q0 * g2 + q1 * g1 - q2 * g0) * inv_n
-    for j in range(nw):
-        out[8 + j] = _horner(work, p, CH + j, tau)
+    return h0, h1, h2
 
 
 @jit
@@ -440,7 +460,7 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
         if hk < h:
             h = hk
             t_new = t + h
-    dense_state(work, tstate, h, y, nw)
+    gh = dense_state(work, tstate, h, y, nw)
     for i in range(8 + nw):
         if not math.isfinite(y[i]):
             for ii in range(8):
@@ -448,9 +468,9 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
             for j in range(nw):
                 y[8 + j] = work[0, CH + j]
             return NONFINITE
-    tstate[TS_G] = _horner(work, pu, CG, h)
-    tstate[TS_G + 1] = _horner(work, pu, CG + 1, h)
-    tstate[TS_G + 2] = _horner(work, pu, CG + 2, h)
+    tstate[TS_G] = gh[0]
+    tstate[TS_G + 1] = gh[1]
+    tstate[TS_G + 2] = gh[2]
     tstate[TS_HAS_G] = 1.0
     # the next step's pieces: the crossed wheel enters the next piece, the others re-decide
     for j in range(nw):
