@@ -154,7 +154,7 @@ def test_ziggurat_is_numpys_algorithm_on_tables_checked_in_arbitrary_precision()
     against NumPy's ``standard_normal`` of the same seed: the same deviates to a few ulps
     (NumPy's tables differ from ours in the last bits), tail and wedge draws included.
     (3) The compiled kernel against that Python version on our own xoshiro256** words: bit for
-    bit."""
+    bit, both as a call per deviate and with the state held in registers (the sensors')."""
     mpmath = pytest.importorskip("mpmath")
     mp = mpmath.mp
     with mpmath.workdps(40):
@@ -179,9 +179,15 @@ def test_ziggurat_is_numpys_algorithm_on_tables_checked_in_arbitrary_precision()
         if len(paths) == 4:
             break
     assert len(paths) == 4, paths
+    start = st.copy()
     got = np.empty(py.size)
     _rng.normals_loop(st, 0, got)
     np.testing.assert_array_equal(got, py)
+    # the sensors' draws with the state held in registers: the same deviates, the same stream
+    held = np.empty(py.size)
+    _rng.normals_held_loop(start, 0, held)
+    np.testing.assert_array_equal(held, py)
+    np.testing.assert_array_equal(start.view(np.uint64), st.view(np.uint64))
 
 
 def _record(sensors, period, t_end, craft=None, q0=Q_ID, w0=(0.0, 0.0, 0.0), **kw):

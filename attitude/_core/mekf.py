@@ -246,15 +246,16 @@ def _inv3(es, src, dst):
         - a[1] * (a[3] * a[8] - a[5] * a[6])
         + a[2] * (a[3] * a[7] - a[4] * a[6])
     )
-    es[dst] = (a[4] * a[8] - a[5] * a[7]) / det
-    es[dst + 1] = (a[2] * a[7] - a[1] * a[8]) / det
-    es[dst + 2] = (a[1] * a[5] - a[2] * a[4]) / det
-    es[dst + 3] = (a[5] * a[6] - a[3] * a[8]) / det
-    es[dst + 4] = (a[0] * a[8] - a[2] * a[6]) / det
-    es[dst + 5] = (a[2] * a[3] - a[0] * a[5]) / det
-    es[dst + 6] = (a[3] * a[7] - a[4] * a[6]) / det
-    es[dst + 7] = (a[1] * a[6] - a[0] * a[7]) / det
-    es[dst + 8] = (a[0] * a[4] - a[1] * a[3]) / det
+    inv = 1.0 / det
+    es[dst] = (a[4] * a[8] - a[5] * a[7]) * inv
+    es[dst + 1] = (a[2] * a[7] - a[1] * a[8]) * inv
+    es[dst + 2] = (a[1] * a[5] - a[2] * a[4]) * inv
+    es[dst + 3] = (a[5] * a[6] - a[3] * a[8]) * inv
+    es[dst + 4] = (a[0] * a[8] - a[2] * a[6]) * inv
+    es[dst + 5] = (a[2] * a[3] - a[0] * a[5]) * inv
+    es[dst + 6] = (a[3] * a[7] - a[4] * a[6]) * inv
+    es[dst + 7] = (a[1] * a[6] - a[0] * a[7]) * inv
+    es[dst + 8] = (a[0] * a[4] - a[1] * a[3]) * inv
 
 
 @jit

@@ -59,13 +59,8 @@ def seed_stream(st, o, seed):
 
 
 @jit(inline="always")
-def next_u64(st, o):
-    """The next 64-bit output of xoshiro256**."""
-    v = st.view(np.uint64)  # one view a draw: a view costs ~2 ns (a one-element slice's, 7)
-    s0 = v[o]
-    s1 = v[o + 1]
-    s2 = v[o + 2]
-    s3 = v[o + 3]
+def _step(s0, s1, s2, s3):
+    """(output, new state) of xoshiro256** from the state words."""
     result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
     t = s1 << np.uint64(17)
     s2 ^= s0
@@ -74,6 +69,14 @@ def next_u64(st, o):
     s0 ^= s3
     s2 ^= t
     s3 = _rotl(s3, 45)
+    return result, s0, s1, s2, s3
+
+
+@jit(inline="always")
+def next_u64(st, o):
+    """The next 64-bit output of xoshiro256**."""
+    v = st.view(np.uint64)  # one view a draw: a view costs ~2 ns (a one-element slice's, 7)
+    result, s0, s1, s2, s3 = _step(v[o], v[o + 1], v[o + 2], v[o + 3])
     v[o] = s0
     v[o + 1] = s1
     v[o + 2] = s2
@@ -115,9 +118,9 @@ _ZK, _ZW, _ZF = ziggurat_tables()  # read by the kernels as compile-time constan
 
 
 @jit(inline="always")
-def _layer_draw(st, o):
-    """One draw of the ziggurat: (layer index, 52-bit abscissa j, x, accepted at once)."""
-    r = next_u64(st, o)
+def _layer(r):
+    """The ziggurat's draw from one word: (layer index, 52-bit abscissa j, x, accepted at
+    once)."""
     idx = int(r & np.uint64(0xFF))
     r = r >> np.uint64(8)
     j = (r >> np.uint64(1)) & np.uint64(0x000FFFFFFFFFFFFF)
@@ -125,6 +128,12 @@ def _layer_draw(st, o):
     if r & np.uint64(1):
         x = -x
     return idx, j, x, j < _ZK[idx]
+
+
+@jit(inline="always")
+def _layer_draw(st, o):
+    """One draw of the ziggurat from the stream: (layer index, j, x, accepted at once)."""
+    return _layer(next_u64(st, o))
 
 
 @jit
@@ -155,6 +164,50 @@ def normal(st, o):
     return _normal_rest(st, o, idx, j, x)
 
 
+@jit(inline="always")
+def load(st, o):
+    """The stream's state words, to draw several deviates in registers
+    (:func:`normal_held`); :func:`store` puts them back."""
+    v = st.view(np.uint64)
+    return v[o], v[o + 1], v[o + 2], v[o + 3]
+
+
+@jit(inline="always")
+def store(st, o, s0, s1, s2, s3):
+    """Put the state words of :func:`load` back into the stream."""
+    v = st.view(np.uint64)
+    v[o] = s0
+    v[o + 1] = s1
+    v[o + 2] = s2
+    v[o + 3] = s3
+
+
+@jit(inline="always")
+def normal_held(st, o, s0, s1, s2, s3):
+    """:func:`normal` on state words held in registers (from :func:`load`): ``(x, s0, s1, s2,
+    s3)``. The same deviates as :func:`normal`, in the same order: a draw outside its layer's
+    rectangle (1 %) puts the words back, finishes in :func:`_normal_rest` on the stream and
+    reloads them. A sensor drawing several deviates a tick keeps the state out of memory
+    between them (the gyro's six: 42 → 20 ns)."""
+    r, s0, s1, s2, s3 = _step(s0, s1, s2, s3)
+    idx, j, x, inside = _layer(r)
+    if not inside:
+        store(st, o, s0, s1, s2, s3)
+        x = _normal_rest(st, o, idx, j, x)
+        s0, s1, s2, s3 = load(st, o)
+    return x, s0, s1, s2, s3
+
+
+@jit
+def normals_held_loop(st, o, out):
+    """``out[i]`` by :func:`normal_held` (tests: the same deviates as :func:`normals_loop`)."""
+    s0, s1, s2, s3 = load(st, o)
+    for i in range(out.shape[0]):
+        x, s0, s1, s2, s3 = normal_held(st, o, s0, s1, s2, s3)
+        out[i] = x
+    store(st, o, s0, s1, s2, s3)
+
+
 @jit
 def normals_loop(st, o, out):
     """``out[i] = normal(st, o)`` (for tests of the generator's statistics)."""
@@ -177,3 +230,4 @@ def _wrapping(f):
 if JIT_DISABLED:  # ATTITUDE_DISABLE_JIT=1: the same numbers, without a warning per draw
     splitmix64 = _wrapping(splitmix64)
     next_u64 = _wrapping(next_u64)
+    _step = _wrapping(_step)

@@ -38,7 +38,7 @@ from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
 from .quat import mul, rotate, rotate_inverse
-from .rng import RNG_SIZE, normal
+from .rng import RNG_SIZE, load, normal, normal_held, store
 
 # --- program header ----------------------------------------------------------------------------
 SN_GYRO = 0  # offset of the gyro record (0: none)
@@ -139,11 +139,14 @@ def gyro_measure(sn, g, ss, om, z):
     c = _mv3(sn, g + G_C, a0, a1, a2)
     quant = sn[g + G_QUANT]
     sat = sn[g + G_SAT]
+    r0, r1, r2, r3 = load(ss, so)  # the six deviates drawn in registers
     for i in range(3):
         b_old = ss[b + i]
-        b_new = b_old + sq * normal(ss, so)
+        nu, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
+        nv, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
+        b_new = b_old + sq * nu
         ss[b + i] = b_new
-        w = c[i] + sn[g + G_B0 + i] + 0.5 * (b_old + b_new) + sd * normal(ss, so)
+        w = c[i] + sn[g + G_B0 + i] + 0.5 * (b_old + b_new) + sd * nv
         if quant > 0.0:
             w = quant * math.floor(w / quant + 0.5)
         if w > sat:
@@ -151,6 +154,7 @@ def gyro_measure(sn, g, ss, om, z):
         elif w < -sat:
             w = -sat
         z[Z_OMEGA + i] = w
+    store(ss, so, r0, r1, r2, r3)
     z[Z_GYRO_OK] = 1.0
 
 
@@ -182,20 +186,33 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     """The star tracker's quaternion at an update tick (and its validity) into z (the noise
     is drawn at every update, valid or not: the stream does not depend on the geometry)."""
     so = int(sn[o + T_STATE])
-    n0 = sn[o + T_SC] * normal(ss, so)
-    n1 = sn[o + T_SC] * normal(ss, so)
-    n2 = sn[o + T_SB] * normal(ss, so)
+    r0, r1, r2, r3 = load(ss, so)
+    x0, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
+    x1, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
+    x2, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
+    store(ss, so, r0, r1, r2, r3)
+    n0 = sn[o + T_SC] * x0
+    n1 = sn[o + T_SC] * x1
+    n2 = sn[o + T_SB] * x2
     c = T_CBS
     # δθ in body axes = C_bsᵀ (n0, n1, n2): the rows of C_bs are the sensor axes
     d0 = sn[o + c] * n0 + sn[o + c + 3] * n1 + sn[o + c + 6] * n2
     d1 = sn[o + c + 1] * n0 + sn[o + c + 4] * n1 + sn[o + c + 7] * n2
     d2 = sn[o + c + 2] * n0 + sn[o + c + 5] * n1 + sn[o + c + 8] * n2
-    a = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    if a > 0.0:
-        k = math.sin(0.5 * a) / a
-        dq = (math.cos(0.5 * a), k * d0, k * d1, k * d2)
+    # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ|: by their series in a² below a/2 = 0.05
+    # (truncations below 3e-21 relative; no square root or sine on arcsecond noise)
+    a2 = d0 * d0 + d1 * d1 + d2 * d2
+    h2 = 0.25 * a2  # (a/2)²
+    if h2 < 0.0025:
+        k = 0.5 * (1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0 * (1.0 - h2 / 72.0))))
+        ch = 1.0 - 0.5 * h2 * (
+            1.0 - h2 / 12.0 * (1.0 - h2 / 30.0 * (1.0 - h2 / 56.0 * (1.0 - h2 / 90.0)))
+        )
     else:
-        dq = (1.0, 0.0, 0.0, 0.0)
+        a = math.sqrt(a2)
+        k = math.sin(0.5 * a) / a
+        ch = math.cos(0.5 * a)
+    dq = (ch, k * d0, k * d1, k * d2)
     qm = mul(q, dq)
     if qm[0] < 0.0:
         qm = (-qm[0], -qm[1], -qm[2], -qm[3])
