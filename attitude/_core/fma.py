@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from fractions import Fraction
 
-from orbit._shared_jit import JIT_DISABLED, jit
+from orbit._shared_jit import JIT_DISABLED
 
 __all__ = ["fma"]
 
@@ -55,7 +55,6 @@ else:
 
         return sig, codegen
 
-    @jit(inline="always")
-    def fma(a, b, c):
-        """a·b + c rounded once."""
-        return _llvm_fma(a, b, c)
+    # the intrinsic itself, not a jitted wrapper inlined by numba's IR inliner: each inlined
+    # call was a deep copy and a retyping at compile time (hundreds of them per driver)
+    fma = _llvm_fma

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit, rebind
+from orbit._shared_jit import jit
 
 from .fma import fma as F
 from .quat import mul, rotate_inverse
@@ -443,8 +443,3 @@ def estimation_error(es, q_true, beta_true):
     if not ok:
         nees = math.nan
     return e, nees
-
-
-# The propagation inlined into the single-run drivers' tick (:mod:`attitude._core.fsw`): it
-# runs at every tick, and a call passes each array as seven arguments.
-mekf_propagate_inline = rebind(mekf_propagate, globals(), "inline", options={"inline": "always"})

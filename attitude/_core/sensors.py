@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit, rebind
+from orbit._shared_jit import jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
@@ -331,12 +331,3 @@ def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch):
         sun_sensor_measure(sn, os_, ss, q, s, nu, z, scratch)
     else:
         z[Z_ECLIPSE] = nu
-
-
-# The gyro's model inlined into the copy of :func:`measure_sensors` the single-run drivers
-# inline (:mod:`attitude._core.fsw`): a call passes each array as seven arguments.
-_INLINE = {"inline": "always"}
-_gyro_measure_inline = rebind(gyro_measure, globals(), "inline", options=_INLINE)
-measure_sensors_inline = rebind(
-    measure_sensors, globals(), "inline", options=_INLINE, gyro_measure="_gyro_measure_inline"
-)
