@@ -20,6 +20,7 @@ import numpy as np
 
 NANO = 1_000_000_000
 ST_BORESIGHT = (0.0, 0.6, 0.8)  # the star tracker's boresight in body axes (benchmarks/software.py)
+ST_NOISE = (6.0, 45.0)  # its noise (arcsec, 1σ) across and about the boresight
 
 
 def _nanos(t: float) -> int:
@@ -311,7 +312,7 @@ def rw_feedback_scenario(
         arcsec = math.radians(1.0 / 3600.0)
         b = np.array(ST_BORESIGHT)
         bb = np.outer(b, b)
-        st_sqrt = 6 * arcsec * (np.eye(3) - bb) + 45 * arcsec * bb
+        st_sqrt = ST_NOISE[0] * arcsec * (np.eye(3) - bb) + ST_NOISE[1] * arcsec * bb
         st.PMatrix = st_sqrt
         st.setAMatrix(np.zeros((3, 3)))
         st.setWalkBounds(np.array([1e-2] * 3))
