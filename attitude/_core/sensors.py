@@ -248,50 +248,73 @@ def magnetometer_measure(sn, o, ss, bb, z):
 
 
 @jit
-def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
-    """The coarse Sun sensor's heads (cosine law, dark in eclipse) and the Sun direction from
-    them (least squares over the lit heads) into z; ``scratch`` holds the currents."""
-    n = int(sn[o + S_NHEADS])
-    so = int(sn[o + S_STATE])
-    sg = sn[o + S_SIGMA]
-    sb = rotate_inverse(q, s)
-    # normal equations Σ n nᵀ x = Σ n I over the heads above 3σ
+def _css_fit(sn, o, cur, n, thr, check, d0, d1, d2):
+    """Least squares Σ n nᵀ x = Σ n I over the heads whose current is above ``thr`` (and, with
+    ``check``, that face the direction d: n·d > 0). Returns (heads used, x, solvable)."""
     a00 = a01 = a02 = a11 = a12 = a22 = 0.0
     r0 = r1 = r2 = 0.0
-    lit = 0
+    used = 0
     for i in range(n):
         b = o + S_NORMALS + 3 * i
-        c = sn[b] * sb[0] + sn[b + 1] * sb[1] + sn[b + 2] * sb[2]
-        cur = nu * max(0.0, c) + sg * normal(ss, so)
-        scratch[i] = cur
-        if cur > 3.0 * sg and cur > 0.0:
-            lit += 1
-            n0, n1, n2 = sn[b], sn[b + 1], sn[b + 2]
-            a00 += n0 * n0
-            a01 += n0 * n1
-            a02 += n0 * n2
-            a11 += n1 * n1
-            a12 += n1 * n2
-            a22 += n2 * n2
-            r0 += n0 * cur
-            r1 += n1 * cur
-            r2 += n2 * cur
+        c = cur[i]
+        n0, n1, n2 = sn[b], sn[b + 1], sn[b + 2]
+        if not (c > thr and c > 0.0):
+            continue
+        if check and n0 * d0 + n1 * d1 + n2 * d2 <= 0.0:
+            continue
+        used += 1
+        a00 += n0 * n0
+        a01 += n0 * n1
+        a02 += n0 * n2
+        a11 += n1 * n1
+        a12 += n1 * n2
+        a22 += n2 * n2
+        r0 += n0 * c
+        r1 += n1 * c
+        r2 += n2 * c
     det = (
         a00 * (a11 * a22 - a12 * a12)
         - a01 * (a01 * a22 - a12 * a02)
         + a02 * (a01 * a12 - a11 * a02)
     )
+    if used < 3 or not abs(det) > 1e-9:
+        return used, 0.0, 0.0, 0.0, False
+    x0 = (
+        r0 * (a11 * a22 - a12 * a12) - a01 * (r1 * a22 - a12 * r2) + a02 * (r1 * a12 - a11 * r2)
+    ) / det
+    x1 = (
+        a00 * (r1 * a22 - a12 * r2) - r0 * (a01 * a22 - a12 * a02) + a02 * (a01 * r2 - r1 * a02)
+    ) / det
+    x2 = (
+        a00 * (a11 * r2 - r1 * a12) - a01 * (a01 * r2 - r1 * a02) + r0 * (a01 * a12 - a11 * a02)
+    ) / det
+    return used, x0, x1, x2, True
+
+
+@jit
+def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
+    """The coarse Sun sensor's heads (cosine law, dark in eclipse) and the Sun direction from
+    them into z; ``scratch`` holds the currents. The direction: least squares over the heads
+    above 3σ, then again without any of them that faces away from that first solution (a dark
+    head whose noise reads above 3σ, 0.13 % of its draws: it would pull the solution's
+    component along its normal to half; the cosine law gives it no current from a Sun behind
+    it); invalid with fewer than three heads left."""
+    n = int(sn[o + S_NHEADS])
+    so = int(sn[o + S_STATE])
+    sg = sn[o + S_SIGMA]
+    sb = rotate_inverse(q, s)
+    for i in range(n):
+        b = o + S_NORMALS + 3 * i
+        c = sn[b] * sb[0] + sn[b + 1] * sb[1] + sn[b + 2] * sb[2]
+        scratch[i] = nu * max(0.0, c) + sg * normal(ss, so)
     z[Z_ECLIPSE] = nu
-    if lit >= 3 and abs(det) > 1e-9:
-        x0 = (
-            r0 * (a11 * a22 - a12 * a12) - a01 * (r1 * a22 - a12 * r2) + a02 * (r1 * a12 - a11 * r2)
-        ) / det
-        x1 = (
-            a00 * (r1 * a22 - a12 * r2) - r0 * (a01 * a22 - a12 * a02) + a02 * (a01 * r2 - r1 * a02)
-        ) / det
-        x2 = (
-            a00 * (a11 * r2 - r1 * a12) - a01 * (a01 * r2 - r1 * a02) + r0 * (a01 * a12 - a11 * a02)
-        ) / det
+    thr = 3.0 * sg
+    used, x0, x1, x2, ok = _css_fit(sn, o, scratch, n, thr, False, 0.0, 0.0, 0.0)
+    if ok:
+        used2, y0, y1, y2, ok = _css_fit(sn, o, scratch, n, thr, True, x0, x1, x2)
+        if used2 < used:  # a head facing away from the first solution: solved without it
+            x0, x1, x2 = y0, y1, y2
+    if ok:
         m = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         if m > 0.0:
             z[Z_SUN] = x0 / m

@@ -296,6 +296,11 @@ class Magnetometer(Sensor):
 class SunSensor(Sensor):
     """A coarse Sun sensor: heads with a cosine law, dark in the Earth's shadow.
 
+    Each head's current is ν max(0, n·ŝ) + σ N (ν the fraction of the Sun seen). The measured
+    direction is the least-squares solution over the heads above 3σ, solved again without
+    any head facing away from the first solution (a dark head whose noise passed 3σ); it is
+    invalid (NaN) with fewer than three independent heads left.
+
     Parameters
     ----------
     normals : array_like (n, 3), optional
