@@ -316,8 +316,9 @@ def dense_state(work, tstate, tau, out, nw):
 
     The polynomials are evaluated by Horner's rule all at once, order by order (the same
     operations per column as one column at a time, so the same bits): the columns' chains of
-    dependent multiply–adds then overlap instead of running one after the other (measured
-    50 → 20 ns at order 5 with three wheels)."""
+    dependent multiply–adds then overlap instead of running one after the other. Returning g
+    spares the step's end evaluating it again: 68 → 20 ns at order 5 with three wheels
+    (measured, the two together)."""
     p = int(tstate[TS_P_USED])
     c = tstate[TS_C]
     q0 = work[p, 0]
