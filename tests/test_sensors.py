@@ -313,6 +313,30 @@ def test_star_tracker_exclusion_flags_exactly_when_the_geometry_says(epoch):
     assert (expect == 2).any() and (expect == 3).any() and (expect == 0).any()
 
 
+def test_star_tracker_measures_at_its_own_rate():
+    """A 2 Hz star tracker under 10 Hz software: a measurement (status valid, a unit
+    quaternion within its noise of the truth) at every fifth tick from the first, "no update"
+    at the others; at 10 Hz (the default, the software's rate) at every tick."""
+    st = StarTracker(5 * u.arcsec, [0.0, 0.0, 1.0], rate=2 * u.Hz, seed=6)
+    ds = _record([st], 0.1, 20.0, w0=(0.01, -0.02, 0.005))
+    status = ds.star_tracker_status.values
+    k = np.arange(status.size)
+    np.testing.assert_array_equal(status, np.where(k % 5 == 0, 0, 1))
+    upd = k % 5 == 0
+    qm = ds.star_tracker_q.values[upd]
+    np.testing.assert_allclose(np.linalg.norm(qm, axis=1), 1.0, rtol=0, atol=1e-15)
+    w0 = (0.01, -0.02, 0.005)
+    craft = attitude.Spacecraft(BODY)
+    truth = attitude.propagate(
+        craft, Q_ID, C.momenta_from_angular_velocity(Q_ID, w0, craft), ds.tick.values[upd],
+        rtol=1e-13,
+    )  # fmt: skip
+    ang = qt.angle_between(qm, truth.q.values)
+    assert ang.max() < 6 * math.hypot(st.noise[0], st.noise[0], st.noise[1])
+    every = _record([StarTracker(5 * u.arcsec, [0.0, 0.0, 1.0], seed=6)], 0.1, 2.0)
+    assert np.all(every.star_tracker_status.values == 0)
+
+
 def _mekf_run(t_end, seed, q_err_deg=10.0, period=0.5):
     """Inertial pointing with three wheels, a gyro with bias and a 2 Hz star tracker, through
     the MEKF started ``q_err_deg`` off (None: from the first star tracker measurement)."""
