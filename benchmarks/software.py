@@ -9,7 +9,7 @@ The case is Basilisk's ``scenarioAttitudeFeedbackRW`` (tests/basilisk_reference.
    ``bsk`` is installed (a scratch environment; never a dependency), else skipped;
 2. ours, the built-in law, ``taylor`` and ``dop853`` (rtol 1e-12), with the ratio to Basilisk
    and the largest difference of the MRP and wheel-speed histories from Basilisk's
-   (Basilisk's RK4 at 0.1 s is itself ~1e-9 off: the step-halving figure is printed);
+   (and, for scale, how much halving Basilisk's RK4 step changes its MRP: 2.5e-14 measured);
 3. the same day with a gyro, a star tracker and the MEKF in the loop (``taylor`` and
    ``dop853``), against Basilisk's day with its own attitude filter in the loop, like for like:
    its gyro (``imuSensor``, at the tick), its star tracker (``starTracker``, 2 Hz, our noise and
