@@ -399,6 +399,13 @@ def rebind(
     return k
 
 
+def inline_copy(template, namespace: dict, **names: str):
+    """A :func:`rebind` copy of ``template`` (tag ``inline``) that numba's IR inliner inlines
+    into its callers (``inline="always"``), with some of its globals bound to other inline
+    copies by name: the tick and the Taylor step inlined whole into the single-run drivers."""
+    return rebind(template, namespace, "inline", options={"inline": "always"}, **names)
+
+
 _INTERPRETED: dict[str, types.ModuleType] = {}
 
 

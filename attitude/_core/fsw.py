@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit, rebind
+from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
     S_IDEAL,
@@ -766,25 +766,17 @@ def fsw_boundary(P, y, t, t_end, ctl):
 # 10 Hz closed-loop tick. The ensemble drivers keep the calls (numba's parallel array analysis
 # rejects the inlined tick). The sensors and the filter stay a call (sense_and_estimate):
 # inlined, they doubled the drivers' compile time (60 -> 130 s cold) for no measurable gain.
-_INLINE = {"inline": "always"}
-_sense_inline = rebind(_sense, globals(), "inline", options=_INLINE)
-_guidance_inline = rebind(guidance, globals(), "inline", options=_INLINE)
-_configure_hold_inline = rebind(configure_hold, globals(), "inline", options=_INLINE)
-_thrusters_off_at_inline = rebind(thrusters_off_at, globals(), "inline", options=_INLINE)
-_next_thruster_off_inline = rebind(next_thruster_off, globals(), "inline", options=_INLINE)
-fsw_tick_inline = rebind(
-    fsw_tick,
-    globals(),
-    "inline",
-    options=_INLINE,
-    _sense="_sense_inline",
-    guidance="_guidance_inline",
+_sense_inline = inline_copy(_sense, globals())
+_guidance_inline = inline_copy(guidance, globals())
+_configure_hold_inline = inline_copy(configure_hold, globals())
+_thrusters_off_at_inline = inline_copy(thrusters_off_at, globals())
+_next_thruster_off_inline = inline_copy(next_thruster_off, globals())
+fsw_tick_inline = inline_copy(
+    fsw_tick, globals(), _sense="_sense_inline", guidance="_guidance_inline"
 )
-fsw_boundary_inline = rebind(
+fsw_boundary_inline = inline_copy(
     fsw_boundary,
     globals(),
-    "inline",
-    options=_INLINE,
     fsw_tick="fsw_tick_inline",
     _sense="_sense_inline",
     configure_hold="_configure_hold_inline",

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 
 from orbit import _state_kernels as _SK
-from orbit._shared_jit import jit, rebind
+from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
     S_IDEAL,
@@ -530,18 +530,14 @@ def gyrostat_order0(cf, sc, nw):
 
 # One step inlined whole into the single-run driver (entry_points binds it; the SIMD batch
 # keeps the calls): the step's halves pass their arrays as seven arguments each.
-_INLINE = {"inline": "always"}
-_step_prepare_inline = rebind(step_prepare, globals(), "inline", options=_INLINE)
-_step_complete_inline = rebind(step_complete, globals(), "inline", options=_INLINE)
-gyrostat_step_inline = rebind(
+_step_prepare_inline = inline_copy(step_prepare, globals())
+_step_complete_inline = inline_copy(step_complete, globals())
+gyrostat_step_inline = inline_copy(
     gyrostat_step,
     globals(),
-    "inline",
-    options=_INLINE,
     step_prepare="_step_prepare_inline",
     step_complete="_step_complete_inline",
 )
-
 
 #: The command source of :func:`taylor_holds_run` (as :data:`attitude._core.holds.BOUNDARY`):
 #: the open-loop schedule here; the flight software's copies rebind it.
