@@ -214,6 +214,27 @@ def actuator_torque(sc, q, t):
 
 
 @jit
+def _power_limited(pmax, Om, u):
+    """The wheel torque of sign u at the power limit, pmax/|Ω| (a call: kept out of the
+    wheel loop's straight line, where LLVM would divide at every hold to select it)."""
+    return math.copysign(pmax / abs(Om), u)
+
+
+@jit(inline="always")
+def _stribeck_regime(st, Om, om_before, lc):
+    """1 when the wheel is (still) in Basilisk's Stribeck regime at Ω, else 0 (its
+    ``updateContributions`` test: entered below 0.1 ω_lc, kept while Ω moves away from zero)."""
+    if abs(Om) < 0.1 * lc:
+        st = 1.0
+    d = Om - om_before
+    s_om = 1.0 if Om > 0.0 else (-1.0 if Om < 0.0 else 0.0)
+    s_d = 1.0 if d > 0.0 else (-1.0 if d < 0.0 else 0.0)
+    if not (st == 1.0 and abs(s_om - s_d) < 2.0):
+        st = 0.0
+    return st
+
+
+@jit
 def configure_hold(sc, y, cmd, t_hold, t_next):
     """Apply the raw commands ``cmd`` (wheel torques, dipoles, thrust on-time fractions, in
     that order) for the hold [t_hold, t_next) from the state ``y`` at ``t_hold``.
@@ -245,22 +266,18 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
             flags |= FLAG_DEADBAND
         pmax = sc[b + W_PMAX]
         if abs(u * Om) >= pmax:
-            u = math.copysign(pmax / abs(Om), u)
+            u = _power_limited(pmax, Om, u)
             flags |= FLAG_POWER
         if abs(Om) >= sc[b + W_OMAX]:
             flags |= FLAG_SPEED
             if Om * u >= 0.0:
                 u = 0.0
-        # Basilisk's Stribeck-regime test (updateContributions), at the boundary.
+        # Basilisk's Stribeck-regime test (updateContributions), at the boundary (never in
+        # the regime without a Stribeck velocity β: the test's work skipped then)
         beta = sc[b + W_BETA]
-        st = sc[b + W_STRIBECK]
-        if beta > 0.0 and abs(Om) < 0.1 * sc[b + W_LC]:
-            st = 1.0
-        d = Om - sc[b + W_OMEGA_BEFORE]
-        s_om = 1.0 if Om > 0.0 else (-1.0 if Om < 0.0 else 0.0)
-        s_d = 1.0 if d > 0.0 else (-1.0 if d < 0.0 else 0.0)
-        if not (st == 1.0 and abs(s_om - s_d) < 2.0 and beta > 0.0):
-            st = 0.0
+        st = 0.0
+        if beta > 0.0:
+            st = _stribeck_regime(sc[b + W_STRIBECK], Om, sc[b + W_OMEGA_BEFORE], sc[b + W_LC])
         sc[b + W_STRIBECK] = st
         sc[b + W_U] = u
         sc[b + W_UCMD] = cmd[k]

@@ -64,7 +64,21 @@ from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     member_stop,
     schedule_ctl,
 )
-from .taylor import CA, CG, CR2, CU3, CU5, CV, CW, CX, NCOL, WORK_ROWS, Y, set_order
+from .taylor import (
+    CA,
+    CG,
+    CR2,
+    CU3,
+    CU5,
+    CV,
+    CW,
+    CX,
+    NCOL,
+    RECIPROCALS,
+    WORK_ROWS,
+    Y,
+    set_order,
+)
 from .taylor_gyrostat import (
     CH,
     ORDER_MARGIN,
@@ -138,7 +152,7 @@ def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
     """:func:`attitude._core.taylor.torque_series` on lane tuples, statement for statement."""
     Z = V.ZERO
     t0 = t1 = t2 = Z
-    inv = 1.0 / (k + 1.0)
+    inv = RECIPROCALS[k]
     if kind == KIND_HEAVY_TOP:
         s0 = V.load(cf, k, CA)
         s1 = V.load(cf, k, CA + 1)
@@ -330,19 +344,21 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
                 done = False
         if done:
             break
-        # Cauchy products over j = 0..k: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
+        # Cauchy products over j = k..0 (ω[k] last), the cross product in two chains
         b00 = b10 = b20 = b30 = Z
         b01 = b11 = b21 = b31 = Z
         b02 = b12 = b22 = b32 = Z
         p0 = p1 = p2 = Z
-        for j in range(k + 1):
+        r0 = r1 = r2 = Z
+        for i in range(k + 1):
+            j = k - i
             q0 = V.load(cf, j, 0)
             q1 = V.load(cf, j, 1)
             q2 = V.load(cf, j, 2)
             q3 = V.load(cf, j, 3)
-            o0 = V.load(cf, k - j, CW)
-            o1 = V.load(cf, k - j, CW + 1)
-            o2 = V.load(cf, k - j, CW + 2)
+            o0 = V.load(cf, i, CW)
+            o1 = V.load(cf, i, CW + 1)
+            o2 = V.load(cf, i, CW + 2)
             g0 = V.load(cf, j, CG)
             g1 = V.load(cf, j, CG + 1)
             g2 = V.load(cf, j, CG + 2)
@@ -358,10 +374,16 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
             b12 = V.fma(q2, o2, b12)
             b22 = V.fma(V.neg(q1), o2, b22)
             b32 = V.fma(q0, o2, b32)
-            p0 = V.fma(g1, o2, V.fma(V.neg(g2), o1, p0))
-            p1 = V.fma(g2, o0, V.fma(V.neg(g0), o2, p1))
-            p2 = V.fma(g0, o1, V.fma(V.neg(g1), o0, p2))
-        inv = 1.0 / (k + 1.0)
+            p0 = V.fma(g1, o2, p0)
+            r0 = V.fma(g2, o1, r0)
+            p1 = V.fma(g2, o0, p1)
+            r1 = V.fma(g0, o2, r1)
+            p2 = V.fma(g0, o1, p2)
+            r2 = V.fma(g1, o0, r2)
+        p0 = V.sub(p0, r0)
+        p1 = V.sub(p1, r1)
+        p2 = V.sub(p2, r2)
+        inv = RECIPROCALS[k]
         hh = 0.5 * inv
         V.store(cf, k + 1, 0, V.smul(hh, V.add(V.add(b00, b01), b02)))
         V.store(cf, k + 1, 1, V.smul(hh, V.add(V.add(b10, b11), b12)))

@@ -88,6 +88,9 @@ CU5 = 22  # |r|⁻⁵ (1)
 CX = 23  # r × I r (3)
 NCOL = 26
 Y = PMAX + 1
+#: 1/(k + 1) for the orders of the table: a load instead of a division in the recurrences
+#: (the same numbers; a division sat on their chain of dependent operations).
+RECIPROCALS = np.array([1.0 / (k + 1.0) for k in range(PMAX + 1)])
 WORK_ROWS = PMAX + 2
 
 _EPS = 2.220446049250313e-16
@@ -230,7 +233,7 @@ def taylor_coefficients(cf, p, params, n, c):
         cf[k + 1, 3] = h * F(iI2, a32, F(iI1, a31, iI0 * a30))
         # Torque series τ[k] (and the auxiliary series to order k + 1).
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
-        inv = 1.0 / (k + 1.0)
+        inv = RECIPROCALS[k]
         # Euler's equations: ġ = g × ω + n τ
         cf[k + 1, CG] = F(e0, p12, n * t0) * inv
         cf[k + 1, CG + 1] = F(e1, p20, n * t1) * inv
@@ -246,7 +249,7 @@ def torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2):
     (:mod:`attitude._core.taylor_gyrostat`): the same operations in the same order.
     """
     t0 = t1 = t2 = 0.0
-    inv = 1.0 / (k + 1.0)
+    inv = RECIPROCALS[k]
     if kind == KIND_HEAVY_TOP:
         s0 = cf[k, CA]
         s1 = cf[k, CA + 1]

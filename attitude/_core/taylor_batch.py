@@ -71,6 +71,7 @@ from .taylor import (
     CW,
     CX,
     NCOL,
+    RECIPROCALS,
     WORK_ROWS,
     Y,
     order_from_tolerance,
@@ -245,7 +246,7 @@ def taylor_coefficients_lanes(cf, p, kind, cst):
         _q_dot(cf, k + 1, 2, h, iI0, iI1, iI2, a20, a21, a22)
         _q_dot(cf, k + 1, 3, h, iI0, iI1, iI2, a30, a31, a32)
         t0 = t1 = t2 = Z
-        inv = 1.0 / (k + 1.0)
+        inv = RECIPROCALS[k]
         if kind == KIND_HEAVY_TOP:
             s0 = V.load(cf, k, CA)
             s1 = V.load(cf, k, CA + 1)

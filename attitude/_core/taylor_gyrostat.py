@@ -74,6 +74,7 @@ from .taylor import (
     CG,
     CW,
     NCOL,
+    RECIPROCALS,
     Y,
     _initial_row,
     order_from_tolerance,
@@ -194,44 +195,61 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     dk = 1.0  # d^k
     prev_ok = False
     CO = CH + nw
+    # Without friction the wheels' Ω enters no recurrence (h[k+1] = (u − c₀ − c₁ Ω[k])/(k+1)
+    # with c₁ = 0) and no step check (the kinks are friction's): its orders above 0 (row 0 is
+    # step_prepare's) are not computed; and h[k] = 0 from k = 2 on, so ℓ[k] = 0 there.
+    friction = False
+    for j in range(nw):
+        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
+            friction = True
     k = 0
     while True:
         # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
-        l0 = l1 = l2 = 0.0
-        for j in range(nw):
-            b = S_WHEELS + j * WS
-            h = cf[k, CH + j]
-            l0 = F(h, sc[b + W_AXIS], l0)
-            l1 = F(h, sc[b + W_AXIS + 1], l1)
-            l2 = F(h, sc[b + W_AXIS + 2], l2)
-        e0 = cf[k, CG] - l0
-        e1 = cf[k, CG + 1] - l1
-        e2 = cf[k, CG + 2] - l2
+        if k >= 2 and not friction:
+            e0 = cf[k, CG]
+            e1 = cf[k, CG + 1]
+            e2 = cf[k, CG + 2]
+        else:
+            l0 = l1 = l2 = 0.0
+            for j in range(nw):
+                b = S_WHEELS + j * WS
+                h = cf[k, CH + j]
+                l0 = F(h, sc[b + W_AXIS], l0)
+                l1 = F(h, sc[b + W_AXIS + 1], l1)
+                l2 = F(h, sc[b + W_AXIS + 2], l2)
+            e0 = cf[k, CG] - l0
+            e1 = cf[k, CG + 1] - l1
+            e2 = cf[k, CG + 2] - l2
         w0 = F(m02, e2, F(m01, e1, m00 * e0))
         w1 = F(m12, e2, F(m11, e1, m10 * e0))
         w2 = F(m22, e2, F(m21, e1, m20 * e0))
         cf[k, CW] = w0
         cf[k, CW + 1] = w1
         cf[k, CW + 2] = w2
-        for j in range(nw):
-            b = S_WHEELS + j * WS
-            aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
-            cf[k, CO + j] = F(cf[k, CH + j], sc[b + W_INVJ], -aw)
+        if friction and k > 0:
+            for j in range(nw):
+                b = S_WHEELS + j * WS
+                aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
+                cf[k, CO + j] = F(cf[k, CH + j], sc[b + W_INVJ], -aw)
         if k == p:
             return k
-        # Cauchy products over j = 0..k: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
+        # Cauchy products over j = k..0: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
+        # (ω[k], the newest, last: the chains run on the known orders while ω[k] is computed;
+        # the cross product in two chains, a × b = Σ a_i b_j − Σ a_j b_i)
         b00 = b10 = b20 = b30 = 0.0
         b01 = b11 = b21 = b31 = 0.0
         b02 = b12 = b22 = b32 = 0.0
         p0 = p1 = p2 = 0.0
-        for j in range(k + 1):
+        r0 = r1 = r2 = 0.0
+        for i in range(k + 1):
+            j = k - i
             q0 = cf[j, 0]
             q1 = cf[j, 1]
             q2 = cf[j, 2]
             q3 = cf[j, 3]
-            o0 = cf[k - j, CW]
-            o1 = cf[k - j, CW + 1]
-            o2 = cf[k - j, CW + 2]
+            o0 = cf[i, CW]
+            o1 = cf[i, CW + 1]
+            o2 = cf[i, CW + 2]
             g0 = cf[j, CG]
             g1 = cf[j, CG + 1]
             g2 = cf[j, CG + 2]
@@ -247,10 +265,16 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
             b12 = F(q2, o2, b12)
             b22 = F(-q1, o2, b22)
             b32 = F(q0, o2, b32)
-            p0 = F(g1, o2, F(-g2, o1, p0))
-            p1 = F(g2, o0, F(-g0, o2, p1))
-            p2 = F(g0, o1, F(-g1, o0, p2))
-        inv = 1.0 / (k + 1.0)
+            p0 = F(g1, o2, p0)
+            r0 = F(g2, o1, r0)
+            p1 = F(g2, o0, p1)
+            r1 = F(g0, o2, r1)
+            p2 = F(g0, o1, p2)
+            r2 = F(g1, o0, r2)
+        p0 -= r0
+        p1 -= r1
+        p2 -= r2
+        inv = RECIPROCALS[k]
         hh = 0.5 * inv
         cf[k + 1, 0] = hh * (b00 + b01 + b02)
         cf[k + 1, 1] = hh * (b10 + b11 + b12)
@@ -266,10 +290,13 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k + 1, CG + 2] = F(n, t2, p2) * inv
         for j in range(nw):
             b = S_WHEELS + j * WS
-            c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
-            r = -c1 * cf[k, CO + j]
-            if k == 0:
-                r += sc[b + W_U] - c0
+            if friction:
+                c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
+                r = -c1 * cf[k, CO + j]
+                if k == 0:
+                    r += sc[b + W_U] - c0
+            else:
+                r = sc[b + W_U] if k == 0 else 0.0
             cf[k + 1, CH + j] = r * inv
         k += 1
         dk *= d
@@ -279,7 +306,9 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
             and _blockh(cf, k, nw) * dk <= tol_h
         )
         if ok and prev_ok and k >= PMIN:
-            # ω, Ω at the final order too (for the dense output of Ω and the kink check)
+            if not friction:
+                return k
+            # ω, Ω at the final order too (for the kink check on Ω's polynomial)
             p = k
             continue
         prev_ok = ok
@@ -328,8 +357,6 @@ def dense_state(work, tstate, tau, out, nw):
     h0 = work[p, CG]
     h1 = work[p, CG + 1]
     h2 = work[p, CG + 2]
-    for j in range(nw):
-        out[8 + j] = work[p, CH + j]
     for i in range(p):
         k = p - 1 - i
         q0 = F(q0, tau, work[k, 0])
@@ -339,8 +366,13 @@ def dense_state(work, tstate, tau, out, nw):
         h0 = F(h0, tau, work[k, CG])
         h1 = F(h1, tau, work[k, CG + 1])
         h2 = F(h2, tau, work[k, CG + 2])
-        for j in range(nw):
-            out[8 + j] = F(out[8 + j], tau, work[k, CH + j])
+    # the wheels one at a time, each chain in a register (the wheels' chains still overlap:
+    # no dependence between them; through ``out`` each order waited on the last one's store)
+    for j in range(nw):
+        a = work[p, CH + j]
+        for i in range(p):
+            a = F(a, tau, work[p - 1 - i, CH + j])
+        out[8 + j] = a
     g0 = 2.0 * h0
     g1 = 2.0 * h1
     g2 = 2.0 * h2
@@ -530,13 +562,20 @@ def gyrostat_order0(cf, sc, nw):
 
 # One step inlined whole into the single-run driver (entry_points binds it; the SIMD batch
 # keeps the calls): the step's halves pass their arrays as seven arguments each.
-_step_prepare_inline = inline_copy(step_prepare, globals())
-_step_complete_inline = inline_copy(step_complete, globals())
+_initial_row_inline = inline_copy(_initial_row, globals())
+_dense_state_inline = inline_copy(dense_state, globals())
+_kink_inline = inline_copy(_kink, globals())
+_step_prepare_inline = inline_copy(step_prepare, globals(), _initial_row="_initial_row_inline")
+_step_complete_inline = inline_copy(
+    step_complete, globals(), dense_state="_dense_state_inline", _kink="_kink_inline"
+)
+_gyrostat_coefficients_inline = inline_copy(gyrostat_coefficients, globals())
 gyrostat_step_inline = inline_copy(
     gyrostat_step,
     globals(),
     step_prepare="_step_prepare_inline",
     step_complete="_step_complete_inline",
+    gyrostat_coefficients="_gyrostat_coefficients_inline",
 )
 
 #: The command source of :func:`taylor_holds_run` (as :data:`attitude._core.holds.BOUNDARY`):
