@@ -213,13 +213,6 @@ def actuator_torque(sc, q, t):
     return t0, t1, t2
 
 
-@jit
-def _power_limited(pmax, Om, u):
-    """The wheel torque of sign u at the power limit, pmax/|Ω| (a call: kept out of the
-    wheel loop's straight line, where LLVM would divide at every hold to select it)."""
-    return math.copysign(pmax / abs(Om), u)
-
-
 @jit(inline="always")
 def _stribeck_regime(st, Om, om_before, lc):
     """1 when the wheel is (still) in Basilisk's Stribeck regime at Ω, else 0 (its
@@ -266,7 +259,7 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
             flags |= FLAG_DEADBAND
         pmax = sc[b + W_PMAX]
         if abs(u * Om) >= pmax:
-            u = _power_limited(pmax, Om, u)
+            u = math.copysign(pmax / abs(Om), u)
             flags |= FLAG_POWER
         if abs(Om) >= sc[b + W_OMAX]:
             flags |= FLAG_SPEED
