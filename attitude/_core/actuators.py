@@ -9,7 +9,6 @@ marked (held): those hold the commands in force, written at every hold boundary 
     sc[S_NW], sc[S_NM], sc[S_NT]   numbers of wheels, magnetorquers, thrusters
     sc[S_MINV : +9]                M = Ĩ⁻¹, Ĩ = I − Σ J_k a_k a_kᵀ (row-major, body axes)
     sc[S_TAU : +3]                 (held) the thrusters' torque about the centre of mass (N m)
-    sc[S_FORCE : +3]               (held) the thrusters' force (N, body axes)
     sc[S_MTQ]                      offset of the magnetic-field block (−1: no magnetorquers)
     sc[S_IDEAL : +3]               (held) an ideal control torque (N m, body axes): the flight
                                    software's request on a spacecraft without actuators
@@ -44,10 +43,9 @@ S_NM = 1
 S_NT = 2
 S_MINV = 3
 S_TAU = 12
-S_FORCE = 15
-S_MTQ = 18
-S_IDEAL = 19
-S_WHEELS = 22
+S_MTQ = 15
+S_IDEAL = 16
+S_WHEELS = 19
 
 # Wheel record (relative to its start).
 W_AXIS = 0  # a (3), unit, body axes
@@ -313,9 +311,9 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
 
 @jit
 def thrusters_update(sc):
-    """The held thruster torque and force from the thrusters firing (T_FIRING)."""
+    """The held thruster torque from the thrusters firing (T_FIRING). (Their force moves no
+    orbit here: the orbit is prescribed; each thruster's force is in the results.)"""
     a0 = a1 = a2 = 0.0
-    f0 = f1 = f2 = 0.0
     for j in range(int(sc[S_NT])):
         b = thruster_base(sc, j)
         if sc[b + T_FIRING] != 0.0:
@@ -323,15 +321,9 @@ def thrusters_update(sc):
             a0 += fm * sc[b + T_ARM]
             a1 += fm * sc[b + T_ARM + 1]
             a2 += fm * sc[b + T_ARM + 2]
-            f0 += fm * sc[b + T_DIR]
-            f1 += fm * sc[b + T_DIR + 1]
-            f2 += fm * sc[b + T_DIR + 2]
     sc[S_TAU] = a0
     sc[S_TAU + 1] = a1
     sc[S_TAU + 2] = a2
-    sc[S_FORCE] = f0
-    sc[S_FORCE + 1] = f1
-    sc[S_FORCE + 2] = f2
 
 
 @jit
