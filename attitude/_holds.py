@@ -99,8 +99,10 @@ def prepare(
                 f"commands: expected an attitude.CommandSchedule, got {type(commands).__name__}"
             )
         hold_t, hold_u = commands.arrays(nw, nm, nt)
-        hold_t = np.ascontiguousarray(hold_t, dtype=np.float64)
-        hold_u = np.ascontiguousarray(hold_u, dtype=np.float64)
+        # writable C-ordered copies, as without a schedule: the schedule's read-only arrays
+        # would compile the drivers a second time (numba types a read-only array apart)
+        hold_t = np.array(hold_t, dtype=np.float64, order="C")
+        hold_u = np.array(hold_u, dtype=np.float64, order="C")
     prog = None
     if software is not None:
         from .software import FlightSoftware
