@@ -522,8 +522,14 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     for i in range(0, m, SAMPLE_BUDGET):
         j = min(m, i + SAMPLE_BUDGET)
         problem.entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
+        # C-ordered copies of the (q, Q) columns and the rates: with wheels they are strided
+        # views, without them not (two types: the kernel compiled twice)
         problem.entry.term_torques_at_rates(
-            t[i:j], y[i:j, :8], diag[i:j, 0:3], problem.params, torques[i:j]
+            t[i:j],
+            np.ascontiguousarray(y[i:j, :8]),
+            np.ascontiguousarray(diag[i:j, 0:3]),
+            problem.params,
+            torques[i:j],
         )
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
     return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec}
