@@ -99,8 +99,10 @@ def prepare(
                 f"commands: expected an attitude.CommandSchedule, got {type(commands).__name__}"
             )
         hold_t, hold_u = commands.arrays(nw, nm, nt)
-        hold_t = np.ascontiguousarray(hold_t, dtype=np.float64)
-        hold_u = np.ascontiguousarray(hold_u, dtype=np.float64)
+        # writable C-ordered copies, as without a schedule: the schedule's read-only arrays
+        # would compile the drivers a second time (numba types a read-only array apart)
+        hold_t = np.array(hold_t, dtype=np.float64, order="C")
+        hold_u = np.array(hold_u, dtype=np.float64, order="C")
     prog = None
     if software is not None:
         from .software import FlightSoftware
@@ -520,8 +522,14 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     for i in range(0, m, SAMPLE_BUDGET):
         j = min(m, i + SAMPLE_BUDGET)
         problem.entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
+        # C-ordered copies of the (q, Q) columns and the rates: with wheels they are strided
+        # views, without them not (two types: the kernel compiled twice)
         problem.entry.term_torques_at_rates(
-            t[i:j], y[i:j, :8], diag[i:j, 0:3], problem.params, torques[i:j]
+            t[i:j],
+            np.ascontiguousarray(y[i:j, :8]),
+            np.ascontiguousarray(diag[i:j, 0:3]),
+            problem.params,
+            torques[i:j],
         )
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
     return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec}

@@ -249,4 +249,6 @@ def as_times(t: Any, name: str = "t", *, unit: Any = "s", lazy: bool = False) ->
                     f"{name}: times must be strictly monotonic (increasing, or decreasing for a "
                     f"backward run); {name}[{i}] = {a!r} and {name}[{i + 1}] = {b!r}"
                 )
-    return arr
+    # C-ordered and writable (a copy only if not): the compiled loops take one array type
+    # (a read-only one, e.g. a result's time values, compiled them a second time)
+    return np.require(arr, np.float64, ["C", "W"])

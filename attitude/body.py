@@ -90,6 +90,7 @@ class RigidBody:
                     f"inertia: violates the triangle inequality I{i + 1} + I{j + 1} >= I{k + 1} "
                     f"({arr[i]} + {arr[j]} < {arr[k]}); no rigid body has these moments"
                 )
+        arr = arr.copy()  # (read-only: the caller's array stays writable)
         arr.setflags(write=False)
         object.__setattr__(self, "inertia", arr)
         object.__setattr__(self, "units", units)

@@ -110,6 +110,7 @@ class Spacecraft:
                 raise AttitudeValueError(
                     f"center_of_mass: expected 3 body-axis components (m), got shape {cm.shape}"
                 )
+        cm = cm.copy()  # (read-only: the caller's array stays writable)
         cm.setflags(write=False)
         s(self, "center_of_mass", cm)
         if orbit is not None and not hasattr(orbit, "kernel_data"):

@@ -176,6 +176,83 @@ if not JIT_DISABLED:
         )
 
 
+class _InlinerCopy:
+    """numba's IR inliner (``inline="always"``) copies the callee's IR block by block, a fresh
+    ``copy.deepcopy`` memo per block: every block copies the function's whole scope (all its
+    variables) again, O(blocks x variables). The inlined flight-software tick (hundreds of
+    blocks, thousands of variables) took 18 s of a closed-loop driver's 30 s compile in that
+    copy (numba issue #8989). This stands for the ``copy`` module in
+    :mod:`numba.core.inline_closurecall`: the blocks of one copy share one memo, so each object
+    is copied once, as one ``deepcopy`` of the function would; every other call goes to
+    ``copy`` itself. The copy is the same IR, so the same machine code (checked: the LLVM IR of
+    every function of a closed-loop run is byte for byte the same with and without this).
+    """
+
+    def __init__(self, copy_module, copy_ir_code):
+        self._copy = copy_module
+        self._code = copy_ir_code
+        self._frame = None  # the copy in progress (its frame), its memo, its blocks to go
+        self._memo: dict = {}
+        self._left = 0
+
+    def __getattr__(self, name):
+        return getattr(self._copy, name)
+
+    def deepcopy(self, x, memo=None):
+        if memo is None:
+            f = sys._getframe(1)
+            if f.f_code is self._code:  # a block of copy_ir's loop
+                if self._frame is not f:
+                    self._frame, self._memo = f, {}
+                    self._left = len(f.f_locals["the_ir"].blocks)
+                out = self._copy.deepcopy(x, self._memo)
+                self._left -= 1
+                if self._left <= 0:  # the copy is complete: nothing kept alive
+                    self._frame, self._memo = None, {}
+                return out
+        return self._copy.deepcopy(x, memo)
+
+
+def _install_inliner_copy() -> None:
+    """Put :class:`_InlinerCopy` in numba's inliner, on the first compilation (numba imports the
+    inliner only to compile; importing it here would slow every ``import attitude``)."""
+    import copy
+
+    from numba.core import event
+
+    class _OnFirstCompile(event.Listener):
+        done = False
+
+        def on_start(self, ev):
+            if self.done:
+                return
+            self.done = True
+            from numba.core import inline_closurecall as ic
+
+            code = next(
+                (
+                    c
+                    for c in ic.InlineWorker.inline_ir.__code__.co_consts
+                    if getattr(c, "co_name", None) == "copy_ir"
+                ),
+                None,
+            )
+            if code is not None and ic.copy is copy:  # (else numba changed: leave it)
+                ic.copy = _InlinerCopy(copy, code)
+
+        def on_end(self, ev):
+            pass
+
+    event.register("numba:compile", _OnFirstCompile())
+
+
+if not JIT_DISABLED:
+    try:
+        _install_inliner_copy()
+    except (ImportError, AttributeError):  # pragma: no cover - numba internals moved
+        pass
+
+
 def jit(func=None, /, **options):
     """Compile ``func`` with numba in nopython mode, cached, or return it unchanged.
 

@@ -93,11 +93,22 @@ def _continuous_sign(p: np.ndarray) -> np.ndarray:
 
 class OrbitBase:
     """Shared implementation of :class:`Orbit` on top of :meth:`kernel_data` (one compiled
-    dispatcher, :mod:`orbit._state_kernels`). Subclasses set ``self._data`` (read-only) and
-    ``self._epoch``."""
+    dispatcher, :mod:`orbit._state_kernels`). Subclasses set the array with
+    :meth:`_set_data` and ``self._epoch``."""
 
-    _data: np.ndarray
+    _data: np.ndarray  # read-only view of the kernel array
+    _kdata: np.ndarray  # the same memory, writable: what the compiled loops are given
     _epoch: Any = None
+
+    def _set_data(self, d: np.ndarray) -> None:
+        """Keep the kernel array ``d``: a read-only view as ``_data``, and ``d`` itself, never
+        written, for the compiled loops. numba types a read-only array as another type, and the
+        models read writable copies (``kernel_data()``): given the read-only one, every orbit
+        kernel compiled twice."""
+        self._kdata = d
+        v = d.view()
+        v.setflags(write=False)
+        self._data = v
 
     # -- identity ---------------------------------------------------------------------------
     @property
@@ -212,7 +223,7 @@ class OrbitBase:
     def _state_rows(self, t: Any) -> tuple[np.ndarray, tuple]:
         flat, shape = self._seconds(t, "t")
         out = np.empty((flat.size, 6))
-        _sk.state_loop(self._data, flat, out)
+        _sk.state_loop(self._kdata, flat, out)
         return out, shape
 
     def position(self, t: Any) -> np.ndarray:
@@ -240,7 +251,7 @@ class OrbitBase:
         (:func:`orbit._state_kernels.orbit_acceleration`)."""
         flat, shape = self._seconds(t, "t")
         out = np.empty((flat.size, 3))
-        _sk.acceleration_loop(self._data, flat, out)
+        _sk.acceleration_loop(self._kdata, flat, out)
         return out.reshape((*shape, 3))
 
     def to_state(self, t: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -251,7 +262,7 @@ class OrbitBase:
     def _radial(self, t: Any) -> tuple[np.ndarray, tuple]:
         flat, shape = self._seconds(t, "t")
         out = np.empty((flat.size, 4))
-        _sk.radial_loop(self._data, flat, out)
+        _sk.radial_loop(self._kdata, flat, out)
         return out, shape
 
     def radius(self, t: Any) -> Any:
@@ -276,7 +287,7 @@ class OrbitBase:
         """
         flat, shape = self._seconds(t, "t")
         out = np.empty((flat.size, 5))
-        _sk.frame_loop(self._data, flat, out)
+        _sk.frame_loop(self._kdata, flat, out)
         p = out[:, 1:]
         if len(shape) == 1:
             p = _continuous_sign(p)
@@ -310,7 +321,7 @@ class OrbitBase:
         flat, shape = self._seconds(t, "t")
         times = self.absolute_times(flat)
         out = np.empty((flat.size, 6))
-        _sk.state_loop(self._data, flat, out)
+        _sk.state_loop(self._kdata, flat, out)
         return gcrs_to_itrs(times, out[:, :3]).reshape((*shape, 3))
 
     def geodetic(self, t: Any) -> tuple[Any, Any, Any]:

@@ -289,8 +289,7 @@ class EphemerisOrbit(OrbitBase):
         rows = d[_sk.E_TIMES + n :].reshape(n, 6)
         rows[:, :3] = rr
         rows[:, 3:] = vv
-        d.setflags(write=False)
-        self._data = d
+        self._set_data(d)
         self._source = source or f"ephemeris table ({n} states)"
 
     # -- the table ----------------------------------------------------------------------------

@@ -146,8 +146,7 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
         d[_sk.J_RATIO] = m_dot / kep.mean_motion
         d[_sk.J_COSI] = math.cos(kep.inc)
         d[_sk.J_SINI] = math.sin(kep.inc)
-        d.setflags(write=False)
-        self._data = d
+        self._set_data(d)
 
     # -- elements (ClassicalElements: a, e, inc, raan, argp, M0, t0) and rates ------------------
     @property

@@ -114,7 +114,6 @@ def kepler_kernel_data(el: np.ndarray) -> np.ndarray:
         math.cos(hm),
         math.sin(hm),
     )
-    d.setflags(write=False)
     return d
 
 
@@ -353,7 +352,7 @@ class KeplerOrbit(ClassicalElements, OrbitBase):
         # hyperbolic solver.
         self._kernels = _k.ELLIPTIC if e_ < 1.0 else _k
         self._f0 = f0_
-        self._data = kepler_kernel_data(el)
+        self._set_data(kepler_kernel_data(el))
 
     # -----------------------------------------------------------------------------------------
     @classmethod

@@ -97,7 +97,7 @@ def sun_position(epoch: Any, t: Any) -> np.ndarray:
     return np.ascontiguousarray(xyz).reshape((*tt.shape, 3))
 
 
-_TABLES: dict[tuple, np.ndarray] = {}
+_TABLES: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # (read-only view, array)
 _TABLES_MAX = 16
 
 
@@ -129,11 +129,14 @@ class SunTable:
 
             # a wide velocity stencil: astropy's positions scatter by ~1e-5 km (1e-13 relative)
             data = _tables.tabulate(positions, start, stop, step, delta=step / 6.0)
-            data.setflags(write=False)
+            view = data.view()
+            view.setflags(write=False)
             if len(_TABLES) >= _TABLES_MAX:
                 _TABLES.pop(next(iter(_TABLES)))
-            _TABLES[key] = data
-        self._data = _TABLES[key]
+            _TABLES[key] = (view, data)
+        # a read-only view, and the same memory writable for the compiled loops (never written:
+        # numba would compile a read-only array as another type than the models' copies)
+        self._data, self._kdata = _TABLES[key]
 
     @property
     def time_span(self) -> tuple[float, float]:
@@ -151,7 +154,7 @@ class SunTable:
             raise OrbitValueError(
                 f"t: times outside the Sun table [{lo}, {hi}] s; build it over the span you need"
             )
-        return _tables.evaluate(self._data, tt)
+        return _tables.evaluate(self._kdata, tt)
 
     def position(self, t: Any) -> np.ndarray:
         """Interpolated Sun position [km], shape t.shape + (3,)."""
@@ -250,8 +253,9 @@ def shadow_function(
     if r.shape[-1:] != (3,) or s.shape[-1:] != (3,):
         raise OrbitValueError("r_sat, r_sun: expected positions of shape (..., 3)")
     shape = np.broadcast_shapes(r.shape, s.shape)[:-1]
-    rf = np.ascontiguousarray(np.broadcast_to(r, (*shape, 3)).reshape(-1, 3))
-    sf = np.ascontiguousarray(np.broadcast_to(s, (*shape, 3)).reshape(-1, 3))
+    # C-ordered writable float64 (a read-only broadcast view compiles the loop again)
+    rf = np.require(np.broadcast_to(r, (*shape, 3)).reshape(-1, 3), np.float64, ["C", "W"])
+    sf = np.require(np.broadcast_to(s, (*shape, 3)).reshape(-1, 3), np.float64, ["C", "W"])
     out = np.empty((rf.shape[0], 3))
     _shadow_loop(rf, sf, float(earth_radius), float(sun_radius), out)
     out = out.reshape((*shape, 3))

@@ -330,10 +330,11 @@ def ensemble_parallel(
     params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
     rtol, atol, max_step, max_steps, budget,
 ):  # fmt: skip
-    """All members, in parallel over members (``prange``)."""
+    """All members, in parallel over members (``prange``; its index, unsigned, as the serial
+    driver's ``int64``: one compiled member for both)."""
     for i in numba.prange(y0.shape[0]):
         ensemble_member(
-            i, params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
+            numba.int64(i), params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
             rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
 
@@ -371,8 +372,8 @@ def ensemble_events_parallel(
     """All members with events, in parallel over members (``prange``)."""
     for i in numba.prange(y0.shape[0]):
         ensemble_events_member(
-            i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps, budget,
+            numba.int64(i), params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status,
+            n_done, rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
 
 

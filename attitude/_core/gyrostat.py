@@ -72,7 +72,9 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
     w = conj_mul(q, Q)
     l0, l1, l2 = wheel_momentum_sum(sc, y)
     om = body_rate(sc, 0.5 * w[1], 0.5 * w[2], 0.5 * w[3], l0, l1, l2)
-    tau = torque(q, om, t, params)
+    # the model's torque at q as an array, as eq. 7's right-hand side gives it (a tuple compiled
+    # every kernel of the model a second time: ~20 s of a fresh cache for a sum of models)
+    tau = torque(y[0:4], om, t, params)
     ta = actuator_torque(sc, q, t)
     tau = (tau[0] + ta[0], tau[1] + ta[1], tau[2] + ta[2])
     a = mul_vec(q, om)

@@ -264,38 +264,39 @@ MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._co
 
 
 # The environment models alone: their kernels take the block offset; a single model's block is
-# at P_KIND (an int64 like the sums' offsets, so the kernel compiles once for both).
-_BASE = int(P_KIND)
+# at P_KIND, passed as int(_BASE) (an int64 like the sums' offsets, so the kernel compiles once
+# for both: the global itself is typed as the literal 3, which compiled it a second time).
+_BASE = P_KIND
 
 
 @jit(_nrt=False)
 def magnetic_model_torque(q, w, t, params):
     """A magnetic dipole alone: its torque."""
-    return magnetic_torque(q, t, params, _BASE)
+    return magnetic_torque(q, t, params, int(_BASE))
 
 
 @jit(_nrt=False)
 def magnetic_model_potential(q, t, params):
     """A magnetic dipole alone: its potential energy −m·B."""
-    return magnetic_potential(q, t, params, _BASE)
+    return magnetic_potential(q, t, params, int(_BASE))
 
 
 @jit(_nrt=False)
 def eddy_model_torque(q, w, t, params):
     """Eddy currents alone: their torque."""
-    return eddy_torque(q, w, t, params, _BASE)
+    return eddy_torque(q, w, t, params, int(_BASE))
 
 
 @jit(_nrt=False)
 def drag_model_torque(q, w, t, params):
     """Aerodynamic drag alone: its torque."""
-    return drag_torque(q, t, params, _BASE)
+    return drag_torque(q, t, params, int(_BASE))
 
 
 @jit(_nrt=False)
 def solar_model_torque(q, w, t, params):
     """Solar radiation alone: its torque."""
-    return solar_torque(q, t, params, _BASE)
+    return solar_torque(q, t, params, int(_BASE))
 
 
 @jit

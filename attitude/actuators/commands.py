@@ -71,9 +71,14 @@ class CommandSchedule:
                 f"thrust: on-time fractions lie between 0 and 1; thrust{list(bad)} = {th[bad]!r}"
             )
         self.thrust = th
-        for a in (self.times, self.wheel_torque, self.dipole, self.thrust):
+        # read-only copies: the caller's arrays stay as they were (writable; the run's own times
+        # are often the schedule's)
+        for key in ("times", "wheel_torque", "dipole", "thrust"):
+            a = getattr(self, key)
             if a is not None:
+                a = np.array(a, order="C")
                 a.setflags(write=False)
+                setattr(self, key, a)
 
     @staticmethod
     def _column(x: Any, name: str, unit: str | None, k: int) -> np.ndarray | None:

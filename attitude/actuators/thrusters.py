@@ -60,6 +60,7 @@ class Thruster:
             raise AttitudeValueError(
                 f"position: expected 3 body-axis components (m), got shape {r.shape}"
             )
+        r = r.copy()  # (read-only: the caller's array stays writable)
         r.setflags(write=False)
         object.__setattr__(self, "position", r)
         object.__setattr__(self, "direction", unit_axis(direction, "direction"))

@@ -74,6 +74,10 @@ def _compute_chunk(
     Every member is run to its end, failed or not (``status``, ``n_done``, ``t_stop`` say
     how it ended; a failed member's rows after its last sample are NaN).
     """
+    # The compiled drivers take C-ordered float64 (another layout compiles them again, and every
+    # kernel they inline: tens of seconds on a fresh cache for the same results).
+    params = np.ascontiguousarray(params, dtype=np.float64)
+    y0 = np.ascontiguousarray(y0, dtype=np.float64)
     c = y0.shape[0]
     t = setup.t
     m = t.shape[0]

@@ -344,7 +344,9 @@ class _Sampled:
     def block(self, start: int, stop: int):
         q, Q, inert = self.disp.sample(self.q0, self.Q0, self.inertia0, start, stop)
         qp, Qp, corr = _project(q, Q, start)
-        params = np.array(np.broadcast_to(self.params, (stop - start, self.params.shape[0])))
+        params = np.array(
+            np.broadcast_to(self.params, (stop - start, self.params.shape[0])), order="C"
+        )  # (a copy of a broadcast is Fortran-ordered: the compiled loops take C order)
         params[:, 0:3] = inert
         y0 = np.ascontiguousarray(np.concatenate([qp, Qp], axis=1))
         return params, y0, inert, corr
