@@ -797,3 +797,24 @@ def test_scenario_actuator_errors_name_the_key(change, key):
         text = text.replace(old, new, 1)
     with pytest.raises(ScenarioError, match=key.replace("[", r"\[").replace("]", r"\]")):
         loads(text)
+
+
+def test_models_keep_read_only_copies_and_leave_the_callers_arrays_writable():
+    """CommandSchedule, RigidBody, Thruster and Spacecraft(center_of_mass) freeze their own
+    copies: a caller's float64 arrays (often the run's own times) were made read-only by them
+    before, which also compiled the drivers again for read-only arguments."""
+    times = np.array([0.0, 1.0, 2.0])
+    torque = np.zeros((3, 1))
+    inertia = np.array([3.0, 4.0, 5.0])
+    pos = np.array([0.1, 0.0, 0.0])
+    cm = np.array([0.0, 0.01, 0.0])
+    sched = attitude.CommandSchedule(times, wheel_torque=torque)
+    body = attitude.RigidBody(inertia)
+    thr = Thruster(pos, [0.0, 1.0, 0.0], 1.0)
+    craft = attitude.Spacecraft(body, thrusters=[thr], center_of_mass=cm)
+    for a in (times, torque, inertia, pos, cm):
+        assert a.flags.writeable
+    for a in (sched.times, sched.wheel_torque, body.inertia, thr.position, craft.center_of_mass):
+        assert not a.flags.writeable
+    times[1] = 7.0  # the schedule keeps what it was given
+    assert sched.times[1] == 1.0
