@@ -294,6 +294,8 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
         sc[o + M_VEC + 1] = m1
         sc[o + M_VEC + 2] = m2
     nt = int(sc[S_NT])
+    if nt == 0:  # S_TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick)
+        return
     span = t_next - t_hold
     for j in range(nt):
         b = thruster_base(sc, j)

@@ -44,6 +44,7 @@ from .actuators import (
     S_IDEAL,
     S_MTQ,
     S_NM,
+    S_NT,
     S_NW,
     S_WHEELS,
     W_J,
@@ -756,8 +757,11 @@ def fsw_boundary(P, y, t, t_end, ctl):
         fs[FS_TICK] = k + 1
         fs[FS_NEXT] = t_next
         hs[HS_HOLD_END] = t_next
-    thrusters_off_at(sc, t)
-    hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+    if sc[S_NT] > 0.0:
+        thrusters_off_at(sc, t)
+        hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+    else:
+        hs[HS_SEG_END] = min(hs[HS_HOLD_END], t_end)
     return BOUNDARY_DONE
 
 
