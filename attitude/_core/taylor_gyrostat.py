@@ -89,7 +89,8 @@ TS_N = 6
 TS_C = 7
 TS_G = 8  # g at the end of the last step (3): the next step starts from it
 TS_HAS_G = 11  # 1 once TS_G holds it
-TS_SIZE = 12  # then one friction piece per wheel
+TS_HLIN = 12  # 1: no wheel has friction, the wheels' h are linear in the step (h[k] = 0, k >= 2)
+TS_SIZE = 13  # then one friction piece per wheel
 
 PIECE_FREE = -1  # decide from Ω at the step's start
 PIECE_INSIDE = 0  # |Ω| < ω_lc: f = slope Ω
@@ -170,9 +171,10 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     ω[k] last (their other terms run while ω[k] is computed), the cross product runs as two
     chains, 1/(k+1) is a table entry, not a division. Without friction the wheels' Ω enters
     nothing (h[k+1] = u/(k+1) at k = 0, else 0) and is not computed, nor ℓ[k] = 0 for k >= 2
-    (the same numbers as computing them, but for the sign of a zero). Together with the
-    register-held wheel chains of :func:`dense_state`: 372 → 294 ns a hold on the open-loop
-    run of a sensor day's 72 000 noisy holds (order 5), measured."""
+    (the same numbers as computing them, but for the sign of a zero), nor are the rows
+    h[k >= 2] = 0 written (:data:`TS_HLIN`: the table's readers take h as linear). Together
+    with the register-held wheel chains of :func:`dense_state`: 372 → 294 ns a hold on the
+    open-loop run of a sensor day's 72 000 noisy holds (order 5), measured."""
     kind = int(params[P_KIND])
     W = cx = cy = cz = 0.0
     mu = D0 = D1 = D2 = 0.0
@@ -298,22 +300,23 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k + 1, CG] = F(n, t0, p0) * inv
         cf[k + 1, CG + 1] = F(n, t1, p1) * inv
         cf[k + 1, CG + 2] = F(n, t2, p2) * inv
-        for j in range(nw):
-            b = S_WHEELS + j * WS
-            if friction:
+        if friction:
+            for j in range(nw):
+                b = S_WHEELS + j * WS
                 c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
                 r = -c1 * cf[k, CO + j]
                 if k == 0:
                     r += sc[b + W_U] - c0
-            else:
-                r = sc[b + W_U] if k == 0 else 0.0
-            cf[k + 1, CH + j] = r * inv
+                cf[k + 1, CH + j] = r * inv
+        elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS_HLIN)
+            for j in range(nw):
+                cf[1, CH + j] = sc[S_WHEELS + j * WS + W_U] * inv
         k += 1
         dk *= d
         ok = (
             _block4(cf, k, 0) * dk <= tol_q
             and _block3(cf, k, CG) * dk <= tol_g
-            and _blockh(cf, k, nw) * dk <= tol_h
+            and ((k >= 2 and not friction) or _blockh(cf, k, nw) * dk <= tol_h)
         )
         if ok and prev_ok and k >= PMIN:
             if not friction:
@@ -378,11 +381,15 @@ def dense_state(work, tstate, tau, out, nw):
         h2 = F(h2, tau, work[k, CG + 2])
     # the wheels one at a time, each chain in a register (the wheels' chains still overlap:
     # no dependence between them; through ``out`` each order waited on the last one's store)
-    for j in range(nw):
-        a = work[p, CH + j]
-        for i in range(p):
-            a = F(a, tau, work[p - 1 - i, CH + j])
-        out[8 + j] = a
+    if tstate[TS_HLIN] != 0.0:  # h = h[0] + h[1] τ: Horner's rule on the zero rows, the same bits
+        for j in range(nw):
+            out[8 + j] = F(work[1, CH + j], tau, work[0, CH + j])
+    else:
+        for j in range(nw):
+            a = work[p, CH + j]
+            for i in range(p):
+                a = F(a, tau, work[p - 1 - i, CH + j])
+            out[8 + j] = a
     g0 = 2.0 * h0
     g1 = 2.0 * h1
     g2 = 2.0 * h2
@@ -465,12 +472,19 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
     d = min(seg_end - t, max_step)
     if not d > 0.0:
         return STEP_TOO_SMALL, n, c, d
-    # ω[0], Ω[0] first (the pieces depend on Ω[0])
-    gyrostat_order0(work, sc, nw)
+    friction = False
     for j in range(nw):
-        if pieces[j] < 0.0:
-            b = S_WHEELS + j * WS
-            pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
+        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
+            friction = True
+    tstate[TS_HLIN] = 0.0 if friction else 1.0
+    if friction:
+        # ω[0], Ω[0] first (the pieces depend on Ω[0]; without friction the recurrences
+        # compute ω[0] and nothing reads Ω or a piece)
+        gyrostat_order0(work, sc, nw)
+        for j in range(nw):
+            if pieces[j] < 0.0:
+                b = S_WHEELS + j * WS
+                pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
     return SUCCESS, n, c, d
 
 
@@ -484,7 +498,12 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     p = int(tstate[3])
     y = work[Y]
     pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    hlin = tstate[TS_HLIN] != 0.0
     if pu >= p:
+        if hlin:  # the rows of h Jorba & Zou's radius reads, unwritten by the recurrences
+            for k in range(2, p + 1):
+                for j in range(nw):
+                    work[k, CH + j] = 0.0
         rho = _jz_radius(work, p, rtol, atol, nw)
         h_abs = rho * tstate[4]
     else:
@@ -496,7 +515,10 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     tstate[TS_P_USED] = pu
     tstate[TS_N] = n
     tstate[TS_C] = c
-    hk, which = _kink(work, pu, sc, pieces, nw, h)
+    hk = h
+    which = -1
+    if not hlin:
+        hk, which = _kink(work, pu, sc, pieces, nw, h)
     prev = -1
     if which >= 0:
         prev = int(pieces[which])
@@ -516,8 +538,9 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     tstate[TS_G + 2] = gh[2]
     tstate[TS_HAS_G] = 1.0
     # the next step's pieces: the crossed wheel enters the next piece, the others re-decide
-    for j in range(nw):
-        pieces[j] = PIECE_FREE
+    if not hlin:
+        for j in range(nw):
+            pieces[j] = PIECE_FREE
     if which >= 0:
         om_end = _horner(work, pu, CH + nw + which, h)
         if prev == PIECE_INSIDE:
