@@ -238,8 +238,15 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
     the hold's length; an on-time below the thruster's shortest is dropped. Writes the held
     slots of ``sc``.
     """
-    nw = int(sc[S_NW])
     _, om = state_rate(sc, y)
+    configure_hold_rate(sc, y, om, cmd, t_hold, t_next)
+
+
+@jit
+def configure_hold_rate(sc, y, om, cmd, t_hold, t_next):
+    """:func:`configure_hold` with the body rate ω of ``y`` already known (the flight
+    software's tick has it from its sensing)."""
+    nw = int(sc[S_NW])
     for k in range(nw):
         b = S_WHEELS + k * WS
         Om = wheel_speed(sc, b, y[8 + k], om)

@@ -250,19 +250,30 @@ def frame_attitude(d, t):
     return r[0], r[1], r[2], r[3]
 
 
-@jit
-def _frame(d, t, with_rate):
-    if int(d[F_TYPE]) == FRAME_INERTIAL:
-        q = (d[F_Q], d[F_Q + 1], d[F_Q + 2], d[F_Q + 3])
-        w = (0.0, 0.0, 0.0)
-    else:
-        r = _aligned(d, t, with_rate)
-        q = (r[0], r[1], r[2], r[3])
-        w = (r[4], r[5], r[6])
+@jit(inline="always")
+def _offset(d, q, w):
+    """(q, ω) of a frame turned by its fixed offset (none: as they are)."""
     o = (d[F_OFFSET], d[F_OFFSET + 1], d[F_OFFSET + 2], d[F_OFFSET + 3])
     if o[0] != 1.0 or o[1] != 0.0 or o[2] != 0.0 or o[3] != 0.0:
         q = mul(q, o)
         w = rotate_inverse(o, w)
+    return q, w
+
+
+@jit(inline="always")
+def inertial_frame(d):
+    """(q_R, ω_R) of an inertial frame's data ``d`` (``d[F_TYPE] == FRAME_INERTIAL``), as
+    :func:`frame_eval` gives them: inlined where a loop asks every tick."""
+    return _offset(d, (d[F_Q], d[F_Q + 1], d[F_Q + 2], d[F_Q + 3]), (0.0, 0.0, 0.0))
+
+
+@jit
+def _frame(d, t, with_rate):
+    if int(d[F_TYPE]) == FRAME_INERTIAL:
+        q, w = inertial_frame(d)
+    else:
+        r = _aligned(d, t, with_rate)
+        q, w = _offset(d, (r[0], r[1], r[2], r[3]), (r[4], r[5], r[6]))
     return q[0], q[1], q[2], q[3], w[0], w[1], w[2]
 
 

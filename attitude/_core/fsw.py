@@ -51,13 +51,14 @@ from .actuators import (
     W_U,
     WS,
     configure_hold,
+    configure_hold_rate,
     next_thruster_off,
     state_rate,
     thrusters_off_at,
     wheel_speed,
 )
 from .environment import field_body
-from .frames import F_TYPE, FRAME_INERTIAL, frame_eval
+from .frames import F_TYPE, FRAME_INERTIAL, frame_eval, inertial_frame
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
@@ -302,7 +303,11 @@ def guidance(fw, fs, mb, t, q_meas):
     if kind == GUID_NONE:
         return (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     o = int(fw[mb + MB_GUID_FRAME])
-    qB, wB, dwB = frame_reference(fw[o:], t)
+    if int(fw[o + F_TYPE]) == FRAME_INERTIAL:  # no calls a tick for the fixed frame
+        qB, wB = inertial_frame(fw[o:])
+        dwB = (0.0, 0.0, 0.0)
+    else:
+        qB, wB, dwB = frame_reference(fw[o:], t)
     if kind == GUID_FRAME:
         return qB, wB, dwB
     # slew: q_R = q_B∘exp(θ e/2), e fixed in the target's axes (from the attitude at entry)
@@ -480,11 +485,11 @@ def _field_offset(fw, sc):
 
 
 @jit
-def _sense(t, y, sc, fw, fs, rec_row, keep):
-    """The truth at t, then what the software measures or estimates of it: (q, ω, B_body);
-    the sensors' and the estimator's record written into ``rec_row`` if ``keep``."""
+def _sense(t, y, omt, sc, fw, fs, rec_row, keep):
+    """The truth at t (the state ``y`` and its body rate ``omt``), then what the software
+    measures or estimates of it: (q, ω, B_body); the sensors' and the estimator's record
+    written into ``rec_row`` if ``keep``."""
     qt = (y[0], y[1], y[2], y[3])
-    _g, omt = state_rate(sc, y)
     fo = _field_offset(fw, sc)
     bbt = (0.0, 0.0, 0.0)
     if fo > 0:
@@ -503,11 +508,11 @@ def _sensed(fs):
 
 
 @jit
-def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row, keep):
-    """One tick of the flight software at t from the state y: the commands to apply into
-    ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row`` if ``keep`` (an
-    unrecorded tick writes nothing there and skips what only the record needs: the error
-    angle, the estimation error and its NEES)."""
+def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
+    """One tick of the flight software at t from the state y (its body rate ``omt``): the
+    commands to apply into ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``
+    if ``keep`` (an unrecorded tick writes nothing there and skips what only the record needs:
+    the error angle, the estimation error and its NEES)."""
     nw = int(sc[S_NW])
     nm = int(sc[S_NM])
     ncmd = int(fw[FW_NCMD])
@@ -516,7 +521,7 @@ def fsw_tick(t, y, params, sc, fw, fs, cmd, rec_row, keep):
         q, om, bb = _sensed(fs)
         fs[FS_SENSED] = 0.0
     else:
-        q, om, bb = _sense(t, y, sc, fw, fs, rec_row, keep)
+        q, om, bb = _sense(t, y, omt, sc, fw, fs, rec_row, keep)
     # modes: forward to the next one when its condition holds
     mode = int(fs[FS_MODE])
     nmodes = int(fw[FW_NMODES])
@@ -733,7 +738,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
             # your own step: measure once (its record in this tick's row), then ask for the
             # commands; measure() hands these measurements to the step
             if fs[FS_SENSED] == 0.0:
-                q, om, bb = _sense(t, y, sc, fw, fs, row, keep)
+                q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
                 for i in range(4):
                     fs[FS_SQ + i] = q[i]
                 for i in range(3):
@@ -742,9 +747,10 @@ def fsw_boundary(P, y, t, t_end, ctl):
                 fs[FS_SENSED] = 1.0
             return BOUNDARY_NEEDS_COMMANDS
         hs[HS_READY] = 0.0
-        fsw_tick(t, y, params, sc, fw, fs, cmd, row, keep)
+        _g, omt = state_rate(sc, y)  # the truth's rate, for the sensors and the wheels' limits
+        fsw_tick(t, y, omt, params, sc, fw, fs, cmd, row, keep)
         t_next = fw[FW_T0] + (k + 1) * per
-        configure_hold(sc, y, cmd, t, t_next)
+        configure_hold_rate(sc, y, omt, cmd, t, t_next)
         # the applied commands of the tick (after the wheels' limits)
         if keep:
             ncmd = int(fw[FW_NCMD])
@@ -772,7 +778,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
 # inlined, they doubled the drivers' compile time (60 -> 130 s cold) for no measurable gain.
 _sense_inline = inline_copy(_sense, globals())
 _guidance_inline = inline_copy(guidance, globals())
-_configure_hold_inline = inline_copy(configure_hold, globals())
+_configure_hold_inline = inline_copy(configure_hold_rate, globals())
 _thrusters_off_at_inline = inline_copy(thrusters_off_at, globals())
 _next_thruster_off_inline = inline_copy(next_thruster_off, globals())
 fsw_tick_inline = inline_copy(
@@ -783,7 +789,7 @@ fsw_boundary_inline = inline_copy(
     globals(),
     fsw_tick="fsw_tick_inline",
     _sense="_sense_inline",
-    configure_hold="_configure_hold_inline",
+    configure_hold_rate="_configure_hold_inline",
     thrusters_off_at="_thrusters_off_at_inline",
     next_thruster_off="_next_thruster_off_inline",
 )
