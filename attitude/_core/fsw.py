@@ -395,7 +395,7 @@ def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
     scratch = fs[zo + Z_SIZE :]
     tick = int(fs[FS_TICK])
     dt = fw[FW_PERIOD]
-    measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch)
+    measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch, rec_at >= 0)
     qu = q
     wu = om
     bu = bb
@@ -494,6 +494,8 @@ def _sense(t, y, omt, sc, fw, fs, rec_row, keep):
     bbt = (0.0, 0.0, 0.0)
     if fo > 0:
         bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
+    if fw[FW_SENSORS] == 0.0:  # the truth (not even the call's entry a tick)
+        return qt, omt, bbt
     at = R_CMD + 2 * int(fw[FW_NCMD]) if keep else -1
     return sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, at)
 

@@ -329,7 +329,7 @@ def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
 
 
 @jit
-def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch):
+def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch, keep):
     """All the sensors of the program at tick ``tick`` (time t) from the true attitude q, rate
     ω and body field bb, into the measurement vector z (the star tracker's model only at its
     update ticks)."""
@@ -341,7 +341,12 @@ def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch):
     ot = int(sn[SN_ST])
     os_ = int(sn[SN_SUN])
     st_update = ot > 0 and tick % int(sn[ot + T_EVERY]) == 0
-    r, s, nu = sun_and_earth(sn, t)
+    # the Sun and the Earth only for a model that looks at them or for the record's eclipse
+    # fraction (``keep``: a recorded tick), not at every tick
+    r = s = (0.0, 0.0, 0.0)
+    nu = 1.0
+    if st_update or os_ > 0 or keep:
+        r, s, nu = sun_and_earth(sn, t)
     if st_update:
         star_tracker_measure(sn, ot, ss, q, r, s, nu, z)
     elif ot > 0:
