@@ -14,6 +14,8 @@ import math
 
 from orbit._shared_jit import jit
 
+from .fma import fma as F
+
 
 @jit
 def mul(a, b):
@@ -97,3 +99,29 @@ def cross(a, b):
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     )
+
+
+# sin x / x and cos x by their series in x² (Horner's rule on the coefficients: multiply–adds
+# on a short chain, no division, sine or square root)
+_S1 = -1.0 / 6.0
+_S2 = 1.0 / 120.0
+_S3 = -1.0 / 5040.0
+_S4 = 1.0 / 362880.0
+_C1 = -1.0 / 2.0
+_C2 = 1.0 / 24.0
+_C3 = -1.0 / 720.0
+_C4 = 1.0 / 40320.0
+_C5 = -1.0 / 3628800.0
+
+#: x² below which :func:`sinc_cos_series` is exact to round-off (x < 0.05: the first terms
+#: left out, x¹⁰/11! and x¹²/12!, are below 3e-21 relative)
+SERIES_X2 = 0.0025
+
+
+@jit(inline="always")
+def sinc_cos_series(x2):
+    """(sin x / x, cos x) from x² < :data:`SERIES_X2` by their series (the half angle of a
+    small rotation: its quaternion is (cos x, sin x / x · θ/2) with x = |θ|/2)."""
+    sinc = F(x2, F(x2, F(x2, F(x2, _S4, _S3), _S2), _S1), 1.0)
+    cos = F(x2, F(x2, F(x2, F(x2, F(x2, _C5, _C4), _C3), _C2), _C1), 1.0)
+    return sinc, cos

@@ -33,11 +33,11 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import inline_copy, jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
-from .quat import mul, rotate, rotate_inverse
+from .quat import SERIES_X2, mul, rotate, rotate_inverse, sinc_cos_series
 from .rng import RNG_SIZE, load, normal, normal_held, store
 
 # --- program header ----------------------------------------------------------------------------
@@ -199,15 +199,13 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     d0 = sn[o + c] * n0 + sn[o + c + 3] * n1 + sn[o + c + 6] * n2
     d1 = sn[o + c + 1] * n0 + sn[o + c + 4] * n1 + sn[o + c + 7] * n2
     d2 = sn[o + c + 2] * n0 + sn[o + c + 5] * n1 + sn[o + c + 8] * n2
-    # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ|: by their series in a² below a/2 = 0.05
-    # (truncations below 3e-21 relative; no square root or sine on arcsecond noise)
+    # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ|: by their series in (a/2)² below a/2 = 0.05
+    # (no square root or sine on arcsecond noise)
     a2 = d0 * d0 + d1 * d1 + d2 * d2
     h2 = 0.25 * a2  # (a/2)²
-    if h2 < 0.0025:
-        k = 0.5 * (1.0 - h2 / 6.0 * (1.0 - h2 / 20.0 * (1.0 - h2 / 42.0 * (1.0 - h2 / 72.0))))
-        ch = 1.0 - 0.5 * h2 * (
-            1.0 - h2 / 12.0 * (1.0 - h2 / 30.0 * (1.0 - h2 / 56.0 * (1.0 - h2 / 90.0)))
-        )
+    if h2 < SERIES_X2:
+        sinc, ch = sinc_cos_series(h2)
+        k = 0.5 * sinc
     else:
         a = math.sqrt(a2)
         k = math.sin(0.5 * a) / a
@@ -341,11 +339,13 @@ def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch, keep):
     ot = int(sn[SN_ST])
     os_ = int(sn[SN_SUN])
     st_update = ot > 0 and tick % int(sn[ot + T_EVERY]) == 0
-    # the Sun and the Earth only for a model that looks at them or for the record's eclipse
-    # fraction (``keep``: a recorded tick), not at every tick
+    # the Sun and the Earth only for a model that looks at them (a star tracker's exclusion
+    # angles at its update, a Sun sensor) or for the record's eclipse fraction (``keep``: a
+    # recorded tick), not at every tick
     r = s = (0.0, 0.0, 0.0)
     nu = 1.0
-    if st_update or os_ > 0 or keep:
+    excl = st_update and (sn[ot + T_SUN_EXCL] > 0.0 or sn[ot + T_EARTH_EXCL] >= 0.0)
+    if excl or os_ > 0 or keep:
         r, s, nu = sun_and_earth(sn, t)
     if st_update:
         star_tracker_measure(sn, ot, ss, q, r, s, nu, z)
@@ -359,3 +359,10 @@ def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch, keep):
         sun_sensor_measure(sn, os_, ss, q, s, nu, z, scratch)
     else:
         z[Z_ECLIPSE] = nu
+
+
+# the copy the tick's sensing inlines (fsw.sense_and_estimate), with the gyro's measurement
+_gyro_measure_inline = inline_copy(gyro_measure, globals())
+measure_sensors_inline = inline_copy(
+    measure_sensors, globals(), gyro_measure="_gyro_measure_inline"
+)
