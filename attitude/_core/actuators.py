@@ -300,9 +300,9 @@ def configure_hold_rate(sc, y, om, cmd, t_hold, t_next):
         sc[o + M_VEC] = m0
         sc[o + M_VEC + 1] = m1
         sc[o + M_VEC + 2] = m2
+    if sc[S_NT] == 0.0:  # S_TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick;
+        return  # the thrusters' work comes last: add what every hold needs above this line)
     nt = int(sc[S_NT])
-    if nt == 0:  # S_TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick)
-        return
     span = t_next - t_hold
     for j in range(nt):
         b = thruster_base(sc, j)

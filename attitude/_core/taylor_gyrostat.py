@@ -131,6 +131,15 @@ def _piece_coefficients(sc, b, piece):
 
 
 @jit(inline="always")
+def has_friction(sc, nw):
+    """True if a wheel has friction (else the wheels' h are linear in a step: TS_HLIN)."""
+    for j in range(nw):
+        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
+            return True
+    return False
+
+
+@jit(inline="always")
 def _block3(cf, k, c0):
     return max(abs(cf[k, c0]), max(abs(cf[k, c0 + 1]), abs(cf[k, c0 + 2])))
 
@@ -210,10 +219,7 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     # Without friction the wheels' Ω enters no recurrence (h[k+1] = (u − c₀ − c₁ Ω[k])/(k+1)
     # with c₁ = 0) and no step check (the kinks are friction's): its orders above 0 (row 0 is
     # step_prepare's) are not computed; and h[k] = 0 from k = 2 on, so ℓ[k] = 0 there.
-    friction = False
-    for j in range(nw):
-        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
-            friction = True
+    friction = has_friction(sc, nw)
     k = 0
     while True:
         # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
@@ -472,10 +478,7 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
     d = min(seg_end - t, max_step)
     if not d > 0.0:
         return STEP_TOO_SMALL, n, c, d
-    friction = False
-    for j in range(nw):
-        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
-            friction = True
+    friction = has_friction(sc, nw)
     tstate[TS_HLIN] = 0.0 if friction else 1.0
     if friction:
         # ω[0], Ω[0] first (the pieces depend on Ω[0]; without friction the recurrences
