@@ -184,13 +184,18 @@ class _InlinerCopy:
     copy (numba issue #8989). This stands for the ``copy`` module in
     :mod:`numba.core.inline_closurecall`: the blocks of one copy share one memo, so each object
     is copied once, as one ``deepcopy`` of the function would; every other call goes to
-    ``copy`` itself. The copy is the same IR, so the same machine code (checked: the LLVM IR of
-    every function of a closed-loop run is byte for byte the same with and without this).
+    ``copy`` itself. And when the inliner inlines a function (``InlineWorker.inline_function``)
+    the IR it copies was built for that call site alone, by the untyped pipeline a moment before,
+    and its second copy (an untouched one, returned) is thrown away by numba's only caller: both
+    copies are skipped there. The inlined IR is the same, so the same machine code (checked: the
+    LLVM IR of every function of a closed-loop run, and of runs of every method, is byte for
+    byte the same with and without this).
     """
 
-    def __init__(self, copy_module, copy_ir_code):
+    def __init__(self, copy_module, copy_ir_code, fresh_code):
         self._copy = copy_module
         self._code = copy_ir_code
+        self._fresh = fresh_code  # InlineWorker.inline_function: a fresh IR, used once
         self._frame = None  # the copy in progress (its frame), its memo, its blocks to go
         self._memo: dict = {}
         self._left = 0
@@ -202,6 +207,9 @@ class _InlinerCopy:
         if memo is None:
             f = sys._getframe(1)
             if f.f_code is self._code:  # a block of copy_ir's loop
+                caller = f.f_back.f_back  # (copy_ir <- inline_ir <- its caller)
+                if caller is not None and caller.f_code is self._fresh:
+                    return x
                 if self._frame is not f:
                     self._frame, self._memo = f, {}
                     self._left = len(f.f_locals["the_ir"].blocks)
@@ -237,8 +245,13 @@ def _install_inliner_copy() -> None:
                 ),
                 None,
             )
-            if code is not None and ic.copy is copy:  # (else numba changed: leave it)
-                ic.copy = _InlinerCopy(copy, code)
+            fresh = ic.InlineWorker.inline_function.__code__
+            if (
+                code is not None
+                and ic.copy is copy
+                and fresh.co_names[:1] == ("run_untyped_passes",)
+            ):  # (else numba changed: leave it)
+                ic.copy = _InlinerCopy(copy, code, fresh)
 
         def on_end(self, ev):
             pass
