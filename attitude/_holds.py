@@ -492,6 +492,18 @@ def run_taylor(
 run_taylor.streams = True  # type: ignore[attr-defined]
 
 
+def _diagnostics_entry(problem: Problem) -> Any:
+    """The entry points of the diagnostics rows: the model's own when the run's module only adds
+    your compiled step to a built-in model (the diagnostics never call the step, and the model's
+    are compiled and cached with the package: compiled again in each step's module they cost
+    seconds of a first run per step, for the same kernels and the same numbers)."""
+    program = problem.spacecraft.program
+    if program is not None and program.compiled_step is not None:
+        if not problem.potential._user_terms():
+            return problem.potential._entry_points()
+    return problem.entry
+
+
 def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:
     """Per-sample diagnostics of a spacecraft run's output rows.
 
@@ -519,12 +531,13 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     nw = n - 8
     wheels = np.empty((m, nw, 2))
     sc = sr.fresh_block()
+    entry = _diagnostics_entry(problem)
     for i in range(0, m, SAMPLE_BUDGET):
         j = min(m, i + SAMPLE_BUDGET)
-        problem.entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
+        entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
         # C-ordered copies of the (q, Q) columns and the rates: with wheels they are strided
         # views, without them not (two types: the kernel compiled twice)
-        problem.entry.term_torques_at_rates(
+        entry.term_torques_at_rates(
             t[i:j],
             np.ascontiguousarray(y[i:j, :8]),
             np.ascontiguousarray(diag[i:j, 0:3]),

@@ -707,6 +707,15 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             out[i] = v if k >= delay else 0.0
 
 
+# Two cold paths of the boundary, names the inlined copy below does not rebind: there they stay
+# calls, not second inlined copies of the sensing and of the hold's configuration (less code for
+# numba to type and LLVM to optimise in every single-run driver). The sensing when your own step
+# is asked for its commands (the tick returns to Python), the commands held before the first
+# tick (once a run).
+_sense_for_your_step = _sense
+_configure_hold_once = configure_hold
+
+
 @jit
 def fsw_boundary(P, y, t, t_end, ctl):
     """The flight software as the command source of :func:`attitude._core.holds.holds_run`
@@ -724,7 +733,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
         if t < fw[FW_T0]:
             for i in range(cmd.shape[0]):
                 cmd[i] = 0.0
-            configure_hold(sc, y, cmd, t, fw[FW_T0])
+            _configure_hold_once(sc, y, cmd, t, fw[FW_T0])
             sc[S_IDEAL] = 0.0
             sc[S_IDEAL + 1] = 0.0
             sc[S_IDEAL + 2] = 0.0
@@ -740,7 +749,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
             # your own step: measure once (its record in this tick's row), then ask for the
             # commands; measure() hands these measurements to the step
             if fs[FS_SENSED] == 0.0:
-                q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
+                q, om, bb = _sense_for_your_step(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
                 for i in range(4):
                     fs[FS_SQ + i] = q[i]
                 for i in range(3):
@@ -794,7 +803,6 @@ fsw_boundary_inline = inline_copy(
     fsw_boundary,
     globals(),
     fsw_tick="fsw_tick_inline",
-    _sense="_sense_inline",
     configure_hold_rate="_configure_hold_inline",
     thrusters_off_at="_thrusters_off_at_inline",
     next_thruster_off="_next_thruster_off_inline",
