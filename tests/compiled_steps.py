@@ -36,12 +36,10 @@ def nan_after_two_seconds(t, m):
 
 
 @njit(cache=True)
-def rate_damping(t, m):
-    """Three body-torque components (no actuators): −2 ω (N m s)."""
-    return -2.0 * m[M.OMEGA : M.OMEGA + 3]
-
-
-@njit(cache=True)
-def wheel_speed_loop(t, m):
-    """One wheel on its tachometer: u = −0.02 (Ω − 10 rad/s) N m."""
+def rate_damping_or_wheel_loop(t, m):
+    """Without wheels, three body-torque components: −2 ω (N m s); with one wheel, that wheel on
+    its tachometer: u = −0.02 (Ω − 10 rad/s) N m. (One step for both spacecraft: every compiled
+    step compiles the closed-loop drivers again in a module of its own.)"""
+    if m.shape[0] == M.WHEEL_SPEEDS:  # no wheel speeds and momenta after the fixed part
+        return -2.0 * m[M.OMEGA : M.OMEGA + 3]
     return np.array([-0.02 * (m[M.WHEEL_SPEEDS] - 10.0)])

@@ -265,7 +265,7 @@ def test_your_own_step_function_equals_the_compiled_law():
 @pytest.mark.parametrize("method", ["dop853", "taylor"])
 def test_a_compiled_step_equals_the_compiled_law(method):
     """The same law as a numba function step(t, m) (tests/compiled_steps.py) gives the built-in
-    law's run; commands of the wrong length or non-finite stop the run with the tick named."""
+    law's run."""
     import compiled_steps as cs
 
     craft = hr16_spacecraft()
@@ -280,6 +280,24 @@ def test_a_compiled_step_equals_the_compiled_law(method):
     np.testing.assert_allclose(b.q.values, a.q.values, atol=1e-13)
     np.testing.assert_allclose(b.wheel_speed.values, a.wheel_speed.values, atol=1e-10)
     np.testing.assert_allclose(b.command_sent.values, a.command_sent.values, atol=1e-12)
+
+
+# (taylor: slow. Each step function compiles the method's whole closed-loop driver again in its
+# own module, ~10 s of a fresh cache a step; the run stops on the step's refused commands in
+# the method-independent loop of attitude._holds, reached from the Taylor driver by the same
+# boundary status as its full tick records: test_sparse_tick_records_are_the_dense_ones_
+# subsampled[taylor]; and test_a_compiled_step_equals_the_compiled_law[taylor] runs a compiled
+# step in the Taylor driver.)
+@pytest.mark.parametrize("method", ["dop853", pytest.param("taylor", marks=pytest.mark.slow)])
+def test_a_compiled_step_with_bad_commands_stops_the_run_at_its_tick(method):
+    """Commands of the wrong length or non-finite from a compiled step stop the run with the
+    tick named, keeping the samples before it."""
+    import compiled_steps as cs
+
+    craft = hr16_spacecraft()
+    q0 = qt.from_mrp([0.1, 0.2, -0.3])
+    Q0 = C.momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
+    t = np.linspace(0.0, 20.0, 21)
     with pytest.raises(PropagationError, match=r"compiled step .* tick 0 .* returned 5 values"):
         attitude.propagate(
             craft, q0, Q0, t, software=FlightSoftware(0.1, control=cs.too_many), method=method
@@ -583,7 +601,7 @@ def test_own_steps_with_three_torques_or_one_wheel_are_the_exact_hold_discretisa
         damp = lambda tt, m: -2.0 * m.omega  # noqa: E731
         loop = lambda tt, m: np.array([-0.02 * (m.wheel_speeds[0] - 10.0)])  # noqa: E731
     else:
-        damp, loop = cs.rate_damping, cs.wheel_speed_loop
+        damp = loop = cs.rate_damping_or_wheel_loop
     T = 0.5
     t = T * np.arange(21)
     sphere = attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2")
