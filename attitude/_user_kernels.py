@@ -41,7 +41,7 @@ from orbit._shared_jit import JIT_DISABLED, sources_fingerprint, user_cache_dir
 
 from ._core import entry_points as _builtin_entry_points
 
-__all__ = ["compile_failure", "entry_points", "model_key"]
+__all__ = ["USER_ONLY", "builtin_part", "compile_failure", "entry_points", "model_key"]
 
 
 def compile_failure(exc: BaseException) -> str:
@@ -235,12 +235,23 @@ def _template() -> str:
 
 
 def _module_source(
-    terms: tuple[UserTerm, ...], cached: bool, events: tuple = (), step: bool = False
+    terms: tuple[UserTerm, ...],
+    cached: bool,
+    events: tuple = (),
+    step: bool = False,
+    builtin: str | None = None,
 ) -> str:
     text = _template()
     i = text.index(_BEGIN)
     j = text.index(_END) + len(_END)
     model = _model_block(terms, events, step)
+    if builtin is not None:
+        model += (
+            f"\n# The built-in part of the model: {builtin} (its kernels are injected with the "
+            "user's,\n# as builtin_torque, builtin_potential, builtin_term_torque"
+            + (", orbit_sample" if builtin != USER_ONLY else "")
+            + ").\n"
+        )
     if not cached:
         model = (
             "import functools\n\njit = functools.partial(jit, cache=False)\n"
@@ -314,11 +325,16 @@ def _function_fingerprint(fn: Any, h: Any, seen: set[int]) -> bool:
     return True
 
 
-def model_key(terms: tuple[UserTerm, ...], events: tuple = (), step: Any = None) -> str | None:
-    """Hash naming the compiled module of a model, or None when a function has no source file."""
+def model_key(
+    terms: tuple[UserTerm, ...], events: tuple = (), step: Any = None, builtin: str | None = None
+) -> str | None:
+    """Hash naming the compiled module of a model, or None when a function has no source file
+    (``builtin``: the tag of the model's built-in part, :func:`builtin_part`, if specialised)."""
     h = hashlib.sha256()
     h.update(sources_fingerprint())
     h.update(f"{sys.version_info[:2]}".encode())
+    if builtin is not None:
+        h.update(f"builtin:{builtin}".encode())
     seen: set[int] = set()
     steps = (("step", step),) if step is not None else ()
     for kind, *functions in (*terms, *(("event", g) for g in events), *steps):
@@ -371,8 +387,50 @@ def _load(name: str, source: str, path: Path | None) -> types.ModuleType:
     return mod
 
 
+#: The tag of a model with no built-in part (user terms only: ``KIND_USER`` parameters).
+USER_ONLY = "user_only"
+
+
+def builtin_part(potential: Any) -> tuple[str, dict[str, Any]] | None:
+    """The kernels a user module binds for the built-in part of ``potential``: (tag, {global
+    name: kernel}), or None to keep the switch over every built-in kind (a sum of models).
+
+    A user module compiled with that switch compiles, into every entry point it runs, the code
+    of every built-in model and orbit type (the heavy top, the gravity gradient, the environment
+    models, ...) whatever the model: most of a user model's first compile. With no built-in
+    part (user terms only) the built-in torque is none; with one built-in model alone (a
+    compiled step or event functions on a built-in model) it is that model's own kernels, as
+    the package's entry points of that model alone compile them (:mod:`attitude._core.models`,
+    ``specialise``). The kernels return what the switch returns for such parameters, so the
+    results are the same, bit for bit.
+    """
+    from ._core import potentials as _kp
+
+    if potential is None:
+        return None
+    kind = getattr(potential, "_kind", None)
+    if kind is None:  # user terms only: the switch gives no torque, no potential, no term
+        return USER_ONLY, {
+            "builtin_torque": _kp.torque_free_torque,
+            "builtin_potential": _kp.torque_free_potential,
+            "builtin_term_torque": _kp.model_term_torque,  # (never called: no built-in term)
+        }
+    if kind == _kp.KIND_SUM:
+        return None
+    spec = potential._entry_points()  # the package's entry points of this model alone
+    tag = getattr(spec, "__kernel_tag__", None)
+    if tag is None:  # (no specialisation of this model: the switch)
+        return None
+    return tag, {
+        "builtin_torque": spec.torque,
+        "builtin_potential": spec.potential,
+        "builtin_term_torque": spec.term_torque,
+        "orbit_sample": spec.orbit_sample,
+    }
+
+
 def entry_points(
-    terms: tuple[UserTerm, ...], events: tuple = (), step: Any = None
+    terms: tuple[UserTerm, ...], events: tuple = (), step: Any = None, potential: Any = None
 ) -> types.ModuleType:
     """The compiled entry points of a model with user terms (a module like ``_core.entry_points``).
 
@@ -388,23 +446,29 @@ def entry_points(
     step : numba function, optional
         The user's compiled flight-software ``step(t, m) -> commands``
         (:func:`attitude._core.fsw_step.step_boundary_with`).
+    potential : attitude.potentials.Potential, optional
+        The model these terms, events or step run with: its built-in part is compiled into the
+        module (:func:`builtin_part`); without it, the switch over every built-in kind.
 
     Returns
     -------
     module
         With the functions of :mod:`attitude._core.entry_points`; memoised per process.
     """
+    part = builtin_part(potential)
+    builtin, bindings = (None, {}) if part is None else part
     memo = (
         *((kind, id(tau), id(U)) for kind, tau, U in terms),
         *(("event", id(g), 0) for g in events),
         *((("step", id(step), 0),) if step is not None else ()),
+        *((("builtin", builtin, 0),) if builtin is not None else ()),
     )
     if memo in _LOADED:
         return _LOADED[memo][0]
     if JIT_DISABLED:  # plain Python: the template's functions are ordinary functions
         key, cached = "nojit" + hashlib.sha256(repr(memo).encode()).hexdigest()[:16], False
     else:
-        key = model_key(terms, events, step)
+        key = model_key(terms, events, step, builtin)
         cached = key is not None
         if key is None:
             key = "p" + hashlib.sha256(repr((memo, os.getpid())).encode()).hexdigest()[:23]
@@ -423,7 +487,7 @@ def entry_points(
                 )
     name = f"attitude_user_{key}"
     has_step = step is not None
-    source = _module_source(terms, cached, events, has_step)
+    source = _module_source(terms, cached, events, has_step, builtin)
     path = None
     if cached:
         path = user_cache_dir() / "kernels" / f"{name}.py"
@@ -437,8 +501,11 @@ def entry_points(
                 UncachedKernelWarning,
                 stacklevel=3,
             )
-            name, source, path = name + "_p", _module_source(terms, False, events, has_step), None
+            source = _module_source(terms, False, events, has_step, builtin)
+            name, path = name + "_p", None
     mod = sys.modules.get(name) or _load(name, source, path)
+    for global_name, kernel in bindings.items():
+        setattr(mod, global_name, kernel)
     for k, (_, tau, U) in enumerate(terms):
         setattr(mod, f"USER_TORQUE_{k}", tau)
         setattr(mod, f"USER_POTENTIAL_{k}", U)

@@ -106,7 +106,9 @@ class Potential:
         """The compiled entry points of this model (:mod:`attitude._core.entry_points`, or their
         copy for this kind of model alone: :mod:`attitude._core.models`)."""
         terms = self._user_terms()
-        return _user_kernels.entry_points(terms) if terms else _models.entry_points(self._kind)
+        if terms:
+            return _user_kernels.entry_points(terms, potential=self)
+        return _models.entry_points(self._kind)
 
     def _inertia_for_eval(self) -> np.ndarray:
         return np.ones(3)

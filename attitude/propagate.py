@@ -596,7 +596,7 @@ def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
         return pot._entry_points()
     from . import _user_kernels
 
-    return _user_kernels.entry_points(pot._user_terms(), user_events, step=step)
+    return _user_kernels.entry_points(pot._user_terms(), user_events, step=step, potential=pot)
 
 
 #: Methods that locate events (inside their compiled loops).

@@ -184,6 +184,46 @@ def test_model_key_follows_the_source_and_the_values_it_reads(tmp_path):
     assert key("torque", ns["tau"]) is None
 
 
+def test_user_modules_compile_the_built_in_part_of_their_model_alone():
+    """A user module binds the kernels of its model's built-in part (none for user terms only,
+    the model's own for a step or events on one built-in model, the switch over every kind for
+    a sum), named in its key; what they give is the switch's, bit for bit: the torque and
+    potential of user terms alone through the generic module and the bound one."""
+    from attitude._core import potentials as kp
+
+    ct = attitude.CustomTorque(_tau_a, potential=_U_a)
+    tag, bound = _user_kernels.builtin_part(ct)
+    assert tag == _user_kernels.USER_ONLY
+    assert bound["builtin_torque"] is kp.torque_free_torque
+    top = attitude.HeavyTop(0.5, [0.1, 0.0, 0.2])
+    tag, bound = _user_kernels.builtin_part(top)
+    spec = top._entry_points()
+    assert tag == "heavy_top" == spec.__kernel_tag__
+    assert bound["builtin_torque"] is spec.torque and bound["orbit_sample"] is spec.orbit_sample
+    assert _user_kernels.builtin_part(top + ct) is None  # a sum: the switch
+    terms = ct._user_terms()
+    assert _user_kernels.model_key(terms) != _user_kernels.model_key(terms, builtin="x")
+    generic, alone = _user_kernels.entry_points(terms), ct._entry_points()
+    assert alone is _user_kernels.entry_points(terms, potential=ct) and alone is not generic
+    assert alone.builtin_torque is kp.torque_free_torque
+    assert generic.builtin_torque is kp.builtin_torque
+    rng = np.random.default_rng(5)
+    q = attitude.quaternion.normalize(rng.normal(size=(7, 4)))
+    w, t = rng.normal(size=(7, 3)), rng.uniform(0.0, 10.0, 7)
+    params = ct._params(np.ones(3))
+    out = []
+    for mod in (generic, alone):
+        tau, u = np.empty((7, 3)), np.empty(7)
+        mod.evaluate(q, w, t, params, tau, u)
+        out.append((tau, u))
+    assert np.array_equal(out[0][0], out[1][0]) and np.array_equal(out[0][1], out[1][1])
+    np.testing.assert_array_equal(out[1][0], np.broadcast_to([0.0, 0.0, 0.01], (7, 3)))
+
+
+def _U_a(q, t):
+    return 0.5 * q[3] * q[3] + t
+
+
 def test_interactive_function_compiles_per_process_and_says_so_once():
     ns: dict = {}
     exec("def tau_prompt(q, t):\n    return (0.0, 0.0, 0.001)\n", ns)

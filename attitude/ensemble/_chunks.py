@@ -205,7 +205,7 @@ def _entry(setup: _Setup) -> Any:
     from .._user_kernels import entry_points
 
     terms = () if setup.user_potential is None else setup.user_potential._user_terms()
-    return entry_points(terms, user_events)
+    return entry_points(terms, user_events, potential=setup.user_potential)
 
 
 def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget):
