@@ -290,11 +290,65 @@ def _ssa_in_touched_blocks(ssa, ir, errors):
     return run_ssa
 
 
+def _flags_comparison(tc):
+    """``__hash__`` and ``__eq__`` for numba's ``TargetConfig`` (the compile flags), or None if
+    numba's are not the ones these stand for.
+
+    Typing looks every overloaded operation up in a cache keyed on the flags, about 10^5 times
+    for a closed-loop driver; each lookup hashes them and compares them with
+    ``values()``, a dictionary of every option (about 40, each read through a property):
+    ~5 % of a cold compile. The hash is the same number (numba's hashes the sorted option
+    names: ``sorted`` of a dictionary is its keys); the comparison looks only at the options
+    set on either side (the others are their defaults on both), with the same equality, so
+    every lookup finds what it found before.
+    """
+    base = tc.TargetConfig
+    if (
+        "_values" not in base.__slots__
+        or not {"sorted", "values"} <= set(base.__hash__.__code__.co_names)
+        or "values" not in base.__eq__.__code__.co_names
+    ):
+        return None
+    numba_eq, numba_hash = base.__eq__, base.__hash__
+
+    def __hash__(self):
+        return hash(tuple(sorted(self.options)))
+
+    def __eq__(self, other):
+        if not isinstance(other, base):
+            return NotImplemented
+        opts = self.options
+        if type(other).options is not opts:
+            return numba_eq(self, other)
+        a, b = self._values, other._values
+        for k in a.keys() | b.keys():
+            d = opts[k].default
+            x, y = a.get(k, d), b.get(k, d)
+            if not (x is y or x == y):
+                return False
+        return True
+
+    # the same answers as numba's on flags differing in set, unset and default-valued options
+    from numba.core.compiler import Flags
+
+    f = [Flags() for _ in range(4)]
+    f[1].nrt = True
+    f[2].nrt = True
+    f[2].fastmath = True
+    f[3].nrt = Flags.options["nrt"].default
+    for x in f:
+        for y in f:
+            if __eq__(x, y) != numba_eq(x, y) or __hash__(x) != numba_hash(x):
+                return None
+    return __hash__, __eq__
+
+
 def _install_compile_speedups() -> None:
-    """Put :class:`_InlinerCopy` in numba's inliner and :func:`_ssa_in_touched_blocks` in its
-    SSA pass, on the first compilation (numba imports them only to compile; importing them here
-    would slow every ``import attitude``). Each is left out if numba's internals are not the
-    ones it was written for."""
+    """Put :class:`_InlinerCopy` in numba's inliner, :func:`_ssa_in_touched_blocks` in its
+    SSA pass and :func:`_flags_comparison` in its compile flags, on the first compilation
+    (numba imports them only to compile; importing them here would slow every
+    ``import attitude``). Each is left out if numba's internals are not the ones it was written
+    for."""
     import copy
 
     from numba.core import event
@@ -334,6 +388,11 @@ def _install_compile_speedups() -> None:
                 n in ssa._run_ssa.__code__.co_names for n in steps
             ):  # (else numba changed: leave it)
                 ssa._run_ssa = _ssa_in_touched_blocks(ssa, ir, errors)
+            from numba.core import targetconfig
+
+            methods = _flags_comparison(targetconfig)
+            if methods is not None:
+                targetconfig.TargetConfig.__hash__, targetconfig.TargetConfig.__eq__ = methods
 
         def on_end(self, ev):
             pass
