@@ -391,11 +391,13 @@ def ensemble_events_serial(
 
 
 # Ensembles of spacecraft with actuators (attitude.ensemble; layout in
-# attitude._core.spacecraft_ensemble). The hold driver is inlined into the parallel loop: one
-# compiled function per command source, whose members run the single run's driver (the same
-# source, statement for statement) on their own rows. (A compiled call of the single run's
+# attitude._core.spacecraft_ensemble). The hold driver is inlined into a member function, one
+# per command source, whose members run the single run's driver (the same source, statement
+# for statement) on their own rows; the parallel loop calls it, as ensemble_parallel calls
+# ensemble_member. (Inlined into the prange loop itself, numba's parfor passes went through
+# the whole driver: ~4 s more of a cold compile for each. A compiled call of the single run's
 # entry point would compile a second copy of it: numba's copy for callers, without the CPython
-# wrapper; every compiled layer re-optimises the whole flight software it links.)
+# wrapper.)
 
 _holds_schedule_inline = rebind(
     holds_run,
@@ -415,6 +417,25 @@ _holds_fsw_inline = rebind(
 )
 
 
+@jit(nogil=True, _nrt=REFCOUNT)
+def spacecraft_schedule_member(
+    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
+    max_step, max_steps, budget,
+):  # fmt: skip
+    """Member ``i`` under its open-loop schedule (DOP853 through held commands) for at most
+    ``budget`` steps: the body of :func:`spacecraft_schedule_parallel`."""
+    m = t.shape[0]
+    runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
+                                              max_steps, budget)  # fmt: skip
+    if runs:
+        P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
+        st, k = _holds_schedule_inline(
+            P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
+            atol, t[m - 1], max_step, limit, schedule_ctl(i, src),
+        )  # fmt: skip
+        member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
+
+
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
 def spacecraft_schedule_parallel(
     params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
@@ -422,17 +443,30 @@ def spacecraft_schedule_parallel(
 ):  # fmt: skip
     """All members under open-loop schedules (DOP853 through held commands), in parallel over
     members (``prange``), each for at most ``budget`` steps."""
-    m = t.shape[0]
     for i in numba.prange(y0.shape[0]):
-        runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
-                                                  max_steps, budget)  # fmt: skip
-        if runs:
-            P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
-            st, k = _holds_schedule_inline(
-                P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-                atol, t[m - 1], max_step, limit, schedule_ctl(i, src),
-            )  # fmt: skip
-            member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
+        spacecraft_schedule_member(
+            numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
+            status, n_done, rtol, atol, max_step, max_steps, budget,
+        )  # fmt: skip
+
+
+@jit(nogil=True, _nrt=REFCOUNT)
+def spacecraft_fsw_member(
+    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
+    max_step, max_steps, budget,
+):  # fmt: skip
+    """Member ``i`` under its flight software (DOP853 through its ticks) for at most
+    ``budget`` steps: the body of :func:`spacecraft_fsw_parallel`."""
+    m = t.shape[0]
+    runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
+                                              max_steps, budget)  # fmt: skip
+    if runs:
+        P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
+        st, k = _holds_fsw_inline(
+            P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
+            atol, t[m - 1], max_step, limit, fsw_ctl(i, src),
+        )  # fmt: skip
+        member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
 
 
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
@@ -442,14 +476,8 @@ def spacecraft_fsw_parallel(
 ):  # fmt: skip
     """All members under their flight software (DOP853 through its ticks), in parallel over
     members (``prange``), each for at most ``budget`` steps."""
-    m = t.shape[0]
     for i in numba.prange(y0.shape[0]):
-        runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
-                                                  max_steps, budget)  # fmt: skip
-        if runs:
-            P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
-            st, k = _holds_fsw_inline(
-                P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-                atol, t[m - 1], max_step, limit, fsw_ctl(i, src),
-            )  # fmt: skip
-            member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
+        spacecraft_fsw_member(
+            numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
+            status, n_done, rtol, atol, max_step, max_steps, budget,
+        )  # fmt: skip
