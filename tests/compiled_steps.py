@@ -23,12 +23,12 @@ def mrp_feedback(t, m):
 
 
 @njit(cache=True)
-def too_many(t, m):
-    return np.zeros(5)
-
-
-@njit(cache=True)
-def nan_after_two_seconds(t, m):
+def fails_in_time(t, m):
+    """Three zero commands; from t = 2 s a NaN among them, from t = 3 s five commands instead
+    of three. (One step for both failures: every compiled step compiles the closed-loop drivers
+    again in a module of its own.)"""
+    if t >= 3.0:
+        return np.zeros(5)
     out = np.zeros(3)
     if t >= 2.0:
         out[1] = np.nan

@@ -201,6 +201,15 @@ def test_dataset_schema(paper_state):
     assert ds.attrs["rtol"] == 1e-10
 
 
+#: A constant body torque along b3 (N m), the user model of the tests below (one function:
+#: each user function compiles its own copy of the entry points).
+SPIN_UP = 0.02
+
+
+def _spin_up(q, t):
+    return (0.0, 0.0, SPIN_UP)
+
+
 def _same_run(a, b):
     """Every variable and coordinate of two results equal bit for bit (attrs aside)."""
     assert sorted(a.variables) == sorted(b.variables)
@@ -221,14 +230,11 @@ def test_auto_is_bit_for_bit_the_method_it_picks(paper_state):
     t = np.linspace(0.0, 50.0, 11)
     o = orbit.KeplerOrbit(7000.0, 0.2, 0.5, 0.8, 0.3, f0=0.0)
 
-    def tau(q, t):
-        return (0.0, 0.0, 0.02)
-
     cases = [  # (potential, keyword arguments, the method auto must pick)
         (TorqueFree(), {}, "taylor"),
         (HeavyTop(0.5, [1.0, 0.0, 0.0]), {}, "taylor"),
         (GravityGradient(o), {}, "taylor"),
-        (CustomTorque(tau), {}, "dop853"),  # a user's torque: no series
+        (CustomTorque(_spin_up), {}, "dop853"),  # a user's torque: no series
         (HeavyTop(0.5, [1.0, 0.0, 0.0]), {"events": [RateExceeds(10.0)]}, "dop853"),
         (TorqueFree(), {"formulation": "euler_angles"}, "dop853"),
     ]
@@ -310,15 +316,11 @@ def test_units_follow_the_body(paper_state):
 
 def test_constant_body_torque_closed_form():
     """Spin about b3 with a constant torque along b3: ω3(t) = ω0 + c t / I3, exactly."""
-    c = 0.02
-
-    def tau(q, t):
-        return (0.0, 0.0, c)
-
+    c = SPIN_UP
     q0 = np.array([1.0, 0.0, 0.0, 0.0])
     Q0 = C.momenta_from_angular_velocity(q0, [0, 0, 0.3], I_PAPER)
     t = np.linspace(0.0, 10.0, 21)
-    ds = propagate(I_PAPER, q0, Q0, t, potential=CustomTorque(tau), rtol=1e-13, atol=1e-15)
+    ds = propagate(I_PAPER, q0, Q0, t, potential=CustomTorque(_spin_up), rtol=1e-13, atol=1e-15)
     np.testing.assert_allclose(ds.omega.values[:, 2], 0.3 + c * t / I_PAPER[2], rtol=1e-12)
     angle = 0.3 * t + 0.5 * c * t**2 / I_PAPER[2]
     exact = qt.from_axis_angle([0, 0, 1], angle)

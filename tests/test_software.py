@@ -298,15 +298,11 @@ def test_a_compiled_step_with_bad_commands_stops_the_run_at_its_tick(method):
     q0 = qt.from_mrp([0.1, 0.2, -0.3])
     Q0 = C.momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
     t = np.linspace(0.0, 20.0, 21)
+    fsw = FlightSoftware(0.1, control=cs.fails_in_time)  # five values from t = 3 s
     with pytest.raises(PropagationError, match=r"compiled step .* tick 0 .* returned 5 values"):
-        attitude.propagate(
-            craft, q0, Q0, t, software=FlightSoftware(0.1, control=cs.too_many), method=method
-        )
+        attitude.propagate(craft, q0, Q0, 3.0 + t, software=fsw, method=method)
     with pytest.raises(PropagationError, match=r"tick 20 \(t = 2.0 s\).*non-finite") as exc:
-        attitude.propagate(
-            craft, q0, Q0, t, software=FlightSoftware(0.1, control=cs.nan_after_two_seconds),
-            method=method,
-        )  # fmt: skip
+        attitude.propagate(craft, q0, Q0, t, software=fsw, method=method)  # NaN from t = 2 s
     assert exc.value.partial.sizes["time"] == 2  # t = 0, 1 s: the samples before the tick
 
 
