@@ -118,9 +118,6 @@ def test_compliance_checker_no_errors_on_shipped_scenarios(name, tmp_path):
     assert cf_errors(path, tmp_path) == []
 
 
-# (one worker for the tests that first compile the ensemble drivers with events: on a fresh
-# cache both workers compiled them at once, ~20 s)
-@pytest.mark.xdist_group("ensemble_events")
 def test_compliance_checker_no_errors_on_ensemble_file(tmp_path):
     from attitude.ensemble import run_scenario
 

@@ -788,9 +788,6 @@ def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
     ]
 
 
-# (one worker for the tests that first compile the ensemble drivers with events: on a fresh
-# cache both workers compiled them at once, ~20 s)
-@pytest.mark.xdist_group("ensemble_events")
 def test_shipped_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
     """scenarios/ensemble_paper_keplerian.toml through `attitude run` (a short span)."""
     from attitude.cli import main
