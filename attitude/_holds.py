@@ -206,8 +206,8 @@ class _Source:
         craft = self.run.spacecraft
         nw = craft.counts[0]
         meas = np.empty(_ks.MEAS_WHEELS + 2 * nw)
-        _ks.measure(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc, prog.fw,
-                    self.fs, meas)  # fmt: skip
+        _ks.measure_from_python(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc,
+                                prog.fw, self.fs, meas)  # fmt: skip
 
         def vec(i, n=3):
             v = meas[i : i + n].copy()
