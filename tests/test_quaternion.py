@@ -14,7 +14,7 @@ import os
 import mpmath
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from scipy.spatial.transform import Rotation, Slerp
@@ -363,10 +363,20 @@ def test_euler_round_trip_and_ranges(seq):
 
 @SETTINGS
 @given(unit_quat, st.sampled_from(aq.EULER_SEQUENCES))
+# within the lock band, not at the lock (middle angle 1.6e-15 rad): the third angle set to 0
+# drops a rotation of 1.6e-15 rad (a counterexample hypothesis found to the plain 2e-15)
+@example(np.array([-3.0e-08, 5.7e-16, 1.0, 5.7e-16]) / np.hypot(1.0, 3.0e-08), "212")
 def test_euler_round_trip_property(q, seq):
+    """from_euler(to_euler(q)) is q's rotation to round-off (2e-15 rad, the largest seen over
+    4.8 million random quaternions being 1.6e-15), plus, where to_euler takes the gimbal lock
+    (third angle 0 with the middle one within 1e-14 rad of it), the rotation its documented
+    choice a3 = 0 drops: at most 2e-15 rad (quaternion._GIMBAL_TOL's comment)."""
     a = aq.to_euler(q, seq)
     assert np.all(np.isfinite(a))
-    assert aq.angle_between(aq.from_euler(a, seq), q) < 2e-15
+    mid = a[1] if seq[0] == seq[2] else a[1] + np.pi / 2
+    lock = a[2] == 0.0 and min(abs(mid), abs(np.pi - abs(mid))) < 1e-14
+    bound = 4e-15 if lock else 2e-15
+    assert aq.angle_between(aq.from_euler(a, seq), q) < bound
 
 
 @pytest.mark.parametrize("seq", aq.EULER_SEQUENCES)
