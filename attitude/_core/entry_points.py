@@ -75,7 +75,7 @@ from attitude._core.potentials import (
     builtin_torque,
 )
 from attitude._core.rk import dop853_run
-from attitude._core.spacecraft_ensemble import (
+from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources bound by name)
     fsw_ctl,
     member_stop,
     schedule_ctl,
@@ -417,23 +417,41 @@ _holds_fsw_inline = rebind(
 )
 
 
+#: The template's hold driver and command source (each copy below rebinds both).
+HOLDS = _holds_schedule_inline
+CTL = schedule_ctl
+
+
 @jit(nogil=True, _nrt=REFCOUNT)
-def spacecraft_schedule_member(
+def _spacecraft_member(
     i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
     max_step, max_steps, budget,
 ):  # fmt: skip
-    """Member ``i`` under its open-loop schedule (DOP853 through held commands) for at most
-    ``budget`` steps: the body of :func:`spacecraft_schedule_parallel`."""
+    """Member ``i`` under its command source for at most ``budget`` steps: the body of the
+    parallel loops below, one copy per source (``HOLDS``, the hold driver inlined, and ``CTL``,
+    the member's command source)."""
     m = t.shape[0]
     runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
                                               max_steps, budget)  # fmt: skip
     if runs:
         P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
-        st, k = _holds_schedule_inline(
+        st, k = HOLDS(
             P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-            atol, t[m - 1], max_step, limit, schedule_ctl(i, src),
+            atol, t[m - 1], max_step, limit, CTL(i, src),
         )  # fmt: skip
         member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
+
+
+#: A member under its open-loop schedule (DOP853 through held commands).
+spacecraft_schedule_member = rebind(
+    _spacecraft_member, globals(), "schedule",
+    HOLDS="_holds_schedule_inline", CTL="schedule_ctl",
+)  # fmt: skip
+#: A member under its flight software (DOP853 through its ticks).
+spacecraft_fsw_member = rebind(
+    _spacecraft_member, globals(), "fsw",
+    HOLDS="_holds_fsw_inline", CTL="fsw_ctl",
+)  # fmt: skip
 
 
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
@@ -448,25 +466,6 @@ def spacecraft_schedule_parallel(
             numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
             status, n_done, rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
-
-
-@jit(nogil=True, _nrt=REFCOUNT)
-def spacecraft_fsw_member(
-    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
-    max_step, max_steps, budget,
-):  # fmt: skip
-    """Member ``i`` under its flight software (DOP853 through its ticks) for at most
-    ``budget`` steps: the body of :func:`spacecraft_fsw_parallel`."""
-    m = t.shape[0]
-    runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
-                                              max_steps, budget)  # fmt: skip
-    if runs:
-        P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
-        st, k = _holds_fsw_inline(
-            P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-            atol, t[m - 1], max_step, limit, fsw_ctl(i, src),
-        )  # fmt: skip
-        member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
 
 
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
