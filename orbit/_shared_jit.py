@@ -400,7 +400,11 @@ def _install_compile_speedups() -> None:
     event.register("numba:compile", _OnFirstCompile())
 
 
-if not JIT_DISABLED:
+#: ``ATTITUDE_NUMBA_STANDINS=0``: numba's own inliner copy, SSA pass and flags comparison (the
+#: stand-ins replace them for the whole process, every numba function it compiles).
+NUMBA_STANDINS: bool = os.environ.get("ATTITUDE_NUMBA_STANDINS", "1") not in ("", "0")
+
+if not JIT_DISABLED and NUMBA_STANDINS:
     try:
         _install_compile_speedups()
     except (ImportError, AttributeError):  # pragma: no cover - numba internals moved
