@@ -378,7 +378,7 @@ ES_SIZE = 168
 
 
 @jit
-def sense_and_estimate(t, q, om, bb, fw, fs, sc, rec_row, rec_at):
+def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
     """The sensors' measurements and the estimate at this tick: (q, ω, B) the software uses.
 
     Without sensors the truth; with sensors but no estimator the last valid star tracker
@@ -497,7 +497,7 @@ def _sense(t, y, omt, sc, fw, fs, rec_row, keep):
     if fw[FW_SENSORS] == 0.0:  # the truth (not even the call's entry a tick)
         return qt, omt, bbt
     at = R_CMD + 2 * int(fw[FW_NCMD]) if keep else -1
-    return sense_and_estimate(t, qt, omt, bbt, fw, fs, sc, rec_row, at)
+    return sense_and_estimate(t, qt, omt, bbt, fw, fs, rec_row, at)
 
 
 @jit
