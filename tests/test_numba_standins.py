@@ -62,5 +62,12 @@ def _probe(standins: str, tmp) -> dict:
 def test_standins_give_numbas_own_llvm_ir(tmp_path):
     ours = _probe("1", tmp_path / "a")
     numbas = _probe("0", tmp_path / "b")
-    assert ours.pop("standins") and not numbas.pop("standins")
+    assert not numbas.pop("standins")
+    if not ours.pop("standins"):
+        # they leave themselves out on a numba whose internals differ from 0.68's (by design);
+        # on the numba they were written for, not being in place is a failure
+        import numba
+
+        assert not numba.__version__.startswith("0.68."), "the stand-ins are not in place"
+        pytest.skip(f"numba {numba.__version__}: the stand-ins left themselves out")
     assert ours == numbas

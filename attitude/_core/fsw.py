@@ -724,7 +724,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
         if t < fw[FW_T0]:
             for i in range(cmd.shape[0]):
                 cmd[i] = 0.0
-            _configure_hold_once(sc, y, cmd, t, fw[FW_T0])
+            configure_hold(sc, y, cmd, t, fw[FW_T0])
             sc[S_IDEAL] = 0.0
             sc[S_IDEAL + 1] = 0.0
             sc[S_IDEAL + 2] = 0.0
@@ -740,7 +740,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
             # your own step: measure once (its record in this tick's row), then ask for the
             # commands; measure() hands these measurements to the step
             if fs[FS_SENSED] == 0.0:
-                q, om, bb = _sense_for_your_step(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
+                q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
                 for i in range(4):
                     fs[FS_SQ + i] = q[i]
                 for i in range(3):
@@ -780,8 +780,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
 # inlined, they doubled the drivers' compile time (60 -> 130 s cold) for no measurable gain.
 # Inside it the per-tick sensing is inlined (measure_sensors_inline, mekf_propagate_inline: -4 %).
 # The boundary's cold paths (your own step's sensing, the commands held before the first tick)
-# stay calls under names not rebound below: no second inlined copies in every single-run driver.
-_sense_for_your_step, _configure_hold_once = _sense, configure_hold
+# stay calls: _sense and configure_hold are not rebound in fsw_boundary_inline below.
 _sense_inline = inline_copy(_sense, globals())
 _guidance_inline = inline_copy(guidance, globals())
 _configure_hold_inline = inline_copy(configure_hold_rate, globals())
