@@ -47,7 +47,11 @@ _PROBE = textwrap.dedent(
 def _probe(standins: str, tmp) -> dict:
     import json
 
-    env = dict(os.environ, ATTITUDE_NUMBA_STANDINS=standins, NUMBA_CACHE_DIR=str(tmp))
+    # empty caches of its own (numba's and the package's): both processes compile the same
+    # functions in the same order, so the version numbers in the mangled names agree (a
+    # shared package cache let the second process load what the first compiled: v3 for v4)
+    env = dict(os.environ, ATTITUDE_NUMBA_STANDINS=standins, NUMBA_CACHE_DIR=str(tmp),
+               ATTITUDE_CACHE_DIR=str(tmp / "package"))  # fmt: skip
     env.pop("ATTITUDE_DISABLE_JIT", None)
     r = subprocess.run(
         [sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=600
