@@ -473,6 +473,49 @@ def test_taylor_order_follows_the_hold():
     assert ds.attrs["n_series_terms"] <= 8 * times.size <= 0.6 * ds.attrs["order"] * times.size
 
 
+def test_taylor_order_stops_where_the_rest_is_below_round_off():
+    """The order test of the held steps (taylor_gyrostat.order_enough). Its cases: terms
+    falling by 1e-3 an order stop once the next one's estimate is below ROUNDOFF S, one order
+    before two terms below tolerance would; a series whose odd terms vanish (a start from rest:
+    q's terms 1, 0, αd²/4, 0, α²d⁴/32) does not stop at a zero term. In a run: 10 Hz holds of
+    random wheel torques from rest (the first hold is that even series) at rtol 1e-12 are the
+    same run at rtol 1e-15 (orders higher) to round-off, at a lower mean order."""
+    from attitude._core.taylor_gyrostat import ROUNDOFF, order_enough
+
+    enough = order_enough.py_func
+    tol, ro = 1e-13, ROUNDOFF
+    t = [1e-3**k for k in range(8)]  # S = 1
+    stop = next(k for k in range(2, 8) if enough(t[k], t[k - 1], t[k - 2], tol, ro))
+    two = next(k for k in range(2, 8) if t[k] <= tol and t[k - 1] <= tol)
+    assert t[stop] ** 2 / t[stop - 1] <= ro < t[stop - 1] ** 2 / t[stop - 2]
+    assert stop == two - 1
+    a = 1e-2  # αd²
+    even = [1.0, 0.0, a / 4, 0.0, a * a / 32, 0.0, a**3 / 384, 0.0]
+    assert not enough(even[3], even[2], even[1], tol, ro)
+    assert not enough(even[4], even[3], even[2], tol, ro)  # a²/32 > tol
+
+    # a 0.1 kg m² body under wheel torques of 0.01 N m: ~1 rad/s² from rest, so the first
+    # hold's series is 1, 0, ~2e-3, 0, ~2e-7 (stopping at its zero misses 1.5e-7)
+    small = attitude.RigidBody([0.1, 0.12, 0.08], units="kg m2")
+    craft = Spacecraft(small, pyramid(1e-4))
+    times = np.arange(0.0, 300.0, 0.1)
+    rng = np.random.default_rng(11)
+    sched = CommandSchedule(times, rng.normal(0.0, 0.01, (times.size, 4)))
+    Q0 = total_momenta(craft, Q_ID, [0.0, 0.0, 0.0])
+
+    def run(t_end, method, rtol):
+        return attitude.propagate(craft, Q_ID, Q0, np.linspace(0.0, t_end, 11), method=method,
+                                  rtol=rtol, atol=1e-30, commands=sched)  # fmt: skip
+
+    a, b = run(1.0, "taylor", 1e-12), run(1.0, "dop853", 1e-14)
+    assert np.max(np.abs(a.q.values - b.q.values)) < 1e-13
+    a, b = run(300.0, "taylor", 1e-12), run(300.0, "taylor", 1e-15)
+    assert np.max(np.abs(a.q.values - b.q.values)) < 1e-14
+    assert np.max(np.abs(a.wheel_speed.values - b.wheel_speed.values)) < 1e-12
+    order = [r.attrs["n_series_terms"] / r.attrs["n_steps"] for r in (a, b)]
+    assert order[0] < order[1]
+
+
 # --- bad input ----------------------------------------------------------------------------------
 
 

@@ -84,12 +84,14 @@ from .taylor_gyrostat import (
     ORDER_MARGIN,
     PIECE_FREE,
     PMIN,
+    ROUNDOFF,
     TS_SIZE,
     _block3,
     _block4,
     _blockh,
     _piece_coefficients,
     dense_state,
+    order_enough,
     order_from_tolerance,
     step_complete,
     step_prepare,
@@ -113,10 +115,11 @@ LF_TQ = 1  # ORDER_MARGIN rtol S_q
 LF_TG = 2  # ORDER_MARGIN rtol S_g
 LF_TH = 3  # ORDER_MARGIN rtol S_h
 LF_DK = 4  # d^k
-LF_PREV = 5  # 1: the last order's terms were below the tolerances
-LF_N = 6  # n of the step
-LF_C = 7  # c of the step
-NLF = 8
+LF_N = 5  # n of the step
+LF_C = 6  # c of the step
+LF_RO = 7  # ROUNDOFF S_b (q, g, h)
+LF_T = 10  # the blocks' terms at the last two orders (q, g, h: t_{k−1}, t_{k−2} each)
+NLF = 16
 # Per-lane integers (columns of ``lint``).
 L_MEMBER = 0  # the member in the lane (−1: none)
 L_K = 1  # its next output sample
@@ -307,7 +310,6 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
     for lane in range(LANES):
         lint[lane, L_STOP] = -1 if lint[lane, L_STEP] != 0 else 0
         lf[lane, LF_DK] = 1.0
-        lf[lane, LF_PREV] = 0.0
     CO = CH + nw
     k = 0
     while True:
@@ -410,14 +412,22 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
                 continue
             dk = lf[lane, LF_DK] * lf[lane, LF_D]
             lf[lane, LF_DK] = dk
+            tq = _lane_block4(cf, k, 0, lane) * dk
+            tg = _lane_block3(cf, k, CG, lane) * dk
+            th = _lane_blockh(cf, k, nw, lane) * dk
             ok = (
-                _lane_block4(cf, k, 0, lane) * dk <= lf[lane, LF_TQ]
-                and _lane_block3(cf, k, CG, lane) * dk <= lf[lane, LF_TG]
-                and _lane_blockh(cf, k, nw, lane) * dk <= lf[lane, LF_TH]
-            )
-            if ok and lf[lane, LF_PREV] != 0.0 and k >= PMIN:
+                order_enough(tq, lf[lane, LF_T], lf[lane, LF_T + 1], lf[lane, LF_TQ],
+                             lf[lane, LF_RO])
+                and order_enough(tg, lf[lane, LF_T + 2], lf[lane, LF_T + 3], lf[lane, LF_TG],
+                                 lf[lane, LF_RO + 1])
+                and order_enough(th, lf[lane, LF_T + 4], lf[lane, LF_T + 5], lf[lane, LF_TH],
+                                 lf[lane, LF_RO + 2])
+            )  # fmt: skip
+            if ok and k >= PMIN:
                 lint[lane, L_STOP] = k
-            lf[lane, LF_PREV] = 1.0 if ok else 0.0
+            for b, t in enumerate((tq, tg, th)):
+                lf[lane, LF_T + 2 * b + 1] = lf[lane, LF_T + 2 * b]
+                lf[lane, LF_T + 2 * b] = t
     for lane in range(LANES):
         if lint[lane, L_STOP] < 0:
             lint[lane, L_STOP] = p
@@ -475,6 +485,10 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
     lf[lane, LF_TQ] = ORDER_MARGIN * rtol * sq
     lf[lane, LF_TG] = ORDER_MARGIN * rtol * sg
     lf[lane, LF_TH] = ORDER_MARGIN * rtol * sh
+    for b, sb in enumerate((sq, sg, sh)):
+        lf[lane, LF_RO + b] = ROUNDOFF * sb
+        lf[lane, LF_T + 2 * b] = sb  # the scale S_b before order 1 (as gyrostat_coefficients)
+        lf[lane, LF_T + 2 * b + 1] = sb
     lf[lane, LF_D] = d
     lf[lane, LF_N] = n
     lf[lane, LF_C] = c

@@ -17,11 +17,18 @@ Two additions to Jorba & Zou's scheme:
 
 * **Order from the hold.** Held commands force steps no longer than the time to the next
   boundary d (0.1 s at a 10 Hz tick, often far below the radius of convergence). The
-  recurrences run order by order and stop at the first order k >= 2 whose last two terms
-  ‖x_{k−1}‖ d^{k−1}, ‖x_k‖ d^k are below 0.1 rtol S_b in every block b (q, g, h; S_b as in
-  Jorba & Zou): the step is then d, at the order it needs (4 to 6 at a 10 Hz tick instead of
-  the 13 of rtol = 1e-10). Otherwise the order reaches p = ⌈−½ ln rtol + 1⌉ and the step is
-  Jorba & Zou's (min with d).
+  recurrences run order by order and stop at the first order k >= 2 whose last term
+  ‖x_k‖ d^k is below 0.1 rtol S_b in every block b (q, g, h; S_b as in Jorba & Zou), with
+  either the term before it too (Jorba & Zou's two terms) or the terms falling over the last
+  three orders and the next one, estimated from their ratios, below the round-off of S_b
+  (:func:`order_enough`): the step is then d, at the order it needs (2 to 5 at a 10 Hz tick
+  instead of the 13 of rtol = 1e-10). Otherwise the order reaches p = ⌈−½ ln rtol + 1⌉ and
+  the step is Jorba & Zou's (min with d). The second way saves an order where the terms
+  fall fast: the sensor day's noisy holds (terms ~1e-7, 5e-9, 2e-12, 2e-15, 1e-18 of |q| = 1)
+  stop at order 4, not 5 (the fifth term is below the round-off of the sum), 5 % of the
+  day's time. Two terms alone guard a series whose odd terms vanish (a start from rest: q's
+  terms 1, 0, αd²/4, 0, …); the falling terms' test does too, as a zero term is not
+  followed by a smaller one (the next order compares the zero with the larger term after it).
 * **Friction kinks.** The friction law has kinks at Ω = ±ω_lc. Each wheel's piece is fixed at
   the step's start; if Ω leaves it before the step's end, the step is cut at the crossing
   (bisection on the step's polynomial of Ω) and the next step starts in the next piece. So a
@@ -97,8 +104,12 @@ PIECE_INSIDE = 0  # |Ω| < ω_lc: f = slope Ω
 PIECE_POS = 1  # Ω >= ω_lc: f = f_c + c_v Ω
 PIECE_NEG = 2  # Ω <= −ω_lc: f = −f_c + c_v Ω
 
-#: Fraction of rtol S_b the last two terms must stay below to stop the order early.
+#: Fraction of rtol S_b the last term (and the one before, or the next one's estimate below
+#: ROUNDOFF S_b) must stay below to stop the order early (:func:`order_enough`).
 ORDER_MARGIN = 0.1
+#: 2⁻⁵⁶: half an ulp of 1 (the next term's estimate below ROUNDOFF S_b changes nothing the
+#: block's round-off does not).
+ROUNDOFF = 2.0**-56
 #: Lowest order of a step.
 PMIN = 2
 
@@ -140,6 +151,20 @@ def has_friction(sc, nw):
 
 
 @jit(inline="always")
+def order_enough(t, t1, t0, tol, ro):
+    """True if a block's series may stop at order k: its terms ‖x_j‖ d^j at k, k − 1, k − 2
+    are ``t, t1, t0``; the last one below ``tol`` (ORDER_MARGIN rtol S_b) and either the one
+    before too (Jorba & Zou's two terms) or the terms falling over the last three with the next
+    one, estimated from either of the last two ratios (t²/t1, t t1/t0), below ``ro``
+    (ROUNDOFF S_b): a truncation below the round-off of the block's scale."""
+    if t > tol:
+        return False
+    if t1 <= tol:
+        return True
+    return t <= t1 and t1 <= t0 and t * t <= ro * t1 and t * t1 <= ro * t0
+
+
+@jit(inline="always")
 def _block3(cf, k, c0):
     return max(abs(cf[k, c0]), max(abs(cf[k, c0 + 1]), abs(cf[k, c0 + 2])))
 
@@ -169,8 +194,8 @@ def _ratio(s, x, j):
 @jit
 def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     """Rows 1.. of the coefficient table from row 0 (q, g, h and the torque's auxiliary
-    series), order by order up to ``p``; stops early at the first order k >= PMIN whose last
-    two terms over the distance ``d`` are below ORDER_MARGIN rtol S_b (blocks q, g, h).
+    series), order by order up to ``p``; stops early at the first order k >= PMIN whose terms
+    over the distance ``d`` are :func:`order_enough` in every block (q, g, h).
 
     Returns the order reached (the rows 0..order of q, g, h are filled; with friction ω and
     Ω also at that order, for the kink check).
@@ -214,7 +239,12 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     tol_g = ORDER_MARGIN * rtol * sg
     tol_h = ORDER_MARGIN * rtol * sh
     dk = 1.0  # d^k
-    prev_ok = False
+    ro_q = ROUNDOFF * sq
+    ro_g = ROUNDOFF * sg
+    ro_h = ROUNDOFF * sh
+    tq0 = tq1 = sq  # the blocks' terms at the last two orders (the scale S_b before order 1)
+    tg0 = tg1 = sg
+    th0 = th1 = sh
     CO = CH + nw
     # Without friction the wheels' Ω enters no recurrence (h[k+1] = (u − c₀ − c₁ Ω[k])/(k+1)
     # with c₁ = 0) and no step check (the kinks are friction's): its orders above 0 (row 0 is
@@ -319,18 +349,23 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
                 cf[1, CH + j] = sc[S_WHEELS + j * WS + W_U] * inv
         k += 1
         dk *= d
+        tq = _block4(cf, k, 0) * dk
+        tg = _block3(cf, k, CG) * dk
+        th = 0.0 if k >= 2 and not friction else _blockh(cf, k, nw) * dk  # (h linear)
         ok = (
-            _block4(cf, k, 0) * dk <= tol_q
-            and _block3(cf, k, CG) * dk <= tol_g
-            and ((k >= 2 and not friction) or _blockh(cf, k, nw) * dk <= tol_h)
+            order_enough(tq, tq1, tq0, tol_q, ro_q)
+            and order_enough(tg, tg1, tg0, tol_g, ro_g)
+            and order_enough(th, th1, th0, tol_h, ro_h)
         )
-        if ok and prev_ok and k >= PMIN:
+        tq0, tq1 = tq1, tq
+        tg0, tg1 = tg1, tg
+        th0, th1 = th1, th
+        if ok and k >= PMIN:
             if not friction:
                 return k
             # ω, Ω at the final order too (for the kink check on Ω's polynomial)
             p = k
             continue
-        prev_ok = ok
 
 
 @jit
