@@ -520,6 +520,7 @@ def test_small_rotation_series_against_mpmath():
         M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         es[M.E_P : M.E_P + 36] = np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]).ravel()
         M.mekf_propagate(es, ep, np.array([w, 0.0, 0.0]), dt)
+        M.mekf_covariance(es, ep)
         with mpmath.workdps(40):
             mw = mpmath.mpf(w)
             want = float(4 * mpmath.sin(mw * mpmath.mpf(dt) / 2) ** 2 / mw**2)
@@ -564,6 +565,7 @@ def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     es[M.E_P : M.E_P + 36] = P0.ravel()
     om, dt = np.array([0.02, -0.05, 0.03]), 0.1
     M.mekf_propagate(es, ep, om, dt)
+    M.mekf_covariance(es, ep)
     w = om - np.array([1e-5, -2e-5, 3e-5])
     Phi, Q = _dense_transition(w, dt, ep[M.EP_SV], ep[M.EP_SU])
     P1 = Phi @ P0 @ Phi.T + Q
@@ -619,7 +621,7 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
         d[k] = h
         H[:, k] = (body(d) - body(-d)) / (2 * h)
     bm = body(np.array([0.01, -0.02, 0.015])) + np.array([1e-3, -2e-3, 5e-4])
-    M.mekf_update_vector(es, *bm, *r, sigma)
+    M.mekf_update_vector(es, np.zeros(M.EP_SIZE), *bm, *r, sigma)
     R = sigma**2 * np.eye(3)
     K, P1 = _joseph_update(P0, H, R)
     got = es[M.E_P : M.E_P + 36].reshape(6, 6)
@@ -637,7 +639,7 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
     q_true = qt.multiply(q_new, qt.from_rotation_vector(np.radians([1.2, -0.9, 1.3])))
     beta = b_new + np.array([3e-6, -1e-6, 2e-6])
     for sign in (1.0, -1.0):  # q and −q: the same attitude, the same error
-        e, nees = M.estimation_error(es, tuple(sign * q_true), tuple(beta))
+        e, nees = M.estimation_error(es, M.E_P, tuple(sign * q_true), tuple(beta))
         rot = Rotation.from_quat(np.roll(q_new, -1)).inv() * Rotation.from_quat(np.roll(q_true, -1))
         want = np.concatenate([rot.as_rotvec(), beta - b_new])
         np.testing.assert_allclose(e, want, rtol=1e-12, atol=1e-18)
@@ -726,6 +728,7 @@ def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
         M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
         es[M.E_P : M.E_P + 36] = P.ravel()
         M.mekf_propagate(es, ep, om, dt)
+        M.mekf_covariance(es, ep)
         got = es[M.E_P : M.E_P + 36].reshape(6, 6)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13 * np.abs(want).max())
         if not P.any():
@@ -733,6 +736,58 @@ def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
     # the attitude turned by exp(ω̂ Δt/2), ω̂ = ω − β̂
     q = es[M.E_Q : M.E_Q + 4]
     np.testing.assert_allclose(q, qt.from_rotation_vector((om - bias) * dt), rtol=0, atol=1e-15)
+
+
+def test_mekf_covariance_over_a_span_is_the_product_of_its_ticks():
+    """P is propagated when it is read (an update) and at least every SPAN_TICKS ticks, in one
+    step over the ticks since with their mean rate, against the per-tick steps (each tick
+    propagated and brought current at once): at rest (ω̂ = 0) the same to round-off, Q
+    included; at a constant rate Φ is still their product, and Q differs only by its rotation
+    within the span, which the closed-form Q neglects (as it does within a tick): O(|ω| nΔt) of
+    Q's share of P, here 6e-12; at the sensor day's rates (1e-5 rad/s, gyro noise 5e-5 rad/s a
+    tick, five ticks) Φ₁₂ too, by the order the rates came in, |δω| (nΔt)²/2 ~ 6e-6 of it,
+    which reaches P through the bias covariance: 1.3e-9 here. Entries relative to
+    √(P_ii P_jj). The copy the record reads (mekf_covariance_at) is that P and leaves the
+    filter's state as it was; the span is brought current by itself after SPAN_TICKS ticks."""
+    from attitude._core import mekf as M
+
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(6, 6)) * np.array([1e-4] * 3 + [1e-7] * 3)[:, None]
+    P0 = A @ A.T + np.diag([1e-9] * 3 + [1e-14] * 3)
+    ep = np.zeros(M.EP_SIZE)
+    ep[M.EP_SV], ep[M.EP_SU] = 1.45e-5, 2e-9
+    dt, n = 0.1, 5
+    bias = np.array([1e-6, 0.0, -1e-6])
+    for rates, rel in (
+        (np.tile(bias, (n, 1)), 4e-15),
+        (np.tile([2e-3, -1e-3, 3e-3], (n, 1)), 2e-11),
+        (np.array([1e-5, -2e-5, 1e-5]) + rng.normal(0.0, 5e-5, (n, 3)), 5e-9),
+    ):
+        es = [np.zeros(M.E_SIZE) for _ in range(2)]
+        for e in es:
+            M.mekf_init(e, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
+            e[M.E_P : M.E_P + 36] = P0.ravel()
+        for w in rates:
+            M.mekf_propagate(es[0], ep, w, dt)
+            M.mekf_covariance(es[0], ep)  # every tick: the per-tick product
+            M.mekf_propagate(es[1], ep, w, dt)
+        before = es[1].copy()
+        M.mekf_covariance_at(es[1], ep, M.E_PHI)
+        lazy = es[1][M.E_PHI : M.E_PHI + 36].reshape(6, 6)
+        untouched = np.r_[0 : M.E_PHI, M.E_PHI + 36 : M.E_SIZE]
+        np.testing.assert_array_equal(es[1][untouched], before[untouched])
+        M.mekf_covariance(es[1], ep)
+        np.testing.assert_array_equal(es[1][M.E_P : M.E_P + 36].reshape(6, 6), lazy)
+        np.testing.assert_array_equal(es[1][M.E_Q : M.E_Q + 4], es[0][M.E_Q : M.E_Q + 4])
+        ticks = es[0][M.E_P : M.E_P + 36].reshape(6, 6)
+        scale = np.sqrt(np.outer(np.diag(ticks), np.diag(ticks)))
+        err = np.max(np.abs(lazy - ticks) / scale)
+        assert err < rel, err
+    # SPAN_TICKS ticks without an update: the span is brought current by itself
+    for _ in range(M.SPAN_TICKS):
+        assert es[1][M.E_SPAN] < (M.SPAN_TICKS - 0.5) * dt
+        M.mekf_propagate(es[1], ep, rates[0], dt)
+    assert es[1][M.E_SPAN] == 0.0 and es[1][M.E_NSPAN] == 0.0
 
 
 @pytest.mark.parametrize("vector", ["magnetometer", "sun_sensor"])
@@ -784,7 +839,7 @@ def test_mekf_with_a_vector_sensor_in_the_loop_is_the_filter_replayed_by_hand(ve
         if n > 0:
             M.mekf_propagate(es, ep, ds.gyro_rate.values[n], t[n] - t[n - 1])
         if not np.isnan(meas[n, 0]):  # (no Sun direction with fewer than 3 heads lit)
-            M.mekf_update_vector(es, *meas[n], *ref[n], vec.noise)
+            M.mekf_update_vector(es, ep, *meas[n], *ref[n], vec.noise)
         q_hat.append(es[M.E_Q : M.E_Q + 4].copy())
         b_hat.append(es[M.E_B : M.E_B + 3].copy())
     np.testing.assert_allclose(ds.estimate_q.values, q_hat, rtol=0, atol=1e-9)

@@ -70,13 +70,14 @@ from .holds import (
 from .mekf import (
     E_B,
     E_INIT,
-    E_P,
+    E_PHI,
     E_Q,
     EP_INIT,
     EP_MAG,
     EP_Q0,
     EP_SUN,
     estimation_error,
+    mekf_covariance_at,
     mekf_init,
     mekf_propagate_inline,
     mekf_update_quaternion,
@@ -444,8 +445,9 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
                 rec_row[r + RS_Q + i] = es[E_Q + i]
             for i in range(3):
                 rec_row[r + RS_B + i] = es[E_B + i]
+            mekf_covariance_at(es, ep, E_PHI)  # P at this tick, in a scratch copy
             for i in range(6):
-                rec_row[r + RS_SIGMA + i] = math.sqrt(max(es[E_P + 7 * i], 0.0))
+                rec_row[r + RS_SIGMA + i] = math.sqrt(max(es[E_PHI + 7 * i], 0.0))
             g = int(sn[SN_GYRO])
             gs = int(sn[g + G_STATE]) + RNG_SIZE
             bt = (
@@ -453,7 +455,7 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
                 sn[g + G_B0 + 1] + ss[gs + 1],
                 sn[g + G_B0 + 2] + ss[gs + 2],
             )
-            e, nees = estimation_error(es, q, bt)
+            e, nees = estimation_error(es, E_PHI, q, bt)
             for i in range(6):
                 rec_row[r + RS_ERR + i] = e[i]
             rec_row[r + RS_NEES] = nees
@@ -468,10 +470,10 @@ def _updates(es, ep, z, q, bb, sn, t):
         mekf_update_quaternion(es, ep, z[Z_Q : Z_Q + 4])
     if ep[EP_MAG] > 0.0 and z[Z_MAG_OK] != 0.0:
         r = rotate(q, bb)  # the field model in space (the IGRF tables)
-        mekf_update_vector(es, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
+        mekf_update_vector(es, ep, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
     if ep[EP_SUN] > 0.0 and z[Z_SUN_OK] != 0.0:
         _, s, _ = sun_and_earth(sn, t)  # the Sun's direction in space (its ephemeris)
-        mekf_update_vector(es, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
+        mekf_update_vector(es, ep, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
                            ep[EP_SUN])  # fmt: skip
 
 
@@ -774,13 +776,11 @@ def fsw_boundary(P, y, t, t_end, ctl):
 
 
 # The tick inlined into the single-run drivers (numba's IR inliner; entry_points binds them):
-# passing the tick's arrays through three calls (seven arguments an array) cost ~10 % of a
-# 10 Hz closed-loop tick. The ensemble drivers keep the calls (numba's parallel array analysis
-# rejects the inlined tick). The sensors and the filter stay a call (sense_and_estimate):
-# inlined, they doubled the drivers' compile time (60 -> 130 s cold) for no measurable gain.
-# Inside it the per-tick sensing is inlined (measure_sensors_inline, mekf_propagate_inline: -4 %).
-# The boundary's cold paths (your own step's sensing, the commands held before the first tick)
-# stay calls: _sense and configure_hold are not rebound in fsw_boundary_inline below.
+# its arrays through three calls (seven arguments an array) cost ~10 % of a 10 Hz tick. The
+# ensemble drivers keep the calls (numba's parallel array analysis rejects the inlined tick).
+# sense_and_estimate stays a call (inlined: twice the compile time, no gain); the per-tick
+# sensing is inlined into it (measure_sensors_inline, mekf_propagate_inline: -4 %). The
+# boundary's cold paths (_sense, configure_hold) stay calls: not rebound below.
 _sense_inline = inline_copy(_sense, globals())
 _guidance_inline = inline_copy(guidance, globals())
 _configure_hold_inline = inline_copy(configure_hold_rate, globals())

@@ -13,6 +13,19 @@ held rate), P ← Φ P Φᵀ + Q with (Markley & Crassidis eqs. 6.83–6.85, W =
     Φ₁₂ = W (1 − cos(wΔt))/w² − 1 Δt − W² (wΔt − sin(wΔt))/w³,   Φ₂₁ = 0, Φ₂₂ = 1
     Q₁₁ = (σ_v² Δt + σ_u² Δt³/3) 1,  Q₁₂ = −σ_u² Δt²/2 1,  Q₂₂ = σ_u² Δt 1.
 
+q̂ is propagated every tick (the control law reads it); P only when it is read (an update)
+and at least every :data:`SPAN_TICKS` ticks, in one step over the ticks since with the mean
+of their held rates, ω̄ = Σ ω̂ᵢ Δtᵢ / Σ Δtᵢ. At rest that one step is the product of the
+per-tick steps, Q included (Farrenkopf's Q is the closed-form integral of the noise over the
+interval). At a constant rate Φ is still their product (Φ(Δt₁ + Δt₂) = Φ(Δt₂) Φ(Δt₁)) and Q
+differs by its rotation within the span, which the closed form neglects as it does within a
+tick (O(|ω| nΔt) of Q's share of P). A rate varying within the span also changes Φ₁₂, by the
+order the rates came in: |δω| (nΔt)²/2 of it, first order in the variation δω; on the sensor
+day of the benchmark (ω ~ 1e-5 rad/s, gyro noise 5e-5 rad/s a tick, n = 5) that reaches P
+through the bias covariance at ~1e-9 of √(P_ii P_jj) (tests/test_sensors.py). The record
+reads P advanced to its tick in a scratch copy (:func:`mekf_covariance_at`): whether a tick is
+recorded changes nothing in the filter.
+
 Updates (Joseph form P = (1 − KH) P (1 − KH)ᵀ + K R Kᵀ, then the reset q̂ ← q̂∘δq(δθ),
 β̂ ← β̂ + δβ, δx ← 0):
 
@@ -39,9 +52,9 @@ E_Q = 0  # q̂ (4)
 E_B = 4  # β̂ (3)
 E_P = 7  # P (36, row-major)
 E_INIT = 43  # 1 once initialised
-E_W = 44  # ω̂ of the last tick (3)
-E_T = 47  # time of the last tick
-E_NEES = 48  # the last normalised estimation error squared (attitude and bias, 6 dof)
+E_WSUM = 44  # Σ ω̂ Δt over the ticks P has not been propagated over yet (3)
+E_SPAN = 47  # Σ Δt over those ticks
+E_NSPAN = 48  # their number
 E_PHI = 50  # scratch Φ (36)
 E_TMP = 86  # scratch (36)
 E_K = 122  # gain (6 × 3 = 18)
@@ -60,6 +73,9 @@ EP_MAG = 25  # magnetometer σ (T; 0: not used)
 EP_SUN = 26  # Sun sensor σ (unit vector; 0: not used)
 EP_SIZE = 27
 
+
+#: The most ticks P's propagation is deferred over (:func:`mekf_covariance`).
+SPAN_TICKS = 10
 
 # (x − sin x)/x³ by its series in x² (Horner's rule; truncation (wΔt)¹⁰/13! < 3e-21 relative
 # below the series' threshold)
@@ -86,42 +102,39 @@ def mekf_init(es, ep, q0, b0):
         es[E_P + i] = 0.0
     for i in range(6):
         es[E_P + 7 * i] = ep[EP_P0 + i]
+    for i in range(3):
+        es[E_WSUM + i] = 0.0
+    es[E_SPAN] = 0.0
+    es[E_NSPAN] = 0.0
     es[E_INIT] = 1.0
+
+
+@jit(inline="always")
+def _half_angle(ww, dt):
+    """(sin a / w, cos a) of the half angle a = wΔt/2 from w² (``ww``) and Δt. On the usual tick
+    (a < 0.05) by their series in a², with no square root, sine or division on the way
+    (truncations a¹⁰/11!, a¹²/12! < 3e-21 relative: round-off)."""
+    a2 = 0.25 * ww * dt * dt
+    if a2 < SERIES_X2:
+        # Horner's rule on the coefficients (multiply–adds, no division: the chains are the
+        # start of the tick's estimate, everything after waits on them)
+        sinc, ca = sinc_cos_series(a2)
+        return 0.5 * dt * sinc, ca
+    w = math.sqrt(ww)
+    a = 0.5 * w * dt
+    return math.sin(a) / w, math.cos(a)
 
 
 @jit
 def mekf_propagate(es, ep, omega_meas, dt):
-    """Propagate q̂ and P over ``dt`` with ω̂ = ω̃ − β̂ held (ω̃ the gyro rate of the last
-    tick)."""
+    """Propagate q̂ over ``dt`` with ω̂ = ω̃ − β̂ held (ω̃ the gyro rate of the last tick); P's
+    propagation over the tick is added to the pending span (:func:`mekf_covariance`, run here
+    once the span holds :data:`SPAN_TICKS` ticks)."""
     w0 = omega_meas[0] - es[E_B]
     w1 = omega_meas[1] - es[E_B + 1]
     w2 = omega_meas[2] - es[E_B + 2]
-    ww = w0 * w0 + w1 * w1 + w2 * w2  # w²
-    # q̂ ← q̂∘exp(ω̂ Δt/2). On the usual tick (half angle a = wΔt/2 < 0.05) sin a / w, cos a
-    # and c3 by their series in a² and (wΔt)², with no square root, sine or division on the
-    # way: truncations a¹⁰/11!, a¹²/12!, (wΔt)¹⁰/13! < 3e-21 relative (round-off). The
-    # coefficients c1 = sin(wΔt)/w = 2 sin a cos a / w, c2 = (1 − cos(wΔt))/w² = 2 (sin a / w)²
-    # come from the half angle (no cancellation), c3 = (wΔt − sin(wΔt))/w³.
-    dt2 = dt * dt
-    a2 = 0.25 * ww * dt2
-    if a2 < SERIES_X2:
-        # Horner's rule on the coefficients (multiply–adds, no division: the three chains
-        # are the start of the tick's estimate, everything after waits on them)
-        sinc, ca = sinc_cos_series(a2)
-        k = 0.5 * dt * sinc  # sin a / w
-        c1 = 2.0 * k * ca
-        c2 = 2.0 * k * k
-        x2 = 4.0 * a2  # (wΔt)²
-        c3 = dt2 * dt * F(x2, F(x2, F(x2, F(x2, _T4, _T3), _T2), _T1), _T0)
-    else:
-        w = math.sqrt(ww)
-        a = 0.5 * w * dt
-        sa = math.sin(a)
-        ca = math.cos(a)
-        k = sa / w
-        c1 = 2.0 * sa * ca / w
-        c2 = 2.0 * sa * sa / ww
-        c3 = (w * dt - c1 * w) / (ww * w)  # c1 w = sin(wΔt)
+    # q̂ ← q̂∘exp(ω̂ Δt/2)
+    k, ca = _half_angle(w0 * w0 + w1 * w1 + w2 * w2, dt)
     dq = (ca, k * w0, k * w1, k * w2)
     q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
     nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
@@ -131,6 +144,42 @@ def mekf_propagate(es, ep, omega_meas, dt):
     inv_n = 1.0 - 0.5 * e if abs(e) < 1e-8 else 1.0 / math.sqrt(nq)
     for i in range(4):
         es[E_Q + i] = q[i] * inv_n
+    es[E_WSUM] += w0 * dt
+    es[E_WSUM + 1] += w1 * dt
+    es[E_WSUM + 2] += w2 * dt
+    es[E_SPAN] += dt
+    es[E_NSPAN] += 1.0
+    if es[E_NSPAN] >= SPAN_TICKS:
+        mekf_covariance(es, ep)
+
+
+@jit
+def _advance(es, ep, src, dst):
+    """P at ``src`` propagated over the pending span into ``dst`` (which may be ``src``): one
+    step with the span's mean rate ω̄ held (see the module docstring)."""
+    dt = es[E_SPAN]
+    if dt == 0.0:
+        if dst != src:
+            for i in range(36):
+                es[dst + i] = es[src + i]
+        return
+    inv = 1.0 / dt
+    w0 = es[E_WSUM] * inv
+    w1 = es[E_WSUM + 1] * inv
+    w2 = es[E_WSUM + 2] * inv
+    ww = w0 * w0 + w1 * w1 + w2 * w2  # w²
+    # the coefficients c1 = sin(wΔt)/w = 2 sin a cos a / w, c2 = (1 − cos(wΔt))/w² =
+    # 2 (sin a / w)² from the half angle (no cancellation), c3 = (wΔt − sin(wΔt))/w³ by its
+    # series in (wΔt)² on the usual span (truncation (wΔt)¹⁰/13! < 3e-21 relative)
+    k, ca = _half_angle(ww, dt)
+    c1 = 2.0 * k * ca
+    c2 = 2.0 * k * k
+    x2 = ww * dt * dt  # (wΔt)²
+    if x2 < 4.0 * SERIES_X2:
+        c3 = dt * dt * dt * F(x2, F(x2, F(x2, F(x2, _T4, _T3), _T2), _T1), _T0)
+    else:
+        w = math.sqrt(ww)
+        c3 = (w * dt - c1 * w) / (ww * w)  # c1 w = sin(wΔt)
     # Φ₁₁ = 1 − W c1 + W² c2 (f), Φ₁₂ = W c2 − 1 Δt − W² c3 (g), W = [ω×], W² = ω ωᵀ − w² 1
     d1 = 1.0 - ww * c2
     d2 = -dt + ww * c3
@@ -155,27 +204,27 @@ def mekf_propagate(es, ep, omega_meas, dt):
     # P ← Φ P Φᵀ + Q with Φ = [[Φ₁₁, Φ₁₂], [0, 1]] by blocks: [T₁ T₂] = [Φ₁₁ Φ₁₂] P (t),
     # P_aa ← T₁ Φ₁₁ᵀ + T₂ Φ₁₂ᵀ, P_ab ← T₂, P_bb unchanged. Written out on scalars (P read
     # once into locals): the products then run as independent chains, not through memory.
-    p00 = es[E_P + 0]
-    p01 = es[E_P + 1]
-    p02 = es[E_P + 2]
-    p03 = es[E_P + 3]
-    p04 = es[E_P + 4]
-    p05 = es[E_P + 5]
-    p11 = es[E_P + 7]
-    p12 = es[E_P + 8]
-    p13 = es[E_P + 9]
-    p14 = es[E_P + 10]
-    p15 = es[E_P + 11]
-    p22 = es[E_P + 14]
-    p23 = es[E_P + 15]
-    p24 = es[E_P + 16]
-    p25 = es[E_P + 17]
-    p33 = es[E_P + 21]
-    p34 = es[E_P + 22]
-    p35 = es[E_P + 23]
-    p44 = es[E_P + 28]
-    p45 = es[E_P + 29]
-    p55 = es[E_P + 35]
+    p00 = es[src + 0]
+    p01 = es[src + 1]
+    p02 = es[src + 2]
+    p03 = es[src + 3]
+    p04 = es[src + 4]
+    p05 = es[src + 5]
+    p11 = es[src + 7]
+    p12 = es[src + 8]
+    p13 = es[src + 9]
+    p14 = es[src + 10]
+    p15 = es[src + 11]
+    p22 = es[src + 14]
+    p23 = es[src + 15]
+    p24 = es[src + 16]
+    p25 = es[src + 17]
+    p33 = es[src + 21]
+    p34 = es[src + 22]
+    p35 = es[src + 23]
+    p44 = es[src + 28]
+    p45 = es[src + 29]
+    p55 = es[src + 35]
     t00 = F(g02, p05, F(g01, p04, F(g00, p03, F(f02, p02, F(f01, p01, f00 * p00)))))
     t01 = F(g02, p15, F(g01, p14, F(g00, p13, F(f02, p12, F(f01, p11, f00 * p01)))))
     t02 = F(g02, p25, F(g01, p24, F(g00, p23, F(f02, p22, F(f01, p12, f00 * p02)))))
@@ -195,48 +244,67 @@ def mekf_propagate(es, ep, omega_meas, dt):
     t24 = F(g22, p45, F(g21, p44, F(g20, p34, F(f22, p24, F(f21, p14, f20 * p04)))))
     t25 = F(g22, p55, F(g21, p45, F(g20, p35, F(f22, p25, F(f21, p15, f20 * p05)))))
     v = F(t05, g02, F(t04, g01, F(t03, g00, F(t02, f02, F(t01, f01, t00 * f00)))))
-    es[E_P + 0] = v
+    es[dst + 0] = v
     v = F(t05, g12, F(t04, g11, F(t03, g10, F(t02, f12, F(t01, f11, t00 * f10)))))
-    es[E_P + 1] = v
-    es[E_P + 6] = v
+    es[dst + 1] = v
+    es[dst + 6] = v
     v = F(t05, g22, F(t04, g21, F(t03, g20, F(t02, f22, F(t01, f21, t00 * f20)))))
-    es[E_P + 2] = v
-    es[E_P + 12] = v
+    es[dst + 2] = v
+    es[dst + 12] = v
     v = F(t15, g12, F(t14, g11, F(t13, g10, F(t12, f12, F(t11, f11, t10 * f10)))))
-    es[E_P + 7] = v
+    es[dst + 7] = v
     v = F(t15, g22, F(t14, g21, F(t13, g20, F(t12, f22, F(t11, f21, t10 * f20)))))
-    es[E_P + 8] = v
-    es[E_P + 13] = v
+    es[dst + 8] = v
+    es[dst + 13] = v
     v = F(t25, g22, F(t24, g21, F(t23, g20, F(t22, f22, F(t21, f21, t20 * f20)))))
-    es[E_P + 14] = v
-    es[E_P + 3] = t03
-    es[E_P + 18] = t03
-    es[E_P + 4] = t04
-    es[E_P + 24] = t04
-    es[E_P + 5] = t05
-    es[E_P + 30] = t05
-    es[E_P + 9] = t13
-    es[E_P + 19] = t13
-    es[E_P + 10] = t14
-    es[E_P + 25] = t14
-    es[E_P + 11] = t15
-    es[E_P + 31] = t15
-    es[E_P + 15] = t23
-    es[E_P + 20] = t23
-    es[E_P + 16] = t24
-    es[E_P + 26] = t24
-    es[E_P + 17] = t25
-    es[E_P + 32] = t25
+    es[dst + 14] = v
+    es[dst + 3] = t03
+    es[dst + 18] = t03
+    es[dst + 4] = t04
+    es[dst + 24] = t04
+    es[dst + 5] = t05
+    es[dst + 30] = t05
+    es[dst + 9] = t13
+    es[dst + 19] = t13
+    es[dst + 10] = t14
+    es[dst + 25] = t14
+    es[dst + 11] = t15
+    es[dst + 31] = t15
+    es[dst + 15] = t23
+    es[dst + 20] = t23
+    es[dst + 16] = t24
+    es[dst + 26] = t24
+    es[dst + 17] = t25
+    es[dst + 32] = t25
+    if dst != src:  # P_bb (unchanged by Φ)
+        for i in range(3, 6):
+            for j in range(3, 6):
+                es[dst + 6 * i + j] = es[src + 6 * i + j]
     sv2 = ep[EP_SV] * ep[EP_SV]
     su2 = ep[EP_SU] * ep[EP_SU]
     for i in range(3):
-        es[E_P + 7 * i] += sv2 * dt + su2 * dt * dt * dt / 3.0
-        es[E_P + 6 * i + i + 3] += -su2 * dt * dt / 2.0
-        es[E_P + 6 * (i + 3) + i] += -su2 * dt * dt / 2.0
-        es[E_P + 7 * (i + 3)] += su2 * dt
-    es[E_W] = w0
-    es[E_W + 1] = w1
-    es[E_W + 2] = w2
+        es[dst + 7 * i] += sv2 * dt + su2 * dt * dt * dt / 3.0
+        es[dst + 6 * i + i + 3] += -su2 * dt * dt / 2.0
+        es[dst + 6 * (i + 3) + i] += -su2 * dt * dt / 2.0
+        es[dst + 7 * (i + 3)] += su2 * dt
+
+
+@jit
+def mekf_covariance(es, ep):
+    """Bring the filter's P to the time of q̂ (over the pending span; nothing if none)."""
+    if es[E_SPAN] != 0.0:
+        _advance(es, ep, E_P, E_P)
+        for i in range(3):
+            es[E_WSUM + i] = 0.0
+        es[E_SPAN] = 0.0
+        es[E_NSPAN] = 0.0
+
+
+@jit
+def mekf_covariance_at(es, ep, dst):
+    """P at the time of q̂ into ``es[dst : dst + 36]``, the filter's own P and span unchanged
+    (what the record reads: recording a tick or not changes nothing in the filter)."""
+    _advance(es, ep, E_P, dst)
 
 
 @jit
@@ -336,46 +404,64 @@ def _reset(es, d0, d1, d2, d3, d4, d5):
     es[E_B + 2] += d5
 
 
+@jit(inline="always")
+def _dot3(a, b):
+    return F(a[2], b[2], F(a[1], b[1], a[0] * b[0]))
+
+
 @jit
 def _update_attitude(es, ep, y0, y1, y2):
     """The update of :func:`_update` for H = [1 0] (a measurement of the attitude error, R the
-    star tracker's EP_ST_R), by blocks: S = P_aa + R, K = P[:, :3] S⁻¹, and the covariance
-    P ← P − K S Kᵀ = P − K P[:3, :] (equal to the Joseph form for this optimal gain), computed
-    on the upper triangle and mirrored so P stays exactly symmetric."""
-    S = E_S
-    for i in range(3):
-        for j in range(3):
-            es[S + 3 * i + j] = es[E_P + 6 * i + j] + ep[EP_ST_R + 3 * i + j]
-    _inv3(es, S, S + 9)
+    star tracker's EP_ST_R), by blocks on scalars: with the columns c_j = P[:3, j], S = P_aa +
+    R (symmetric: its upper triangle), the gain's rows k_i = c_iᵀ S⁻¹ (S⁻¹ by cofactors), and
+    P ← P − K P[:3, :] = P_ij − k_i·c_j (equal to the Joseph form for this optimal gain) on the
+    upper triangle, mirrored so P stays exactly symmetric."""
+    P = E_P
+    R = EP_ST_R
+    cs = (
+        (es[P], es[P + 6], es[P + 12]),
+        (es[P + 1], es[P + 7], es[P + 13]),
+        (es[P + 2], es[P + 8], es[P + 14]),
+        (es[P + 3], es[P + 9], es[P + 15]),
+        (es[P + 4], es[P + 10], es[P + 16]),
+        (es[P + 5], es[P + 11], es[P + 17]),
+    )
+    s00 = es[P] + ep[R]
+    s01 = es[P + 1] + ep[R + 1]
+    s02 = es[P + 2] + ep[R + 2]
+    s11 = es[P + 7] + ep[R + 4]
+    s12 = es[P + 8] + ep[R + 5]
+    s22 = es[P + 14] + ep[R + 8]
+    a00 = s11 * s22 - s12 * s12
+    a01 = s02 * s12 - s01 * s22
+    a02 = s01 * s12 - s02 * s11
+    inv = 1.0 / (s00 * a00 + s01 * a01 + s02 * a02)
+    i0 = (a00 * inv, a01 * inv, a02 * inv)  # rows of S⁻¹ (symmetric)
+    i1 = (a01 * inv, (s00 * s22 - s02 * s02) * inv, (s01 * s02 - s00 * s12) * inv)
+    i2 = (a02 * inv, i1[2], (s00 * s11 - s01 * s01) * inv)
+    ks = (
+        (_dot3(cs[0], i0), _dot3(cs[0], i1), _dot3(cs[0], i2)),
+        (_dot3(cs[1], i0), _dot3(cs[1], i1), _dot3(cs[1], i2)),
+        (_dot3(cs[2], i0), _dot3(cs[2], i1), _dot3(cs[2], i2)),
+        (_dot3(cs[3], i0), _dot3(cs[3], i1), _dot3(cs[3], i2)),
+        (_dot3(cs[4], i0), _dot3(cs[4], i1), _dot3(cs[4], i2)),
+        (_dot3(cs[5], i0), _dot3(cs[5], i1), _dot3(cs[5], i2)),
+    )
+    y = (y0, y1, y2)
     for i in range(6):
-        for j in range(3):
-            s = 0.0
-            for k in range(3):
-                s += es[E_P + 6 * i + k] * es[S + 9 + 3 * k + j]
-            es[E_K + 3 * i + j] = s
-    x0 = es[E_K] * y0 + es[E_K + 1] * y1 + es[E_K + 2] * y2
-    x1 = es[E_K + 3] * y0 + es[E_K + 4] * y1 + es[E_K + 5] * y2
-    x2 = es[E_K + 6] * y0 + es[E_K + 7] * y1 + es[E_K + 8] * y2
-    x3 = es[E_K + 9] * y0 + es[E_K + 10] * y1 + es[E_K + 11] * y2
-    x4 = es[E_K + 12] * y0 + es[E_K + 13] * y1 + es[E_K + 14] * y2
-    x5 = es[E_K + 15] * y0 + es[E_K + 16] * y1 + es[E_K + 17] * y2
-    for i in range(6):  # (into the scratch: every entry reads the old P[:3, :])
+        ki = ks[i]
         for j in range(i, 6):
-            s = es[E_P + 6 * i + j]
-            for k in range(3):
-                s -= es[E_K + 3 * i + k] * es[E_P + 6 * k + j]
-            es[E_TMP + 6 * i + j] = s
-    for i in range(6):
-        for j in range(i, 6):
-            v = es[E_TMP + 6 * i + j]
-            es[E_P + 6 * i + j] = v
-            es[E_P + 6 * j + i] = v
-    _reset(es, x0, x1, x2, x3, x4, x5)
+            v = es[P + 6 * i + j] - _dot3(ki, cs[j])
+            es[P + 6 * i + j] = v
+            es[P + 6 * j + i] = v
+    _reset(es, _dot3(ks[0], y), _dot3(ks[1], y), _dot3(ks[2], y), _dot3(ks[3], y),
+           _dot3(ks[4], y), _dot3(ks[5], y))  # fmt: skip
 
 
 @jit
 def mekf_update_quaternion(es, ep, qm):
     """Update with a star tracker quaternion ``qm`` (its noise covariance EP_ST_R)."""
+    mekf_covariance(es, ep)
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
     r = mul((q[0], -q[1], -q[2], -q[3]), (qm[0], qm[1], qm[2], qm[3]))
     s = 1.0 if r[0] >= 0.0 else -1.0
@@ -383,8 +469,9 @@ def mekf_update_quaternion(es, ep, qm):
 
 
 @jit
-def mekf_update_vector(es, bm0, bm1, bm2, r0, r1, r2, sigma):
+def mekf_update_vector(es, ep, bm0, bm1, bm2, r0, r1, r2, sigma):
     """Update with a body-axes measurement b̃ of the space vector r (noise σ, isotropic)."""
+    mekf_covariance(es, ep)
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
     b = rotate_inverse(q, (r0, r1, r2))  # b̂ = A(q̂) r
     # H = [[b̂×] 0]
@@ -399,9 +486,10 @@ def mekf_update_vector(es, bm0, bm1, bm2, r0, r1, r2, sigma):
 
 
 @jit
-def estimation_error(es, q_true, beta_true):
+def estimation_error(es, po, q_true, beta_true):
     """(δθ (3), δβ (3), NEES) of the estimate against the truth: q_true = q̂∘δq(δθ) (the
-    shorter rotation), δβ = β − β̂, NEES = δxᵀ P⁻¹ δx (Cholesky of P)."""
+    shorter rotation), δβ = β − β̂, NEES = δxᵀ P⁻¹ δx (Cholesky of the P at ``es[po:]``: the
+    filter's, or :func:`mekf_covariance_at`'s copy)."""
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
     r = mul((q[0], -q[1], -q[2], -q[3]), q_true)
     if r[0] < 0.0:
@@ -420,7 +508,7 @@ def estimation_error(es, q_true, beta_true):
     ok = True
     for i in range(6):
         for j in range(i + 1):
-            s = es[E_P + 6 * i + j]
+            s = es[po + 6 * i + j]
             for m in range(j):
                 s -= es[L + 6 * i + m] * es[L + 6 * j + m]
             if i == j:
