@@ -217,20 +217,21 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     for i in range(4):
         z[Z_Q + i] = qm[i]
     flag = 0.0
-    bs = rotate(q, (sn[o + c + 6], sn[o + c + 7], sn[o + c + 8]))  # boresight in space
     ex = sn[o + T_SUN_EXCL]
-    if ex > 0.0 and nu > 0.0 and (s[0] != 0.0 or s[1] != 0.0 or s[2] != 0.0):
-        cs = bs[0] * s[0] + bs[1] * s[1] + bs[2] * s[2]
-        if cs > math.cos(ex):
-            flag = 2.0
     ee = sn[o + T_EARTH_EXCL]
-    rn = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-    if flag == 0.0 and ee >= 0.0 and rn > 0.0:
-        # the angle from the boresight to the Earth's centre, minus the Earth's half-angle
-        ce = -(bs[0] * r[0] + bs[1] * r[1] + bs[2] * r[2]) / rn
-        ang = math.acos(min(1.0, max(-1.0, ce)))
-        if ang - math.asin(min(1.0, R_EARTH / rn)) < ee:
-            flag = 3.0
+    if ex > 0.0 or ee >= 0.0:  # exclusion angles (else no geometry)
+        bs = rotate(q, (sn[o + c + 6], sn[o + c + 7], sn[o + c + 8]))  # boresight in space
+        if ex > 0.0 and nu > 0.0 and (s[0] != 0.0 or s[1] != 0.0 or s[2] != 0.0):
+            cs = bs[0] * s[0] + bs[1] * s[1] + bs[2] * s[2]
+            if cs > math.cos(ex):
+                flag = 2.0
+        rn = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+        if flag == 0.0 and ee >= 0.0 and rn > 0.0:
+            # the angle from the boresight to the Earth's centre, minus the Earth's half-angle
+            ce = -(bs[0] * r[0] + bs[1] * r[1] + bs[2] * r[2]) / rn
+            ang = math.acos(min(1.0, max(-1.0, ce)))
+            if ang - math.asin(min(1.0, R_EARTH / rn)) < ee:
+                flag = 3.0
     z[Z_ST_FLAG] = flag
     z[Z_ST_OK] = 1.0 if flag == 0.0 else 0.0
 
