@@ -29,6 +29,20 @@ def _indexed(dim: str, labels: Any, name: str) -> dict[str, tuple]:
     }
 
 
+def _extended(ds: xr.Dataset, coords: dict, new: dict, drop: tuple = ()) -> xr.Dataset:
+    """``ds`` without ``drop``, with the coordinates ``coords`` ((dims, data, attrs) each) and
+    the variables ``new`` added after its own: ``ds.drop_vars(drop).assign_coords(coords)
+    .assign(new)`` in one Dataset construction (their merges and alignments, ~4 ms a
+    closed-loop run's results, were half of a short run's time)."""
+    old = {k: v for k, v in ds.variables.items() if k not in drop}
+    names = [k for k in ds.coords if k not in drop]
+    c = {k: old[k] for k in names}
+    c.update({k: xr.Variable(*spec) for k, spec in coords.items()})
+    data = {k: v for k, v in old.items() if k not in c}
+    data.update(new)
+    return xr.Dataset(data, coords=c, attrs=dict(ds.attrs))
+
+
 #: CF flag masks and meanings of ``wheel_limit`` (attitude._core.actuators FLAG_*).
 WHEEL_LIMIT_FLAGS = (
     (1, "torque_limit"),
@@ -148,7 +162,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
                 total = total + d["actuators"][:, j]
     parts.append(total[:, None])
     names.append("total")
-    out = ds.drop_vars(["torque", "model", "model_label"])
+    drop = ("torque", "model", "model_label")
     coords["model"] = (
         "model",
         np.arange(len(names), dtype=np.int32),
@@ -162,9 +176,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         "body-frame torque of each model term and actuator, and the external total "
         "(model = total; the wheels' torque is internal and not in it)",
     )
-    out = out.assign_coords(coords).assign(new)
-    out.attrs = dict(ds.attrs)
-    return out
+    return _extended(ds, coords, new, drop)
 
 
 def _constants(craft: Any, u: UnitSystem, var: Any, kind: str) -> dict[str, xr.Variable]:
@@ -343,8 +355,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
     ta = time_attrs(u.time, ds.attrs.get("epoch"))
     ta = {**ta, "long_name": "time of the flight-software tick"}
     coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
-    out = ds.assign_coords({k: (d, v, a) for k, (d, v, a) in coords.items()}).assign(new)
-    out.attrs = dict(ds.attrs)
+    out = _extended(ds, coords, new)
     if prog.sensors:
         out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
     return out
