@@ -46,7 +46,7 @@ import math
 from orbit._shared_jit import inline_copy, jit
 
 from .fma import fma as F
-from .quat import SERIES_X2, mul, rotate_inverse, sinc_cos_series
+from .quat import SERIES_X2, half_angle, mul, rotate_inverse
 
 E_Q = 0  # q̂ (4)
 E_B = 4  # β̂ (3)
@@ -109,22 +109,6 @@ def mekf_init(es, ep, q0, b0):
     es[E_INIT] = 1.0
 
 
-@jit(inline="always")
-def _half_angle(ww, dt):
-    """(sin a / w, cos a) of the half angle a = wΔt/2 from w² (``ww``) and Δt. On the usual tick
-    (a < 0.05) by their series in a², with no square root, sine or division on the way
-    (truncations a¹⁰/11!, a¹²/12! < 3e-21 relative: round-off)."""
-    a2 = 0.25 * ww * dt * dt
-    if a2 < SERIES_X2:
-        # Horner's rule on the coefficients (multiply–adds, no division: the chains are the
-        # start of the tick's estimate, everything after waits on them)
-        sinc, ca = sinc_cos_series(a2)
-        return 0.5 * dt * sinc, ca
-    w = math.sqrt(ww)
-    a = 0.5 * w * dt
-    return math.sin(a) / w, math.cos(a)
-
-
 @jit
 def mekf_propagate(es, ep, omega_meas, dt):
     """Propagate q̂ over ``dt`` with ω̂ = ω̃ − β̂ held (ω̃ the gyro rate of the last tick); P's
@@ -134,7 +118,7 @@ def mekf_propagate(es, ep, omega_meas, dt):
     w1 = omega_meas[1] - es[E_B + 1]
     w2 = omega_meas[2] - es[E_B + 2]
     # q̂ ← q̂∘exp(ω̂ Δt/2)
-    k, ca = _half_angle(w0 * w0 + w1 * w1 + w2 * w2, dt)
+    k, ca = half_angle(w0 * w0 + w1 * w1 + w2 * w2, dt)
     dq = (ca, k * w0, k * w1, k * w2)
     q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
     nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
@@ -171,7 +155,7 @@ def _advance(es, ep, src, dst):
     # the coefficients c1 = sin(wΔt)/w = 2 sin a cos a / w, c2 = (1 − cos(wΔt))/w² =
     # 2 (sin a / w)² from the half angle (no cancellation), c3 = (wΔt − sin(wΔt))/w³ by its
     # series in (wΔt)² on the usual span (truncation (wΔt)¹⁰/13! < 3e-21 relative)
-    k, ca = _half_angle(ww, dt)
+    k, ca = half_angle(ww, dt)
     c1 = 2.0 * k * ca
     c2 = 2.0 * k * k
     x2 = ww * dt * dt  # (wΔt)²

@@ -125,3 +125,18 @@ def sinc_cos_series(x2):
     sinc = F(x2, F(x2, F(x2, F(x2, _S4, _S3), _S2), _S1), 1.0)
     cos = F(x2, F(x2, F(x2, F(x2, F(x2, _C5, _C4), _C3), _C2), _C1), 1.0)
     return sinc, cos
+
+
+@jit(inline="always")
+def half_angle(ww, dt):
+    """(sin a / w, cos a) of the half angle a = wΔt/2 of the rotation by ω over Δt, from
+    w² = |ω|² (``ww``): the quaternion of that rotation is (cos a, sin a / w · ω). Below
+    a² = :data:`SERIES_X2` by :func:`sinc_cos_series` (no square root, sine or division: the
+    usual tick of a filter, arcseconds of sensor noise), else by sin and cos."""
+    a2 = 0.25 * ww * dt * dt
+    if a2 < SERIES_X2:
+        sinc, ca = sinc_cos_series(a2)
+        return 0.5 * dt * sinc, ca
+    w = math.sqrt(ww)
+    a = 0.5 * w * dt
+    return math.sin(a) / w, math.cos(a)

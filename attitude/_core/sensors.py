@@ -37,7 +37,7 @@ from orbit._shared_jit import inline_copy, jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
-from .quat import SERIES_X2, mul, rotate, rotate_inverse, sinc_cos_series
+from .quat import half_angle, mul, rotate, rotate_inverse
 from .rng import RNG_SIZE, load, normal, normal_held, store
 
 # --- program header ----------------------------------------------------------------------------
@@ -199,17 +199,8 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     d0 = sn[o + c] * n0 + sn[o + c + 3] * n1 + sn[o + c + 6] * n2
     d1 = sn[o + c + 1] * n0 + sn[o + c + 4] * n1 + sn[o + c + 7] * n2
     d2 = sn[o + c + 2] * n0 + sn[o + c + 5] * n1 + sn[o + c + 8] * n2
-    # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ|: by their series in (a/2)² below a/2 = 0.05
-    # (no square root or sine on arcsecond noise)
-    a2 = d0 * d0 + d1 * d1 + d2 * d2
-    h2 = 0.25 * a2  # (a/2)²
-    if h2 < SERIES_X2:
-        sinc, ch = sinc_cos_series(h2)
-        k = 0.5 * sinc
-    else:
-        a = math.sqrt(a2)
-        k = math.sin(0.5 * a) / a
-        ch = math.cos(0.5 * a)
+    # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ| (the rotation by δθ over a unit time)
+    k, ch = half_angle(d0 * d0 + d1 * d1 + d2 * d2, 1.0)
     dq = (ch, k * d0, k * d1, k * d2)
     qm = mul(q, dq)
     if qm[0] < 0.0:
