@@ -83,7 +83,7 @@ from .mekf import (
     mekf_update_quaternion,
     mekf_update_vector,
 )
-from .quat import conj_mul, cross, mul, rotate, rotate_inverse
+from .quat import conj_mul, cross, mrp, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE
 from .sensors import (
     G_B0,
@@ -228,22 +228,6 @@ def _mv(fw, o, v0, v1, v2):
     )
 
 
-@jit(inline="always")
-def _short(q):
-    """The quaternion of the shorter rotation (scalar part >= 0)."""
-    if q[0] < 0.0:
-        return (-q[0], -q[1], -q[2], -q[3])
-    return q
-
-
-@jit(inline="always")
-def mrp(q):
-    """Modified Rodrigues parameters of the shorter rotation of ``q`` (|σ| <= 1)."""
-    s = _short(q)
-    d = 1.0 + s[0]
-    return (s[1] / d, s[2] / d, s[3] / d)
-
-
 @jit
 def frame_reference(d, t):
     """(q_R, ω_R, ω̇_R) of frame data ``d`` at t, rates in reference axes; ω̇_R by a central
@@ -313,7 +297,7 @@ def guidance(fw, fs, mb, t, q_meas):
         return qB, wB, dwB
     # slew: q_R = q_B∘exp(θ e/2), e fixed in the target's axes (from the attitude at entry)
     if fs[FS_ENTERED] == 0.0:
-        off = _short(conj_mul(qB, q_meas))  # rotation from the target to the spacecraft
+        off = shorter(conj_mul(qB, q_meas))  # rotation from the target to the spacecraft
         sv = math.sqrt(off[1] * off[1] + off[2] * off[2] + off[3] * off[3])
         ang = 2.0 * math.atan2(sv, off[0])
         if sv > 0.0:
@@ -545,8 +529,12 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     # errors: q_BR = q̃_R∘q, rates of the reference in body axes
     qBR = conj_mul(qR, q)
     sig = mrp(qBR)
-    wRN = rotate_inverse(qBR, wR_R)
-    dwRN = rotate_inverse(qBR, dwR_R)
+    # a fixed reference (inertial pointing): its rates are zeros in every axes
+    still = wR_R == (0.0, 0.0, 0.0) and dwR_R == (0.0, 0.0, 0.0)
+    wRN = dwRN = (0.0, 0.0, 0.0)
+    if not still:
+        wRN = rotate_inverse(qBR, wR_R)
+        dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
     # wheel momentum in body axes Σ J (a·ω + Ω) a = Σ h a (h the state)
     hw0 = hw1 = hw2 = 0.0
@@ -582,18 +570,24 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             Idw = _mv(fw, I, dw[0], dw[1], dw[2])
             z = (fs[FS_INT] + Idw[0], fs[FS_INT + 1] + Idw[1], fs[FS_INT + 2] + Idw[2])
         Pd = _mv(fw, P, dw[0], dw[1], dw[2])
-        Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
-        PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
-        lr = (K * sig[0] + Pd[0] + PKz[0], K * sig[1] + Pd[1] + PKz[1], K * sig[2] + Pd[2] + PKz[2])
-        if fw[mb + MB_LAWTYPE] == 0.0:
-            v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
+        lr = (K * sig[0] + Pd[0], K * sig[1] + Pd[1], K * sig[2] + Pd[2])
+        law0 = fw[mb + MB_LAWTYPE] == 0.0
+        if Ki > 0.0 or not still or not law0:
+            Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
+            PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
+            lr = (lr[0] + PKz[0], lr[1] + PKz[1], lr[2] + PKz[2])
+            if law0:
+                v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
+            else:
+                v8 = om
+            c9 = cross(v8, H)
+            lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
+        if still:
+            L = (-lr[0], -lr[1], -lr[2])
         else:
-            v8 = om
-        c9 = cross(v8, H)
-        lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
-        c10 = cross(om, wRN)
-        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
-        L = (-(lr[0] + ff[0]), -(lr[1] + ff[1]), -(lr[2] + ff[2]))
+            c10 = cross(om, wRN)
+            ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
+            L = (-(lr[0] + ff[0]), -(lr[1] + ff[1]), -(lr[2] + ff[2]))
     elif ctrl == CTRL_QUATERNION:
         sgn = 1.0 if qBR[0] >= 0.0 else -1.0
         Cd = _mv(fw, P, dw[0], dw[1], dw[2])
@@ -694,7 +688,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             rec_row[R_DOMEGA + i] = dw[i]
             rec_row[R_TORQUE + i] = L[i]
             rec_row[R_DIPOLE + i] = m[i]
-        sq = _short(qBR)
+        sq = shorter(qBR)
         s2 = sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]
         rec_row[R_ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
         for i in range(ncmd):

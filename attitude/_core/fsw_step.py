@@ -31,10 +31,9 @@ from .fsw import (
     _sensed,
     fsw_boundary,
     guidance,
-    mrp,
 )
 from .holds import BOUNDARY_NEEDS_COMMANDS, HS_FAIL, HS_FAIL_N, HS_READY, STEP_FAILED
-from .quat import conj_mul, rotate_inverse
+from .quat import conj_mul, mrp, rotate_inverse
 
 #: Layout of the measurement vector of :func:`measure` (then n_w wheel speeds, n_w momenta).
 MEAS_T = 0

@@ -101,6 +101,22 @@ def cross(a, b):
     )
 
 
+@jit(inline="always")
+def shorter(q):
+    """The quaternion of the shorter rotation (scalar part >= 0)."""
+    if q[0] < 0.0:
+        return (-q[0], -q[1], -q[2], -q[3])
+    return q
+
+
+@jit(inline="always")
+def mrp(q):
+    """Modified Rodrigues parameters of the shorter rotation of ``q`` (|σ| <= 1)."""
+    s = shorter(q)
+    d = 1.0 + s[0]
+    return (s[1] / d, s[2] / d, s[3] / d)
+
+
 # sin x / x and cos x by their series in x² (Horner's rule on the coefficients: multiply–adds
 # on a short chain, no division, sine or square root)
 _S1 = -1.0 / 6.0

@@ -37,7 +37,7 @@ from orbit._shared_jit import inline_copy, jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
-from .quat import half_angle, mul, rotate, rotate_inverse
+from .quat import half_angle, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE, load, normal, normal_held, store
 
 # --- program header ----------------------------------------------------------------------------
@@ -202,9 +202,7 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     # δq = (cos(a/2), sin(a/2)/a δθ), a = |δθ| (the rotation by δθ over a unit time)
     k, ch = half_angle(d0 * d0 + d1 * d1 + d2 * d2, 1.0)
     dq = (ch, k * d0, k * d1, k * d2)
-    qm = mul(q, dq)
-    if qm[0] < 0.0:
-        qm = (-qm[0], -qm[1], -qm[2], -qm[3])
+    qm = shorter(mul(q, dq))
     for i in range(4):
         z[Z_Q + i] = qm[i]
     flag = 0.0
