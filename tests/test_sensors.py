@@ -234,6 +234,37 @@ def test_gyro_allan_deviation_has_the_slopes_and_levels_of_its_parameters(period
     assert abs(math.log(ad[1] / ad[0]) / math.log(3.0) + 0.5) < 0.05
 
 
+@pytest.mark.parametrize("case", ["identity", "matrix", "limits"])
+def test_gyro_deterministic_errors_are_its_matrix_bias_and_limits(case):
+    """A noiseless gyro on a sphere spinning at a constant rate ω: each tick reads
+    (1 + S) M ω + b₀ (M the rotation by the misalignment vector, built here by scipy), then
+    quantised to the nearest step and clipped at the saturation; with neither scale factor nor
+    misalignment it reads ω + b₀ (the kernel skips the identity matrix then)."""
+    from scipy.spatial.transform import Rotation
+
+    sphere = attitude.RigidBody([10.0, 10.0, 10.0], units="kg m2")
+    w = np.array([0.01, -0.02, 0.03])
+    b0 = np.array([1e-5, -2e-5, 3e-5])
+    S = np.array([1e-3, -2e-3, 5e-4]) if case == "matrix" else np.zeros(3)
+    m = np.array([1e-3, -2e-3, 3e-3]) if case == "matrix" else None
+    kw = {"quantization": 1e-4, "saturation": 0.025} if case == "limits" else {}
+    g = Gyro(0.0, 0.0, bias=b0, scale_factor=S, misalignment=m, seed=1, **kw)
+    ds = _record([g], 0.1, 2.0, craft=attitude.Spacecraft(sphere), w0=w)
+    got = ds.gyro_rate.values[1:]
+    truth = ds.omega.values[-1]
+    assert np.abs(truth - w).max() < 1e-17  # the sphere's rate is constant
+    M = Rotation.from_rotvec(m).as_matrix() if m is not None else np.eye(3)
+    want = np.diag(1.0 + S) @ M @ truth + b0
+    if case != "limits":  # (the truth at each tick equals ω to round-off: an ulp of 0.03)
+        if case == "matrix":
+            assert np.abs(want - truth - b0).max() > 1e-5  # the errors are visible
+        np.testing.assert_allclose(got, np.broadcast_to(want, got.shape), rtol=0, atol=2e-17)
+    else:
+        lim = np.clip(1e-4 * np.floor(want / 1e-4 + 0.5), -0.025, 0.025)
+        assert lim[2] == 0.025 and lim[0] != want[0]  # both limits act
+        np.testing.assert_array_equal(got, np.broadcast_to(lim, got.shape))
+
+
 def test_star_tracker_and_magnetometer_noise_is_what_their_parameters_say():
     """The star tracker's error rotation in its sensor frame: N(0, diag(σc², σc², σb²)),
     uncorrelated (chi-square at 99 %); the magnetometer's error minus its bias: N(0, σ²)."""

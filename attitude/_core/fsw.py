@@ -55,6 +55,7 @@ from .actuators import (
     next_thruster_off,
     state_rate,
     thrusters_off_at,
+    wheel_momentum_sum,
     wheel_speed,
 )
 from .environment import field_body
@@ -216,6 +217,15 @@ def record_width(n_cmd: int, sensors: bool = False) -> int:
 def state_size(delay: int, n_cmd: int) -> int:
     """Length of the software state ``fs`` before the sensors' and the filter's."""
     return FS_HEADER + max(delay, 0) * n_cmd
+
+
+@jit(inline="always")
+def _momentum(fw, sc, y, om):
+    """The body's angular momentum in body axes as the software models it: I ω + Σ h a (the
+    wheels' h from the state: Σ J (a·ω + Ω) a)."""
+    hw = wheel_momentum_sum(sc, y)
+    Iw = _mv(fw, FW_INERTIA, om[0], om[1], om[2])
+    return (Iw[0] + hw[0], Iw[1] + hw[1], Iw[2] + hw[2])
 
 
 @jit(inline="always")
@@ -536,17 +546,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         wRN = rotate_inverse(qBR, wR_R)
         dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
-    # wheel momentum in body axes Σ J (a·ω + Ω) a = Σ h a (h the state)
-    hw0 = hw1 = hw2 = 0.0
-    for k in range(nw):
-        b = S_WHEELS + k * WS
-        h = y[8 + k]
-        hw0 += h * sc[b]
-        hw1 += h * sc[b + 1]
-        hw2 += h * sc[b + 2]
     I = FW_INERTIA
-    Iw = _mv(fw, I, om[0], om[1], om[2])
-    H = (Iw[0] + hw0, Iw[1] + hw1, Iw[2] + hw2)
     external = fw[FW_EXTERNAL] != 0.0
     # control law
     ctrl = CTRL_NONE if external else int(fw[mb + MB_CTRL])
@@ -580,7 +580,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
                 v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
             else:
                 v8 = om
-            c9 = cross(v8, H)
+            c9 = cross(v8, _momentum(fw, sc, y, om))
             lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
         if still:
             L = (-lr[0], -lr[1], -lr[2])
@@ -591,7 +591,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     elif ctrl == CTRL_QUATERNION:
         sgn = 1.0 if qBR[0] >= 0.0 else -1.0
         Cd = _mv(fw, P, dw[0], dw[1], dw[2])
-        gy = cross(om, H)
+        gy = cross(om, _momentum(fw, sc, y, om))
         c10 = cross(om, wRN)
         ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
         L = (
@@ -626,6 +626,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     kd = fw[mb + MB_DUMP]
     b2 = bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2]
     if kd > 0.0 and b2 > 0.0:
+        hw0, hw1, hw2 = wheel_momentum_sum(sc, y)
         r = mb + MB_DUMP_REF
         dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
         c = cross(dh, bb)  # m = k (Δh × B)/|B|²: the torque m × B = −k Δh⊥ unloads the wheels

@@ -61,7 +61,8 @@ G_STATE = 16  # offset of its state in ss: stream, β (3), the true rate at the 
 # and a flag saying it is set
 G_SD = 17  # σ of the rate noise over a tick, (σ_v²/Δt + σ_u² Δt/12)^½ (rad/s)
 G_SQ = 18  # σ of the drift's step over a tick, σ_u √Δt (rad/s)
-G_SIZE = 19
+G_IDENTITY = 19  # 1: C is the identity (no scale factor, no misalignment: C ω̄ not computed)
+G_SIZE = 20
 
 
 def gyro_tick_sigmas(sv: float, su: float, dt: float) -> tuple[float, float]:
@@ -136,7 +137,7 @@ def gyro_measure(sn, g, ss, om, z):
     ss[w_prev + 1] = om[1]
     ss[w_prev + 2] = om[2]
     ss[w_prev + 3] = 1.0
-    c = _mv3(sn, g + G_C, a0, a1, a2)
+    c = (a0, a1, a2) if sn[g + G_IDENTITY] != 0.0 else _mv3(sn, g + G_C, a0, a1, a2)
     quant = sn[g + G_QUANT]
     sat = sn[g + G_SAT]
     r0, r1, r2, r3 = load(ss, so)  # the six deviates drawn in registers

@@ -391,6 +391,7 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
             r[_ks.G_SD], r[_ks.G_SQ] = _ks.gyro_tick_sigmas(s.arw, s.rrw, period)
             r[_ks.G_B0 : _ks.G_B0 + 3] = s.bias
             r[_ks.G_C : _ks.G_C + 9] = s.matrix.reshape(-1)
+            r[_ks.G_IDENTITY] = float(np.array_equal(s.matrix, np.eye(3)))
             r[_ks.G_QUANT] = s.quantization
             r[_ks.G_SAT] = s.saturation
             r[_ks.G_STATE] = stream(s)
