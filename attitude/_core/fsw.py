@@ -572,6 +572,9 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         Pd = _mv(fw, P, dw[0], dw[1], dw[2])
         lr = (K * sig[0] + Pd[0], K * sig[1] + Pd[1], K * sig[2] + Pd[2])
         law0 = fw[mb + MB_LAWTYPE] == 0.0
+        # K_I z and v = ω_r + K_I z (law type 0) are zeros for a fixed reference without an
+        # integral term: their terms are not computed then (a zero term changes nothing but
+        # the sign of an exact zero). Tested against the full law at a fixed attitude.
         if Ki > 0.0 or not still or not law0:
             Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
             PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])

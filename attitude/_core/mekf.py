@@ -46,7 +46,7 @@ import math
 from orbit._shared_jit import inline_copy, jit
 
 from .fma import fma as F
-from .quat import SERIES_X2, half_angle, mul, rotate_inverse
+from .quat import SERIES_X2, conj_mul, half_angle, mul, rotate_inverse, shorter
 
 E_Q = 0  # q̂ (4)
 E_B = 4  # β̂ (3)
@@ -291,24 +291,18 @@ def mekf_covariance_at(es, ep, dst):
     _advance(es, ep, E_P, dst)
 
 
-@jit
-def _inv3(es, src, dst):
-    a = es[src : src + 9]
-    det = (
-        a[0] * (a[4] * a[8] - a[5] * a[7])
-        - a[1] * (a[3] * a[8] - a[5] * a[6])
-        + a[2] * (a[3] * a[7] - a[4] * a[6])
-    )
-    inv = 1.0 / det
-    es[dst] = (a[4] * a[8] - a[5] * a[7]) * inv
-    es[dst + 1] = (a[2] * a[7] - a[1] * a[8]) * inv
-    es[dst + 2] = (a[1] * a[5] - a[2] * a[4]) * inv
-    es[dst + 3] = (a[5] * a[6] - a[3] * a[8]) * inv
-    es[dst + 4] = (a[0] * a[8] - a[2] * a[6]) * inv
-    es[dst + 5] = (a[2] * a[3] - a[0] * a[5]) * inv
-    es[dst + 6] = (a[3] * a[7] - a[4] * a[6]) * inv
-    es[dst + 7] = (a[1] * a[6] - a[0] * a[7]) * inv
-    es[dst + 8] = (a[0] * a[4] - a[1] * a[3]) * inv
+@jit(inline="always")
+def _inv3_sym(s00, s01, s02, s11, s12, s22):
+    """The rows of S⁻¹ for a symmetric 3 × 3 S given by its upper triangle (cofactors over the
+    determinant; S⁻¹ is symmetric too)."""
+    a00 = s11 * s22 - s12 * s12
+    a01 = s02 * s12 - s01 * s22
+    a02 = s01 * s12 - s02 * s11
+    inv = 1.0 / (s00 * a00 + s01 * a01 + s02 * a02)
+    i0 = (a00 * inv, a01 * inv, a02 * inv)
+    i1 = (a01 * inv, (s00 * s22 - s02 * s02) * inv, (s01 * s02 - s00 * s12) * inv)
+    i2 = (a02 * inv, i1[2], (s00 * s11 - s01 * s01) * inv)
+    return i0, i1, i2
 
 
 @jit
@@ -331,7 +325,11 @@ def _update(es, H, y0, y1, y2, R):
             for k in range(6):
                 s += H[6 * i + k] * es[tmp + 3 * k + j]
             es[S + 3 * i + j] = s
-    _inv3(es, S, S + 9)
+    # S⁻¹ (S is symmetric: from its upper triangle)
+    inv = _inv3_sym(es[S], es[S + 1], es[S + 2], es[S + 4], es[S + 5], es[S + 8])
+    for i in range(3):
+        for j in range(3):
+            es[S + 9 + 3 * i + j] = inv[i][j]
     # K = P Hᵀ S⁻¹
     for i in range(6):
         for j in range(3):
@@ -410,19 +408,14 @@ def _update_attitude(es, ep, y0, y1, y2):
         (es[P + 4], es[P + 10], es[P + 16]),
         (es[P + 5], es[P + 11], es[P + 17]),
     )
-    s00 = es[P] + ep[R]
-    s01 = es[P + 1] + ep[R + 1]
-    s02 = es[P + 2] + ep[R + 2]
-    s11 = es[P + 7] + ep[R + 4]
-    s12 = es[P + 8] + ep[R + 5]
-    s22 = es[P + 14] + ep[R + 8]
-    a00 = s11 * s22 - s12 * s12
-    a01 = s02 * s12 - s01 * s22
-    a02 = s01 * s12 - s02 * s11
-    inv = 1.0 / (s00 * a00 + s01 * a01 + s02 * a02)
-    i0 = (a00 * inv, a01 * inv, a02 * inv)  # rows of S⁻¹ (symmetric)
-    i1 = (a01 * inv, (s00 * s22 - s02 * s02) * inv, (s01 * s02 - s00 * s12) * inv)
-    i2 = (a02 * inv, i1[2], (s00 * s11 - s01 * s01) * inv)
+    i0, i1, i2 = _inv3_sym(
+        es[P] + ep[R],
+        es[P + 1] + ep[R + 1],
+        es[P + 2] + ep[R + 2],
+        es[P + 7] + ep[R + 4],
+        es[P + 8] + ep[R + 5],
+        es[P + 14] + ep[R + 8],
+    )
     ks = (
         (_dot3(cs[0], i0), _dot3(cs[0], i1), _dot3(cs[0], i2)),
         (_dot3(cs[1], i0), _dot3(cs[1], i1), _dot3(cs[1], i2)),
@@ -447,7 +440,7 @@ def mekf_update_quaternion(es, ep, qm):
     """Update with a star tracker quaternion ``qm`` (its noise covariance EP_ST_R)."""
     mekf_covariance(es, ep)
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
-    r = mul((q[0], -q[1], -q[2], -q[3]), (qm[0], qm[1], qm[2], qm[3]))
+    r = conj_mul(q, (qm[0], qm[1], qm[2], qm[3]))
     s = 1.0 if r[0] >= 0.0 else -1.0
     _update_attitude(es, ep, 2.0 * s * r[1], 2.0 * s * r[2], 2.0 * s * r[3])
 
@@ -475,9 +468,7 @@ def estimation_error(es, po, q_true, beta_true):
     shorter rotation), δβ = β − β̂, NEES = δxᵀ P⁻¹ δx (Cholesky of the P at ``es[po:]``: the
     filter's, or :func:`mekf_covariance_at`'s copy)."""
     q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
-    r = mul((q[0], -q[1], -q[2], -q[3]), q_true)
-    if r[0] < 0.0:
-        r = (-r[0], -r[1], -r[2], -r[3])
+    r = shorter(conj_mul(q, q_true))
     v = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
     ang = 2.0 * math.atan2(v, r[0])
     k = ang / v if v > 0.0 else 2.0
