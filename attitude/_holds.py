@@ -56,6 +56,9 @@ class SpacecraftRun:
     program: Any = None  # attitude.software._software.Program of a flight software
     software: Any = None  # the FlightSoftware
     ticks: np.ndarray | None = None  # (k, width) tick records of the last run
+    # streaming: tick_sink(records) takes the tick records as they fill a buffer, and at the
+    # end; ``ticks`` is then empty
+    tick_sink: Callable[[np.ndarray], None] | None = None
 
     def fresh_block(self) -> np.ndarray:
         """A copy of the spacecraft block for one run (its held slots are written)."""
@@ -69,6 +72,7 @@ def prepare(
     t: np.ndarray,
     commands: Any,
     software: Any = None,
+    samples: Any = None,
 ) -> tuple[SpacecraftRun, np.ndarray]:
     """The spacecraft run's data and the initial state (q0, Q0, h0).
 
@@ -112,7 +116,7 @@ def prepare(
             raise AttitudeTypeError(
                 f"software: expected an attitude.FlightSoftware, got {type(software).__name__}"
             )
-        prog = program(software, spacecraft, float(tt[0]), float(tt[-1]))
+        prog = program(software, spacecraft, float(tt[0]), float(tt[-1]), samples)
     sc = spacecraft.block(np.array([tt[0], tt[-1]]))
     y0 = initial_state(spacecraft, q0, Q0)
     run = SpacecraftRun(
@@ -184,18 +188,34 @@ class _Source:
             return
         self.fs = prog.fresh_state()
         self.cmd = np.zeros(max(prog.n_cmd, 3))
-        self.rec = np.full((TICK_BUFFER, prog.rec_width), np.nan)
+        self.sink = run.tick_sink
+        # every record at once in memory (the run checked its size), else a buffer the sink
+        # empties; one spare row (an unrecorded tick writes nothing there)
+        rows = prog.n_recorded + 1
+        self.rec = np.full(
+            (rows if self.sink is None else min(rows, TICK_BUFFER), prog.rec_width), np.nan
+        )
         self.rc = np.zeros(1, dtype=np.int64)
         self.ctl = (self.hs, prog.fw, self.fs, self.cmd, self.rec, self.rc)
 
     def handle(self, status: int, y: np.ndarray, t: float, sc: np.ndarray) -> None:
         """Answer the driver: grow the tick records, or call your own step function."""
         if status == _kh.RECORDS_FULL:
+            if self.sink is not None:
+                self.flush()
+                return
             self.rec = np.concatenate([self.rec, np.full_like(self.rec, np.nan)])
             self.ctl = (self.hs, self.prog.fw, self.fs, self.cmd, self.rec, self.rc)
             return
         self._step(y, t, sc)
         self.hs[_kh.HS_READY] = 1.0
+
+    def flush(self) -> None:
+        """Hand the tick records so far to the sink; the buffer starts again."""
+        k = int(self.rc[0])
+        if k:
+            self.sink(self.rec[:k].copy())
+            self.rc[0] = 0
 
     def _step(self, y: np.ndarray, t: float, sc: np.ndarray) -> None:
         from ._core import fsw as _kf
@@ -385,6 +405,8 @@ def _run(
         if status != _rk.SUCCESS:
             break
     if src.prog is not None:
+        if src.sink is not None:
+            src.flush()
         sr.ticks = src.rec[: int(src.rc[0])].copy()
     st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS_NEXT])}
     if src.prog is not None:

@@ -13,7 +13,7 @@ import xarray as xr
 
 from .results import SI, UnitSystem, time_attrs
 
-__all__ = ["WHEEL_LIMIT_FLAGS", "add_actuator_variables", "add_tick_variables"]
+__all__ = ["WHEEL_LIMIT_FLAGS", "add_actuator_variables", "add_tick_variables", "tick_dataset"]
 
 
 def _indexed(dim: str, labels: Any, name: str) -> dict[str, tuple]:
@@ -258,7 +258,13 @@ def actuator_constants(craft: Any) -> dict[str, xr.Variable]:
     return out
 
 
-def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
+def tick_dataset(run: Any, rec: np.ndarray, attrs: dict) -> xr.Dataset:
+    """The tick variables of the records ``rec`` alone: a streamed chunk of ticks (``attrs``:
+    the run's, whose ``epoch`` sets the ``tick`` coordinate's units)."""
+    return add_tick_variables(xr.Dataset(attrs=dict(attrs)), run, rec)
+
+
+def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) -> xr.Dataset:
     """The flight software's records on a ``tick`` dimension (docs/flight_software.md).
 
     ``tick`` is the time of each recorded tick (a CF time coordinate like ``time``);
@@ -266,12 +272,13 @@ def add_tick_variables(ds: xr.Dataset, run: Any) -> xr.Dataset:
     ``error_angle``, ``rate_error`` (ω − ω_r, body axes), ``torque_request``,
     ``dipole_request``, and per command (dimension ``command``, labels in ``command_label``)
     ``command_sent`` (computed at the tick) and ``command_applied`` (in force from the tick:
-    after the delay and, for wheels, their limits).
+    after the delay and, for wheels, their limits). ``rec``: the records (default the run's).
     """
     from ._core import fsw as _kf
 
     prog = run.program
-    rec = run.ticks if run.ticks is not None else np.zeros((0, prog.rec_width))
+    if rec is None:
+        rec = run.ticks if run.ticks is not None else np.zeros((0, prog.rec_width))
     craft = run.spacecraft
     u = UnitSystem(craft.body)
     ncmd = prog.n_cmd

@@ -1154,6 +1154,13 @@ def _report_error(exc: Exception) -> int:
     if isinstance(exc, PropagationError):
         sys.stderr.write(f"attitude: failed: {exc}\n")
         return EXIT_FAILURE
+    if isinstance(exc, MemoryError):  # (estimated before a run: this is what was not)
+        sys.stderr.write(
+            f"attitude: error: out of memory ({exc or 'MemoryError'}); nothing was written. "
+            "Ask for less: fewer output samples ([time] step), less flight-software telemetry "
+            '([software] record_every = "samples", the default), or a shorter span\n'
+        )
+        return EXIT_BAD_INPUT
     if isinstance(exc, (BadInput, AttitudeError, FileNotFoundError)):
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         sys.stderr.write(f"attitude: error: {msg}\n")

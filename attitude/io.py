@@ -61,6 +61,8 @@ def _tmp_path(path: Path) -> Path:
 #: Dimensions stored unlimited besides ``time``: the flight software's ``tick`` (a second time
 #: axis, which CF §2.4 then leaves right of its components as it does ``time``'s).
 UNLIMITED = ("tick",)
+#: The dimensions :class:`StreamWriter` appends along, each in chunks of :data:`TIME_CHUNK`.
+GROWING = ("time", "tick")
 
 
 def _attr_value(name: str, value: Any) -> Any:
@@ -229,8 +231,10 @@ class StreamWriter:
         self.complevel = int(complevel)
         self.attrs: dict[str, Any] = {}
         self.n = 0
+        self.n_ticks = 0
         self._nc: Any = None
         self._vars: list[str] = []
+        self._tick_vars: list[str] = []
         self._done = False
 
     # -- writing ----------------------------------------------------------------------------
@@ -244,43 +248,50 @@ class StreamWriter:
         return self._nc
 
     def _create(self, ds: xr.Dataset) -> None:
-        if "time" not in ds.dims:
+        """Open the file and create the variables of the first chunk."""
+        if "time" not in ds.dims and "tick" not in ds.dims:
             raise AttitudeValueError("ds: a result Dataset has a 'time' dimension")
         for name in ds.variables:  # every attr checked before anything is written
             check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
         nc = self._open_tmp()
         nc.createDimension("time", None)
+        self._add(ds)
+
+    def _add(self, ds: xr.Dataset) -> None:
+        """Create the variables of ``ds`` the file does not hold yet: those along ``time`` or
+        ``tick`` chunked and compressed (:meth:`append` writes them), the others at once."""
+        nc = self._nc
+        for name in ds.variables:
+            if name not in nc.variables:
+                check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
         for dim, size in ds.sizes.items():
-            if dim != "time":
+            if dim not in nc.dimensions:
                 nc.createDimension(dim, None if dim in UNLIMITED else size)
         comp = {"zlib": self.complevel > 0, "complevel": max(self.complevel, 1), "shuffle": True}
         # Dimension coordinates first (the time coordinate grows with the data).
-        for name in ds.coords:
+        for name in [*ds.coords, *ds.data_vars]:
+            if name in nc.variables:
+                continue
             var = ds[name].variable
+            along = next((d for d in GROWING if d in var.dims), None)
+            if name in ds.data_vars and var.dtype.kind not in "iuf":
+                raise AttitudeTypeError(f"ds[{name!r}]: only numeric data variables are written")
+            if along is None and name in ds.data_vars:  # e.g. the events of a run: once
+                self._static(name, var)
+                continue
             if var.dtype.kind in "UO":
                 v = nc.createVariable(name, str, var.dims)
                 v[:] = np.asarray(var.values, dtype=object)
-            elif "time" in var.dims:
+            elif along is not None:
                 v = nc.createVariable(
                     name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp
                 )
                 self._small_cache(v, var)
-                self._vars.append(name)
+                (self._vars if along == "time" else self._tick_vars).append(name)
             else:
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
             _set_attrs(v, _variable_attrs(ds, name))
-        for name, da in ds.data_vars.items():
-            var = da.variable
-            if var.dtype.kind not in "iuf":
-                raise AttitudeTypeError(f"ds[{name!r}]: only numeric data variables are written")
-            if "time" not in var.dims:  # e.g. the events of a run (docs/events.md): once
-                self._static(name, var)
-                continue
-            v = nc.createVariable(name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp)
-            self._small_cache(v, var)
-            _set_attrs(v, _variable_attrs(ds, name))
-            self._vars.append(name)
 
     def _static(self, name: str, var: xr.Variable) -> None:
         """Write a variable without a time dimension at once (creating its dimensions)."""
@@ -306,6 +317,11 @@ class StreamWriter:
         """
         if self._nc is None or self._done:
             raise AttitudeValueError("add_static: the file is not open (append samples first)")
+        ticks = [n for n in ds.data_vars if "tick" in ds[n].dims and n not in self._nc.variables]
+        if ticks:  # the flight software's records of a run kept in memory: chunked
+            sub = ds[ticks]
+            for i in range(0, max(sub.sizes["tick"], 1), 16 * TIME_CHUNK):
+                self.append(sub.isel(tick=slice(i, i + 16 * TIME_CHUNK)))
         for name in [*ds.coords, *ds.data_vars]:
             var = ds[name].variable
             if "time" in var.dims or name in self._nc.variables:
@@ -314,7 +330,10 @@ class StreamWriter:
 
     @staticmethod
     def _chunks(var: xr.Variable) -> list[int]:
-        return [TIME_CHUNK if d == "time" else s for d, s in zip(var.dims, var.shape, strict=False)]
+        return [
+            TIME_CHUNK if d in GROWING else max(1, s)
+            for d, s in zip(var.dims, var.shape, strict=False)
+        ]
 
     def _small_cache(self, v: Any, var: xr.Variable) -> None:
         """A chunk cache of two chunks: complete chunks are compressed and written at once.
@@ -357,13 +376,20 @@ class StreamWriter:
             if self._nc is None:
                 self._create(ds)
                 self.attrs = dict(ds.attrs)
-            k = ds.sizes[self._along]
-            if k == 0:
-                return
-            for name in self._vars:
-                var = ds[name].variable.transpose(self._along, ...)
-                self._nc.variables[name][self.n : self.n + k, ...] = var.values
-            self.n += k
+            elif self._along == "time":
+                self._add(ds)  # e.g. the first chunk of ticks after the first samples
+            k = ds.sizes.get(self._along, 0)
+            if k:
+                for name in self._vars:
+                    var = ds[name].variable.transpose(self._along, ...)
+                    self._nc.variables[name][self.n : self.n + k, ...] = var.values
+                self.n += k
+            k = ds.sizes.get("tick", 0) if self._along == "time" else 0
+            if k:
+                for name in self._tick_vars:
+                    var = ds[name].variable.transpose("tick", ...)
+                    self._nc.variables[name][self.n_ticks : self.n_ticks + k, ...] = var.values
+                self.n_ticks += k
 
     def commit(self) -> Path:
         """Write the global attrs, flush to disk and put the file in place. Returns the path.
@@ -452,11 +478,15 @@ def write(ds: xr.Dataset, path: str | os.PathLike, *, complevel: int = COMPLEVEL
     check_attrs(ds.attrs, "ds.attrs")  # before anything is written
     for name in ds.variables:
         check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
+    ticks = [k for k in ds.data_vars if "tick" in ds[k].dims]
+    samples = ds.drop_vars(ticks + [k for k in ds.coords if "tick" in ds[k].dims])
     with StreamWriter(path, complevel=complevel) as w:
         w._out.check_space(float(ds.nbytes), f"a Dataset of {n} samples")
-        step = 16 * TIME_CHUNK
+        step = 16 * TIME_CHUNK  # bounded memory: the writer's copies are of one slice
         for i in range(0, n, step):
-            w.append(ds.isel(time=slice(i, i + step)))
+            w.append(samples.isel(time=slice(i, i + step)))
+        if ticks:
+            w.add_static(ds[ticks])
         w.attrs = dict(ds.attrs)
     return w.path
 

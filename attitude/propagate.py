@@ -36,7 +36,7 @@ from orbit._state_kernels import TYPE_EPHEMERIS
 from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
-from ._spacecraft_results import add_actuator_variables, add_tick_variables
+from ._spacecraft_results import add_actuator_variables, add_tick_variables, tick_dataset
 from ._validation import as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
 from .canonical import _project
@@ -234,6 +234,7 @@ def propagate(
     output: str = "dataset",
     commands: Any = None,
     software: Any = None,
+    max_output_size: Any = "auto",
 ) -> xr.Dataset | Trajectory:
     """Propagate the attitude of a rigid body in canonical quaternion variables.
 
@@ -296,7 +297,9 @@ def propagate(
         output samples (``chunk`` of them, default 4096; the last one may be shorter, also
         when the run fails midway). With the canonical ``"dop853"`` runner the samples are
         not kept, so memory stays bounded (see :func:`attitude.io.write_streaming`); the
-        returned Dataset then holds only the last sample (with the complete attrs).
+        returned Dataset then holds only the last sample (with the complete attrs). The
+        flight software's tick records arrive as Datasets of their own, on ``tick`` without
+        ``time``, 4096 ticks at a time (:class:`attitude.io.StreamWriter` appends both).
     epoch : astropy Time or str, optional
         Date of t = 0 (ISO 8601 strings are UTC unless a scale follows). Default: the epoch of
         the potential's orbit, if it has one. Recorded in the attrs (``epoch``, UTC ISO 8601),
@@ -321,7 +324,13 @@ def propagate(
     software : FlightSoftware, optional
         Closed-loop commands: the flight software runs at its own ticks inside the
         propagation (docs/flight_software.md); a body without actuators takes its torque
-        request as an ideal torque. Its records are on a ``tick`` dimension.
+        request as an ideal torque. Its records are on a ``tick`` dimension: by default the
+        ticks in effect at the output samples (``FlightSoftware(record_every=...)``).
+    max_output_size : "auto", size or None
+        The largest result held in memory (the samples and tick records not streamed to
+        ``on_chunk``): bytes, a string such as ``"2 GB"``, or None for no limit; ``"auto"``
+        (default) a quarter of the machine's memory. A larger run is refused before any work
+        (:class:`~attitude.errors.OutputSizeError`, with the estimate and what to change).
 
     Returns
     -------
@@ -448,10 +457,12 @@ def propagate(
         period = getattr(software, "period", None)
         if isinstance(period, float):  # the type of software is checked by _holds.prepare
             _check_ticks(period, float(span[1] - span[0]), max_steps)
-        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software)
+        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software, samples=tt)
         run_attrs["spacecraft"] = craft.describe()
         if software is not None:
             run_attrs["software"] = software.describe()
+    can_stream = form is None and evset is None and getattr(runner, "streams", False)
+    _check_memory(max_output_size, tt.shape[0], sc_run, streaming, can_stream)
     problem = Problem(
         body=body,
         potential=pot,
@@ -485,6 +496,8 @@ def propagate(
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
             if requested != method:
                 chunk_attrs["method_requested"] = requested
+            if sc_run is not None and sc_run.program is not None:
+                sc_run.tick_sink = lambda rec: on_chunk(tick_dataset(sc_run, rec, chunk_attrs))
 
             def emit(first: int, y: np.ndarray, t_last: float | None = None) -> None:
                 part, n_ok = _finish(problem, y, chunk_attrs, first=first, t_last=t_last)
@@ -553,6 +566,28 @@ def propagate(
             partial=ds,
         )
     return ds
+
+
+def _check_memory(limit: Any, n: int, sc_run: Any, streaming: bool, can_stream: bool) -> None:
+    """Refuse a run whose result in memory would exceed ``max_output_size`` (before any
+    work): the samples unless streamed, the tick records unless streamed."""
+    from ._memory import check_run_memory, default_memory_limit, parse_size
+
+    if isinstance(limit, str) and limit.strip().lower() == "auto":
+        limit = default_memory_limit()
+    else:
+        limit = parse_size(limit, "max_output_size")
+    prog = None if sc_run is None else sc_run.program
+    width = 8 if sc_run is None else sc_run.n_state + sc_run.n_rec
+    check_run_memory(
+        limit,
+        0 if streaming else n,
+        width,
+        0 if (prog is None or streaming) else prog.n_recorded,
+        0 if prog is None else prog.rec_width,
+        every=None if prog is None else prog.record_every,
+        streamable=can_stream,
+    )
 
 
 def _spacecraft_runner(

@@ -212,7 +212,8 @@ def test_closed_loop_statistics_of_pointing_error_and_settling_time():
     import closed_loop_covariance as lc
 
     n = 24
-    fs = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0))
+    fs = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0),
+                        record_every=1)  # fmt: skip
     d = disperse_spacecraft(
         craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=4,
         rate_error=np.radians(0.005), inertia_error=0.05, gain_error=0.1,

@@ -303,4 +303,8 @@ def test_cli_run_and_plot_of_a_short_closed_loop_scenario(tmp_path, capsys):
     assert main(["plot", str(nc), "-o", str(out), "--panels", "dipoles"]) == 2
     assert "dipoles cannot be drawn" in capsys.readouterr().err
     ds = io.read(nc)
-    assert ds.sizes["tick"] == 200
+    # the default recording: the tick in effect at each of the 41 samples (0.5 s apart; the
+    # last tick of the 200 is at 19.9 s, in effect at 20 s)
+    t = ds.time.values
+    assert ds.sizes["tick"] == 41 == t.size and ds.attrs["n_ticks"] == 200
+    np.testing.assert_allclose(ds.tick.values, np.minimum(t, 19.9), rtol=0, atol=1e-12)

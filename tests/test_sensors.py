@@ -192,7 +192,7 @@ def test_ziggurat_is_numpys_algorithm_on_tables_checked_in_arbitrary_precision()
 
 def _record(sensors, period, t_end, craft=None, q0=Q_ID, w0=(0.0, 0.0, 0.0), **kw):
     craft = craft if craft is not None else attitude.Spacecraft(BODY)
-    fsw = FlightSoftware(period, sensors=sensors, **kw)
+    fsw = FlightSoftware(period, sensors=sensors, **{"record_every": 1, **kw})
     Q0 = C.momenta_from_angular_velocity(q0, w0, craft)
     return attitude.propagate(
         craft,

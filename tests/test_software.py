@@ -549,7 +549,7 @@ def test_slew_reference_is_the_trapezoidal_rate_profile(angle):
         seen.append(m)
         return np.zeros(3)
 
-    fsw = FlightSoftware(0.5, Slew(frames.inertial(q_t), wmax, amax), step)
+    fsw = FlightSoftware(0.5, Slew(frames.inertial(q_t), wmax, amax), step, record_every=1)
     Q0 = C.momenta_from_angular_velocity(q0, [0.0, 0.0, 0.0], body)
     ds = attitude.propagate(body, q0, Q0, [0.0, 120.0], software=fsw, rtol=1e-12)
     t = np.array([m.t for m in seen])

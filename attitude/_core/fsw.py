@@ -113,7 +113,7 @@ FW_MODES = 5  # offset of the table of mode offsets
 FW_IDEAL = 6  # 1: the request is an ideal body torque (no actuators)
 FW_INERTIA = 7  # the software's inertia model (9, row-major)
 FW_FIELD = 16  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
-FW_RECORD_EVERY = 17  # record every k-th tick
+FW_RECORD_EVERY = 17  # record every k-th tick; 0: the ticks listed at FW_RECORD_TABLE
 FW_NAPINV = 18  # offset of the magnetorquers' pseudo-inverse (n_m × 3; 0: none)
 FW_GPINV = 19  # offset of the wheels' pseudo-inverse G⁺ (n_w × 3)
 FW_NULLP = 20  # offset of the null-space projector N (n_w × n_w)
@@ -125,6 +125,8 @@ FW_EST = 25  # offset of the MEKF's record (attitude._core.mekf EP_*; 0: no esti
 FW_SS = 26  # offset in fs of the sensors' state
 FW_ES = 27  # offset in fs of the filter's state
 FW_Z = 28  # offset in fs of the measurement vector (Z_SIZE) and the Sun heads' scratch
+FW_RECORD_TABLE = 29  # offset of the recorded ticks' indices (increasing; FW_RECORD_EVERY = 0)
+FW_RECORD_N = 30  # their number
 FW_HEADER = 32
 
 # --- mode blocks (offsets relative to the block) --------------------------------------------------
@@ -179,6 +181,7 @@ FS_SLEW_AXIS = 12  # axis of the offset from the target (3, target axes)
 FS_SLEW_ANGLE = 15  # its angle
 FS_ENTERED = 16  # 1 once the active mode has run a tick (0 at its entry)
 FS_SENSED = 17  # 1: this tick's measurements were taken (your own step asked for commands)
+FS_RECORD_NEXT = 18  # next entry of the table of recorded ticks
 FS_SQ = 20  # the attitude the software uses at this tick (4), then its rate (3), its field (3)
 FS_SW = 24
 FS_SB = 27
@@ -573,8 +576,7 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         lr = (K * sig[0] + Pd[0], K * sig[1] + Pd[1], K * sig[2] + Pd[2])
         law0 = fw[mb + MB_LAWTYPE] == 0.0
         # K_I z and v = ω_r + K_I z (law type 0) are zeros for a fixed reference without an
-        # integral term: their terms are not computed then (a zero term changes nothing but
-        # the sign of an exact zero). Tested against the full law at a fixed attitude.
+        # integral term: not computed then (tested against the full law at a fixed attitude).
         if Ki > 0.0 or not still or not law0:
             Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
             PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
@@ -732,13 +734,16 @@ def fsw_boundary(P, y, t, t_end, ctl):
     if t >= fs[FS_NEXT]:
         k = int(fs[FS_TICK])
         every = int(fw[FW_RECORD_EVERY])
-        keep = k % every == 0
+        if every > 0:
+            keep = k % every == 0
+        else:  # the ticks in effect at the output samples
+            p = int(fs[FS_RECORD_NEXT])
+            keep = p < int(fw[FW_RECORD_N]) and fw[int(fw[FW_RECORD_TABLE]) + p] == k
         if keep and rc[0] >= rec.shape[0]:
             return RECORDS_FULL
         row = rec[int(rc[0]) if keep else 0]  # (an unrecorded tick writes nothing there)
         if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
-            # your own step: measure once (its record in this tick's row), then ask for the
-            # commands; measure() hands these measurements to the step
+            # your own step: measure once (recorded in this row), then ask for the commands
             if fs[FS_SENSED] == 0.0:
                 q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
                 for i in range(4):
@@ -762,6 +767,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
             for j in range(nw):
                 row[R_CMD + ncmd + j] = sc[S_WHEELS + j * WS + W_U]
             rc[0] += 1
+            fs[FS_RECORD_NEXT] += 1.0  # (read only with every = 0)
         fs[FS_TICK] = k + 1
         fs[FS_NEXT] = t_next
         hs[HS_HOLD_END] = t_next
@@ -773,12 +779,9 @@ def fsw_boundary(P, y, t, t_end, ctl):
     return BOUNDARY_DONE
 
 
-# The tick inlined into the single-run drivers (numba's IR inliner; entry_points binds them):
-# its arrays through three calls (seven arguments an array) cost ~10 % of a 10 Hz tick. The
-# ensemble drivers keep the calls (numba's parallel array analysis rejects the inlined tick).
-# sense_and_estimate stays a call (inlined: twice the compile time, no gain); the per-tick
-# sensing is inlined into it (measure_sensors_inline, mekf_propagate_inline: -4 %). The
-# boundary's cold paths (_sense, configure_hold) stay calls: not rebound below.
+# The tick inlined into the single-run drivers (entry_points binds them; docs/cold_start.md);
+# the ensemble drivers keep the calls (numba's parallel array analysis rejects the inlined
+# tick); sense_and_estimate and the boundary's cold paths (_sense, configure_hold) stay calls.
 _sense_inline = inline_copy(_sense, globals())
 _guidance_inline = inline_copy(guidance, globals())
 _configure_hold_inline = inline_copy(configure_hold_rate, globals())

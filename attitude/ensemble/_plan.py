@@ -19,13 +19,13 @@ run that stores everything (tests/test_ensemble.py).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from .._memory import format_size, parse_size
 from ..errors import AttitudeTypeError, AttitudeValueError, OutputSizeError
 
 #: The output choices of :func:`attitude.ensemble.propagate_ensemble`.
@@ -76,35 +76,6 @@ def _positive_int(v: Any, name: str) -> int:
     if not isinstance(v, (int, np.integer)) or isinstance(v, bool) or v < 1:
         raise AttitudeValueError(f"{name}: expected a positive integer, got {v!r}")
     return int(v)
-
-
-def parse_size(value: Any, name: str = "max_output_size") -> float:
-    """A size in bytes from a number (bytes), a string such as ``"2 GB"`` or ``"500 MiB"``, an
-    astropy Quantity in bytes, or None / ``"none"`` / ``inf`` (no limit: ``math.inf``)."""
-    hint = "e.g. 2e9 (bytes), '2 GB', '500 MiB', or None for no limit"
-    if value is None or (isinstance(value, str) and value.strip().lower() in ("none", "inf")):
-        return math.inf
-    from astropy import units as u
-
-    if isinstance(value, str):
-        try:
-            q = u.Quantity(value.strip())
-        except (TypeError, ValueError):
-            raise AttitudeValueError(f"{name}: {value!r} is not a size ({hint})") from None
-        if q.unit == u.dimensionless_unscaled:
-            q = q * u.byte
-        value = q
-    if isinstance(value, u.Quantity):
-        if not value.unit.is_equivalent(u.byte) or value.size != 1:
-            raise AttitudeTypeError(f"{name}: expected a size in bytes ({hint}), got {value}")
-        v = float(value.to_value(u.byte))
-    elif isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        v = float(value)
-    else:
-        raise AttitudeTypeError(f"{name}: expected a size ({hint}), got {type(value).__name__}")
-    if math.isnan(v) or v <= 0:
-        raise AttitudeValueError(f"{name}: must be a positive size ({hint}), got {value}")
-    return v
 
 
 def make_plan(
@@ -175,16 +146,6 @@ def estimate_bytes(one: xr.Dataset, n: int, extra: xr.Dataset | None = None) -> 
             total += VARIABLE_OVERHEAD + sum(len(str(v)) + len(k) for k, v in var.attrs.items())
             total += nbytes * n if "member" in var.dims else nbytes
     return int(total)
-
-
-def format_size(nbytes: float) -> str:
-    """``12.3 MB``-style (decimal units, as file managers and ``ls -h --si`` show them)."""
-    if math.isinf(nbytes):
-        return "no limit"
-    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if nbytes >= scale:
-            return f"{nbytes / scale:.3g} {unit}"
-    return f"{int(nbytes)} bytes"
 
 
 def check_size(expected: int, plan: _Plan, n: int, in_memory: bool) -> None:

@@ -163,8 +163,11 @@ class CraftMembers:
     method : str
     """
 
-    def __init__(self, crafts, q, Q, n, commands, software, seed, span, potential, method):
+    def __init__(
+        self, crafts, q, Q, n, commands, software, seed, span, potential, method, samples=None
+    ):
         self.crafts = crafts
+        self.samples = samples  # the stored times (where the default recording takes its ticks)
         self.q = q
         self.Q = Q
         self.n = n
@@ -237,7 +240,9 @@ class CraftMembers:
         if self.method == "taylor":
             _holds.check_taylor(craft, self.potential)
         q0 = np.array([1.0, 0.0, 0.0, 0.0])
-        run, _ = _holds.prepare(craft, q0, np.zeros(4), self.span, commands, software)
+        run, _ = _holds.prepare(
+            craft, q0, np.zeros(4), self.span, commands, software, samples=self.samples
+        )
         self._runs[key] = run
 
     def run(self, i: int) -> Any:
@@ -259,21 +264,9 @@ class CraftMembers:
     # -- the ticks -------------------------------------------------------------------------------
     def tick_times(self) -> np.ndarray:
         """The times of the recorded ticks (shared by every member): t_k = T0 + k·period for
-        T0 + k·period < t_end, every ``record_every``-th (the compiled loop's own arithmetic)."""
-        prog = self.program
-        if prog is None:
-            return np.zeros(0)
-        t0 = float(prog.fw[_kf.FW_T0])
-        per = float(prog.fw[_kf.FW_PERIOD])
-        every = int(prog.fw[_kf.FW_RECORD_EVERY])
-        t_end = float(self.span[-1])
-        if not t0 < t_end:
-            return np.zeros(0)
-        k_max = int(np.floor((t_end - t0) / per)) + 2
-        k = np.arange(k_max + 1, dtype=np.int64)
-        tk = t0 + k * per
-        k = k[tk < t_end]
-        return (t0 + k * per)[k % every == 0]
+        T0 + k·period < t_end, those in effect at the stored samples or every
+        ``record_every``-th (the compiled loop's own arithmetic)."""
+        return np.zeros(0) if self.program is None else self.program.tick_times()
 
     # -- a chunk for the compiled loops ----------------------------------------------------------
     def block(self, start: int, stop: int) -> dict[str, Any]:

@@ -237,7 +237,9 @@ def _validate(body, q0, Q0, tt, potential, plan, method, epoch, commands, softwa
         from ..taylor import check_potential
 
         check_potential(pot)
-    members = CraftMembers(crafts, q, Q, n, cmds, sws, seed, span, pot, method)
+    members = CraftMembers(
+        crafts, q, Q, n, cmds, sws, seed, span, pot, method, samples=plan.stored_t
+    )
     c0, _, s0 = members.member(0)
     run_attrs["spacecraft"] = (
         c0.describe()

@@ -241,10 +241,15 @@ def software(r: _Reader, st: Mapping[str, Any], craft: Any, body: Any, orbit: An
         raise _fail("software.period", "missing (the tick interval)")
     period = _quantity(r, st, "period", "software", "s")
     delay = st.get("delay", 0)
-    every = st.get("record_every", 1)
-    for k, v in (("delay", delay), ("record_every", every)):
-        if not isinstance(v, int) or isinstance(v, bool):
-            raise _fail(f"software.{k}", f"expected an integer, got {v!r}")
+    every = st.get("record_every", "samples")
+    if not isinstance(delay, int) or isinstance(delay, bool):
+        raise _fail("software.delay", f"expected an integer, got {delay!r}")
+    if every != "samples" and (not isinstance(every, int) or isinstance(every, bool)):
+        raise _fail(
+            "software.record_every",
+            f'expected an integer k (every k-th tick) or "samples" (the ticks at the output '
+            f"times, the default), got {every!r}",
+        )
     phase = _quantity(r, st, "phase", "software", "s") if "phase" in st else 0.0
     specs = st.get("modes")
     mode_keys = [k for k in st if k in MODE_KEYS or k[:-5] in MODE_KEYS]

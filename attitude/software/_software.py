@@ -45,6 +45,81 @@ def _period(x: Any) -> float:
     return v
 
 
+#: The largest ``record_every`` (tick indices are exact in the program's float64 words).
+MAX_RECORD_EVERY = 2**53
+
+
+def _record_every(x: Any, period: float) -> int | None:
+    """None (the ticks in effect at the output samples), or record every k-th tick: from an
+    integer k or a time interval (a Quantity in s, a whole multiple of the period)."""
+    from astropy import units as u
+
+    if x is None or (isinstance(x, str) and x.strip().lower() == "samples"):
+        return None
+    hint = (
+        "give None or 'samples' (the ticks in effect at the output samples, the default), an "
+        "integer k (every k-th tick; 1: every tick) or an interval such as 60 * u.s"
+    )
+    if isinstance(x, str):
+        raise AttitudeValueError(f"record_every: {x!r} is not a recording choice; {hint}")
+    if isinstance(x, u.Quantity):
+        try:
+            s = float(x.to_value(u.s))
+        except (u.UnitConversionError, TypeError, ValueError):
+            raise AttitudeTypeError(f"record_every: expected a time, got {x}; {hint}") from None
+        k = s / period
+        if not (math.isfinite(k) and k >= 0.5):
+            raise AttitudeValueError(
+                f"record_every: {x} is shorter than the period ({period:g} s) or not finite"
+            )
+        kr = round(k)
+        if abs(k - kr) > 1e-9 * k:
+            raise AttitudeValueError(
+                f"record_every: {x} is not a whole number of periods ({period:g} s): give "
+                f"{kr * period:g} s or {kr} (ticks)"
+            )
+        x = kr
+    k = as_int(x, "record_every")
+    if k > MAX_RECORD_EVERY:
+        raise AttitudeValueError(
+            f"record_every: {k} ticks is beyond {MAX_RECORD_EVERY} (2^53): no run has that many "
+            "ticks; give None to record at the output samples"
+        )
+    return k
+
+
+def tick_count(t0: float, period: float, t_end: float) -> int:
+    """The number of ticks of a run: t_k = t0 + k·period < t_end, k = 0, 1, ... (the compiled
+    loop's own arithmetic, :func:`attitude._core.fsw.fsw_boundary`)."""
+    if not t0 < t_end:
+        return 0
+    k = max(1, math.ceil((t_end - t0) / period))
+    while k > 1 and t0 + (k - 1) * period >= t_end:
+        k -= 1
+    while t0 + k * period < t_end:
+        k += 1
+    return k
+
+
+def ticks_at(t0: float, period: float, n_ticks: int, t: Any, block: int = 1 << 20) -> np.ndarray:
+    """Indices (increasing, int64) of the ticks in effect at the times ``t`` (increasing): for
+    each, the last tick t_k <= t of the run's ``n_ticks``; times before the first tick have
+    none."""
+    out = []
+    last = -1
+    for i in range(0, len(t), block):
+        ts = np.asarray(t[i : i + block], dtype=np.float64)
+        k = np.floor((ts - t0) / period)
+        k = np.clip(np.nan_to_num(k, nan=-1.0), -1.0, float(n_ticks - 1)).astype(np.int64)
+        k = np.where(t0 + k * period > ts, k - 1, k)  # the floor's round-off, both ways
+        k = np.where((k + 1 < n_ticks) & (t0 + (k + 1) * period <= ts), k + 1, k)
+        k = np.unique(k[k > last])
+        if k.size:
+            out.append(k)
+            last = int(k[-1])
+    return np.concatenate(out) if out else np.zeros(0, dtype=np.int64)
+
+
 def _is_compiled(fn: Any) -> bool:
     """Whether ``fn`` is a numba-compiled function (``numba.njit``): your compiled step."""
     if not hasattr(fn, "py_func"):
@@ -200,8 +275,15 @@ class FlightSoftware:
     inertia : array_like (3,) or (3, 3), optional
         The software's model of the spacecraft's inertia (kg m²; default the true one):
         what the laws' gyroscopic and feed-forward terms use.
-    record_every : int
-        Record every k-th tick (default every tick).
+    record_every : None, int or Quantity
+        What the result records of the ticks (the ``tick`` variables): None (default) the
+        ticks in effect at the run's output samples (the last tick at or before each sample:
+        its mode, reference, errors, requests, commands, measurements and estimate), so the
+        result's size follows the samples asked for; an integer k every k-th tick (1: every
+        tick, tick-level telemetry: ~200 bytes a tick in memory, 160 with wheels alone; stream
+        it to a file for long runs, ``propagate(..., on_chunk=writer.append)`` or the
+        ``attitude run`` command); a time interval (e.g. ``60 * u.s``, a whole number of
+        periods).
     """
 
     def __init__(
@@ -217,7 +299,7 @@ class FlightSoftware:
         *,
         phase: Any = 0.0,
         inertia: Any = None,
-        record_every: int = 1,
+        record_every: Any = None,
     ):
         self.period = _period(period)
         self.delay = as_int(delay, "delay", low=0)
@@ -225,7 +307,7 @@ class FlightSoftware:
         if ph.shape != () or not 0.0 <= float(ph) < math.inf:
             raise AttitudeValueError(f"phase: expected a time >= 0 s, got {phase!r}")
         self.phase = float(ph)
-        self.record_every = as_int(record_every, "record_every")
+        self.record_every = _record_every(record_every, self.period)
         self.inertia = None
         if inertia is not None:
             a = as_float_array(inertia, "inertia", unit="kg m2")
@@ -343,6 +425,31 @@ class Program:
     ss0: np.ndarray = field(default_factory=lambda: np.zeros(0))  # the sensors' initial state
     sensors: tuple = ()
     estimator: Any = None
+    n_ticks: int = 0  # ticks of the run
+    recorded: np.ndarray | None = None  # the indices of the recorded ticks (None: every k-th)
+
+    @property
+    def record_every(self) -> int | None:
+        """Every k-th tick recorded, or None: the ticks at the output samples."""
+        k = int(self.fw[_kf.FW_RECORD_EVERY])
+        return k if self.recorded is None and k > 0 else None
+
+    @property
+    def n_recorded(self) -> int:
+        """The number of tick records the run makes."""
+        if self.recorded is not None:
+            return int(self.recorded.shape[0])
+        return -(-self.n_ticks // int(self.fw[_kf.FW_RECORD_EVERY]))
+
+    def tick_times(self) -> np.ndarray:
+        """The times of the recorded ticks, t_k = t0 + k·period (the compiled loop's own
+        arithmetic)."""
+        t0, per = float(self.fw[_kf.FW_T0]), float(self.fw[_kf.FW_PERIOD])
+        if self.recorded is not None:
+            k = self.recorded
+        else:
+            k = np.arange(0, self.n_ticks, int(self.fw[_kf.FW_RECORD_EVERY]), dtype=np.int64)
+        return t0 + k * per
 
     def fresh_state(self) -> np.ndarray:
         """The software state ``fs`` at the start of a run (the sensors' streams seeded)."""
@@ -358,8 +465,11 @@ def _frame_data(frame: Any, start: float, stop: float) -> np.ndarray:
     return np.asarray(frame.kernel_data(start - 2 * h, stop + 2 * h), dtype=np.float64)
 
 
-def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Program:
-    """Validate ``software`` against the spacecraft and build its compiled program."""
+def program(
+    software: FlightSoftware, craft: Any, t0: float, t_end: float, samples: Any = None
+) -> Program:
+    """Validate ``software`` against the spacecraft and build its compiled program
+    (``samples``: the run's output times, where the default recording takes its ticks)."""
     nw, nm, nt = craft.counts
     ncmd = nw + nm + nt
     ideal = ncmd == 0
@@ -370,7 +480,16 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
     head[_kf.FW_NMODES] = len(software.modes)
     head[_kf.FW_NCMD] = ncmd
     head[_kf.FW_IDEAL] = 1.0 if ideal else 0.0
-    head[_kf.FW_RECORD_EVERY] = software.record_every
+    n_ticks = tick_count(t0 + software.phase, software.period, t_end)
+    recorded = None
+    if software.record_every is None:
+        recorded = ticks_at(t0 + software.phase, software.period, n_ticks,
+                            np.array([t0, t_end]) if samples is None else samples)  # fmt: skip
+        if recorded.shape[0] == n_ticks:  # every tick is in effect at a sample
+            recorded = None
+    head[_kf.FW_RECORD_EVERY] = 1 if recorded is None else 0
+    if software.record_every is not None:
+        head[_kf.FW_RECORD_EVERY] = software.record_every
     external = software.python_step is not None or software.compiled_step is not None
     head[_kf.FW_EXTERNAL] = 1.0 if external else 0.0
     inertia = software.inertia if software.inertia is not None else np.diag(craft.body.inertia)
@@ -395,6 +514,9 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
     if nm:
         A = np.array([m.axis for m in craft.magnetorquers]).T  # 3 × n_m
         head[_kf.FW_NAPINV] = append(np.linalg.pinv(A))
+    if recorded is not None:
+        head[_kf.FW_RECORD_TABLE] = append(recorded.astype(np.float64))
+        head[_kf.FW_RECORD_N] = recorded.shape[0]
     modes_at = append(np.zeros(len(software.modes)))
     head[_kf.FW_MODES] = modes_at
     offsets = []
@@ -534,4 +656,6 @@ def program(software: FlightSoftware, craft: Any, t0: float, t_end: float) -> Pr
         ss0=ss0,
         sensors=tuple(sensors),
         estimator=software.estimator,
+        n_ticks=n_ticks,
+        recorded=recorded,
     )
