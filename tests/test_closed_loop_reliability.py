@@ -322,3 +322,98 @@ def test_scenario_ensemble_of_a_closed_loop_scenario_is_refused():
         scenario.loads(text + "\n[ensemble]\nsize = 3\nseed = 1\n")
     with pytest.raises(scenario.ScenarioError, match=r"ensemble: a scenario with actuators"):
         scenario.loads(_RW + "\n[ensemble]\nsize = 3\nseed = 1\n")
+
+
+# --- inputs that slipped through (issue 39) -----------------------------------------------------
+
+
+def test_quantities_in_wrong_units_are_refused_not_stripped():
+    # was: BDot(1 * u.m).gain == 1.0 and integral_limit=400 * u.deg read as 400 N m s
+    with pytest.raises(AttitudeTypeError, match="gain: units m"):
+        BDot(1 * u.m)
+    with pytest.raises(AttitudeTypeError, match="gain: units N m s"):
+        BDot(1 * u.N * u.m * u.s)  # the normalized law's unit, not m = -k dB/dt's
+    assert BDot(2 * u.N * u.m * u.s, normalized=True).gain == 2.0
+    assert BDot(3e3 * u.A * u.m**2 * u.s / u.mT).gain == pytest.approx(3e6)
+    with pytest.raises(AttitudeTypeError, match="integral_limit: units deg"):
+        MRPFeedback(1.0, 5.0, Ki=0.01, integral_limit=400 * u.deg)
+    with pytest.raises(AttitudeTypeError, match="Ki: units m"):
+        MRPFeedback(1.0, 5.0, Ki=0.01 * u.m)
+    law = MRPFeedback(1.0, 5.0, Ki=0.6 / u.min, integral_limit=2 * u.N * u.m * u.s)
+    assert (law.Ki, law.integral_limit) == (pytest.approx(0.01), 2.0)
+    with pytest.raises(AttitudeTypeError, match="tau: units m"):
+        Gyro(1e-6).allan_variance(1 * u.m)  # was: np.asarray, the unit dropped
+    with pytest.raises(AttitudeTypeError, match="speed: units m"):
+        ReactionWheel([0, 0, 1.0], 0.05, coulomb_friction=1e-3).friction(1 * u.m)
+
+
+def test_a_negative_integral_gain_is_refused_with_the_documented_way_to_omit_it():
+    # was: Ki=-1.0 accepted as "no integral term" (Basilisk's convention; ours is Ki=None)
+    with pytest.raises(AttitudeValueError, match=r"Ki: .*-1\.0; use Ki=None for no integral"):
+        MRPFeedback(1.0, 5.0, Ki=-1.0)
+    assert MRPFeedback(1.0, 5.0).Ki == MRPFeedback(1.0, 5.0, Ki=None).Ki  # no integral term
+
+
+def test_inertias_that_no_rigid_body_has_are_refused_by_the_software_and_bdot():
+    from orbit import SecularJ2Orbit
+
+    # was: accepted (1 + 2 < 4 violates the triangle inequality of principal moments)
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=[1, 2, 4])
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=np.diag([4.0, 2.0, 1.0]))
+    leo = SecularJ2Orbit(7000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch="2024-03-01T00:00:00")
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        BDot.optimal_gain(leo, [1, 2, 4])
+    FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=[1, 2, 3])  # a flat plate
+
+
+def test_bdot_optimal_gain_on_an_orbit_inside_the_earth_is_an_error():
+    import warnings
+
+    from orbit import KeplerOrbit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the orbit package's PerigeeInsideEarthWarning
+        low = KeplerOrbit(3000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch="2024-03-01T00:00:00")
+    with pytest.raises(AttitudeValueError, match=r"orbit: its perigee radius .* inside the Earth"):
+        BDot.optimal_gain(low, BODY)  # was: a gain, with the orbit's warning only
+
+
+def test_gyro_misalignment_must_be_a_rotation_and_quantization_plausible():
+    # was: the zero matrix, -I and a reflection accepted as the misalignment matrix
+    cases = ((np.zeros((3, 3)), "not a rotation matrix"), (-np.eye(3), "det M"),
+             (np.diag([1.0, 1.0, -1.0]), "det M"), (2 * np.eye(3), "not a rotation"))  # fmt: skip
+    for bad, why in cases:
+        with pytest.raises(AttitudeValueError, match=f"misalignment: {why}"):
+            Gyro(1e-6, misalignment=bad)
+    from scipy.spatial.transform import Rotation
+
+    M = Rotation.from_rotvec([1e-3, -2e-3, 3e-3]).as_matrix()
+    np.testing.assert_array_equal(Gyro(1e-6, misalignment=M).misalignment, M)
+    # was: quantization=1e12 rad/s accepted (every reading rounded to 0)
+    with pytest.raises(AttitudeValueError, match=r"quantization: .*coarser than any rate gyro"):
+        Gyro(1e-6, quantization=1e12)
+    with pytest.raises(AttitudeValueError, match=r"quantization: .*saturation"):
+        Gyro(1e-6, quantization=0.2, saturation=0.1)
+    assert Gyro(1e-6, quantization=1e-4, saturation=0.1).quantization == 1e-4
+
+
+def test_sensor_noise_beyond_what_the_sensor_measures_is_refused():
+    # was: Magnetometer(100) (100 T, a scenario's noise = 100 without its nT) accepted
+    with pytest.raises(AttitudeValueError, match=r"noise: .*not a magnetometer of the Earth"):
+        Magnetometer(100.0)
+    assert Magnetometer(100 * u.nT).noise == pytest.approx(1e-7)
+    from attitude.sensors import SunSensor
+
+    with pytest.raises(AttitudeValueError, match=r"noise: .*full-Sun current"):
+        SunSensor(noise=1.0)
+
+
+def test_an_unknown_field_model_is_refused_without_magnetorquers():
+    # was: Spacecraft(body, field='bogus') accepted (checked only with magnetorquers)
+    with pytest.raises(AttitudeValueError, match=r"field: expected 'igrf' .*'dipole'.*'bogus'"):
+        attitude.Spacecraft(BODY, field="bogus")
+    with pytest.raises(AttitudeValueError, match="field: a constant field"):
+        attitude.Spacecraft(BODY, field=[1e-5, 0.0])
+    assert attitude.Spacecraft(BODY, field="dipole").field == "dipole"
