@@ -10,6 +10,7 @@ import math
 import time
 
 import astropy.units as u
+import numba
 import numpy as np
 import pytest
 
@@ -417,3 +418,80 @@ def test_an_unknown_field_model_is_refused_without_magnetorquers():
     with pytest.raises(AttitudeValueError, match="field: a constant field"):
         attitude.Spacecraft(BODY, field=[1e-5, 0.0])
     assert attitude.Spacecraft(BODY, field="dipole").field == "dipole"
+
+
+def test_atol_wider_than_the_state_is_refused():
+    # was: atol = 2**70 ran (rtol > 0.1 was refused, atol had only a floor)
+    Q0 = C.momenta_from_angular_velocity(Q_ID, [0.01, 0.0, 0.0], BODY)
+    with pytest.raises(AttitudeValueError, match=r"atol: .* above 0\.1 times the state's scale"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], atol=2.0**70)
+    with pytest.raises(AttitudeValueError, match=r"atol: .* use at most 0\.1 "):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], atol=0.2)  # |Q0| = 0.24 < 1: |q| rules
+
+
+def test_a_method_that_is_not_a_string_is_a_type_error():
+    # was: numpy's "truth value of an array is ambiguous" from choose_method
+    Q0 = C.momenta_from_angular_velocity(Q_ID, [0.01, 0.0, 0.0], BODY)
+    with pytest.raises(AttitudeTypeError, match="method: expected a method name"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], method=np.array(["a", "b"]))
+    with pytest.raises(AttitudeTypeError, match="method: expected a method name"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], method=None)
+
+
+def test_scenario_sensor_quantities_need_their_unit_and_a_plausible_noise():
+    # was: noise = 100.0 without noise_unit read as 100 T, the run exiting 0
+    base = _RW + '\n[software]\nperiod = 0.5\ncontrol = "rate_damping"\nC = 30.0\n'
+    mag = '[[software.sensors]]\ntype = "magnetometer"\nnoise = 100.0\nseed = 1\n'
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.noise: needs a unit"):
+        scenario.loads(base + mag)
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.noise: .*Earth's field"):
+        scenario.loads(base + mag + 'noise_unit = "T"\n')
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.arw: needs a unit"):
+        scenario.loads(base + '[[software.sensors]]\ntype = "gyro"\narw = 1e-6\n')
+    st = '[[software.sensors]]\ntype = "star_tracker"\nnoise = 5.0\nnoise_unit = "arcsec"\n'
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.rate: needs a unit"):
+        scenario.loads(base + st + "rate = 2.0\n")
+    sc = scenario.loads(base + mag + 'noise_unit = "nT"\n')
+    assert sc.software.sensors[0].noise == pytest.approx(1e-7)
+
+
+@numba.njit
+def _untyped_step(t, m):
+    return m.no_such_attribute
+
+
+@numba.njit
+def _tuple_step(t, m):
+    return (0.0, 0.0, 0.0, 0.0)
+
+
+def test_a_compiled_step_that_numba_cannot_compile_is_a_package_error():
+    # was: numba's TypingError out of propagate (its message ~60 lines of the package's kernels)
+    with pytest.raises(AttitudeTypeError, match=r"(?s)_untyped_step\(t, m\).*cannot be compiled.*"
+                       "no_such_attribute"):  # fmt: skip
+        _run(_craft(), FlightSoftware(0.1, control=_untyped_step))
+    with pytest.raises(AttitudeTypeError, match=r"_tuple_step\(t, m\).* returns UniTuple"):
+        _run(_craft(), FlightSoftware(0.1, control=_tuple_step))
+
+
+@pytest.mark.parametrize(
+    ("value", "why"),
+    [
+        ([np.nan, 0.0, 0.0, 0.0], "non-finite"),
+        ([np.inf, 0.0, 0.0, 0.0], "non-finite"),
+        (None, "returned None"),
+        ({"wheel_torque": None}, "returned wheel_torque = None"),
+        (np.zeros(3), r"returned shape \(3,\)"),
+        (np.zeros((4, 1)), r"returned shape \(4, 1\)"),  # was: flattened in silence
+        ({"wheel_torque": np.zeros((1, 4))}, r"wheel_torque of shape \(1, 4\)"),
+    ],
+)
+def test_a_python_step_returning_bad_commands_stops_with_the_partial_result(value, why):
+    # was: AttitudeValueError without .partial (docs/flight_software.md promises the samples)
+    def step(t, m):
+        return value if t > 0.25 else np.zeros(4)
+
+    with pytest.raises(attitude.errors.PropagationError, match=why) as info:
+        _run(_craft(), FlightSoftware(0.1, control=step), t=(0.0, 0.2, 0.4, 0.6))
+    assert info.value.partial is not None
+    np.testing.assert_array_equal(info.value.partial.time.values, [0.0, 0.2])
