@@ -342,6 +342,10 @@ def test_quantities_in_wrong_units_are_refused_not_stripped():
         MRPFeedback(1.0, 5.0, Ki=0.01 * u.m)
     law = MRPFeedback(1.0, 5.0, Ki=0.6 / u.min, integral_limit=2 * u.N * u.m * u.s)
     assert (law.Ki, law.integral_limit) == (pytest.approx(0.01), 2.0)
+    with pytest.raises(AttitudeTypeError, match="P: units m cannot"):
+        MRPFeedback(1.0, 5 * u.m)
+    assert MRPFeedback(1.0, 5e3 * u.mN * u.m * u.s).P[0, 0] == pytest.approx(5.0)
+    assert RateDamping([1.0, 2.0, 3.0] * u.N * u.m * u.s).K[2, 2] == 3.0
     with pytest.raises(AttitudeTypeError, match="tau: units m"):
         Gyro(1e-6).allan_variance(1 * u.m)  # was: np.asarray, the unit dropped
     with pytest.raises(AttitudeTypeError, match="speed: units m"):

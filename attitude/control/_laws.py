@@ -47,9 +47,10 @@ def positive_gain(
     return v
 
 
-def _matrix_gain(x: Any, name: str) -> np.ndarray:
-    """A gain given as a number (times the identity), 3 diagonal entries or a 3 × 3 matrix."""
-    a = as_float_array(x, name)
+def _matrix_gain(x: Any, name: str, unit: str = "N m s") -> np.ndarray:
+    """A gain given as a number (times the identity), 3 diagonal entries or a 3 × 3 matrix
+    (plain numbers in ``unit``, or a Quantity convertible to it)."""
+    a = as_float_array(x, name, unit=unit)
     if a.ndim == 0:
         m = float(a) * np.eye(3)
     elif a.shape == (3,):
