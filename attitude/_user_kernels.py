@@ -100,6 +100,7 @@ def check_step(step: Any) -> None:
     if JIT_DISABLED:
         return
     from numba import types
+    from numba.core.registry import cpu_target
 
     from .errors import AttitudeTypeError
 
@@ -109,15 +110,20 @@ def check_step(step: Any) -> None:
         "array of measurements, docs/flight_software.md)"
     )
     sig = (types.float64, types.Array(types.float64, 1, "C"))
-    try:
-        step.compile(sig)
+    try:  # as the loop's typing does: compiles it, or picks a signature given to njit
+        found = cpu_target.typing_context.resolve_function_type(types.Dispatcher(step), sig, {})
     except Exception as exc:
         lines = compile_failure(exc).splitlines()
         text = "\n".join(lines[:STEP_MESSAGE_LINES])
         more = len(lines) - STEP_MESSAGE_LINES
         text += f"\n... ({more} more lines)" if more > 0 else ""
         raise AttitudeTypeError(f"{where} cannot be compiled: {text}") from None
-    ret = next(s.return_type for s in step.nopython_signatures if tuple(s.args) == sig)
+    if found is None:
+        raise AttitudeTypeError(
+            f"{where}: none of its signatures {step.nopython_signatures} accepts "
+            f"(float64, {sig[1]}); give njit no signature, or one that does"
+        )
+    ret = found.return_type
     if not (
         isinstance(ret, types.Array)
         and ret.ndim == 1
