@@ -469,7 +469,23 @@ def _tuple_step(t, m):
     return (0.0, 0.0, 0.0, 0.0)
 
 
+@numba.njit("float64[:](float64, int64[:])")
+def _int_step(t, m):
+    return -m[0:3] * 1.0
+
+
+@numba.njit("float64[:](float64, float64[:])")
+def _signed_step(t, m):
+    return -m[0:3]
+
+
 def test_a_compiled_step_that_numba_cannot_compile_is_a_package_error():
+    from attitude._user_kernels import check_step
+
+    with pytest.raises(AttitudeTypeError, match=r"_int_step\(t, m\).*none of its signatures"):
+        _run(_craft(), FlightSoftware(0.1, control=_int_step))
+    check_step(_signed_step)  # a signature that takes the loop's arguments: no recompiling
+
     # was: numba's TypingError out of propagate (its message ~60 lines of the package's kernels)
     with pytest.raises(AttitudeTypeError, match=r"(?s)_untyped_step\(t, m\).*cannot be compiled.*"
                        "no_such_attribute"):  # fmt: skip
