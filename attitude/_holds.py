@@ -23,7 +23,7 @@ from ._core import holds as _kh
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
 from ._validation import as_float_array
-from .errors import AttitudeTypeError, AttitudeValueError
+from .errors import AttitudeError, AttitudeTypeError, AttitudeValueError
 
 __all__ = [
     "SPACECRAFT_METHODS",
@@ -253,17 +253,22 @@ class _Source:
             out = prog.python_step(m.t, m)
         except Exception as exc:
             raise _StepFailed(exc, tick, t) from exc
-        self.cmd[:] = _commands(out, craft, tick, t)
+        try:
+            self.cmd[:] = _commands(out, craft, tick, t)
+        except AttitudeError as exc:  # a PropagationError with .partial, as the compiled step's
+            raise _StepFailed(exc, tick, t, refused=True) from exc
 
 
 class _StepFailed(Exception):
-    """Your own step function raised (carried to propagate with the tick and time)."""
+    """Your own step function raised, or returned commands that cannot be applied
+    (``refused``), carried to propagate with the tick and time."""
 
-    def __init__(self, exc: BaseException, tick: int, t: float):
+    def __init__(self, exc: BaseException, tick: int, t: float, refused: bool = False):
         super().__init__(str(exc))
         self.exc = exc
         self.tick = tick
         self.t = t
+        self.refused = refused
 
 
 def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
@@ -272,6 +277,8 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
     n = nw + nm + nt
     where = f"software: your step function at tick {tick} (t = {t!r} s)"
     res = np.zeros(max(n, 3))
+    if out is None:
+        raise AttitudeTypeError(f"{where} returned None; expected an array of commands or a dict")
     if isinstance(out, dict):
         allowed = {"wheel_torque": (0, nw), "dipole": (nw, nm), "thrust": (nw + nm, nt)}
         if n == 0:
@@ -282,7 +289,10 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
                     f"{where} returned the key {k!r}; expected {', '.join(sorted(allowed))}"
                 )
             c0, cn = allowed[k]
-            a = as_float_array(v, f"{where} returned {k}").reshape(-1)
+            if v is None:
+                raise AttitudeTypeError(f"{where} returned {k} = None; expected {cn} numbers")
+            a = as_float_array(v, f"{where} returned {k}")
+            a = a.reshape(1) if a.ndim == 0 else a  # one number: one actuator
             if a.shape != (cn,):
                 raise AttitudeValueError(
                     f"{where} returned {k} of shape {a.shape}, expected ({cn},)"
@@ -290,7 +300,8 @@ def _commands(out: Any, craft: Any, tick: int, t: float) -> np.ndarray:
             res[c0 : c0 + cn] = a
     else:
         try:
-            a = as_float_array(out, f"{where} returned {type(out).__name__}").reshape(-1)
+            a = as_float_array(out, f"{where} returned {type(out).__name__}")
+            a = a.reshape(1) if a.ndim == 0 else a  # (not flattened: (3, 1) is refused)
         except AttitudeTypeError:
             raise AttitudeTypeError(
                 f"{where} returned {type(out).__name__}; expected an array of commands or a dict"
@@ -417,6 +428,8 @@ def _run(
     msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
     if isinstance(failure, str):
         msg = failure
+    elif failure is not None and failure.refused:
+        msg = str(failure.exc)
     elif failure is not None:
         msg = (
             f"your step function raised at tick {failure.tick} (t = {failure.t!r} s): "

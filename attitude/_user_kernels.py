@@ -41,7 +41,14 @@ from orbit._shared_jit import JIT_DISABLED, sources_fingerprint, user_cache_dir
 
 from ._core import entry_points as _builtin_entry_points
 
-__all__ = ["USER_ONLY", "builtin_part", "compile_failure", "entry_points", "model_key"]
+__all__ = [
+    "USER_ONLY",
+    "builtin_part",
+    "check_step",
+    "compile_failure",
+    "entry_points",
+    "model_key",
+]
 
 
 def compile_failure(exc: BaseException) -> str:
@@ -78,6 +85,54 @@ def compile_failure(exc: BaseException) -> str:
     elif path:
         where = f" at {path} line {line}"
     return f"numba could not compile it: {reason}{where}\n\nnumba's message:\n{text}"
+
+
+#: Lines of numba's message kept in the error of a step function that does not compile.
+STEP_MESSAGE_LINES = 20
+
+
+def check_step(step: Any) -> None:
+    """Compile your flight-software ``step(t, m)`` for the arguments the loop gives it (t a
+    float64, m the 1-D float64 array of measurements) and check that it returns a 1-D array of
+    real numbers: else an :class:`~attitude.errors.AttitudeTypeError` naming the function,
+    with numba's message (its first lines), before any work (it was numba's ``TypingError``
+    out of the run's first compiled call). The loop then calls this compiled version."""
+    if JIT_DISABLED:
+        return
+    from numba import types
+    from numba.core.registry import cpu_target
+
+    from .errors import AttitudeTypeError
+
+    name = getattr(step, "__name__", type(step).__name__)
+    where = (
+        f"control: your compiled step function {name}(t, m) (t a float, m the 1-D float64 "
+        "array of measurements, docs/flight_software.md)"
+    )
+    sig = (types.float64, types.Array(types.float64, 1, "C"))
+    try:  # as the loop's typing does: compiles it, or picks a signature given to njit
+        found = cpu_target.typing_context.resolve_function_type(types.Dispatcher(step), sig, {})
+    except Exception as exc:
+        lines = compile_failure(exc).splitlines()
+        text = "\n".join(lines[:STEP_MESSAGE_LINES])
+        more = len(lines) - STEP_MESSAGE_LINES
+        text += f"\n... ({more} more lines)" if more > 0 else ""
+        raise AttitudeTypeError(f"{where} cannot be compiled: {text}") from None
+    if found is None:
+        raise AttitudeTypeError(
+            f"{where}: none of its signatures {step.nopython_signatures} accepts "
+            f"(float64, {sig[1]}); give njit no signature, or one that does"
+        )
+    ret = found.return_type
+    if not (
+        isinstance(ret, types.Array)
+        and ret.ndim == 1
+        and isinstance(ret.dtype, (types.Float, types.Integer))
+    ):
+        raise AttitudeTypeError(
+            f"{where} returns {ret}; it must return a 1-D array of real numbers (the commands, "
+            "e.g. np.array([...]) or -(k * sigma))"
+        )
 
 
 _BEGIN = "# --- model: begin (replaced in user modules) ---"
@@ -455,6 +510,8 @@ def entry_points(
     module
         With the functions of :mod:`attitude._core.entry_points`; memoised per process.
     """
+    if step is not None:
+        check_step(step)
     part = builtin_part(potential)
     builtin, bindings = (None, {}) if part is None else part
     memo = (

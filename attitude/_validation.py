@@ -15,6 +15,8 @@ from ._times import TimeGrid
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
+    "ATOL_MIN",
+    "as_atol",
     "as_bool",
     "as_float_array",
     "as_int",
@@ -167,6 +169,38 @@ def as_rtol(x: Any, name: str = "rtol") -> float:
         raise AttitudeValueError(
             f"{name}: {v:g} is not a relative tolerance the error control can work with; use "
             f"at most {RTOL_MAX:g} (1e-10 is the default, 1e-6 a coarse run)"
+        )
+    return v
+
+
+#: Smallest accepted ``atol``. The error norm divides by atol + rtol |y| and squares: for a
+#: component that is 0, below ~1e-154 the square overflows and every step is rejected as
+#: non-finite (the run stops at t0). 1e-100 leaves a wide margin; a tolerance that small is
+#: purely relative anyway (rtol governs every component that is not 0).
+ATOL_MIN = 1e-100
+
+
+def as_atol(x: Any, scale: float | None = None, name: str = "atol") -> float:
+    """An absolute tolerance in [:data:`ATOL_MIN`, :data:`RTOL_MAX` × ``scale``].
+
+    ``scale`` is the size of the state's largest component (the canonical state: max(1, |Q0|
+    components), |q| = 1); an absolute error above RTOL_MAX times it is wider than the widest
+    relative tolerance accepted, for every component: the error control accepts any step.
+    None: the floor only.
+    """
+    v = as_positive(x, name)
+    if v < ATOL_MIN:
+        raise AttitudeValueError(
+            f"{name}: {v:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
+            "double precision below ~1e-154); use atol >= 1e-100 (rtol controls every "
+            "component that is not 0)"
+        )
+    if scale is not None and v > RTOL_MAX * scale:
+        raise AttitudeValueError(
+            f"{name}: {v:g} is above {RTOL_MAX:g} times the state's scale {scale:g} (its "
+            "largest component: |q| = 1 and the momenta Q0): an absolute error that wide lets "
+            f"the error control accept any step, as rtol above {RTOL_MAX:g} would; use at most "
+            f"{RTOL_MAX * scale:g} (1e-12 is the default)"
         )
     return v
 

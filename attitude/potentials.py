@@ -1048,23 +1048,32 @@ class _EnvironmentModel(Potential):
         return params, out.reshape((*tt.shape, out.shape[-1]))
 
 
-def _field_setting(field: Any, orbit: Any, what: str) -> tuple[str, np.ndarray | None, Any]:
-    """('igrf' | 'dipole' | 'constant', constant field [T] or None, orbit)."""
+def check_field(field: Any) -> np.ndarray | None:
+    """The constant field [T] of a ``field`` setting, or None for a model name ('igrf' or
+    'dipole'); anything else is refused, naming ``field`` and the choices."""
     if isinstance(field, str):
-        if not isinstance(field, str) or field not in ("igrf", "dipole"):
+        if field not in ("igrf", "dipole"):
             raise AttitudeValueError(
                 f"field: expected 'igrf' (IGRF-14 through ppigrf), 'dipole' (its tilted "
                 f"dipole) or a constant field vector (T, space axes), got {field!r}"
             )
-        why = "evaluates the geomagnetic field at the orbit's Earth-fixed positions and date"
-        orbit = _check_orbit(orbit, what, True, why)
-        _env.check_igrf_dates(np.array([orbit.epoch.utc.to_value("datetime64")], "datetime64[ns]"))
-        return field, None, orbit
+        return None
     b = as_float_array(field, "field", unit="T")
     if b.shape != (3,):
         raise AttitudeValueError(
             f"field: a constant field is 3 space-frame components (T), got shape {b.shape}"
         )
+    return b
+
+
+def _field_setting(field: Any, orbit: Any, what: str) -> tuple[str, np.ndarray | None, Any]:
+    """('igrf' | 'dipole' | 'constant', constant field [T] or None, orbit)."""
+    b = check_field(field)
+    if b is None:
+        why = "evaluates the geomagnetic field at the orbit's Earth-fixed positions and date"
+        orbit = _check_orbit(orbit, what, True, why)
+        _env.check_igrf_dates(np.array([orbit.epoch.utc.to_value("datetime64")], "datetime64[ns]"))
+        return field, None, orbit
     return "constant", b, _check_orbit(orbit, what, False, "")
 
 

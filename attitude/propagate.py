@@ -37,7 +37,8 @@ from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
 from ._spacecraft_results import add_actuator_variables, add_tick_variables, tick_dataset
-from ._validation import as_float_array, as_int, as_positive, as_rtol, as_times
+from ._validation import ATOL_MIN as ATOL_MIN  # (moved beside as_atol; still importable here)
+from ._validation import as_atol, as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
 from .canonical import _project
 from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
@@ -72,12 +73,6 @@ class _ProgressBar:
     def close(self) -> None:
         self.bar.close()
 
-
-#: Smallest accepted ``atol``. The error norm divides by atol + rtol |y| and squares: for a
-#: component that is 0, below ~1e-154 the square overflows and every step is rejected as
-#: non-finite (the run stops at t0). 1e-100 leaves a wide margin; a tolerance that small is
-#: purely relative anyway (rtol governs every component that is not 0).
-ATOL_MIN = 1e-100
 
 #: Largest number of output samples that is computed in memory before being handed to
 #: ``on_chunk`` by the methods that do not stream (the non-canonical formulations): ~170 bytes
@@ -132,6 +127,11 @@ def choose_method(
     events : list, optional
         The run's events.
     """
+    if not isinstance(method, str):
+        raise AttitudeTypeError(
+            f"method: expected a method name such as 'dop853' or 'auto', got "
+            f"{type(method).__name__} {method!r}"[:200]
+        )
     if method != AUTO:
         return method
     if events is not None or not (isinstance(formulation, str) and formulation == "canonical"):
@@ -268,7 +268,8 @@ def propagate(
         ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables);
-        ``rtol >= 1e-15``, ``atol >= ATOL_MIN`` (1e-100).
+        ``rtol >= 1e-15``, ``atol >= ATOL_MIN`` (1e-100) and at most 0.1 times the state's
+        largest component (max(1, |Q0| components)), as rtol <= 0.1.
     dt : float, optional
         Step of the fixed-step methods.
     order : int
@@ -390,13 +391,7 @@ def propagate(
     )
     tt = as_times(t, "t", lazy=True)
     rtol = as_rtol(rtol, "rtol")
-    atol = as_positive(atol, "atol")
-    if atol < ATOL_MIN:
-        raise AttitudeValueError(
-            f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
-            "double precision below ~1e-154); use atol >= 1e-100 (rtol controls every "
-            "component that is not 0)"
-        )
+    atol = as_atol(atol, max(1.0, float(np.max(np.abs(Q0a)))))
     if dt is not None:
         dt = as_positive(dt, "dt")
     if not isinstance(order, (int, np.integer)) or isinstance(order, bool):

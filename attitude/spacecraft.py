@@ -119,6 +119,9 @@ class Spacecraft:
                 f"orbit.EphemerisOrbit), got {type(orbit).__name__}"
             )
         s(self, "orbit", orbit)
+        from .potentials import check_field
+
+        check_field(field)  # an unknown name is refused with or without magnetorquers
         s(self, "field", field)
         self._field_model()  # checks the field setting and the orbit before any work
         # Ĩ = I − Σ J a aᵀ must be positive definite (the rest of the body has positive inertia

@@ -10,6 +10,7 @@ import math
 import time
 
 import astropy.units as u
+import numba
 import numpy as np
 import pytest
 
@@ -322,3 +323,195 @@ def test_scenario_ensemble_of_a_closed_loop_scenario_is_refused():
         scenario.loads(text + "\n[ensemble]\nsize = 3\nseed = 1\n")
     with pytest.raises(scenario.ScenarioError, match=r"ensemble: a scenario with actuators"):
         scenario.loads(_RW + "\n[ensemble]\nsize = 3\nseed = 1\n")
+
+
+# --- inputs that slipped through (issue 39) -----------------------------------------------------
+
+
+def test_quantities_in_wrong_units_are_refused_not_stripped():
+    # was: BDot(1 * u.m).gain == 1.0 and integral_limit=400 * u.deg read as 400 N m s
+    with pytest.raises(AttitudeTypeError, match="gain: units m"):
+        BDot(1 * u.m)
+    with pytest.raises(AttitudeTypeError, match="gain: units N m s"):
+        BDot(1 * u.N * u.m * u.s)  # the normalized law's unit, not m = -k dB/dt's
+    assert BDot(2 * u.N * u.m * u.s, normalized=True).gain == 2.0
+    assert BDot(3e3 * u.A * u.m**2 * u.s / u.mT).gain == pytest.approx(3e6)
+    with pytest.raises(AttitudeTypeError, match="integral_limit: units deg"):
+        MRPFeedback(1.0, 5.0, Ki=0.01, integral_limit=400 * u.deg)
+    with pytest.raises(AttitudeTypeError, match="Ki: units m"):
+        MRPFeedback(1.0, 5.0, Ki=0.01 * u.m)
+    law = MRPFeedback(1.0, 5.0, Ki=0.6 / u.min, integral_limit=2 * u.N * u.m * u.s)
+    assert (law.Ki, law.integral_limit) == (pytest.approx(0.01), 2.0)
+    with pytest.raises(AttitudeTypeError, match="P: units m cannot"):
+        MRPFeedback(1.0, 5 * u.m)
+    assert MRPFeedback(1.0, 5e3 * u.mN * u.m * u.s).P[0, 0] == pytest.approx(5.0)
+    assert RateDamping([1.0, 2.0, 3.0] * u.N * u.m * u.s).K[2, 2] == 3.0
+    with pytest.raises(AttitudeTypeError, match="tau: units m"):
+        Gyro(1e-6).allan_variance(1 * u.m)  # was: np.asarray, the unit dropped
+    with pytest.raises(AttitudeTypeError, match="speed: units m"):
+        ReactionWheel([0, 0, 1.0], 0.05, coulomb_friction=1e-3).friction(1 * u.m)
+
+
+def test_a_negative_integral_gain_is_refused_with_the_documented_way_to_omit_it():
+    # was: Ki=-1.0 accepted as "no integral term" (Basilisk's convention; ours is Ki=None)
+    with pytest.raises(AttitudeValueError, match=r"Ki: .*-1\.0; use Ki=None for no integral"):
+        MRPFeedback(1.0, 5.0, Ki=-1.0)
+    assert MRPFeedback(1.0, 5.0).Ki == MRPFeedback(1.0, 5.0, Ki=None).Ki  # no integral term
+
+
+def test_inertias_that_no_rigid_body_has_are_refused_by_the_software_and_bdot():
+    from orbit import SecularJ2Orbit
+
+    # was: accepted (1 + 2 < 4 violates the triangle inequality of principal moments)
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=[1, 2, 4])
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=np.diag([4.0, 2.0, 1.0]))
+    leo = SecularJ2Orbit(7000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch="2024-03-01T00:00:00")
+    with pytest.raises(AttitudeValueError, match="inertia: violates the triangle inequality"):
+        BDot.optimal_gain(leo, [1, 2, 4])
+    FlightSoftware(0.1, control=MRPFeedback(1.0, 5.0), inertia=[1, 2, 3])  # a flat plate
+
+
+def test_bdot_optimal_gain_on_an_orbit_inside_the_earth_is_an_error():
+    import warnings
+
+    from orbit import KeplerOrbit
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the orbit package's PerigeeInsideEarthWarning
+        low = KeplerOrbit(3000.0, 0.001, 1.7, 0.2, 0.3, f0=0.0, epoch="2024-03-01T00:00:00")
+    with pytest.raises(AttitudeValueError, match=r"orbit: its perigee radius .* inside the Earth"):
+        BDot.optimal_gain(low, BODY)  # was: a gain, with the orbit's warning only
+
+
+def test_gyro_misalignment_must_be_a_rotation_and_quantization_plausible():
+    # was: the zero matrix, -I and a reflection accepted as the misalignment matrix
+    cases = ((np.zeros((3, 3)), "not a rotation matrix"), (-np.eye(3), "det M"),
+             (np.diag([1.0, 1.0, -1.0]), "det M"), (2 * np.eye(3), "not a rotation"))  # fmt: skip
+    for bad, why in cases:
+        with pytest.raises(AttitudeValueError, match=f"misalignment: {why}"):
+            Gyro(1e-6, misalignment=bad)
+    from scipy.spatial.transform import Rotation
+
+    M = Rotation.from_rotvec([1e-3, -2e-3, 3e-3]).as_matrix()
+    np.testing.assert_array_equal(Gyro(1e-6, misalignment=M).misalignment, M)
+    # was: quantization=1e12 rad/s accepted (every reading rounded to 0)
+    with pytest.raises(AttitudeValueError, match=r"quantization: .*coarser than any rate gyro"):
+        Gyro(1e-6, quantization=1e12)
+    with pytest.raises(AttitudeValueError, match=r"quantization: .*saturation"):
+        Gyro(1e-6, quantization=0.2, saturation=0.1)
+    assert Gyro(1e-6, quantization=1e-4, saturation=0.1).quantization == 1e-4
+
+
+def test_sensor_noise_beyond_what_the_sensor_measures_is_refused():
+    # was: Magnetometer(100) (100 T, a scenario's noise = 100 without its nT) accepted
+    with pytest.raises(AttitudeValueError, match=r"noise: .*not a magnetometer of the Earth"):
+        Magnetometer(100.0)
+    assert Magnetometer(100 * u.nT).noise == pytest.approx(1e-7)
+    from attitude.sensors import SunSensor
+
+    with pytest.raises(AttitudeValueError, match=r"noise: .*full-Sun current"):
+        SunSensor(noise=1.0)
+
+
+def test_an_unknown_field_model_is_refused_without_magnetorquers():
+    # was: Spacecraft(body, field='bogus') accepted (checked only with magnetorquers)
+    with pytest.raises(AttitudeValueError, match=r"field: expected 'igrf' .*'dipole'.*'bogus'"):
+        attitude.Spacecraft(BODY, field="bogus")
+    with pytest.raises(AttitudeValueError, match="field: a constant field"):
+        attitude.Spacecraft(BODY, field=[1e-5, 0.0])
+    assert attitude.Spacecraft(BODY, field="dipole").field == "dipole"
+
+
+def test_atol_wider_than_the_state_is_refused():
+    # was: atol = 2**70 ran (rtol > 0.1 was refused, atol had only a floor)
+    Q0 = C.momenta_from_angular_velocity(Q_ID, [0.01, 0.0, 0.0], BODY)
+    with pytest.raises(AttitudeValueError, match=r"atol: .* above 0\.1 times the state's scale"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], atol=2.0**70)
+    with pytest.raises(AttitudeValueError, match=r"atol: .* use at most 0\.1 "):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], atol=0.2)  # |Q0| = 0.24 < 1: |q| rules
+
+
+def test_a_method_that_is_not_a_string_is_a_type_error():
+    # was: numpy's "truth value of an array is ambiguous" from choose_method
+    Q0 = C.momenta_from_angular_velocity(Q_ID, [0.01, 0.0, 0.0], BODY)
+    with pytest.raises(AttitudeTypeError, match="method: expected a method name"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], method=np.array(["a", "b"]))
+    with pytest.raises(AttitudeTypeError, match="method: expected a method name"):
+        attitude.propagate(BODY, Q_ID, Q0, [0.0, 1.0], method=None)
+
+
+def test_scenario_sensor_quantities_need_their_unit_and_a_plausible_noise():
+    # was: noise = 100.0 without noise_unit read as 100 T, the run exiting 0
+    base = _RW + '\n[software]\nperiod = 0.5\ncontrol = "rate_damping"\nC = 30.0\n'
+    mag = '[[software.sensors]]\ntype = "magnetometer"\nnoise = 100.0\nseed = 1\n'
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.noise: needs a unit"):
+        scenario.loads(base + mag)
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.noise: .*Earth's field"):
+        scenario.loads(base + mag + 'noise_unit = "T"\n')
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.arw: needs a unit"):
+        scenario.loads(base + '[[software.sensors]]\ntype = "gyro"\narw = 1e-6\n')
+    st = '[[software.sensors]]\ntype = "star_tracker"\nnoise = 5.0\nnoise_unit = "arcsec"\n'
+    with pytest.raises(scenario.ScenarioError, match=r"sensors\[0\]\.rate: needs a unit"):
+        scenario.loads(base + st + "rate = 2.0\n")
+    sc = scenario.loads(base + mag + 'noise_unit = "nT"\n')
+    assert sc.software.sensors[0].noise == pytest.approx(1e-7)
+
+
+@numba.njit
+def _untyped_step(t, m):
+    return m.no_such_attribute
+
+
+@numba.njit
+def _tuple_step(t, m):
+    return (0.0, 0.0, 0.0, 0.0)
+
+
+@numba.njit("float64[:](float64, int64[:])")
+def _int_step(t, m):
+    return -m[0:3] * 1.0
+
+
+@numba.njit("float64[:](float64, float64[:])")
+def _signed_step(t, m):
+    return -m[0:3]
+
+
+def test_a_compiled_step_that_numba_cannot_compile_is_a_package_error():
+    from attitude._user_kernels import check_step
+
+    with pytest.raises(AttitudeTypeError, match=r"_int_step\(t, m\).*none of its signatures"):
+        _run(_craft(), FlightSoftware(0.1, control=_int_step))
+    check_step(_signed_step)  # a signature that takes the loop's arguments: no recompiling
+
+    # was: numba's TypingError out of propagate (its message ~60 lines of the package's kernels)
+    with pytest.raises(AttitudeTypeError, match=r"(?s)_untyped_step\(t, m\).*cannot be compiled.*"
+                       "no_such_attribute"):  # fmt: skip
+        _run(_craft(), FlightSoftware(0.1, control=_untyped_step))
+    with pytest.raises(AttitudeTypeError, match=r"_tuple_step\(t, m\).* returns UniTuple"):
+        _run(_craft(), FlightSoftware(0.1, control=_tuple_step))
+
+
+@pytest.mark.parametrize(
+    ("value", "why"),
+    [
+        ([np.nan, 0.0, 0.0, 0.0], "non-finite"),
+        ([np.inf, 0.0, 0.0, 0.0], "non-finite"),
+        (None, "returned None"),
+        ({"wheel_torque": None}, "returned wheel_torque = None"),
+        (np.zeros(3), r"returned shape \(3,\)"),
+        (np.zeros((4, 1)), r"returned shape \(4, 1\)"),  # was: flattened in silence
+        ({"wheel_torque": np.zeros((1, 4))}, r"wheel_torque of shape \(1, 4\)"),
+    ],
+)
+def test_a_python_step_returning_bad_commands_stops_with_the_partial_result(value, why):
+    # was: AttitudeValueError without .partial (docs/flight_software.md promises the samples)
+    def step(t, m):
+        return value if t > 0.25 else np.zeros(4)
+
+    with pytest.raises(attitude.errors.PropagationError, match=why) as info:
+        _run(_craft(), FlightSoftware(0.1, control=step), t=(0.0, 0.2, 0.4, 0.6))
+    assert info.value.partial is not None
+    np.testing.assert_array_equal(info.value.partial.time.values, [0.0, 0.2])

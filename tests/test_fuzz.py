@@ -301,7 +301,7 @@ def _closed_loop_bases() -> list[dict[str, Any]]:
              "rrw_unit": "rad/s(3/2)", "bias": [1e-5, -1e-5, 0.0], "bias_unit": "rad/s",
              "seed": 1},
             {"type": "star_tracker", "noise": [5.0, 40.0], "noise_unit": "arcsec",
-             "boresight": [0.0, 0.6, 0.8], "rate": 2.0, "seed": 2},
+             "boresight": [0.0, 0.6, 0.8], "rate": 2.0, "rate_unit": "Hz", "seed": 2},
         ],
         "estimator": {"type": "mekf", "attitude_sigma": 0.01, "attitude_sigma_unit": "rad",
                       "bias_sigma": 1e-4, "bias_sigma_unit": "rad/s"},

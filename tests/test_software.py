@@ -369,10 +369,12 @@ def test_a_step_function_that_raises_keeps_the_samples_computed():
     def wrong(tt, m):
         return np.zeros(5)
 
-    with pytest.raises(AttitudeValueError, match="tick 0"):
+    # commands that cannot be applied stop the run as an exception does (issue 39)
+    with pytest.raises(PropagationError, match=r"tick 0 .*returned shape \(5,\)") as exc:
         attitude.propagate(
             body, [1.0, 0, 0, 0], np.zeros(4), t, software=FlightSoftware(0.5, control=wrong)
         )
+    assert exc.value.partial is not None
 
 
 def test_modes_delay_and_slew():

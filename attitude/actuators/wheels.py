@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from .._validation import as_scalar
+from .._validation import as_float_array, as_scalar
 from ..errors import AttitudeTypeError, AttitudeValueError
 from ._common import limit, nonnegative, optional_name, speeds_value, unit_axis
 
@@ -168,7 +168,7 @@ class ReactionWheel:
         kernel's values), in the Coulomb (default) or the Stribeck regime."""
         from .._core import actuators as _ka
 
-        om = np.asarray(speed, dtype=np.float64)
+        om = as_float_array(speeds_value(speed, "speed"), "speed")
         rec = wheel_record(self)
         rec[_ka.W_STRIBECK] = 1.0 if (stribeck and self.stribeck_speed is not None) else 0.0
         sc = np.zeros(_ka.S_WHEELS + _ka.WS)

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from .._validation import as_float_array, as_scalar
+from ..body import RigidBody
 from ..errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
@@ -22,25 +23,34 @@ __all__ = [
 ]
 
 
-def positive_gain(x: Any, name: str, unit: str | None = None, *, allow_zero: bool = False) -> float:
+def positive_gain(
+    x: Any, name: str, unit: str | None = None, *, allow_zero: bool = False, hint: str = ""
+) -> float:
+    """A gain from a plain number (in ``unit``) or a Quantity convertible to ``unit``
+    (dimensionless when ``unit`` is None: a Quantity in other units is refused, never
+    stripped of them)."""
     from astropy import units as u
 
     if isinstance(x, u.Quantity):
+        want = u.Unit(unit) if unit else u.dimensionless_unscaled
         try:
-            x = x.to_value(unit, u.dimensionless_angles()) if unit else x.to_value()
+            x = x.to_value(want, u.dimensionless_angles())
         except u.UnitConversionError:
             raise AttitudeTypeError(
-                f"{name}: units {x.unit} cannot be converted to {unit}"
+                f"{name}: units {x.unit} cannot be converted to {want}; give {name} in units "
+                f"compatible with {want}, or a plain number in {want}"
             ) from None
     v = as_scalar(x, name)
     if not (v > 0 or (allow_zero and v == 0)) or not math.isfinite(v):
-        raise AttitudeValueError(f"{name}: the gain must be a positive finite number, got {v!r}")
+        what = "a finite number >= 0" if allow_zero else "a positive finite number"
+        raise AttitudeValueError(f"{name}: the gain must be {what}, got {v!r}{hint}")
     return v
 
 
-def _matrix_gain(x: Any, name: str) -> np.ndarray:
-    """A gain given as a number (times the identity), 3 diagonal entries or a 3 × 3 matrix."""
-    a = as_float_array(x, name)
+def _matrix_gain(x: Any, name: str, unit: str = "N m s") -> np.ndarray:
+    """A gain given as a number (times the identity), 3 diagonal entries or a 3 × 3 matrix
+    (plain numbers in ``unit``, or a Quantity convertible to it)."""
+    a = as_float_array(x, name, unit=unit)
     if a.ndim == 0:
         m = float(a) * np.eye(3)
     elif a.shape == (3,):
@@ -88,9 +98,10 @@ class MRPFeedback(ControlLaw):
         Attitude gain (N m).
     P : float, array_like (3,) or (3, 3)
         Rate gain (N m s); a number as in Basilisk, or a matrix.
-    Ki : float, optional
-        Integral gain (1/s); None or <= 0: no integral term (Basilisk's ``Ki = -1``).
-    integral_limit : float, optional
+    Ki : float or Quantity, optional
+        Integral gain (1/s, >= 0); None or 0: no integral term (Basilisk's ``Ki = -1``; a
+        negative Ki is refused).
+    integral_limit : float or Quantity, optional
         Limit of each component of ∫ K σ dt (N m s; default: 0.1 × 2 / Ki as in Basilisk's
         scenario, unlimited without Ki).
     law_type : {0, 1}
@@ -109,14 +120,15 @@ class MRPFeedback(ControlLaw):
         s = object.__setattr__
         s(self, "K", positive_gain(K, "K", "N m"))
         s(self, "P", _matrix_gain(P, "P"))
-        ki = -1.0 if Ki is None else as_scalar(Ki, "Ki")
-        if not math.isfinite(ki):
-            raise AttitudeValueError("Ki: must be finite")
+        # None is the kernel's -1 (Basilisk's "no integral term"); a negative Ki given by the
+        # caller is refused: Basilisk's convention, not ours (docs: Ki=None)
+        hint = "; use Ki=None for no integral term"
+        ki = -1.0 if Ki is None else positive_gain(Ki, "Ki", "1 / s", allow_zero=True, hint=hint)
         s(self, "Ki", ki)
         if integral_limit is None:
             lim = 2.0 / ki * 0.1 if ki > 0 else math.inf
         else:
-            lim = positive_gain(integral_limit, "integral_limit")
+            lim = positive_gain(integral_limit, "integral_limit", "N m s")
         s(self, "integral_limit", lim)
         if law_type not in (0, 1):
             raise AttitudeValueError(f"law_type: expected 0 or 1, got {law_type!r}")
@@ -185,6 +197,19 @@ class RateDamping(ControlLaw):
         return f"RateDamping(K={self.K.tolist()!r})"
 
 
+def _check_earth_orbit(rp: float, mu: float) -> None:
+    """Refuse an Earth orbit whose perigee radius ``rp`` (km) is inside the Earth (the orbit
+    package only warns: :class:`orbit.errors.PerigeeInsideEarthWarning`)."""
+    from orbit.keplerorbit import EARTH_MU, EARTH_MU_RTOL, EARTH_RADIUS
+
+    if abs(mu - EARTH_MU) <= EARTH_MU_RTOL * EARTH_MU and not rp >= EARTH_RADIUS:
+        raise AttitudeValueError(
+            f"orbit: its perigee radius {rp:.1f} km is inside the Earth (equatorial radius "
+            f"{EARTH_RADIUS} km): no spacecraft flies this orbit and its field and mean motion "
+            "give no gain; check the orbit's a and e"
+        )
+
+
 @dataclass(frozen=True, init=False)
 class BDot(ControlLaw):
     """B-dot detumbling with magnetorquers.
@@ -198,8 +223,9 @@ class BDot(ControlLaw):
 
     Parameters
     ----------
-    gain : float
-        k: A m² s T⁻¹ for m = −k Ḃ; N m s for the normalized law.
+    gain : float or Quantity
+        k: A m² s T⁻¹ for m = −k Ḃ; N m s for the normalized law (a Quantity in other units
+        is refused).
     normalized : bool
         Which of the two laws.
     """
@@ -210,9 +236,10 @@ class BDot(ControlLaw):
     needs = "dipole"
 
     def __init__(self, gain: Any, normalized: bool = False):
-        object.__setattr__(self, "gain", positive_gain(gain, "gain"))
         if not isinstance(normalized, (bool, np.bool_)):
             raise AttitudeTypeError("normalized: expected True or False")
+        unit = "N m s" if normalized else "A m2 s / T"
+        object.__setattr__(self, "gain", positive_gain(gain, "gain", unit))
         object.__setattr__(self, "normalized", bool(normalized))
 
     @staticmethod
@@ -229,7 +256,10 @@ class BDot(ControlLaw):
         mu = float(orbit.mu)
         h = np.cross(r, v)
         inc = math.acos(max(-1.0, min(1.0, h[2] / np.linalg.norm(h))))
-        a = 1.0 / (2.0 / np.linalg.norm(r) - float(v @ v) / mu)  # vis-viva (osculating, km)
+        rn = float(np.linalg.norm(r))
+        a = 1.0 / (2.0 / rn - float(v @ v) / mu)  # vis-viva (osculating, km)
+        e = np.linalg.norm(((v @ v) - mu / rn) * r - (r @ v) * v) / mu
+        _check_earth_orbit(a * (1.0 - e), mu)
         n = math.sqrt(mu / a**3)
         tilt = math.radians(9.6)
         xi = max(abs(math.sin(inc + tilt)), abs(math.sin(inc - tilt)))
@@ -243,6 +273,7 @@ class BDot(ControlLaw):
                     "inertia: expected 3 positive principal moments (kg m²), a RigidBody or a "
                     f"Spacecraft, got {moments.tolist()!r}"
                 )
+            RigidBody(moments)  # its checks: the triangle inequalities of principal moments
         return 2.0 * n * (1.0 + xi) * float(np.min(moments))
 
     def _gains(self):

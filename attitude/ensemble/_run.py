@@ -13,12 +13,12 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._validation import as_float_array, as_int, as_positive, as_rtol, as_times
+from .._validation import as_atol, as_float_array, as_int, as_positive, as_rtol, as_times
 from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL, check_attrs
 from ..potentials import Potential
-from ..propagate import ATOL_MIN, AUTO, PROJECTION_WARN, _check_max_step
+from ..propagate import AUTO, PROJECTION_WARN, _check_max_step
 from . import _dask, _plan
 from ._chunks import (
     _N_DIAG,
@@ -303,12 +303,7 @@ def propagate_ensemble(
         )
     tt = as_times(t, "t")
     rtol = as_rtol(rtol, "rtol")
-    atol = as_positive(atol, "atol")
-    if atol < ATOL_MIN:
-        raise AttitudeValueError(
-            f"atol: {atol:g} is below the floor {ATOL_MIN:g} (the scaled error norm overflows "
-            "double precision below ~1e-154); use atol >= 1e-100"
-        )
+    atol = as_atol(atol)
     max_step = as_positive(max_step, "max_step", allow_inf=True)
     max_steps = as_int(max_steps, "max_steps")
     _check_max_step(abs(float(tt[-1]) - float(tt[0])), max_step, max_steps)

@@ -52,6 +52,15 @@ SENSOR_KEYS: dict[str, dict[str, str | None]] = {
     "magnetometer": {"noise": None, "bias": None, "seed": None},
     "sun_sensor": {"noise": None, "normals": None, "seed": None},
 }  # fmt: skip
+#: The sensor keys that are quantities, each with an example unit: they need ``<key>_unit``.
+_SENSOR_UNITS: dict[str, dict[str, str]] = {
+    "gyro": {"arw": "deg/h(1/2)", "rrw": "rad/s(3/2)", "bias": "deg/h",
+             "quantization": "rad/s", "saturation": "deg/s"},
+    "star_tracker": {"noise": "arcsec", "rate": "Hz", "sun_exclusion": "deg",
+                     "earth_exclusion": "deg"},
+    "magnetometer": {"noise": "nT", "bias": "nT"},
+    "sun_sensor": {},
+}  # fmt: skip
 ESTIMATOR_KEYS: dict[str, str | None] = {
     "type": None,
     "attitude_sigma": "angle",
@@ -319,6 +328,13 @@ def _sensors(r: _Reader, spec: Any) -> list:
             raise _fail(f"{where}.type", f"expected one of {', '.join(SENSOR_KEYS)}, got {kind!r}")
         keys = {"type": None, **SENSOR_KEYS[kind]}
         _check(t, keys, where)
+        for k, example in _SENSOR_UNITS[kind].items():
+            if k in t and f"{k}_unit" not in t:  # as the [[spacecraft.*]] tables' quantities
+                raise _fail(
+                    f"{where}.{k}",
+                    f"needs a unit: add {k}_unit = {example!r} (any unit of its kind; a plain "
+                    "number would be read in SI, 100 meaning 100 T for a magnetometer's noise)",
+                )
         kw: dict[str, Any] = {}
         for k in SENSOR_KEYS[kind]:
             if k not in t:

@@ -49,6 +49,34 @@ def _q(x: Any, name: str, unit: str, *, allow_zero: bool = True, allow_inf: bool
     return v
 
 
+#: Largest accepted Frobenius norm of MᵀM − I of a gyro's misalignment matrix M.
+ROTATION_TOL = 1e-6
+
+#: Largest accepted gyro quantization step (rad/s): 57°/s per count.
+GYRO_QUANTIZATION_MAX = 1.0
+
+#: Largest accepted magnetometer noise σ (T): the Earth's field is at most ~6.6e-5 T at the
+#: surface, ~5e-5 T in low orbit.
+MAGNETOMETER_NOISE_MAX = 1e-3
+
+
+def _check_rotation(M: np.ndarray, name: str) -> None:
+    """Refuse a 3 × 3 matrix that is not a rotation (orthonormal, det +1, to ROTATION_TOL)."""
+    err = float(np.linalg.norm(M.T @ M - np.eye(3)))
+    if not err <= ROTATION_TOL:
+        raise AttitudeValueError(
+            f"{name}: not a rotation matrix: ||MᵀM − I|| = {err:.3g} exceeds {ROTATION_TOL:g} "
+            "(the zero matrix, a scaled or sheared matrix are not a turn of the sensor axes; "
+            "scale errors are scale_factor); give a rotation matrix, or a rotation vector (rad)"
+        )
+    if not np.linalg.det(M) > 0:
+        raise AttitudeValueError(
+            f"{name}: det M = {np.linalg.det(M):.3g} < 0: a reflection (such as −I) is not a "
+            "rotation of the sensor axes (it makes them left-handed); give a rotation matrix "
+            "(det +1), or a rotation vector (rad)"
+        )
+
+
 def _vector(x: Any, name: str, unit: str | None = None) -> np.ndarray:
     a = as_float_array(x, name, unit=unit)
     if a.ndim == 0:
@@ -114,9 +142,12 @@ class Gyro(Sensor):
     scale_factor : float or array_like (3,)
         Scale factor errors S (dimensionless, e.g. 1e-4 for 100 ppm).
     misalignment : array_like (3,) or (3, 3), optional
-        Small rotation of the sensor axes (rad, a rotation vector) or a full matrix M.
+        Small rotation of the sensor axes (rad, a rotation vector) or its matrix M: a rotation
+        (orthonormal to :data:`ROTATION_TOL`, det +1; non-orthogonal axes are not modelled,
+        scale errors are ``scale_factor``).
     quantization : float or Quantity
-        Output resolution (rad/s; 0: none).
+        Output resolution (rad/s; 0: none), below the saturation and below
+        :data:`GYRO_QUANTIZATION_MAX` = 1 rad/s.
     saturation : float or Quantity
         Largest |rate| per axis (rad/s; inf: none).
     seed : int, optional
@@ -150,6 +181,7 @@ class Gyro(Sensor):
                 M = to_matrix(from_rotation_vector(m))
             elif m.shape == (3, 3):
                 M = m.copy()
+                _check_rotation(M, "misalignment")
             else:
                 raise AttitudeValueError(
                     "misalignment: expected a rotation vector (3,) or a matrix (3, 3)"
@@ -158,6 +190,19 @@ class Gyro(Sensor):
         s(self, "quantization", _q(quantization, "quantization", "rad / s"))
         s(self, "saturation", _q(saturation, "saturation", "rad / s", allow_zero=False,
                                  allow_inf=True))  # fmt: skip
+        qmax = min(GYRO_QUANTIZATION_MAX, self.saturation)
+        if self.quantization >= qmax:
+            why = (
+                f"at or above the saturation {self.saturation!r} rad/s the gyro reads only 0 "
+                "or its saturation"
+                if self.saturation <= GYRO_QUANTIZATION_MAX
+                else f"a step of {GYRO_QUANTIZATION_MAX:g} rad/s (57°/s) or more is coarser "
+                "than any rate gyro's resolution (a 16-bit gyro over ±2000°/s: 1e-3 rad/s)"
+            )
+            raise AttitudeValueError(
+                f"quantization: {self.quantization!r} rad/s: {why}; give the output's "
+                "resolution (rad/s per count), below both"
+            )
         if np.any(np.abs(self.bias) >= self.saturation):
             raise AttitudeValueError(
                 f"bias: {self.bias.tolist()!r} rad/s reaches the saturation {self.saturation!r} "
@@ -172,7 +217,7 @@ class Gyro(Sensor):
 
     def allan_variance(self, tau: Any) -> np.ndarray:
         """The model's Allan variance σ_v²/τ + σ_u² τ/3 (rad²/s²) at averaging times τ (s)."""
-        tt = np.asarray(tau, dtype=np.float64)
+        tt = as_float_array(tau, "tau", unit="s")
         return self.arw**2 / tt + self.rrw**2 * tt / 3.0
 
 
@@ -275,7 +320,8 @@ class Magnetometer(Sensor):
     Parameters
     ----------
     noise : float or Quantity
-        σ (T; a Quantity such as ``100 * u.nT``).
+        σ (T; a Quantity such as ``100 * u.nT``), at most :data:`MAGNETOMETER_NOISE_MAX` =
+        1e-3 T (the Earth's field is ~5e-5 T in low orbit).
     bias : float, array_like (3,) or Quantity
         b (T).
     seed : int, optional
@@ -287,7 +333,14 @@ class Magnetometer(Sensor):
     kind = "magnetometer"
 
     def __init__(self, noise: Any, bias: Any = 0.0, seed: Any = None):
-        object.__setattr__(self, "noise", _q(noise, "noise", "T"))
+        v = _q(noise, "noise", "T")
+        if v > MAGNETOMETER_NOISE_MAX:
+            raise AttitudeValueError(
+                f"noise: σ = {v!r} T is above {MAGNETOMETER_NOISE_MAX:g} T, while the Earth's "
+                "field it measures is at most ~6.6e-5 T: not a magnetometer of the Earth's "
+                "field; give σ in T (100 nT = 1e-7 T, or a Quantity such as 100 * u.nT)"
+            )
+        object.__setattr__(self, "noise", v)
         object.__setattr__(self, "bias", _vector(bias, "bias", "T"))
         object.__setattr__(self, "seed", _seed(seed))
 
@@ -306,7 +359,7 @@ class SunSensor(Sensor):
     normals : array_like (n, 3), optional
         The heads' normals in body axes (default: the six faces ±x, ±y, ±z).
     noise : float
-        σ of each head's current, as a fraction of its full-Sun current.
+        σ of each head's current, as a fraction of its full-Sun current (below 1).
     seed : int, optional
     """
 
@@ -327,7 +380,13 @@ class SunSensor(Sensor):
                 raise AttitudeValueError("normals: a zero normal has no direction")
             n = n / nn[:, None]
         object.__setattr__(self, "normals", n)
-        object.__setattr__(self, "noise", _q(noise, "noise", "1"))
+        v = _q(noise, "noise", "1")
+        if not v < 1.0:
+            raise AttitudeValueError(
+                f"noise: σ = {v!r} full-Sun currents: noise at or above the signal it measures "
+                "(a head's full-Sun current is 1); give σ as a fraction of it (0.01: 1 %)"
+            )
+        object.__setattr__(self, "noise", v)
         object.__setattr__(self, "seed", _seed(seed))
 
 

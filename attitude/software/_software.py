@@ -15,6 +15,7 @@ from .._core import fsw as _kf
 from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
 from .._validation import as_float_array, as_int, as_scalar
+from ..body import RigidBody
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
 from ..errors import AttitudeTypeError, AttitudeValueError
 from ._guidance import Slew, as_guidance
@@ -274,14 +275,15 @@ class FlightSoftware:
         Time of the first tick after the run's start (s, default 0).
     inertia : array_like (3,) or (3, 3), optional
         The software's model of the spacecraft's inertia (kg m²; default the true one):
-        what the laws' gyroscopic and feed-forward terms use.
+        what the laws' gyroscopic and feed-forward terms use; its principal moments must meet
+        the triangle inequalities, as :class:`attitude.RigidBody`'s.
     record_every : None, int or Quantity
         What the result records of the ticks (the ``tick`` variables): None (default) the
         ticks in effect at the run's output samples (the last tick at or before each sample:
         its mode, reference, errors, requests, commands, measurements and estimate), so the
         result's size follows the samples asked for; an integer k every k-th tick (1: every
-        tick, tick-level telemetry: ~200 bytes a tick in memory, 160 with wheels alone; stream
-        it to a file for long runs, ``propagate(..., on_chunk=writer.append)`` or the
+        tick, tick-level telemetry: ~200 bytes a tick in memory with three wheels; stream it
+        to a file for long runs, ``propagate(..., on_chunk=writer.append)`` or the
         ``attitude run`` command); a time interval (e.g. ``60 * u.s``, a whole number of
         periods).
     """
@@ -317,6 +319,7 @@ class FlightSoftware:
                 raise AttitudeValueError(
                     "inertia: expected 3 principal moments or a symmetric positive definite 3 x 3"
                 )
+            RigidBody(np.linalg.eigvalsh(a))  # its checks: the triangle inequalities
             self.inertia = a
         if sensors is not None or estimator is not None:
             from ..sensors import as_sensor_set
