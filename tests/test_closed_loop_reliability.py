@@ -322,3 +322,38 @@ def test_scenario_ensemble_of_a_closed_loop_scenario_is_refused():
         scenario.loads(text + "\n[ensemble]\nsize = 3\nseed = 1\n")
     with pytest.raises(scenario.ScenarioError, match=r"ensemble: a scenario with actuators"):
         scenario.loads(_RW + "\n[ensemble]\nsize = 3\nseed = 1\n")
+
+
+@pytest.mark.parametrize(
+    "table, close",
+    [
+        ('\n[software]\nperiod = 0.5\nguidance = "intertial"\ncontrol = "mrp_feedback"\n'
+         "K = 3.5\nP = 30.0\n", "inertial"),
+        ('\n[software]\nperiod = 0.5\nguidance = "lvhl"\ncontrol = "mrp_feedback"\n'
+         "K = 3.5\nP = 30.0\n", "lvlh"),
+        ("\n[[software.modes]]\nname = \"a\"\ncontrol = \"rate_damping\"\nC = 30.0\n"
+         '[[software.modes]]\nname = "b"\ncondition = "pointing_within"\nthreshold = 0.1\n'
+         'condition_frame = "nadirr"\ncontrol = "rate_damping"\nC = 30.0\n', "nadir"),
+    ],
+)  # fmt: skip
+def test_scenario_misspelled_frame_is_named_with_the_choices(table, close):
+    """issue 39: guidance = "intertial" (no [orbit] table) was reported as 'needs an [orbit]
+    table'; the error now names the unknown frame, the valid ones and the closest."""
+    text = _RW + table
+    if "modes" in table:
+        text = text.replace(
+            "[[software.modes]]", "[software]\nperiod = 0.5\n\n[[software.modes]]", 1
+        )
+    with pytest.raises(scenario.ScenarioError) as exc:
+        scenario.loads(text)
+    msg = str(exc.value)
+    assert "unknown name" in msg and "[orbit]" not in msg
+    assert "inertial, orbital, lvlh, rsw, vnc, nadir, sun_pointing" in msg
+    assert msg.endswith(f"did you mean {close!r}?")
+
+
+def test_scenario_misspelled_initial_frame_suggests_the_close_one():
+    text = _RW.replace("[initial_state]", '[initial_state]\nframe = "inertal"', 1)
+    with pytest.raises(scenario.ScenarioError, match=r"initial_state\.frame: unknown name "
+                       r"'inertal': .*did you mean 'inertial'\?"):  # fmt: skip
+        scenario.loads(text)
