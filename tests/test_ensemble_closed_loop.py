@@ -187,7 +187,7 @@ def test_bad_closed_loop_ensemble_input_is_refused_before_any_work():
     c = craft()
     q0 = np.tile(q, (2, 1))
     Q0 = np.tile(C.momenta_from_angular_velocity(q, w, c), (2, 1))
-    t = [0.0, 1.0]
+    t = [0.0, 2.0]  # (two ticks of the 1 s software: a period as long as the run is refused)
     with pytest.raises(AttitudeTypeError, match="seed: expected a non-negative integer"):
         propagate_ensemble(c, q0, Q0, t, software=software(), seed=1.5)
     with pytest.raises(AttitudeValueError, match="commands: the flight software commands"):
