@@ -72,6 +72,7 @@ def prepare(
     t: np.ndarray,
     commands: Any,
     software: Any = None,
+    max_steps: int | None = None,
     samples: Any = None,
 ) -> tuple[SpacecraftRun, np.ndarray]:
     """The spacecraft run's data and the initial state (q0, Q0, h0).
@@ -116,6 +117,7 @@ def prepare(
             raise AttitudeTypeError(
                 f"software: expected an attitude.FlightSoftware, got {type(software).__name__}"
             )
+        check_software_span(software, float(tt[0]), float(tt[-1]), max_steps)
         prog = program(software, spacecraft, float(tt[0]), float(tt[-1]), samples)
     sc = spacecraft.block(np.array([tt[0], tt[-1]]))
     y0 = initial_state(spacecraft, q0, Q0)
@@ -131,6 +133,39 @@ def prepare(
         software=software,
     )
     return run, y0
+
+
+def check_software_span(software: Any, t0: float, t1: float, max_steps: int | None) -> None:
+    """Refuse, before any work, flight software whose ticks t0 + phase + k·period the run
+    t < t1 of the run [t0, t1] cannot hold: a period as long as the run or longer (one tick,
+    at t0 + phase, and its command held to the end), a phase at or past the end (no tick),
+    more ticks than ``max_steps`` (each tick ends an integration
+    step: a period of 1e-300 s would run ~1e300 ticks). A single time (t1 = t0) runs only
+    the tick at t0."""
+    span = t1 - t0
+    if not span > 0.0:
+        return
+    period, phase = software.period, software.phase
+    run = f"the run's span {span:g} s (t = {t0:g} … {t1:g} s)"
+    if period >= span:
+        raise AttitudeValueError(
+            f"period: the software's period {period:g} s is not shorter than {run}: it would "
+            f"tick once, at t = {t0 + phase:g} s, and hold that command to the end (no tick "
+            f"runs at the end itself); give a period below {span:g} s (a few ticks at "
+            "least), or a longer run"
+        )
+    if phase >= span:
+        raise AttitudeValueError(
+            f"phase: the first tick t0 + phase = {t0 + phase:g} s is at or after the end of "
+            f"{run}: the software would never act; give a phase below {span:g} s (it is "
+            "measured from the start of the run), or a longer run"
+        )
+    if max_steps is not None and span / period > max_steps:
+        raise AttitudeValueError(
+            f"period: a tick every {period!r} s over the time span {span:g} s is "
+            f"{span / period:.3g} ticks, more than max_steps = {max_steps}: the run cannot "
+            "finish; lengthen the software's period (or raise max_steps)"
+        )
 
 
 def initial_state(spacecraft: Any, q0: np.ndarray, Q0: np.ndarray) -> np.ndarray:

@@ -189,17 +189,6 @@ def _check_max_step(span: float, max_step: float, max_steps: int) -> None:
         )
 
 
-def _check_ticks(period: float, span: float, max_steps: int) -> None:
-    """Every tick of the flight software ends an integration step: more ticks than
-    ``max_steps`` is certain failure (a period of 1e-300 s would run ~1e300 ticks)."""
-    if span / period > max_steps:
-        raise AttitudeValueError(
-            f"period: a tick every {period!r} s over the time span {span:g} s is "
-            f"{span / period:.3g} ticks, more than max_steps = {max_steps}: the run cannot "
-            "finish; lengthen the software's period (or raise max_steps)"
-        )
-
-
 def _check_work(problem: Problem, method: str, max_step: float, max_steps: int) -> None:
     """Refuse up front what cannot finish in ``max_steps`` (the work estimate of the adaptive
     methods is made from their first steps: :func:`attitude._methods.check_work`)."""
@@ -449,10 +438,10 @@ def propagate(
         from . import _holds
 
         craft.check_orbit(getattr(pot, "orbit", None))
-        period = getattr(software, "period", None)
-        if isinstance(period, float):  # the type of software is checked by _holds.prepare
-            _check_ticks(period, float(span[1] - span[0]), max_steps)
-        sc_run, y0 = _holds.prepare(craft, q0p, Q0p, span, commands, software, samples=tt)
+        # (the software's period, phase and ticks against the span: _holds.check_software_span)
+        sc_run, y0 = _holds.prepare(
+            craft, q0p, Q0p, span, commands, software, max_steps, samples=tt
+        )
         run_attrs["spacecraft"] = craft.describe()
         if software is not None:
             run_attrs["software"] = software.describe()

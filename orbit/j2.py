@@ -148,6 +148,127 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
         d[_sk.J_SINI] = math.sin(kep.inc)
         self._set_data(d)
 
+    # -- the orbits users type most -------------------------------------------------------------
+    @classmethod
+    def circular(
+        cls,
+        altitude: Any,
+        inc: Any,
+        raan: Any = 0.0,
+        arg_lat: Any = 0.0,
+        *,
+        epoch: Any = None,
+        mu: Any = None,
+        j2: Any = None,
+        radius: Any = None,
+        t0: Any = 0.0,
+    ) -> SecularJ2Orbit:
+        """The circular (mean) orbit ``altitude`` km above the equatorial radius ``radius``.
+
+        a = radius + altitude (default radius 6378.137 km); e = 0, ω = 0 and the argument of
+        latitude ``arg_lat`` (default 0: at the ascending node) at ``t0``. The other
+        parameters are those of :class:`SecularJ2Orbit`; altitude <= 0 is refused
+        (:class:`OrbitValueError`).
+        """
+        from ._constructors import circular_radius
+
+        rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        a = circular_radius(altitude, rad)
+        u = _scalar(arg_lat, "arg_lat", "rad")
+        return cls(a, 0.0, inc, raan, 0.0, f0=u, epoch=epoch, mu=mu, j2=j2, radius=rad, t0=t0)
+
+    @classmethod
+    def sun_synchronous(
+        cls,
+        altitude: Any,
+        local_time_of_node: Any,
+        epoch: Any,
+        *,
+        arg_lat: Any = 0.0,
+        mu: Any = None,
+        j2: Any = None,
+        radius: Any = None,
+    ) -> SecularJ2Orbit:
+        """The circular sun-synchronous orbit at ``altitude`` whose ascending node is at mean
+        local solar time ``local_time_of_node`` at ``epoch``.
+
+        Parameters
+        ----------
+        altitude : float or Quantity [km]
+            Height above the equatorial radius, > 0 and below the highest sun-synchronous
+            circular orbit (about 5970 km for the Earth).
+        local_time_of_node : str, float or Quantity
+            Mean local solar time of the **ascending** node: ``"10:30"``, ``"22:30:00"`` or
+            hours (10.5). A "10:30 descending node" orbit has its ascending node at 22:30.
+        epoch : astropy Time or str
+            The date of t = 0 (required: the node is placed relative to the Sun).
+        arg_lat : float or Quantity [rad], optional
+            Argument of latitude at t = 0 (default 0: at the ascending node).
+        mu, j2, radius :
+            As for :class:`SecularJ2Orbit` (defaults: the Earth's); j2 must be > 0.
+
+        Returns
+        -------
+        SecularJ2Orbit
+            With Ω̇ = 2π / 365.2421897 d (the mean Sun's rate), so the node keeps its local
+            time; :meth:`local_time_of_node` gives it back.
+
+        Raises
+        ------
+        OrbitValueError
+            altitude <= 0 or too high (cos i < −1), an unreadable or out-of-range local time,
+            no epoch, j2 <= 0.
+
+        Notes
+        -----
+        cos i = −(2/3) (dΩ/dt)_ss a^(7/2) / (J2 R² √μ) (the secular J2 node rate for e = 0),
+        and Ω = ERA(epoch) + 15°/h (LTAN − UT1 hours): the node's longitude is its mean local
+        time (:mod:`orbit._constructors`; docs/orbit.md).
+
+        Examples
+        --------
+        >>> o = SecularJ2Orbit.sun_synchronous(800.0, "10:30", "2024-03-20T12:00:00")
+        >>> round(math.degrees(o.inc), 2)
+        98.6
+        """
+        from . import _constructors as c
+        from .keplerorbit import earth_mu
+        from .timescales import as_epoch
+
+        ep = as_epoch(epoch, "epoch", allow_none=False)
+        lt = c.local_time_hours(local_time_of_node)
+        rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        j2_ = EARTH_J2 if j2 is None else _scalar(j2, "j2", None)
+        if not j2_ > 0.0:
+            raise OrbitValueError(
+                f"j2: a sun-synchronous orbit needs the J2 drift of the node (j2 > 0), got {j2_!r}"
+            )
+        mu_ = earth_mu() if mu is None else _scalar(mu, "mu", "km3 / s2")
+        if not mu_ > 0.0:
+            raise OrbitValueError(f"mu: gravitational parameter must be > 0 km³/s², got {mu_!r}")
+        a = c.circular_radius(altitude, rad)
+        inc = c.sun_synchronous_inclination(a, mu_, j2_, rad)
+        raan = c.raan_from_local_time(lt, ep)
+        u = _scalar(arg_lat, "arg_lat", "rad")
+        return cls(a, 0.0, inc, raan, 0.0, f0=u, epoch=ep, mu=mu_, j2=j2_, radius=rad)
+
+    def local_time_of_node(self, t: Any = 0.0) -> float:
+        """Mean local solar time [h, in [0, 24)] of the ascending node at time ``t`` [s since
+        the epoch]: UT1 + λ/15°/h at the node's longitude λ (:mod:`orbit._constructors`).
+
+        Raises :class:`OrbitValueError` for an orbit without an epoch.
+        """
+        from ._constructors import local_time_of_node
+
+        if self._epoch is None:
+            raise OrbitValueError(
+                "epoch: the local time of the node needs a date; give the orbit an epoch"
+            )
+        ts = _scalar(t, "t", "s")
+        from astropy import units as u
+
+        return local_time_of_node(float(self.raan_at(ts)), self._epoch + ts * u.s)
+
     # -- elements (ClassicalElements: a, e, inc, raan, argp, M0, t0) and rates ------------------
     @property
     def j2(self) -> float:

@@ -356,6 +356,56 @@ class KeplerOrbit(ClassicalElements, OrbitBase):
 
     # -----------------------------------------------------------------------------------------
     @classmethod
+    def circular(
+        cls,
+        altitude: Any,
+        inc: Any,
+        raan: Any = 0.0,
+        arg_lat: Any = 0.0,
+        *,
+        epoch: Any = None,
+        mu: Any = None,
+        t0: Any = 0.0,
+    ) -> KeplerOrbit:
+        """The circular orbit ``altitude`` km above the Earth's equatorial radius (6378.137 km).
+
+        Parameters
+        ----------
+        altitude : float or Quantity [km]
+            Height above the equatorial radius, > 0: a = 6378.137 km + altitude.
+        inc : float or Quantity [rad]
+            Inclination, 0 <= inc <= π.
+        raan : float or Quantity [rad], optional
+            Right ascension of the ascending node Ω (default 0).
+        arg_lat : float or Quantity [rad], optional
+            Argument of latitude u at ``t0`` (angle from the ascending node; default 0: at
+            the node). Stored as ω = 0, f0 = u.
+        epoch, mu, t0 :
+            As for :class:`KeplerOrbit`.
+
+        Raises
+        ------
+        OrbitValueError
+            altitude <= 0, and the element checks of :class:`KeplerOrbit`.
+
+        Examples
+        --------
+        >>> import math
+        >>> o = KeplerOrbit.circular(500.0, math.radians(51.6))
+        >>> round(o.a, 3), o.e
+        (6878.137, 0.0)
+
+        For a sun-synchronous orbit (the J2 drift of the node) see
+        :meth:`orbit.SecularJ2Orbit.sun_synchronous`.
+        """
+        from ._constructors import circular_radius
+
+        a = circular_radius(altitude, EARTH_RADIUS)
+        u = _scalar(arg_lat, "arg_lat", "rad")
+        return cls(a, 0.0, inc, raan, 0.0, f0=u, mu=mu, t0=t0, epoch=epoch)
+
+    # -----------------------------------------------------------------------------------------
+    @classmethod
     def from_state(
         cls, r: Any, v: Any, mu: Any = None, t0: Any = 0.0, *, epoch: Any = None
     ) -> KeplerOrbit:

@@ -102,6 +102,39 @@ def test_a_period_with_more_ticks_than_max_steps_is_refused_before_any_work():
                            software=FlightSoftware(0.1, control=RateDamping(1.0)))  # fmt: skip
 
 
+def test_a_period_longer_than_the_run_or_a_phase_past_its_end_is_refused_before_any_work():
+    """issue 39: FlightSoftware(5.0) on a 2 s run ticked once, at t0, silently; a phase of
+    1e6 s never ticked. Both are refused, naming the parameter, the span and the fix, in
+    single runs and ensembles (before the members run)."""
+    from attitude.ensemble import propagate_ensemble
+
+    law = RateDamping(1.0)
+    t = (0.0, 1.0, 2.0)
+    cases = [
+        (FlightSoftware(5.0, control=law), r"period: the software's period 5 s is not shorter "
+         r"than the run's span 2 s \(t = 0 … 2 s\).*below 2 s"),
+        (FlightSoftware(2.0, control=law), r"period: .* 2 s is not shorter than"),
+        (FlightSoftware(0.1, control=law, phase=1e6), r"phase: the first tick t0 \+ phase = "
+         r"1e\+06 s is at or after the end of the run's span 2 s.*below 2 s"),
+        (FlightSoftware(0.1, control=law, phase=2.0), r"phase: .* = 2 s is at or after"),
+    ]  # fmt: skip
+    craft = _craft()
+    Q0 = C.momenta_from_angular_velocity(Q_ID, [0.01, 0.0, 0.0], craft)
+    for fsw, match in cases:
+        with pytest.raises(AttitudeValueError, match=match):
+            _run(craft, fsw, t)
+        with pytest.raises(AttitudeValueError, match=match):
+            propagate_ensemble([craft] * 2, [Q_ID] * 2, [Q0] * 2, list(t), software=fsw)
+    # just inside the limits the software runs (ticks t < 2 s): a period a little shorter
+    # than the span, a phase inside it, and a single time (only the tick at t0)
+    for fsw, t_, ticks in (
+        (FlightSoftware(1.9, control=law), t, [0.0, 1.9]),
+        (FlightSoftware(1.0, control=law, phase=1.5), t, [1.5]),
+        (FlightSoftware(5.0, control=law), (0.0,), [0.0]),
+    ):
+        np.testing.assert_array_equal(_run(craft, fsw, t_).tick.values, ticks)
+
+
 def test_gain_matrices_near_the_overflow_threshold_are_checked_without_overflow():
     # was: numpy's LinAlgError "Eigenvalues did not converge" (m + m.T overflowed)
     assert QuaternionFeedback(1.0, 1e308).C[0, 0] == 1e308
@@ -515,3 +548,38 @@ def test_a_python_step_returning_bad_commands_stops_with_the_partial_result(valu
         _run(_craft(), FlightSoftware(0.1, control=step), t=(0.0, 0.2, 0.4, 0.6))
     assert info.value.partial is not None
     np.testing.assert_array_equal(info.value.partial.time.values, [0.0, 0.2])
+
+
+@pytest.mark.parametrize(
+    "table, close",
+    [
+        ('\n[software]\nperiod = 0.5\nguidance = "intertial"\ncontrol = "mrp_feedback"\n'
+         "K = 3.5\nP = 30.0\n", "inertial"),
+        ('\n[software]\nperiod = 0.5\nguidance = "lvhl"\ncontrol = "mrp_feedback"\n'
+         "K = 3.5\nP = 30.0\n", "lvlh"),
+        ("\n[[software.modes]]\nname = \"a\"\ncontrol = \"rate_damping\"\nC = 30.0\n"
+         '[[software.modes]]\nname = "b"\ncondition = "pointing_within"\nthreshold = 0.1\n'
+         'condition_frame = "nadirr"\ncontrol = "rate_damping"\nC = 30.0\n', "nadir"),
+    ],
+)  # fmt: skip
+def test_scenario_misspelled_frame_is_named_with_the_choices(table, close):
+    """issue 39: guidance = "intertial" (no [orbit] table) was reported as 'needs an [orbit]
+    table'; the error now names the unknown frame, the valid ones and the closest."""
+    text = _RW + table
+    if "modes" in table:
+        text = text.replace(
+            "[[software.modes]]", "[software]\nperiod = 0.5\n\n[[software.modes]]", 1
+        )
+    with pytest.raises(scenario.ScenarioError) as exc:
+        scenario.loads(text)
+    msg = str(exc.value)
+    assert "unknown name" in msg and "[orbit]" not in msg
+    assert "inertial, orbital, lvlh, rsw, vnc, nadir, sun_pointing" in msg
+    assert msg.endswith(f"did you mean {close!r}?")
+
+
+def test_scenario_misspelled_initial_frame_suggests_the_close_one():
+    text = _RW.replace("[initial_state]", '[initial_state]\nframe = "inertal"', 1)
+    with pytest.raises(scenario.ScenarioError, match=r"initial_state\.frame: unknown name "
+                       r"'inertal': .*did you mean 'inertial'\?"):  # fmt: skip
+        scenario.loads(text)

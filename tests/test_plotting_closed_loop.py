@@ -208,10 +208,25 @@ def test_estimation_error_inside_three_sigma(mekf_run):
         assert any(np.allclose(ln.get_ydata(), bound, rtol=1e-14) for ln in dashed)
         assert any(np.allclose(ln.get_ydata(), -bound, rtol=1e-14) for ln in dashed)
     # the fraction inside, said in the title, counted independently
-    inside = np.mean(np.abs(err[:, :3]) <= 3.0 * sig[:, :3], axis=0)
     title = ax.get_title(loc="left")
-    for c, p in zip("xyz", inside, strict=True):
-        assert f"{c} {p:.0%}" in title
+    for c, n_in in zip("xyz", np.sum(np.abs(err[:, :3]) <= 3.0 * sig[:, :3], axis=0), strict=True):
+        n = err.shape[0]  # the percentage rounded down to 0.1 %, in integers
+        want = "100%" if n_in == n else f"{(1000 * n_in) // n / 10:.1f}%"
+        assert f"{c} {want}" in title
+    plt.close(fig)
+    # issue 39: 99.7 % inside was shown as "100%": rounded down at 0.1 % now
+    ds = mekf_run.copy(deep=True)
+    out = ds.estimation_error.values.copy()
+    out[n // 2, 0] = 1e3 * sig[n // 2, 0]  # one x tick far outside its bound
+    ds["estimation_error"] = (ds.estimation_error.dims, out)
+    fig = plot_result(ds, panels=["estimation"])
+    n_in = int(np.sum(np.abs(out[:, 0]) <= 3.0 * sig[:, 0]))
+    assert n_in == n - 1  # 79 of 80: 98.75 %, shown 98.7 % (rounded down)
+    title = fig.axes[0].get_title(loc="left")
+    assert f"x {(1000 * n_in) // n / 10:.1f}%" in title and "x 100%" not in title
+    plt.close(fig)
+    fig = plot_result(mekf_run, panels=["estimation", "gyro_bias"])
+    ax, bx = fig.axes
     # the bias: the estimate and the truth (estimate + error) in deg/h; the truth is the gyro's
     deg_h = np.degrees(1.0) * 3600.0
     bl = _lines(bx)
@@ -222,6 +237,17 @@ def test_estimation_error_inside_three_sigma(mekf_run):
     np.testing.assert_allclose(truth, (est + err[:, 3:]) * deg_h, rtol=1e-12)
     np.testing.assert_allclose(truth[-1], [3.0, -2.0, 1.5], atol=0.05)  # b0 + the slow RRW
     plt.close(fig)
+
+
+@pytest.mark.parametrize(
+    "p, shown",
+    [(0.997, "99.7%"), (0.9995, "99.9%"), (1 - 1e-15, "99.9%"), (1.0, "100%"),
+     (0.9875, "98.7%"), (0.0, "0.0%"), (1 / 3, "33.3%"), (float("nan"), "n/a")],
+)  # fmt: skip
+def test_fraction_inside_is_never_rounded_up_to_100_percent(p, shown):
+    from attitude.plotting._closed_loop import _percent_floor
+
+    assert _percent_floor(p) == shown
 
 
 def test_dipoles_and_rate_with_their_references(bdot_run):

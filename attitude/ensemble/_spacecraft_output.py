@@ -78,12 +78,11 @@ def chunk_dataset(
     k_ticks = 0
     if "records" in out:
         k_ticks = members.tick_times().shape[0]
-        rec = out["records"][:, :k_ticks]
-        ticks = SimpleNamespace(
-            program=run0.program,
-            spacecraft=run0.spacecraft,
-            ticks=np.ascontiguousarray(rec).reshape(c * k_ticks, rec.shape[2]),
-        )
+        rec = out["records"]
+        flat_rec = np.empty((c * k_ticks, rec.shape[2]))
+        for r in range(c):  # a member at a time: one copy of them all was seconds without Ctrl-C
+            flat_rec[r * k_ticks : (r + 1) * k_ticks] = rec[r, :k_ticks]
+        ticks = SimpleNamespace(program=run0.program, spacecraft=run0.spacecraft, ticks=flat_rec)
         flat = add_tick_variables(flat, ticks)
     # cut back into members
     consts: dict[int, dict[str, xr.Variable]] = {}

@@ -12,6 +12,7 @@ long runs, :data:`attitude.plotting.MAX_POINTS` at most).
 
 from __future__ import annotations
 
+import math
 import re
 from typing import Any
 
@@ -483,6 +484,17 @@ def _focus(ax: Any, values: np.ndarray, bounds: np.ndarray) -> bool:
     return bool(b.max() > lim or (v.size and v.max() > lim))
 
 
+def _percent_floor(p: float) -> str:
+    """A fraction as a percentage with one decimal, rounded *down*: 0.9997 is "99.9%", never
+    "100%" (which only 1 is: every tick inside); NaN is "n/a"."""
+    if not math.isfinite(p):
+        return "n/a"
+    if p >= 1.0:
+        return "100%"
+    tenths = min(math.floor(p * 1000.0 * (1.0 + 1e-12)), 999)  # (1e-12: 0.997 is 99.7)
+    return f"{tenths / 10:.1f}%"
+
+
 @register_panel("estimation", needs=("estimation_error", "estimation_sigma"))
 def estimation(ax: Any, ctx: PlotContext) -> None:
     """The estimator's attitude error (truth against estimate, body axes) per axis, inside its
@@ -511,7 +523,7 @@ def estimation(ax: Any, ctx: PlotContext) -> None:
     ax.axhline(0.0, color="0.5", lw=0.6)
     off = _focus(ax, err, sig3)
     ax.set_ylabel(f"estimation error [{unit}]")
-    frac = ", ".join(f"{c} {p:.0%}" for c, p in zip("xyz", inside, strict=True))
+    frac = ", ".join(f"{c} {_percent_floor(p)}" for c, p in zip("xyz", inside, strict=True))
     _title(ax, f"attitude estimation error in ±3σ (inside: {frac})",
            "start off scale" if off else "")  # fmt: skip
     _legend(ax)

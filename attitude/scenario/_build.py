@@ -40,6 +40,7 @@ from ._schema import (
     _is_number,
     _only,
     _Reader,
+    _unknown_choice,
 )
 
 # ------------------------------------------------------------------------------------------------
@@ -182,10 +183,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     _only(it, "initial_state", form, _FORMS[form][0], ("form", "frame"), "initial_state.form")
     frame = r.string(it, "frame", "initial_state", "inertial")
     if frame not in _FRAMES[:5]:
-        raise _fail(
-            "initial_state.frame",
-            f"expected one of {', '.join(_FRAMES[:5])} ('orbital' is rsw), got {frame!r}",
-        )
+        raise _unknown_choice("initial_state.frame", frame, _FRAMES[:5], " ('orbital' is rsw)")
     q0, Q0 = _initial(r, it, form, frame, body if craft is None else craft, orbit, float(t[0]))
 
     # [integrator]

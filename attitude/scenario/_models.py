@@ -33,6 +33,7 @@ from ._schema import (
     _is_number,
     _only,
     _Reader,
+    _unknown_choice,
 )
 
 _ORBIT_TYPES = ("kepler", "secular_j2", "tle", "oem")
@@ -362,10 +363,10 @@ def _frame(name: str, orbit: Any, key: str, q: Any = None) -> Any:
     """A reference frame of attitude.frames named in a scenario (:func:`frames.by_name`)."""
     from .. import frames as F
 
+    if name != "inertial" and name not in F.NAMED:  # before the [orbit] check: a misspelling
+        raise _unknown_choice(key, name, _FRAMES)
     if name != "inertial" and orbit is None:
         raise _fail(key, f"frame {name!r} needs an [orbit] table")
-    if name != "inertial" and name not in F.NAMED:
-        raise _fail(key, f"expected one of {', '.join(_FRAMES)}, got {name!r}")
     try:
         if q is not None and name != "inertial":  # the frame turned by q (inertial(q) is too)
             return F.by_name(name, orbit).offset(q)

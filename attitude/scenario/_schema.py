@@ -233,6 +233,14 @@ def _fail(key: str, msg: str) -> ScenarioError:
     return ScenarioError(f"{key}: {msg}")
 
 
+def _unknown_choice(key: str, name: str, choices: tuple[str, ...], note: str = "") -> ScenarioError:
+    """The error for a name that is not one of ``choices``: the name, the valid choices and
+    the closest one (difflib) if any is close, e.g. 'intertial' → 'inertial'."""
+    close = difflib.get_close_matches(name, choices, n=1)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return _fail(key, f"unknown name {name!r}: expected one of {', '.join(choices)}{note}{hint}")
+
+
 def _is_number(x: Any) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool)
 
