@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ._progress import Progress
 from ._version import __version__
 
 __all__ = ["main"]
@@ -42,56 +43,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     """``warnings.showwarning`` of the command: one line, no source location."""
     text = str(message).splitlines()[0] if str(message) else category.__name__
     _warn(text)
-
-
-# ------------------------------------------------------------------------------------------------
-# progress line
-# ------------------------------------------------------------------------------------------------
-
-
-class Progress:
-    """A one-line progress bar on stderr, shown only once a run has taken more than ``delay`` s.
-
-    Parameters
-    ----------
-    mode : {"auto", "always", "never"}
-        ``auto`` draws only when stderr is a terminal.
-    """
-
-    def __init__(self, mode: str = "auto", *, delay: float = 1.0, stream: Any = None, clock=None):
-        self.stream = stream if stream is not None else sys.stderr
-        tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.enabled = mode == "always" or (mode == "auto" and tty)
-        self.delay = delay
-        self.clock = clock or time.monotonic
-        self.start = self.clock()
-        self.shown = False
-        self.last = -math.inf
-
-    def __call__(self, done: int, total: int, t: float) -> None:
-        if not self.enabled:
-            return
-        now = self.clock()
-        elapsed = now - self.start
-        if elapsed < self.delay or (now - self.last < 0.1 and done < total):
-            return
-        self.last = now
-        frac = done / total if total else 1.0
-        width = 30
-        fill = round(width * frac)
-        eta = elapsed * (1 - frac) / frac if frac > 0 else math.inf
-        eta_s = f"{eta:5.0f} s left" if math.isfinite(eta) else "      "
-        self.stream.write(
-            f"\r[{'#' * fill}{'.' * (width - fill)}] {100 * frac:5.1f}%  "
-            f"{done}/{total} samples  {elapsed:6.1f} s  {eta_s}"
-        )
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
 
 
 # ------------------------------------------------------------------------------------------------
