@@ -479,6 +479,13 @@ def cmd_info(args: argparse.Namespace) -> int:
             rows, inv = _info_rows(args, ds)
             budget = _torque_budget(ds)
             wheels = _wheel_lines(ds)
+            from ._pointing_stats import pointing_lines
+            from .errors import AttitudeValueError
+
+            try:
+                pointing = pointing_lines(ds, args.settle)
+            except AttitudeValueError as exc:
+                raise BadInput(str(exc)) from None
             events = ds.attrs.get("events") or "detector" in ds.dims
             ev = _event_lines(ds) if events else []
         except BadInput:
@@ -489,6 +496,8 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"{k:<11} {v}")
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
         print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if pointing:
+            print("pointing    " + "\n            ".join(pointing))
         if wheels:
             print("wheels      " + "\n            ".join(wheels))
         if events:
@@ -961,6 +970,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")
     i.add_argument("file", metavar="OUT.nc")
+    i.add_argument(
+        "--settle",
+        metavar="T|P%",
+        default=None,
+        help="closed loop: the pointing error's statistics leave out the run's first T seconds "
+        "(60, 2min) or P %% of it (default 10%%)",
+    )
     i.set_defaults(func=cmd_info)
 
     e = sub.add_parser(

@@ -12,12 +12,12 @@ long runs, :data:`attitude.plotting.MAX_POINTS` at most).
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from .._pointing_stats import guided_modes
 from ._common import series
 from ._panels import _AXIS_COLORS, PlotContext, _legend, available, register_panel
 
@@ -102,20 +102,6 @@ def _labels(ds: xr.Dataset, dim: str, prefix: str) -> list[str]:
     if name in ds.variables:
         return [str(x) for x in ds[name].values]
     return [f"{prefix}{k + 1}" for k in range(ds.sizes[dim])]
-
-
-def guided_modes(ds: xr.Dataset) -> np.ndarray:
-    """Per mode of the software, whether it has a guidance (a reference to point at): the
-    attitude error of a mode without one (B-dot, rate damping) is measured from the inertial
-    identity and means nothing. From the ``software`` attr (``mode0: guidance none, ...``);
-    all guided when it does not say."""
-    names = str(ds["mode"].attrs.get("flag_meanings", "")).split() if "mode" in ds else []
-    text = str(ds.attrs.get("software", ""))
-    out = []
-    for name in names:
-        m = re.search(rf"(?:^|; ){re.escape(name)}(?: when \w+)?: guidance (\S+)", text)
-        out.append(not (m is not None and m.group(1).rstrip(",") == "none"))
-    return np.array(out or [True], dtype=bool)
 
 
 def mode_spans(ds: xr.Dataset) -> list[tuple[float, float, int]]:
