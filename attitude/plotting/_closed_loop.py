@@ -496,11 +496,52 @@ def estimation(ax: Any, ctx: PlotContext) -> None:
         inside.append(float(np.mean(np.abs(err[ok, k]) <= sig3[ok, k])) if ok.any() else np.nan)
     ax.axhline(0.0, color="0.5", lw=0.6)
     off = _focus(ax, err, sig3)
+    out = _tracker_outages(ax, ctx)
     ax.set_ylabel(f"estimation error [{unit}]")
     frac = ", ".join(f"{c} {p:.0%}" for c, p in zip("xyz", inside, strict=True))
-    _title(ax, f"attitude estimation error in ±3σ (inside: {frac})",
-           "start off scale" if off else "")  # fmt: skip
+    notes = [n for n in ("start off scale" if off else "", out) if n]
+    _title(ax, f"attitude estimation error in ±3σ (inside: {frac})", "; ".join(notes))
     _legend(ax)
+
+
+#: ``star_tracker_status`` values of an outage (no measurement although one was due): the Sun
+#: or the Earth in the exclusion cone. ``no_update`` (1) is a tracker slower than the ticks.
+TRACKER_OUT = (2, 3)
+#: Colour of the star tracker's outages on the estimation panel.
+OUTAGE_COLOR = "tab:orange"
+
+
+def outage_spans(ds: xr.Dataset) -> list[tuple[float, float]]:
+    """The star tracker's outages: (start, end) in s of each run of recorded ticks whose
+    ``star_tracker_status`` is an exclusion (:data:`TRACKER_OUT`), to the next recorded tick."""
+    if "star_tracker_status" not in ds.variables or ds.sizes.get("tick", 0) == 0:
+        return []
+    from ..results import time_values
+
+    t = time_values(ds, "tick")
+    out = np.isin(np.asarray(ds["star_tracker_status"].values), TRACKER_OUT)
+    edges = np.diff(np.concatenate([[0], out.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return [
+        (float(t[a]), float(t[b]) if b < t.size else float(t[-1]) + step)
+        for a, b in zip(starts, ends, strict=True)
+    ]
+
+
+def _tracker_outages(ax: Any, ctx: PlotContext) -> str:
+    """Bands where the star tracker gave no measurement (Sun or Earth exclusion); the title's
+    note (share of the ticks), or "" when it never was out."""
+    spans = outage_spans(ctx.ds)
+    if not spans:
+        return ""
+    s = ctx.axis.scale
+    for i, (a, b) in enumerate(spans):
+        ax.axvspan(a / s, b / s, color=OUTAGE_COLOR, alpha=0.18, lw=0, zorder=0.5,
+                   label="star tracker out" if i == 0 else None)  # fmt: skip
+    status = np.asarray(ctx.ds["star_tracker_status"].values)
+    share = float(np.mean(np.isin(status, TRACKER_OUT)))
+    return f"orange: star tracker out, {share:.0%} of the ticks"
 
 
 @register_panel("gyro_bias", needs=("bias_estimate",))
@@ -541,13 +582,17 @@ def gyro_bias(ax: Any, ctx: PlotContext) -> None:
 
 def closed_loop_defaults(ctx: PlotContext) -> list[str]:
     """The panels of a closed-loop run when none are asked for: the attitude error (a run
-    whose software points at something) or |ω| (one that only damps rates: B-dot), then the
-    actuators it has, then the estimator."""
+    whose software points at something) and |ω| when a mode only damps rates (a detumbling
+    mode before the pointing), or |ω| and the rates (software that only damps rates: B-dot),
+    then the actuators it has, then the estimator."""
     ds = ctx.ds
     out = []
-    pointing = available(ctx, "control_error") and bool(guided_modes(ds).any())
+    guided = guided_modes(ds)
+    pointing = available(ctx, "control_error") and bool(guided.any())
     if pointing:
         out.append("control_error")
+        if not guided.all():  # what the other modes do: their rates
+            out.append("rate_norm")
     else:
         out += ["rate_norm", "rates"]
     out += [p for p in CLOSED_LOOP_PANELS[2:] if available(ctx, p)]
