@@ -2,7 +2,7 @@
 
 The first closed-loop run of a fresh install (or after any edit of the package's sources, which
 keys the cache) compiles its driver, with the flight software's tick, the integrator and the
-diagnostics, in 40-65 s of CPU; every later run loads them from the disk cache in a fraction
+diagnostics, in about 40 s of CPU; every later run loads them from the disk cache in a fraction
 of a second. :func:`watch` wraps a run's progress report: when the driver is neither compiled
 in this process nor in the cache (:func:`orbit._shared_jit.will_compile`), it says so before
 the run, and says how long numba compiled once it is done. The notices go to the progress
@@ -13,18 +13,30 @@ progress object with ``restart()`` is told to start its rate estimate again afte
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from typing import Any
 
 from orbit._shared_jit import will_compile
 
-__all__ = ["CLOSED_LOOP_COMPILE_S", "CompileWatch", "watch"]
+__all__ = ["CLOSED_LOOP_COMPILE_CPU_S", "CompileWatch", "compile_estimate", "watch"]
 
-#: The estimate the notice gives: wall-clock seconds of a first closed-loop run's compilation
-#: (38-39 s of CPU, 50-54 s of wall time for `dop853` and `taylor` on the 2-core development
-#: machine at load ~2.5; the issue measured 30-65 s of CPU).
-CLOSED_LOOP_COMPILE_S = 50
+#: CPU seconds of a first closed-loop run's compilation: 38-39 s for `dop853` and `taylor` on
+#: the 2-core development machine (the issue measured 30-65 s).
+CLOSED_LOOP_COMPILE_CPU_S = 40
+
+
+def compile_estimate(cpu_seconds: float) -> float:
+    """Wall-clock seconds of a compilation of ``cpu_seconds``: numba compiles on one core, so a
+    busy machine stretches it by the load per core (measured: 50-54 s at load 2.7 on 2 cores,
+    122 s at load 5.5)."""
+    try:
+        load = os.getloadavg()[0] / (os.cpu_count() or 1)
+    except (OSError, AttributeError):  # pragma: no cover - no load average (Windows)
+        load = 1.0
+    return cpu_seconds * max(1.0, load)
+
 
 #: The closed-loop driver each method calls (attributes of the run's entry-point module).
 _DRIVERS = {"dop853": "dop853_spacecraft_fsw", "taylor": "taylor_spacecraft_fsw"}
@@ -114,4 +126,5 @@ def watch(progress: Any, problem: Any, method: str) -> CompileWatch | None:
     driver = getattr(problem.entry, _DRIVERS.get(method, ""), None)
     if driver is None or not will_compile(driver):
         return None
-    return CompileWatch(progress, "the closed-loop kernels", CLOSED_LOOP_COMPILE_S)
+    estimate = compile_estimate(CLOSED_LOOP_COMPILE_CPU_S)
+    return CompileWatch(progress, "the closed-loop kernels", estimate)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numba
 import pytest
 
+from attitude import _compiling
 from attitude._compiling import CompileWatch
 from attitude.cli import Progress
 from attitude.propagate import _ProgressBar
@@ -97,6 +98,16 @@ def test_will_compile_reads_the_disk_cache(tmp_path):
         for _ in range(2)
     ]  # fmt: skip
     assert outs == [["True", "False"], ["False", "False"]]
+
+
+def test_estimate_stretches_with_the_load(monkeypatch):
+    """numba compiles on one core: 40 s of CPU take 40 s on an idle machine, the load per core
+    times longer on a busy one (2 cores at load 5.5: 110 s; measured 122 s)."""
+    monkeypatch.setattr(_compiling.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(_compiling.os, "getloadavg", lambda: (5.5, 4.0, 3.0))
+    assert _compiling.compile_estimate(40.0) == 110.0
+    monkeypatch.setattr(_compiling.os, "getloadavg", lambda: (0.3, 0.2, 0.1))
+    assert _compiling.compile_estimate(40.0) == 40.0
 
 
 class _Report:
