@@ -90,9 +90,10 @@ def pointing_summary(ds: Any, settle: Any = None) -> dict[str, Any] | None:
 
     Returns a dict: ``t_settle`` (s), ``how`` (the settling rule), ``n`` (ticks counted),
     ``n_total`` (ticks recorded), and in rad ``rms``, ``max``, ``p50``, ``p95``, ``p99``
-    (numpy's linear percentiles; NaN when no tick counts).
+    (numpy's linear percentiles; NaN when no tick counts). None also for an ensemble's
+    (member, tick) error angle: ``attitude info`` gives the ensemble's statistics apart.
     """
-    if "error_angle" not in ds.variables or "tick" not in ds.dims:
+    if "error_angle" not in ds.variables or ds["error_angle"].dims != ("tick",):
         return None
     from .results import time_values
 

@@ -80,6 +80,18 @@ def test_info_without_software_has_no_pointing_line(tmp_path, capsys):
     assert "pointing" not in capsys.readouterr().out
 
 
+def test_no_summary_for_an_ensembles_error_angle():
+    """A (member, tick) error angle is an ensemble's: not this summary's."""
+    ds = xr.Dataset(
+        {"error_angle": (("member", "tick"), np.ones((2, 3)), {"units": "rad"})},
+        coords={"tick": [0.0, 1.0, 2.0]},
+    )
+    assert pointing_summary(ds) is None
+    ds1 = ds.isel(member=0)
+    ds1 = ds1.assign_coords(time=("time", [0.0, 2.0]))
+    assert pointing_summary(ds1, "0")["rms"] == 1.0
+
+
 def test_settle_spec():
     assert settle_time("10%", 100.0, 700.0) == (160.0, "the first 10 % of the run")
     assert settle_time("1.5 min", 100.0, 700.0)[0] == 190.0
