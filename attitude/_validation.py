@@ -26,6 +26,7 @@ __all__ = [
     "as_scalar",
     "as_times",
     "as_vector",
+    "refuse_class",
     "to_value",
 ]
 
@@ -39,6 +40,33 @@ _NOT_REAL = {
     "m": "time deltas",
     "M": "dates",
 }
+
+
+def refuse_class(x: Any, name: str) -> None:
+    """Raise :class:`AttitudeTypeError` if ``x`` is a class where an instance is expected.
+
+    ``control=MRPFeedback`` (the class, not ``MRPFeedback(K=..., P=...)``) is callable, so it
+    would pass for your own step function and fail at the first tick; the message names the
+    class and its required parameters.
+    """
+    if not isinstance(x, type):
+        return
+    import inspect
+
+    try:
+        params = inspect.signature(x).parameters.values()
+        required = [
+            p.name
+            for p in params
+            if p.default is inspect.Parameter.empty
+            and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+        ]
+    except (TypeError, ValueError):  # pragma: no cover - a class without a signature
+        required = []
+    args = ", ".join(f"{p}=..." for p in required)
+    raise AttitudeTypeError(
+        f"{name}: got the class {x.__name__}; give an instance, e.g. {x.__name__}({args})"
+    )
 
 
 def to_value(x: Any, name: str, unit: Any = None) -> Any:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ._progress import Progress
 from ._version import __version__
 
 __all__ = ["main"]
@@ -42,56 +43,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     """``warnings.showwarning`` of the command: one line, no source location."""
     text = str(message).splitlines()[0] if str(message) else category.__name__
     _warn(text)
-
-
-# ------------------------------------------------------------------------------------------------
-# progress line
-# ------------------------------------------------------------------------------------------------
-
-
-class Progress:
-    """A one-line progress bar on stderr, shown only once a run has taken more than ``delay`` s.
-
-    Parameters
-    ----------
-    mode : {"auto", "always", "never"}
-        ``auto`` draws only when stderr is a terminal.
-    """
-
-    def __init__(self, mode: str = "auto", *, delay: float = 1.0, stream: Any = None, clock=None):
-        self.stream = stream if stream is not None else sys.stderr
-        tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.enabled = mode == "always" or (mode == "auto" and tty)
-        self.delay = delay
-        self.clock = clock or time.monotonic
-        self.start = self.clock()
-        self.shown = False
-        self.last = -math.inf
-
-    def __call__(self, done: int, total: int, t: float) -> None:
-        if not self.enabled:
-            return
-        now = self.clock()
-        elapsed = now - self.start
-        if elapsed < self.delay or (now - self.last < 0.1 and done < total):
-            return
-        self.last = now
-        frac = done / total if total else 1.0
-        width = 30
-        fill = round(width * frac)
-        eta = elapsed * (1 - frac) / frac if frac > 0 else math.inf
-        eta_s = f"{eta:5.0f} s left" if math.isfinite(eta) else "      "
-        self.stream.write(
-            f"\r[{'#' * fill}{'.' * (width - fill)}] {100 * frac:5.1f}%  "
-            f"{done}/{total} samples  {elapsed:6.1f} s  {eta_s}"
-        )
-        self.stream.flush()
-        self.shown = True
-
-    def close(self) -> None:
-        if self.shown:
-            self.stream.write("\n")
-            self.stream.flush()
 
 
 # ------------------------------------------------------------------------------------------------
@@ -528,6 +479,13 @@ def cmd_info(args: argparse.Namespace) -> int:
             rows, inv = _info_rows(args, ds)
             budget = _torque_budget(ds)
             wheels = _wheel_lines(ds)
+            from ._pointing_stats import pointing_lines
+            from .errors import AttitudeValueError
+
+            try:
+                pointing = pointing_lines(ds, args.settle)
+            except AttitudeValueError as exc:
+                raise BadInput(str(exc)) from None
             events = ds.attrs.get("events") or "detector" in ds.dims
             ev = _event_lines(ds) if events else []
         except BadInput:
@@ -538,6 +496,8 @@ def cmd_info(args: argparse.Namespace) -> int:
             print(f"{k:<11} {v}")
         print("invariants  " + ("\n            ".join(inv) if inv else "-"))
         print("torques     " + ("\n            ".join(budget) if budget else "-"))
+        if pointing:
+            print("pointing    " + "\n            ".join(pointing))
         if wheels:
             print("wheels      " + "\n            ".join(wheels))
         if events:
@@ -1010,6 +970,13 @@ def build_parser() -> argparse.ArgumentParser:
 
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")
     i.add_argument("file", metavar="OUT.nc")
+    i.add_argument(
+        "--settle",
+        metavar="T|P%",
+        default=None,
+        help="closed loop: the pointing error's statistics leave out the run's first T seconds "
+        "(60, 2min) or P %% of it (default 10%%)",
+    )
     i.set_defaults(func=cmd_info)
 
     e = sub.add_parser(

@@ -24,6 +24,7 @@ Methods
 from __future__ import annotations
 
 import math
+import sys
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -33,6 +34,7 @@ import xarray as xr
 
 from orbit._state_kernels import TYPE_EPHEMERIS
 
+from . import _compiling
 from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
@@ -60,15 +62,38 @@ PROGRESS_CHUNKS = 200
 
 
 class _ProgressBar:
-    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here)."""
+    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here).
+
+    Its rate and time left count from the first report (the first chunk done), and again from
+    the report after a compilation (:meth:`restart`): the time before, compiling or loading
+    kernels, is not the run's pace.
+    """
 
     def __init__(self, total: int):
         from tqdm import auto
 
         self.bar = auto.tqdm(total=total, desc="propagate", unit="sample", leave=True)
+        self._fresh = True
 
     def __call__(self, done: int, total: int, t: float) -> None:
-        self.bar.update(done - self.bar.n)
+        b = self.bar
+        if not self._fresh:
+            b.update(done - b.n)
+            return
+        self._fresh = False
+        b.reset()  # the clock and the rate's moving averages from now
+        b.initial = b.n = b.last_print_n = done  # the rate counts the samples after this
+        if b.dynamic_miniters:
+            b.miniters = 0
+        b.refresh()
+
+    def restart(self) -> None:
+        """The rate and time left from the next report on."""
+        self._fresh = True
+
+    def note(self, text: str) -> None:
+        """A line above the bar (the compilation notices of attitude._compiling)."""
+        self.bar.write(f"attitude: {text}", file=sys.stderr)
 
     def close(self) -> None:
         self.bar.close()
@@ -272,7 +297,8 @@ def propagate(
     progress : bool or callable, optional
         ``True``: a tqdm progress bar (on stderr; a widget in Jupyter) that advances during
         the run. A callable: ``progress(n_done, n_total, t_reached)`` called after each chunk
-        of output times.
+        of output times. A closed-loop run that will compile its kernels (the first one) says
+        so before and how long it took after, through the bar (or a callable's ``note(text)``).
     chunk : int, optional
         Output samples per compiled call, an integer >= 1; results do not depend on it. With
         ``progress`` the default is :data:`PROGRESS_CHUNKS` chunks per run (the compiled loop
@@ -475,6 +501,10 @@ def propagate(
     bar = _ProgressBar(tt.shape[0]) if progress is True else None
     if bar is not None:
         options["progress"] = bar
+    # the first closed-loop run compiles for most of a minute: said before, and how long after
+    compiling = _compiling.watch(options["progress"], problem, method)
+    if compiling is not None:
+        options["progress"] = compiling
     try:
         if streaming:
             chunk_attrs = {"method": method, "formulation": formulation, **run_attrs}
@@ -507,6 +537,8 @@ def propagate(
         if bar is not None:  # methods that do not report (scipy) complete the bar here
             bar(result.first + result.y.shape[0], tt.shape[0], math.nan)
     finally:
+        if compiling is not None:
+            compiling.close()
         if bar is not None:
             bar.close()
 

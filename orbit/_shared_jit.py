@@ -53,6 +53,7 @@ __all__ = [
     "sources_fingerprint",
     "specialise",
     "user_cache_dir",
+    "will_compile",
 ]
 
 JIT_DISABLED: bool = os.environ.get("ATTITUDE_DISABLE_JIT", "0") not in ("", "0") or bool(
@@ -473,6 +474,30 @@ class Kernel(CPUDispatcher):
     @property
     def _numba_type_(self):
         return nbtypes.Dispatcher(self.dispatcher)
+
+
+def will_compile(dispatcher) -> bool:
+    """Whether a call of ``dispatcher`` from Python would compile it (not load it).
+
+    False when it was compiled (or loaded) in this process, or when its on-disk cache index
+    holds an entry for this machine under the current sources' fingerprint (numba's index
+    reader returns nothing for a stale fingerprint); True otherwise, and for a dispatcher
+    without a disk cache that has not been compiled yet. It does not look at the argument
+    types: the package's entry points are compiled for one signature each.
+    """
+    if JIT_DISABLED or not isinstance(dispatcher, CPUDispatcher):
+        return False
+    if dispatcher.signatures:
+        return False
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    if cache_file is None:  # numba's NullCache: compiled in every process
+        return True
+    try:
+        index = cache_file._load_index()
+        magic = dispatcher.targetctx.codegen().magic_tuple()
+    except Exception:  # pragma: no cover - an unreadable index, or numba's internals moved
+        return True
+    return not any(isinstance(key, tuple) and key[1:2] == (magic,) for key in index)
 
 
 def jit_generic(func=None, /, **options):

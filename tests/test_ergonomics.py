@@ -59,10 +59,18 @@ class _Recorder:
 
     def __init__(self, total, **kw):
         self.total, self.n, self.updates, self.closed = total, 0, [], False
+        self.initial = self.last_print_n = 0
+        self.dynamic_miniters = False
         _Recorder.instances.append(self)
 
     def update(self, k):
         self.n += k
+        self.updates.append(self.n)
+
+    def reset(self, total=None):  # the first report restarts the clock (attitude._ProgressBar)
+        self.n = 0
+
+    def refresh(self):
         self.updates.append(self.n)
 
     def close(self):

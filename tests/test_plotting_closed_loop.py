@@ -26,7 +26,8 @@ from attitude.control import MRPFeedback, RateDamping
 from attitude.errors import AttitudeValueError
 from attitude.estimation import MEKF
 from attitude.plotting import CLOSED_LOOP_PANELS, plot_result
-from attitude.plotting._closed_loop import guided_modes, mode_spans
+from attitude.plotting._closed_loop import guided_modes, mode_spans, outage_spans
+from attitude.plotting._common import run_title
 from attitude.sensors import Gyro, StarTracker
 from attitude.software import After, FlightSoftware, Mode
 
@@ -94,9 +95,9 @@ def test_panels_chosen_from_the_variables(rw_run, bdot_run, mekf_run):
     fig = plot_result(bdot_run)  # no guidance: |ω| instead of an attitude error
     assert names(fig) == ["|ω| [deg/s]", "ω, body axes [deg/s]", "dipole [A m²]"]
     plt.close(fig)
-    fig = plot_result(mekf_run)
+    fig = plot_result(mekf_run)  # a rate-damping mode, then pointing: |ω| too (issue 43)
     assert names(fig) == [
-        "attitude error [deg]", "wheel speed [rpm]", "motor torque [N m]",
+        "attitude error [deg]", "|ω| [deg/s]", "wheel speed [rpm]", "motor torque [N m]",
         "estimation error [arcsec]", "gyro bias [deg/h]",
     ]  # fmt: skip
     plt.close(fig)
@@ -334,3 +335,50 @@ def test_cli_run_and_plot_of_a_short_closed_loop_scenario(tmp_path, capsys):
     t = ds.time.values
     assert ds.sizes["tick"] == 41 == t.size and ds.attrs["n_ticks"] == 200
     np.testing.assert_allclose(ds.tick.values, np.minimum(t, 19.9), rtol=0, atol=1e-12)
+
+
+def test_star_tracker_outages_are_bands_on_the_estimation_panel(mekf_run):
+    """Ticks whose star tracker status is an exclusion (Sun 2, Earth 3) are outages, drawn
+    as bands from their first tick to the next recorded one; no update (1: a tracker slower
+    than the ticks) is not an outage."""
+    ds = mekf_run.copy(deep=True)
+    t = ds.tick.values
+    status = np.zeros(t.size, dtype=np.int8)
+    status[(t >= 20.0) & (t < 25.0)] = 2
+    status[t == 30.0] = 3
+    status[(t >= 32.0) & (t < 34.0)] = 1
+    ds["star_tracker_status"].values[:] = status
+    assert outage_spans(ds) == [(20.0, 25.0), (30.0, 30.5)]
+    assert outage_spans(mekf_run) == []  # no exclusion cone: never out
+    fig = plot_result(ds, panels=["estimation"])
+    ax = fig.axes[0]
+    orange = matplotlib.colors.to_rgb("tab:orange")
+    bands = [p for p in ax.patches if p.get_facecolor()[:3] == orange]
+    spans = sorted((round(p.get_x(), 9), round(p.get_x() + p.get_width(), 9)) for p in bands)
+    assert spans == [(20.0, 25.0), (30.0, 30.5)]  # the axis is in s on a 40 s run
+    title = ax.get_title(loc="left")
+    assert f"orange: star tracker out, {11 / t.size:.0%} of the ticks" in title  # 10 + 1 ticks
+    plt.close(fig)
+    fig = plot_result(mekf_run, panels=["estimation"])
+    ax = fig.axes[0]
+    assert not [p for p in ax.patches if p.get_facecolor()[:3] == orange]
+    assert "star tracker" not in ax.get_title(loc="left")
+    plt.close(fig)
+
+
+def test_title_says_what_the_run_is(rw_run, mekf_run):
+    """A run from Python has the generic title "attitude propagation": the figure names the
+    spacecraft, the laws by mode, the sensors and the estimator instead; a scenario keeps its
+    own title."""
+    assert mekf_run.attrs["title"] == "attitude propagation"
+    want = (
+        "spacecraft 900/800/600 kg m² with 3 reaction wheels — RateDamping, then MRPFeedback "
+        "to inertial; gyro, star tracker, MEKF"
+    )
+    assert run_title(mekf_run) == want
+    fig = plot_result(mekf_run, panels=["control_error"])
+    assert fig._suptitle.get_text().startswith(want)
+    plt.close(fig)
+    assert run_title(rw_run) == rw_run.attrs["title"] != "attitude propagation"
+    free = attitude.propagate([1.0, 2.0, 2.5], [1, 0, 0, 0], [0, 0.2, 0.1, 0.0], [0.0, 1.0])
+    assert run_title(free) == "rigid body 1/2/2.5 — torque free"

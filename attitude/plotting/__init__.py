@@ -33,6 +33,7 @@ from ._common import (
     mark_events,
     pyplot,
     run_events,
+    run_title,
     save,
     shade_eclipses,
     shadow_along,
@@ -138,7 +139,7 @@ def plot_result(
     t = time_values(d)
     axis = TimeAxis.of(ds, t)
     plt = pyplot(path)
-    title = str(ds.attrs.get("title", "attitude propagation"))
+    title = run_title(ds)
     if chosen == "paper":
         ctx = PlotContext(d, t, axis)
         fig = plt.figure(figsize=(11, 7), constrained_layout=True)

@@ -13,12 +13,12 @@ long runs, :data:`attitude.plotting.MAX_POINTS` at most).
 from __future__ import annotations
 
 import math
-import re
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
+from .._pointing_stats import guided_modes
 from ._common import series
 from ._panels import _AXIS_COLORS, PlotContext, _legend, available, register_panel
 
@@ -103,20 +103,6 @@ def _labels(ds: xr.Dataset, dim: str, prefix: str) -> list[str]:
     if name in ds.variables:
         return [str(x) for x in ds[name].values]
     return [f"{prefix}{k + 1}" for k in range(ds.sizes[dim])]
-
-
-def guided_modes(ds: xr.Dataset) -> np.ndarray:
-    """Per mode of the software, whether it has a guidance (a reference to point at): the
-    attitude error of a mode without one (B-dot, rate damping) is measured from the inertial
-    identity and means nothing. From the ``software`` attr (``mode0: guidance none, ...``);
-    all guided when it does not say."""
-    names = str(ds["mode"].attrs.get("flag_meanings", "")).split() if "mode" in ds else []
-    text = str(ds.attrs.get("software", ""))
-    out = []
-    for name in names:
-        m = re.search(rf"(?:^|; ){re.escape(name)}(?: when \w+)?: guidance (\S+)", text)
-        out.append(not (m is not None and m.group(1).rstrip(",") == "none"))
-    return np.array(out or [True], dtype=bool)
 
 
 def mode_spans(ds: xr.Dataset) -> list[tuple[float, float, int]]:
@@ -209,6 +195,15 @@ def _limit_lines(ax: Any, y: np.ndarray, limits: np.ndarray, unit: str, what: st
     return ""
 
 
+def _ticks_said(ds: xr.Dataset) -> str:
+    """ "every tick", or how many of the run's ticks were recorded (the default: those in
+    effect at the output samples)."""
+    n, total = ds.sizes.get("tick", 0), ds.attrs.get("n_ticks")
+    if total is None or n >= int(total):
+        return "every tick"
+    return f"at {n} of its {int(total)} ticks"
+
+
 def _title(ax: Any, text: str, note: str = "") -> None:
     ax.set_title(f"{text}{f'   [{note}]' if note else ''}", fontsize=10, loc="left")
 
@@ -289,7 +284,7 @@ def control_error(ax: Any, ctx: PlotContext) -> None:
     ax.set_ylabel("attitude error [deg]")
     guided = guided_modes(ctx.ds)
     note = "" if guided.all() else "modes without guidance left out"
-    _title(ax, "attitude error from the guidance's reference, every tick"
+    _title(ax, f"attitude error from the guidance's reference, {_ticks_said(ctx.ds)}"
            f"{' (log scale)' if logged else ''}", note)  # fmt: skip
     _legend(ax)
 
@@ -334,7 +329,7 @@ def rate_error(ax: Any, ctx: PlotContext) -> None:
     f = _factor(_units(ctx.ds, "rate_error"), "deg/s")
     _per_axis_ticks(ax, ctx, "rate_error", 1.0 if f is None else f, "δω")
     ax.set_ylabel(f"rate error [{'deg/s' if f is not None else 'rad per time unit'}]")
-    _title(ax, "rate error ω − ω_r, body axes, every tick")
+    _title(ax, f"rate error ω − ω_r, body axes, {_ticks_said(ctx.ds)}")
     _legend(ax)
 
 
@@ -345,7 +340,7 @@ def torque_request(ax: Any, ctx: PlotContext) -> None:
     f, unit = _scale_of(ctx.ds["torque_request"].values, np.array([np.inf]), si, "N m")
     _per_axis_ticks(ax, ctx, "torque_request", f, "L")
     ax.set_ylabel(f"torque request [{unit}]")
-    _title(ax, "control torque requested by the law, body axes, every tick")
+    _title(ax, f"control torque requested by the law, body axes, {_ticks_said(ctx.ds)}")
     _legend(ax)
 
 
@@ -522,11 +517,52 @@ def estimation(ax: Any, ctx: PlotContext) -> None:
         inside.append(float(np.mean(np.abs(err[ok, k]) <= sig3[ok, k])) if ok.any() else np.nan)
     ax.axhline(0.0, color="0.5", lw=0.6)
     off = _focus(ax, err, sig3)
+    out = _tracker_outages(ax, ctx)
     ax.set_ylabel(f"estimation error [{unit}]")
     frac = ", ".join(f"{c} {_percent_floor(p)}" for c, p in zip("xyz", inside, strict=True))
-    _title(ax, f"attitude estimation error in ±3σ (inside: {frac})",
-           "start off scale" if off else "")  # fmt: skip
+    notes = [n for n in ("start off scale" if off else "", out) if n]
+    _title(ax, f"attitude estimation error in ±3σ (inside: {frac})", "; ".join(notes))
     _legend(ax)
+
+
+#: ``star_tracker_status`` values of an outage (no measurement although one was due): the Sun
+#: or the Earth in the exclusion cone. ``no_update`` (1) is a tracker slower than the ticks.
+TRACKER_OUT = (2, 3)
+#: Colour of the star tracker's outages on the estimation panel.
+OUTAGE_COLOR = "tab:orange"
+
+
+def outage_spans(ds: xr.Dataset) -> list[tuple[float, float]]:
+    """The star tracker's outages: (start, end) in s of each run of recorded ticks whose
+    ``star_tracker_status`` is an exclusion (:data:`TRACKER_OUT`), to the next recorded tick."""
+    if "star_tracker_status" not in ds.variables or ds.sizes.get("tick", 0) == 0:
+        return []
+    from ..results import time_values
+
+    t = time_values(ds, "tick")
+    out = np.isin(np.asarray(ds["star_tracker_status"].values), TRACKER_OUT)
+    edges = np.diff(np.concatenate([[0], out.astype(np.int8), [0]]))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    step = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    return [
+        (float(t[a]), float(t[b]) if b < t.size else float(t[-1]) + step)
+        for a, b in zip(starts, ends, strict=True)
+    ]
+
+
+def _tracker_outages(ax: Any, ctx: PlotContext) -> str:
+    """Bands where the star tracker gave no measurement (Sun or Earth exclusion); the title's
+    note (share of the ticks), or "" when it never was out."""
+    spans = outage_spans(ctx.ds)
+    if not spans:
+        return ""
+    s = ctx.axis.scale
+    for i, (a, b) in enumerate(spans):
+        ax.axvspan(a / s, b / s, color=OUTAGE_COLOR, alpha=0.18, lw=0, zorder=0.5,
+                   label="star tracker out" if i == 0 else None)  # fmt: skip
+    status = np.asarray(ctx.ds["star_tracker_status"].values)
+    share = float(np.mean(np.isin(status, TRACKER_OUT)))
+    return f"orange: star tracker out, {share:.0%} of the ticks"
 
 
 @register_panel("gyro_bias", needs=("bias_estimate",))
@@ -567,13 +603,17 @@ def gyro_bias(ax: Any, ctx: PlotContext) -> None:
 
 def closed_loop_defaults(ctx: PlotContext) -> list[str]:
     """The panels of a closed-loop run when none are asked for: the attitude error (a run
-    whose software points at something) or |ω| (one that only damps rates: B-dot), then the
-    actuators it has, then the estimator."""
+    whose software points at something) and |ω| when a mode only damps rates (a detumbling
+    mode before the pointing), or |ω| and the rates (software that only damps rates: B-dot),
+    then the actuators it has, then the estimator."""
     ds = ctx.ds
     out = []
-    pointing = available(ctx, "control_error") and bool(guided_modes(ds).any())
+    guided = guided_modes(ds)
+    pointing = available(ctx, "control_error") and bool(guided.any())
     if pointing:
         out.append("control_error")
+        if not guided.all():  # what the other modes do: their rates
+            out.append("rate_norm")
     else:
         out += ["rate_norm", "rates"]
     out += [p for p in CLOSED_LOOP_PANELS[2:] if available(ctx, p)]

@@ -301,3 +301,66 @@ def window_text(t_seconds: np.ndarray, axis: TimeAxis) -> str:
     if not axis.unit:
         return f"{w} samples"
     return f"{span / 60:.2g} min" if span >= 60 else f"{span:.2g} s"
+
+
+#: The title :func:`attitude.propagate` gives every run: a figure says what the run is instead.
+GENERIC_TITLE = "attitude propagation"
+_SENSOR_VARIABLES = (("gyro_rate", "gyro"), ("star_tracker_q", "star tracker"),
+                     ("magnetometer", "magnetometer"), ("sun_sensor", "Sun sensor"))  # fmt: skip
+
+
+def _count(n: int, one: str, many: str) -> str:
+    return f"{n} {one if n == 1 else many}"
+
+
+def run_title(ds: xr.Dataset) -> str:
+    """The figure's title: the run's own (a scenario's), else what the run is, from its
+    attrs and variables: the scenario's name, the spacecraft (inertia, actuators), the flight
+    software's laws by mode with their guidance, the sensors and the estimator, or the torque
+    model of a run without software."""
+    a = ds.attrs
+    title = str(a.get("title", "") or "")
+    if title and title != GENERIC_TITLE:
+        return title
+    inertia = a.get("inertia")
+    body = ""
+    if inertia is not None:
+        moments = "/".join(f"{float(x):g}" for x in np.atleast_1d(inertia))
+        units = str(a.get("inertia_units", "")).replace("^2", "²").replace("kg m2", "kg m²")
+        body = f"{moments} {'' if units == '1' else units}".strip()
+    actuators = (
+        ("wheel", "reaction wheel", "reaction wheels"),
+        ("magnetorquer", "magnetorquer", "magnetorquers"),
+        ("thruster", "thruster", "thrusters"),
+    )
+    kinds = [_count(ds.sizes[d], one, many) for d, one, many in actuators if ds.sizes.get(d, 0)]
+    software = str(a.get("software", "") or "")
+    craft = kinds or software or a.get("spacecraft")
+    what = f"{'spacecraft' if craft else 'rigid body'} {body}".strip()
+    what += f" with {', '.join(kinds)}" if kinds else ""
+    parts = []
+    if software:
+        import re
+
+        laws = []
+        for m in re.finditer(r"(?:^|; )[\w-]+(?: when \w+)?: guidance (.+?), control (\w+)",
+                             software):  # fmt: skip
+            guidance, law = m.group(1), m.group(2)
+            slew = guidance.startswith("slew onto ")
+            target = re.match(r"[\w-]*", guidance[10:] if slew else guidance).group(0)
+            target = f"slew onto {target}" if slew else target
+            laws.append(law if guidance == "none" else f"{law} to {target}")
+        if laws:
+            parts.append(", then ".join(laws))
+        sensors = [name for v, name in _SENSOR_VARIABLES if v in ds.variables]
+        if "estimate_q" in ds.variables:
+            sensors.append("MEKF")
+        if sensors:
+            parts.append(", ".join(sensors))
+    else:
+        model = str(a.get("potential_name", "") or "").replace("_", " ")
+        if model:
+            parts.append(model)
+    name = str(a.get("scenario", "") or "")
+    head = f"{name}: {what}" if name else what
+    return head + (f" — {'; '.join(parts)}" if parts else "")

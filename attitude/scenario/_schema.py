@@ -46,7 +46,7 @@ _INTERNAL = {
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
     "momentum": "'kg m2 s-1' or 'N m s'",
-    "rate": "'rad/s' or 'deg/s'",
+    "rate": "'rad/s', 'deg/s' or 'rpm'",
     "time": "'s', 'min', 'h' or 'd'",
     "length": "'km' or 'm'",
     "position": "'m' or 'cm'",
@@ -62,6 +62,22 @@ _EXAMPLE = {
     "viscous": "'N m s'",
     "impulse": "'N s' or 'mN s'",
 }
+
+_ALIASES: list[Any] = []
+
+
+def parse_unit(s: str) -> Any:
+    """The astropy unit of a scenario's unit string, with the spellings of rotation rates that
+    astropy does not know: ``rpm`` (= astropy's ``cycle/min``) and ``rev`` (= ``cycle``), also
+    inside compound units (``rpm/s``, ``rev/s``). Raises ValueError as ``astropy.units.Unit``."""
+    from astropy import units as u
+
+    if not _ALIASES:
+        _ALIASES.append(u.def_unit(["rpm", "RPM"], u.cycle / u.min, doc="revolutions a minute"))
+        _ALIASES.append(u.def_unit(["rev", "revolution"], u.cycle, doc="one revolution"))
+    with u.add_enabled_units(_ALIASES):
+        return u.Unit(s)
+
 
 # Allowed keys per table (value: quantity kind for "<key>_unit", or None).
 _TABLES: dict[str, dict[str, str | None]] = {
@@ -333,7 +349,7 @@ class _Reader:
         if not isinstance(s, str):
             raise _fail(full, f"expected a unit string such as {_EXAMPLE[kind]}, got {s!r}")
         try:
-            unit = u.Unit(s)
+            unit = parse_unit(s)
         except ValueError:
             raise _fail(
                 full, f"{s!r} is not a unit astropy understands (e.g. {_EXAMPLE[kind]})"

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import AttitudeError
-from ._schema import ScenarioError, _fail, _is_number, _Reader
+from ._schema import ScenarioError, _fail, _is_number, _Reader, parse_unit
 
 #: Keys of [software] (and of each [[software.modes]] table): quantity kind of <key>_unit.
 SOFTWARE_KEYS: dict[str, str | None] = {
@@ -146,7 +146,7 @@ def _quantity(r: _Reader, t: Mapping[str, Any], key: str, where: str, unit: str)
     if not isinstance(us, str):
         raise _fail(f"{where}.{key}_unit", f"expected a unit string, got {us!r}")
     try:
-        return (val * u.Unit(us)).to_value(u.Unit(unit), u.dimensionless_angles())
+        return (val * parse_unit(us)).to_value(u.Unit(unit), u.dimensionless_angles())
     except (ValueError, u.UnitConversionError):
         raise _fail(f"{where}.{key}_unit", f"{us!r} is not a unit of {unit}") from None
 

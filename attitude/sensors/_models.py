@@ -11,7 +11,7 @@ import numpy as np
 
 from .._core import rng as _rng
 from .._core import sensors as _ks
-from .._validation import as_float_array, as_scalar
+from .._validation import as_float_array, as_scalar, refuse_class
 from ..errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = [
@@ -402,6 +402,7 @@ def as_sensor_set(x: Any) -> tuple:
     :class:`Truth` or None."""
     if x is None:
         return ()
+    refuse_class(x, "sensors")
     if isinstance(x, Sensor):
         x = (x,)
     if isinstance(x, (str, bytes)) or not hasattr(x, "__iter__"):
@@ -412,6 +413,7 @@ def as_sensor_set(x: Any) -> tuple:
     out = tuple(x)
     kinds = set()
     for i, s in enumerate(out):
+        refuse_class(s, f"sensors[{i}]")
         if not isinstance(s, Sensor):
             raise AttitudeTypeError(f"sensors[{i}]: expected a sensor, got {type(s).__name__}")
         if s.kind in kinds:

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .._validation import as_scalar
+from .._validation import as_scalar, refuse_class
 from ..errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["Slew", "as_guidance"]
@@ -79,6 +79,7 @@ def as_guidance(x: Any) -> Any:
 
     if x is None or isinstance(x, (Frame, Slew)):
         return x
+    refuse_class(x, "guidance")
     raise AttitudeTypeError(
         f"guidance: expected a frame of attitude.frames (inertial, lvlh(orbit), nadir, "
         f"sun_pointing, target...), a Slew, or None; got {type(x).__name__}"

@@ -14,7 +14,7 @@ import numpy as np
 from .._core import fsw as _kf
 from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
-from .._validation import as_float_array, as_int, as_scalar
+from .._validation import as_float_array, as_int, as_scalar, refuse_class
 from ..body import RigidBody
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
 from ..errors import AttitudeTypeError, AttitudeValueError
@@ -134,11 +134,14 @@ def _control(x: Any) -> tuple[Any, MomentumDumping | None, Callable | None]:
     """(law, dumping, Python step) from a law, (law, MomentumDumping), a callable or None."""
     if x is None:
         return None, None, None
+    refuse_class(x, "control")  # a class is callable: it would pass for your own step
     if isinstance(x, ControlLaw):
         return x, None, None
     if isinstance(x, MomentumDumping):
         return None, x, None
     if isinstance(x, (tuple, list)):
+        for c in x:
+            refuse_class(c, "control")
         laws = [c for c in x if isinstance(c, ControlLaw)]
         dumps = [c for c in x if isinstance(c, MomentumDumping)]
         if len(laws) + len(dumps) != len(x) or len(laws) > 1 or len(dumps) > 1:
@@ -181,6 +184,7 @@ class Mode:
     def __post_init__(self):
         object.__setattr__(self, "guidance", as_guidance(self.guidance))
         _control(self.control)
+        refuse_class(self.allocation, "allocation")
         if self.allocation is not None and not isinstance(self.allocation, WheelAllocation):
             raise AttitudeTypeError(
                 f"allocation: expected an attitude.control.WheelAllocation, got "
@@ -321,6 +325,7 @@ class FlightSoftware:
                 )
             RigidBody(np.linalg.eigvalsh(a))  # its checks: the triangle inequalities
             self.inertia = a
+        refuse_class(estimator, "estimator")
         if sensors is not None or estimator is not None:
             from ..sensors import as_sensor_set
 
@@ -344,6 +349,8 @@ class FlightSoftware:
                 if not isinstance(item, (tuple, list)) or len(item) != 2:
                     raise AttitudeTypeError(f"modes[{i}]: expected a pair (condition, Mode)")
                 cond, mode = item
+                refuse_class(cond, f"modes[{i}] condition")
+                refuse_class(mode, f"modes[{i}]")
                 if isinstance(mode, FlightSoftware):
                     if len(mode.modes) != 1:
                         raise AttitudeValueError(f"modes[{i}]: a software with modes of its own")
