@@ -52,7 +52,7 @@ _HHMM = re.compile(r"^\s*(\d{1,2}):(\d{2})(?::(\d{2}(?:\.\d*)?))?\s*$")
 
 def circular_radius(altitude: Any, radius: float) -> float:
     """a = R + altitude [km]; refuses altitude <= 0 (inside or on the Earth's surface)."""
-    from .keplerorbit import _scalar
+    from .kepler import _scalar
 
     h = _scalar(altitude, "altitude", "km")
     if not h > 0.0:
@@ -79,7 +79,7 @@ def local_time_hours(value: Any, name: str = "local_time_of_node") -> float:
                 "0-59), e.g. '10:30'"
             )
         return hh + mm / 60.0 + ss / 3600.0
-    from .keplerorbit import _scalar
+    from .kepler import _scalar
 
     if isinstance(value, bool):
         raise OrbitTypeError(f"{name}: expected 'HH:MM' or hours as a number, got {value!r}")

@@ -114,6 +114,17 @@ _HYPERBOLIC_COUNTERPART = {
 }
 
 
+def _scalar(x: Any, name: str, unit: Any) -> float:
+    arr = _as_array(x, name, unit)
+    if arr.ndim != 0:
+        if arr.size == 1:
+            return float(arr.reshape(()))
+        raise OrbitValueError(
+            f"{name}: expected a single number (one orbit), got an array of shape {arr.shape}"
+        )
+    return float(arr)
+
+
 def _check_elliptic_e(e: np.ndarray, func: str, name: str = "e") -> None:
     bad = ~((e >= 0.0) & (e < 1.0))
     if np.any(bad):

@@ -23,7 +23,7 @@ from . import _state_kernels as _sk
 from ._shared_jit import interpreted
 from .base import OrbitBase
 from .errors import OrbitValueError, PerigeeInsideEarthWarning
-from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array
+from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array, _scalar
 
 __all__ = ["KeplerOrbit", "earth_mu"]
 
@@ -55,17 +55,6 @@ def _check_perigee(a: float, e: float, mu: float) -> None:
             ),
             stacklevel=3,
         )
-
-
-def _scalar(x: Any, name: str, unit: Any) -> float:
-    arr = _as_array(x, name, unit)
-    if arr.ndim != 0:
-        if arr.size == 1:
-            return float(arr.reshape(()))
-        raise OrbitValueError(
-            f"{name}: expected a single number (one orbit), got an array of shape {arr.shape}"
-        )
-    return float(arr)
 
 
 def _vector3(x: Any, name: str, unit: str) -> np.ndarray:
