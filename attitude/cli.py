@@ -461,7 +461,25 @@ def _open(path: str) -> Any:
     if problem:
         ds.close()
         raise BadInput(f"{path}: not an attitude result file ({problem})")
+    try:
+        _read_through(ds)
+    except _READ_ERRORS as exc:
+        ds.close()
+        raise _unreadable(path, exc) from None
     return ds
+
+
+def _read_through(ds: Any, block: int = 1 << 20) -> None:
+    """Read every value of a lazily opened file once, in blocks of about ``block`` values
+    (bounded memory): every command then refuses a corrupt file alike, whichever variables it
+    needs (the writers checksum every chunk)."""
+    for v in ds.variables.values():
+        if v.ndim == 0 or v.shape[0] == 0:
+            v.values  # noqa: B018
+            continue
+        step = max(1, block // max(1, v.size // v.shape[0]))
+        for i in range(0, v.shape[0], step):
+            v[i : i + step].values  # noqa: B018
 
 
 def _unreadable(path: str, exc: BaseException) -> BadInput:
