@@ -176,6 +176,11 @@ def _member_variables(members, start, blk, out, flat) -> dict[str, xr.Variable]:
     v["member_t_stop"] = xr.Variable(
         ("member",), np.ascontiguousarray(out["t_stop"]), {**when, "long_name": "time reached"}
     )
+    if members.extra_vars is not None:  # e.g. a scenario's dispersions
+        rate = str(flat["omega"].attrs.get("units", "1"))
+        for name, (dims, val, attrs) in members.extra_vars(start, start + len(blk["runs"])).items():
+            attrs = {**attrs, "units": rate} if attrs.get("units") == "rate" else attrs
+            v[name] = xr.Variable(dims, np.ascontiguousarray(val), attrs)
     if "seeds" in blk and members.sensor_kinds:
         v["sensor_seed"] = xr.Variable(
             ("member", "sensor"),

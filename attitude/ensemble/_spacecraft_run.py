@@ -87,6 +87,7 @@ def propagate_spacecraft(
     seed: Any,
     refused: dict[str, Any],
     t_start: float,
+    member_vars: Any = None,
 ) -> xr.Dataset:
     """The spacecraft ensemble of :func:`attitude.ensemble.propagate_ensemble` (its arguments,
     validated there except those of spacecraft)."""
@@ -94,6 +95,7 @@ def propagate_spacecraft(
     members, pot, run_attrs = _validate(
         body, q0, Q0, tt, potential, plan, method, epoch, commands, software, seed, refused
     )
+    members.extra_vars = member_vars  # (start, stop) -> more per-member variables, or None
     method = members.method  # "auto" resolved as the single runs resolve it
     n = members.n
     threads_n = _threads(threads)
