@@ -178,3 +178,45 @@ def test_without_inertia_error_the_members_share_the_spacecraft_and_its_software
 def test_what_a_spacecraft_ensemble_cannot_store_is_refused_naming_the_key(change, key):
     with pytest.raises(ScenarioError, match=rf"^{key}"):
         scenario.loads(TOML.replace(*change))
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_too_large_an_ensemble_is_refused_before_its_members_are_drawn(tmp_path, monkeypatch):
+    """10⁹ members would not fit in memory: the size, from 1- and 2-member probes, is refused
+    before the members are drawn; the probes' estimate is the run's own."""
+    from attitude.ensemble import _plan
+    from attitude.ensemble import _spacecraft_scenario as S
+    from attitude.errors import OutputSizeError
+
+    members_of, check_size = S.members_of, _plan.check_size
+    drawn, expected = [], []
+
+    def spy(sc, d):
+        drawn.append(d.size)
+        return members_of(sc, d)
+
+    def check(nbytes, *args):
+        expected.append(nbytes)
+        return check_size(nbytes, *args)
+
+    monkeypatch.setattr(S, "members_of", spy)
+    monkeypatch.setattr(_plan, "check_size", check)
+    sc = scenario.loads(TOML.replace("size = 4", "size = 1000000000"))
+    with pytest.raises(OutputSizeError, match=r"^max_output_size: .*\(1000000000 members"):
+        run_scenario(sc, tmp_path / "big.nc")
+    assert drawn == [1, 2] and not (tmp_path / "big.nc").exists()
+
+    def stop(nbytes):
+        raise _Stop(nbytes)
+
+    monkeypatch.setattr(S, "PROBE_ABOVE", 0)
+    drawn.clear()
+    expected.clear()
+    sc = scenario.loads(TOML.replace("size = 4", "size = 5"))
+    with pytest.raises(_Stop):
+        run_scenario(sc, tmp_path / "five.nc", on_estimate=stop)
+    assert drawn == [1, 2, 5] and len(expected) == 4  # probes 1, 2; the probes' 5; the run's 5
+    assert expected[2] == expected[3]

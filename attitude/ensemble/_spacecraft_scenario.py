@@ -77,7 +77,84 @@ def run_spacecraft_scenario(sc: Any, out: Any, kw: dict[str, Any], **opts: Any) 
             "events: not located for a spacecraft with actuators or flight software (as in "
             "a single run); remove the [events] table or the [ensemble] table"
         )
+    attrs = _attrs(sc, disp, kw)
+    output = opts["output"]
+    percentiles = opts["percentiles"]
+    max_size = opts["max_output_size"]
+    common = dict(
+        client=opts["client"],
+        scheduler_timeout=opts["scheduler_timeout"],
+        attrs=attrs,
+        epoch=sc.epoch,
+        output=disp.output if output is None else output,
+        every=disp.every if opts["every"] is None else opts["every"],
+        percentiles=percentiles if percentiles is not None else disp.percentiles,
+        commands=sc.commands,
+        seed=disp.seed,
+        _member_vars=lambda start, stop: dispersion_vars(disp, start, stop),
+        **kw,
+    )
+    limit = disp.max_output_size if max_size is ... else max_size
+    if disp.size > PROBE_ABOVE:  # refuse too large an output before drawing every member
+        _check_size(sc, disp, out, common, limit)
     crafts, q, Q, software = members_of(sc, disp)
+    ds = propagate_ensemble(
+        crafts, q, Q, sc.t, sc.potential, path=out, progress=opts["progress"],
+        chunk_size=opts["chunk_size"] or disp.chunk, max_output_size=limit,
+        on_estimate=opts["on_estimate"], software=software, **common,
+    )  # fmt: skip
+    try:
+        info = {"path": out, **ds.attrs}
+    finally:
+        ds.close()
+    return info
+
+
+#: Ensembles larger than this are sized (from 1- and 2-member probes) before their members are
+#: drawn: the members' spacecraft and states are held in memory.
+PROBE_ABOVE = 4096
+
+
+class _Estimate(Exception):
+    def __init__(self, nbytes: int):
+        self.nbytes = nbytes
+
+
+def _check_size(sc: Any, disp: Dispersions, out: Any, common: dict, limit: Any) -> None:
+    """Raise OutputSizeError if the ensemble's output would exceed ``limit``: its expected
+    size is affine in the size N (per-member variables N times, the rest once), measured on
+    ensembles of the first 1 and 2 members."""
+    import dataclasses
+
+    from . import _plan
+    from ._run import propagate_ensemble
+
+    sizes = []
+    for n in (1, 2):
+        part = dataclasses.replace(disp, size=n)
+        crafts, q, Q, software = members_of(sc, part)
+
+        def stop(nbytes: int) -> None:
+            raise _Estimate(nbytes)
+
+        try:
+            propagate_ensemble(crafts, q, Q, sc.t, sc.potential, path=out, software=software,
+                               max_output_size=None, on_estimate=stop, **common)  # fmt: skip
+        except _Estimate as est:
+            sizes.append(est.nbytes)
+    expected = int(sizes[0] + (sizes[1] - sizes[0]) * (disp.size - 1))
+    plan = _plan.make_plan(_plan_times(sc.t), common["output"], common["every"],
+                           common["percentiles"], limit)  # fmt: skip
+    _plan.check_size(expected, plan, disp.size, False)
+
+
+def _plan_times(t: Any) -> np.ndarray:
+    from .._validation import as_times
+
+    return as_times(t, "t")
+
+
+def _attrs(sc: Any, disp: Dispersions, kw: dict[str, Any]) -> dict[str, Any]:
     attrs = {**sc.attrs(kw), **disp.attrs()}
     attrs["ensemble_sampling"] = (
         "member i: Philox(SeedSequence(seed)) at counter 3 i; q_i = q0 o exp(dtheta/2) (body "
@@ -89,35 +166,4 @@ def run_spacecraft_scenario(sc: Any, out: Any, kw: dict[str, Any], **opts: Any) 
     attrs["inertia"] = np.asarray(sc.spacecraft.body.inertia, dtype=np.float64)
     if disp.inertia_error > 0:
         attrs["inertia_note"] = "nominal; per-member moments in the variable inertia"
-    output = opts["output"]
-    percentiles = opts["percentiles"]
-    max_size = opts["max_output_size"]
-    ds = propagate_ensemble(
-        crafts,
-        q,
-        Q,
-        sc.t,
-        sc.potential,
-        path=out,
-        client=opts["client"],
-        progress=opts["progress"],
-        chunk_size=opts["chunk_size"] or disp.chunk,
-        scheduler_timeout=opts["scheduler_timeout"],
-        attrs=attrs,
-        epoch=sc.epoch,
-        output=disp.output if output is None else output,
-        every=disp.every if opts["every"] is None else opts["every"],
-        percentiles=percentiles if percentiles is not None else disp.percentiles,
-        max_output_size=disp.max_output_size if max_size is ... else max_size,
-        on_estimate=opts["on_estimate"],
-        commands=sc.commands,
-        software=software,
-        seed=disp.seed,
-        _member_vars=lambda start, stop: dispersion_vars(disp, start, stop),
-        **kw,
-    )
-    try:
-        info = {"path": out, **ds.attrs}
-    finally:
-        ds.close()
-    return info
+    return attrs
