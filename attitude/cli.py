@@ -279,6 +279,12 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
         raise BadInput(_size_option_hint(exc)) from None
     except AttitudeError as exc:  # an output option given on the command line
         msg = str(exc)
+        if msg.startswith("client:") and getattr(args, "scheduler", None):
+            raise BadInput(
+                "--scheduler: a scenario with actuators or flight software runs its ensemble's "
+                "members on local threads (Dask clusters run rigid-body ensembles); drop "
+                "--scheduler"
+            ) from None
         for key, opt in (
             ("output:", "--ensemble-output:"),
             ("every:", "--every:"),

@@ -220,3 +220,27 @@ def test_too_large_an_ensemble_is_refused_before_its_members_are_drawn(tmp_path,
         run_scenario(sc, tmp_path / "five.nc", on_estimate=stop)
     assert drawn == [1, 2, 5] and len(expected) == 4  # probes 1, 2; the probes' 5; the run's 5
     assert expected[2] == expected[3]
+
+
+def test_shipped_closed_loop_ensemble_scenario_runs_from_the_cli(tmp_path, capsys):
+    """scenarios/ensemble_rw_inertial_pointing.toml through `attitude run` (30 s of its 3 min):
+    the ensemble file with every member, read back by info; --scheduler is refused clearly."""
+    from pathlib import Path
+
+    from attitude.cli import main
+
+    path = Path(__file__).resolve().parents[1] / "scenarios/ensemble_rw_inertial_pointing.toml"
+    out = tmp_path / "rw.nc"
+    assert main(["run", str(path), "-o", str(out), "--stop", "30"]) == 0
+    text = capsys.readouterr().out
+    assert "ensemble    8 members (seed 2026)" in text and "max | |q| - 1 |" in text
+    ds = io.read(out)
+    assert ds.sizes["member"] == 8 and ds.sizes["sensor"] == 2
+    assert (ds.member_status.values == 0).all() and ds.time.values[-1] == 30.0
+    assert np.isfinite(ds.error_angle.values).all() and np.isfinite(ds.estimation_error).all()
+    assert len(np.unique(ds.inertia.values[:, 0])) == 8  # dispersed
+    assert main(["info", str(out)]) == 0
+    assert "invariants  max" in capsys.readouterr().out
+    code = main(["run", str(path), "-o", str(tmp_path / "x.nc"), "--scheduler", "tcp://h:1"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("attitude: error: --scheduler: ") and err.count("\n") == 1
