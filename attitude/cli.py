@@ -230,6 +230,12 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
         raise BadInput(_size_option_hint(exc)) from None
     except AttitudeError as exc:  # an output option given on the command line
         msg = str(exc)
+        if msg.startswith("client:") and getattr(args, "scheduler", None):
+            raise BadInput(
+                "--scheduler: a scenario with actuators or flight software runs its ensemble's "
+                "members on local threads (Dask clusters run rigid-body ensembles); drop "
+                "--scheduler"
+            ) from None
         for key, opt in (
             ("output:", "--ensemble-output:"),
             ("every:", "--every:"),
@@ -532,15 +538,8 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
     from .results import time_unit
 
     unit = time_unit(ds["time"])
-    if "max_abs_norm_error" not in a:  # a file written by io.write: compute them
-        from .io import iter_chunks
-        from .scenario import InvariantTracker
-
-        tr = InvariantTracker()
-        for c in iter_chunks(ds):
-            tr.update(c)
-        counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
-        a.update(tr.attrs(str(a.get("potential_name", "")), counts))
+    if "max_abs_norm_error" not in a and "q" in ds.data_vars:  # (io.write: computed here)
+        a.update(_invariants(ds, str(a.get("potential_name", ""))))
     inertia = a.get("inertia")
     rows = [
         ("file", args.file),
@@ -572,6 +571,34 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         ("history", a.get("history", "-")),
     ]
     return rows, _invariant_lines(a)
+
+
+def _invariants(ds: Any, potential_name: str) -> dict[str, Any]:
+    """The invariant diagnostics of a file that does not store them (streamed over its time
+    chunks; an ensemble's over blocks of members: the largest over the members that
+    succeeded)."""
+    from .scenario import InvariantTracker
+
+    counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
+    if "member" in ds["q"].dims:
+        from .ensemble._spacecraft_output import member_invariant_attrs
+
+        n = ds.sizes["member"]
+        step = max(1, 2**24 // (8 * 16 * max(1, ds.sizes["time"])))
+        out: dict[str, Any] = {}
+        for i in range(0, n, step):
+            part = ds.isel(member=slice(i, i + step))
+            st = part["member_status"].values if "member_status" in part else None
+            ok = np.ones(part.sizes["member"], bool) if st is None else np.isin(st, (0, 4))
+            for k, v in member_invariant_attrs(part, ok, potential_name, counts).items():
+                out[k] = max(out.get(k, 0.0), v)
+        return out
+    from .io import iter_chunks
+
+    tr = InvariantTracker()
+    for c in iter_chunks(ds):
+        tr.update(c)
+    return tr.attrs(potential_name, counts)
 
 
 def _event_lines(ds: Any, limit: int = 20) -> list[str]:
@@ -617,6 +644,17 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     return out
 
 
+def _samples(da: Any, *dims: str) -> np.ndarray:
+    """A variable's values as (sample, *dims): an ensemble's (member, time) flattened (the
+    NaN samples of failed members left out)."""
+    lead = [d for d in da.dims if d not in dims]
+    v = np.asarray(da.transpose(*lead, *dims).values)
+    v = v.reshape(-1, *v.shape[len(lead) :])
+    if v.dtype.kind == "f" and lead:  # the samples after a member's failure: left out
+        v = v[np.isfinite(v).all(axis=tuple(range(1, v.ndim)))]
+    return v
+
+
 def _wheel_lines(ds: Any) -> list[str]:
     """Per reaction wheel: speed range (rpm), largest applied torque, and how often each limit
     acted (streamed over the file's chunks)."""
@@ -632,9 +670,10 @@ def _wheel_lines(ds: Any) -> list[str]:
     step = 65536
     for i in range(0, ds.sizes["time"], step):
         sl = slice(i, i + step)
-        w = np.asarray(ds["wheel_speed"].isel(time=sl).values, dtype=np.float64)
-        u = np.asarray(ds["wheel_torque"].isel(time=sl).values, dtype=np.float64)
-        f = np.asarray(ds["wheel_limit"].isel(time=sl).values).astype(np.int64)
+        # (an ensemble's members are more samples: (member, time, wheel) flattened)
+        w = _samples(ds["wheel_speed"].isel(time=sl), "wheel").astype(np.float64)
+        u = _samples(ds["wheel_torque"].isel(time=sl), "wheel").astype(np.float64)
+        f = _samples(ds["wheel_limit"].isel(time=sl), "wheel").astype(np.int64)
         lo = np.minimum(lo, w.min(axis=0, initial=np.inf))
         hi = np.maximum(hi, w.max(axis=0, initial=-np.inf))
         umax = np.maximum(umax, np.abs(u).max(axis=0, initial=0.0))
@@ -669,7 +708,7 @@ def _torque_budget(ds: Any) -> list[str]:
     n = 0
     step = 65536
     for i in range(0, ds.sizes["time"], step):
-        tau = np.asarray(ds["torque"].isel(time=slice(i, i + step)).values, dtype=np.float64)
+        tau = _samples(ds["torque"].isel(time=slice(i, i + step)), "model", "axis")
         mag = np.sqrt(np.sum(tau * tau, axis=-1))  # (time, model)
         peak = np.maximum(peak, np.max(mag, axis=0, initial=0.0))
         sq += np.sum(mag * mag, axis=0)
@@ -717,6 +756,11 @@ def cmd_plot(args: argparse.Namespace) -> int:
             if getattr(args, "torques", False):
                 if "torque" not in ds.data_vars:
                     raise BadInput(f"plot: {args.file} has no per-model torque variable")
+                if "member" in ds.dims:
+                    raise BadInput(
+                        f"plot --torques: draws the torque budget of one run, and {args.file} "
+                        "is an ensemble; attitude info prints its torque budget over members"
+                    )
                 fig = plot_torque_budget(ds)
             elif "member" in ds.dims:  # percentile bands over the members
                 fig = plot_ensemble(ds)
@@ -755,6 +799,11 @@ def _one_member(ds: Any, args: argparse.Namespace) -> Any:
             "attitudes; run the ensemble storing the members (--ensemble-output samples) to "
             "export one of them"
         )
+    if ds.sizes["time"] < 2:
+        raise BadInput(
+            f"export: {args.file} holds each member's final state only; an AEM needs an "
+            "attitude history (run with --ensemble-output samples)"
+        )
     if args.member is None:
         raise BadInput(
             f"export: {args.file} is an ensemble of {n} members; a CCSDS AEM holds one attitude "
@@ -765,11 +814,6 @@ def _one_member(ds: Any, args: argparse.Namespace) -> Any:
         raise BadInput(
             f"--member {args.member}: no such member in {args.file} (members "
             f"{int(members[0])}..{int(members[-1])})"
-        )
-    if ds.sizes["time"] < 2:
-        raise BadInput(
-            f"export: {args.file} holds each member's final state only; an AEM needs an "
-            "attitude history (run with --ensemble-output samples)"
         )
     return ds.sel(member=args.member)
 

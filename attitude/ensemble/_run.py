@@ -142,6 +142,7 @@ def propagate_ensemble(
     software: Any = None,
     seed: int | None = None,
     _source: Any = None,
+    _member_vars: Callable | None = None,
 ) -> xr.Dataset:
     """Propagate an ensemble of N members in parallel compiled code.
 
@@ -340,7 +341,7 @@ def propagate_ensemble(
             max_step=max_step, max_steps=max_steps, chunk_size=chunk_size, path=path,
             threads=threads, progress=progress, attrs=attrs, epoch=epoch,
             on_estimate=on_estimate, commands=commands, software=software, seed=seed,
-            refused=refused, t_start=t_start,
+            refused=refused, t_start=t_start, member_vars=_member_vars,
         )  # fmt: skip
     if seed is not None:
         raise AttitudeValueError(
@@ -742,6 +743,13 @@ def run_scenario(
     from .._files import OutputFile
 
     out = OutputFile(path, "path").path if path is not None else sc.output
+    if sc.spacecraft is not None:  # actuators, [commands] or [software]
+        from ._spacecraft_scenario import run_spacecraft_scenario
+
+        opts = dict(client=client, progress=progress, chunk_size=chunk_size, output=output,
+                    scheduler_timeout=scheduler_timeout, every=every, percentiles=percentiles,
+                    max_output_size=max_output_size, on_estimate=on_estimate)  # fmt: skip
+        return run_spacecraft_scenario(sc, out, kw, **opts)
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
     pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)

@@ -194,6 +194,7 @@ class CraftMembers:
         self.potential = potential
         self.method = method
         self._runs: dict[tuple[int, int, int], Any] = {}
+        self.extra_vars: Any = None  # (start, stop) -> {name: (dims, values, attrs)}, or None
         first = None
         for i, (c, cmd, sw) in enumerate(self._distinct()):
             struct = _Structure.of(c, sw)

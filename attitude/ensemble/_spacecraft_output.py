@@ -175,6 +175,11 @@ def _member_variables(members, start, blk, out, flat) -> dict[str, xr.Variable]:
     v["member_t_stop"] = xr.Variable(
         ("member",), np.ascontiguousarray(out["t_stop"]), {**when, "long_name": "time reached"}
     )
+    if members.extra_vars is not None:  # e.g. a scenario's dispersions
+        rate = str(flat["omega"].attrs.get("units", "1"))
+        for name, (dims, val, attrs) in members.extra_vars(start, start + len(blk["runs"])).items():
+            attrs = {**attrs, "units": rate} if attrs.get("units") == "rate" else attrs
+            v[name] = xr.Variable(dims, np.ascontiguousarray(val), attrs)
     if "seeds" in blk and members.sensor_kinds:
         v["sensor_seed"] = xr.Variable(
             ("member", "sensor"),
@@ -186,3 +191,36 @@ def _member_variables(members, start, blk, out, flat) -> dict[str, xr.Variable]:
             },
         )
     return v
+
+
+def member_invariant_attrs(
+    ds: xr.Dataset, ok: np.ndarray, potential_name: str, counts: Any = None
+) -> dict[str, float]:
+    """The invariant diagnostics of :class:`attitude.scenario.InvariantTracker` (``attrs``:
+    constraint errors, energy and momentum changes relative to the first stored sample), each
+    member's over its stored samples, the largest over the members where ``ok`` (failed
+    members are NaN after their failure). ``counts``: the (wheels, magnetorquers, thrusters)
+    of a spacecraft."""
+    from ..scenario import InvariantTracker
+
+    def rows(name):
+        return np.asarray(ds[name].transpose("member", "time", ...).values)[ok]
+
+    def top(x):
+        return float(np.max(x, initial=0.0)) if x.size else 0.0
+
+    tr = InvariantTracker()
+    if ok.any():
+        qQ = np.abs(rows("qQ"))
+        normQ = np.linalg.norm(rows("Q"), axis=-1)
+        E, G = rows("energy"), rows("G")
+        scale_e = np.maximum(np.abs(E[:, :1]), np.finfo(float).tiny)
+        scale_g = np.maximum(np.linalg.norm(G[:, :1], axis=-1), 1e-300)
+        tr.max_norm = top(np.abs(rows("norm_error")))
+        tr.max_qQ = top(qQ)
+        tr.max_rel_qQ = top(np.divide(qQ, normQ, out=np.zeros_like(qQ), where=normQ > 0))
+        tr.max_dE = top(np.abs(E - E[:, :1]) / scale_e)
+        tr.max_dG = top(np.linalg.norm(G - G[:, :1], axis=-1) / scale_g)
+        tr.max_dGz = top(np.abs(G[..., 2] - G[:, :1, 2]) / scale_g)
+    tr.E0, tr.G0 = 1.0, np.array([1.0, 0.0, 0.0])  # (the maxima above are relative already)
+    return tr.attrs(potential_name, counts)

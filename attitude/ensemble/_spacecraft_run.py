@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .._core.rk import EVENT, SUCCESS
 from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from ..io import COMPLEVEL
 from . import _plan
@@ -29,7 +30,7 @@ from ._members import _member_states, _project
 from ._output import _concat, _MemberWriter, _open_result
 from ._spacecraft_chunks import compute_chunk
 from ._spacecraft_members import CraftMembers, _one_or_list, as_crafts
-from ._spacecraft_output import chunk_dataset
+from ._spacecraft_output import chunk_dataset, member_invariant_attrs
 
 __all__ = ["propagate_spacecraft"]
 
@@ -87,6 +88,7 @@ def propagate_spacecraft(
     seed: Any,
     refused: dict[str, Any],
     t_start: float,
+    member_vars: Any = None,
 ) -> xr.Dataset:
     """The spacecraft ensemble of :func:`attitude.ensemble.propagate_ensemble` (its arguments,
     validated there except those of spacecraft)."""
@@ -94,6 +96,7 @@ def propagate_spacecraft(
     members, pot, run_attrs = _validate(
         body, q0, Q0, tt, potential, plan, method, epoch, commands, software, seed, refused
     )
+    members.extra_vars = member_vars  # (start, stop) -> more per-member variables, or None
     method = members.method  # "auto" resolved as the single runs resolve it
     n = members.n
     threads_n = _threads(threads)
@@ -297,6 +300,9 @@ def _run(members, chunk, plan, attrs, csize, out_path, progress, t_start) -> xr.
     failures = _Failures(plan.stored_t.shape[0])
     totals = {"n_steps": 0, "n_rhs": 0, "n_rejected": 0}
     max_projection = 0.0
+    invariants: dict[str, float] = {}  # maxima over members (scenario.InvariantTracker's)
+    pot_name = members.potential.name
+    counts = members.structure.counts
     try:
         for start, stop in bounds:
             try:
@@ -313,6 +319,9 @@ def _run(members, chunk, plan, attrs, csize, out_path, progress, t_start) -> xr.
                 totals["n_rhs"] += int(cnt[:, 1].sum())
                 totals["n_rejected"] += int(cnt[:, 2].sum())
             ds = chunk_dataset(members, start, blk, out, plan.stored_t, plan.keep, attrs)
+            ok = np.isin(out["status"], (SUCCESS, EVENT))
+            for k, v in member_invariant_attrs(ds, ok, pot_name, counts).items():
+                invariants[k] = max(invariants.get(k, 0.0), v)
             if writer is not None:
                 writer.append(ds)
             else:
@@ -324,6 +333,7 @@ def _run(members, chunk, plan, attrs, csize, out_path, progress, t_start) -> xr.
             failure = PropagationError(failures.message(n), time=failures.first[1])
         final = dict(attrs)
         final.update({k: np.int64(v) for k, v in totals.items()})
+        final.update(invariants)
         final["initial_projection"] = float(max_projection)
         final["n_members_written"] = np.int64(n)
         final["n_members_failed"] = np.int64(failures.count)

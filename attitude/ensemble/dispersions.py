@@ -329,6 +329,43 @@ def disperse(
     )  # fmt: skip
 
 
+def dispersion_vars(disp: Dispersions, start: int, stop: int) -> dict[str, tuple]:
+    """The errors applied to members start..stop−1 and their draw counters, as variables
+    (``name: (dims, values, attrs)``; ``units`` "rate" is replaced by the output's rate unit)."""
+    dtheta, domega, eps = disp.draws(start, stop)
+    out: dict[str, tuple] = {}
+    out["dispersion_attitude"] = (
+        ("member", "axis"),
+        dtheta,
+        {
+            "units": "rad",
+            "long_name": "attitude error applied: rotation vector in body axes, "
+            "q = q_nominal o exp(dtheta / 2)",
+        },
+    )
+    out["dispersion_rate"] = (
+        ("member", "axis"),
+        domega,
+        {"units": "rate", "long_name": "body-rate error applied: omega = omega_nominal + domega"},
+    )
+    out["dispersion_inertia"] = (
+        ("member", "axis"),
+        eps,
+        {"units": "1", "long_name": "relative inertia error applied: I = I_nominal (1 + eps)"},
+    )
+    counter = (np.arange(start, stop, dtype=np.int64)) * (_DRAWS // 4)
+    out["member_draw_counter"] = (
+        ("member",),
+        counter,
+        {
+            "units": "1",
+            "long_name": "Philox counter of the member's draws (key from "
+            "SeedSequence(ensemble_seed); 3 x member index)",
+        },
+    )
+    return out
+
+
 class _Sampled:
     """Members drawn chunk by chunk from :class:`Dispersions` (memory: one chunk)."""
 
@@ -355,43 +392,8 @@ class _Sampled:
         """The members' drawn initial states and the errors applied (``name: (dims, values,
         attrs)``; ``units`` "rate"/"momentum" are replaced by the output's units)."""
         q, Q, _ = self.disp.sample(self.q0, self.Q0, self.inertia0, start, stop)
-        dtheta, domega, eps = self.disp.draws(start, stop)
         out = initial_state_vars(q, Q)
-        out["dispersion_attitude"] = (
-            ("member", "axis"),
-            dtheta,
-            {
-                "units": "rad",
-                "long_name": "attitude error applied: rotation vector in body axes, "
-                "q = q_nominal o exp(dtheta / 2)",
-            },
-        )
-        out["dispersion_rate"] = (
-            ("member", "axis"),
-            domega,
-            {
-                "units": "rate",
-                "long_name": "body-rate error applied: omega = omega_nominal + domega",
-            },
-        )
-        out["dispersion_inertia"] = (
-            ("member", "axis"),
-            eps,
-            {
-                "units": "1",
-                "long_name": "relative inertia error applied: I = I_nominal (1 + eps)",
-            },
-        )
-        counter = (np.arange(start, stop, dtype=np.int64)) * (_DRAWS // 4)
-        out["member_draw_counter"] = (
-            ("member",),
-            counter,
-            {
-                "units": "1",
-                "long_name": "Philox counter of the member's draws (key from "
-                "SeedSequence(ensemble_seed); 3 x member index)",
-            },
-        )
+        out.update(dispersion_vars(self.disp, start, stop))
         return out
 
     def nominal_params(self, inertia: np.ndarray | None = None) -> np.ndarray:

@@ -103,10 +103,17 @@ def _mean_attitude(q: xr.DataArray) -> np.ndarray:
     return qm * np.where(qm[..., :1] < 0, -1.0, 1.0)
 
 
+def has_nominal(ds: xr.Dataset) -> bool:
+    """Whether ``ds`` stores the ensemble's reference attitude ``reference_q`` (time, component)
+    (not the flight software's guidance reference of a closed-loop ensemble, (member, tick,
+    component), which has the same name)."""
+    return "reference_q" in ds and ds["reference_q"].dims == ("time", "component")
+
+
 def _reference(ds: xr.Dataset, q: xr.DataArray, reference: Any) -> xr.DataArray:
     m = ds.sizes["time"]
     if reference is None:
-        reference = "nominal" if "reference_q" in ds else "mean"
+        reference = "nominal" if has_nominal(ds) else "mean"
     if isinstance(reference, str):
         if reference not in ("mean", "nominal"):
             raise AttitudeValueError(
@@ -114,7 +121,7 @@ def _reference(ds: xr.Dataset, q: xr.DataArray, reference: Any) -> xr.DataArray:
                 f"nominal run) or quaternions (4,) / (time, 4), got {reference!r}"
             )
         if reference == "nominal":
-            if "reference_q" not in ds:
+            if not has_nominal(ds):
                 raise AttitudeValueError(
                     "reference: 'nominal' needs the reference attitude stored with the "
                     "ensemble (reference_q: propagate_ensemble(..., nominal=(q0, Q0)) or a "
@@ -243,7 +250,7 @@ def pointing_error_percentiles(
         "reference": (
             reference
             if isinstance(reference, str)
-            else ("nominal" if reference is None and "reference_q" in ds else "given")
+            else ("nominal" if reference is None and has_nominal(ds) else "given")
         ),
     }
     return out.rename("pointing_error")

@@ -23,8 +23,11 @@ def _ensemble_percentiles(ds: xr.Dataset) -> tuple[Any, Any, str]:
     import numpy as np
 
     from ..ensemble import pointing_error_percentiles, rate_percentiles
+    from ..ensemble.statistics import has_nominal
 
-    ref = "nominal" if "reference_q" in ds else "mean"
+    ref = "nominal" if has_nominal(ds) else "mean"
+    if _software_error(ds):  # closed loop: the flight software's own pointing error per tick
+        ref = "software"
     if "q" not in ds:  # statistics only
         have = [p for p in _BANDS if np.any(np.isclose(ds["percentile"].values, p))]
         pe = pointing_error_percentiles(ds, None, have, degrees=True)
@@ -37,9 +40,27 @@ def _ensemble_percentiles(ds: xr.Dataset) -> tuple[Any, Any, str]:
     pes, ws = [], []
     for i in range(0, d.sizes["time"], block):
         part = d.isel(time=slice(i, i + block)).load()
-        pes.append(pointing_error_percentiles(part, None, _BANDS, degrees=True))
+        if ref != "software":
+            pes.append(pointing_error_percentiles(part, None, _BANDS, degrees=True))
         ws.append(rate_percentiles(part, _BANDS, degrees=True))
+    if ref == "software":
+        from ..ensemble import error_angle_percentiles
+
+        n_tick = ds.sizes["tick"]
+        stride = max(1, -(-n_tick // MAX_ENSEMBLE_TIMES))
+        ticks = ds[["error_angle", "member_status"]].isel(tick=slice(None, None, stride))
+        pe = error_angle_percentiles(ticks.load(), _BANDS, degrees=True)
+        return pe.rename(tick="time"), xr.concat(ws, "time"), ref
     return xr.concat(pes, "time"), xr.concat(ws, "time"), ref
+
+
+def _software_error(ds: xr.Dataset) -> bool:
+    """Whether ``ds`` is a closed-loop ensemble with the software's error angle at 2+ ticks."""
+    return (
+        "error_angle" in ds
+        and ds["error_angle"].dims == ("member", "tick")
+        and ds.sizes["tick"] >= 2
+    )
 
 
 def _bands(ax, t, da, color: str) -> None:
@@ -72,7 +93,8 @@ def plot_ensemble(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi:
     of |ω| against time (5–95 % shaded, median, maximum dashed).
 
     The pointing error is measured from the stored reference (``reference_q``: the nominal
-    state propagated once, as in a scenario run), else from the members' mean attitude. A
+    state propagated once, as in a scenario run), else from the members' mean attitude; for a
+    closed-loop ensemble it is the flight software's own (``error_angle``, at its ticks). A
     result with the final state only gives histograms over members instead.
 
     Parameters
@@ -96,11 +118,14 @@ def plot_ensemble(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi:
 
     pe, w, ref = _ensemble_percentiles(ds)
     n = int(ds.sizes.get("member", 0))
-    ref_text = "the nominal attitude" if ref == "nominal" else "the members' mean attitude"
+    ref_text = {"nominal": "the nominal attitude", "mean": "the members' mean attitude",
+                "software": "the flight software's reference"}[ref]  # fmt: skip
     wu = str(w.attrs.get("units", ""))
     wlabel = "deg per time unit" if w.attrs.get("comment") else wu.replace(" s^-1", "/s")
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.2), constrained_layout=True)
-    if pe.sizes["time"] == 1 and "q" in ds:  # final state only: distributions over members
+    if ref == "software" and w.sizes["time"] < 2:  # closed loop, final states stored
+        _software_final(ds, axes, pe, w, wlabel, n)
+    elif w.sizes["time"] == 1 and "q" in ds:  # final state only: distributions over members
         from ..ensemble.statistics import _error_angles, _mean_attitude
 
         last = ds.isel(time=slice(-1, None)).load()
@@ -137,6 +162,8 @@ def plot_ensemble(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi:
         _bands(axes[0], t, pe, "tab:blue")
         axes[0].set_ylabel("pointing error [deg]")
         axes[0].set_title(f"pointing error from {ref_text}")
+        if ref == "software":  # (its ticks are not the output times)
+            t = axis.values(time_values(xr.Dataset(coords={"time": w["time"]})))
         _bands(axes[1], t, w, "tab:orange")
         axes[1].set_ylabel(f"|ω| [{wlabel}]")
         axes[1].set_title("angular velocity magnitude")
@@ -145,3 +172,27 @@ def plot_ensemble(ds: xr.Dataset, path: str | os.PathLike | None = None, *, dpi:
     title = str(ds.attrs.get("title", "attitude ensemble"))
     fig.suptitle(f"{title} ({n} members)", fontsize=11)
     return save(fig, path, dpi)
+
+
+def _software_final(ds, axes, pe, w, wlabel: str, n: int) -> None:
+    """A closed-loop ensemble storing final states: the software's pointing error in bands over
+    its ticks, a histogram of |ω| at the end."""
+    import numpy as np
+
+    from ..results import time_values
+
+    ts = time_values(xr.Dataset(coords={"time": pe["time"]}))
+    axis = TimeAxis.of(ds, ts)
+    _bands(axes[0], axis.values(ts), pe, "tab:blue")
+    axes[0].set_ylabel("pointing error [deg]")
+    axes[0].set_xlabel(axis.text)
+    axes[0].set_title("pointing error from the flight software's reference")
+    wn = np.degrees(np.linalg.norm(np.asarray(ds["omega"].isel(time=-1).values), axis=-1))
+    ax = axes[1]
+    ax.hist(wn[np.isfinite(wn)], bins=min(60, max(10, n // 20)), color="tab:orange", alpha=0.7)
+    for p, val in zip(w["percentile"].values, w.values[:, 0], strict=True):
+        ax.axvline(val, color="k", lw=0.9, ls="--" if p == 100 else "-")
+    ax.set_xlabel(f"|ω| [{wlabel}]")
+    ax.set_ylabel("members")
+    ax.set_title("angular velocity magnitude at the end")
+    ax.grid(alpha=0.3)

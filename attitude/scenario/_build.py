@@ -238,14 +238,20 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [ensemble]
     ensemble = None
     if "ensemble" in data:
-        if craft is not None:  # the ensemble runner takes rigid bodies: they were dropped
+        ensemble = _dispersions(r, r.table("ensemble"), body)
+        if craft is not None and ensemble.output == "statistics":
+            raise _fail(
+                "ensemble.output",
+                "a scenario with actuators, [commands] or [software] stores its members "
+                "('samples' or 'final'); take the statistics from the file afterwards "
+                "(attitude.ensemble.error_angle_percentiles, settling_times)",
+            )
+        if craft is not None and "events" in data:
             raise _fail(
                 "ensemble",
-                "a scenario with actuators, [commands] or [software] does not run as an "
-                "ensemble yet (its members would be the rigid body alone); remove [ensemble] "
-                "or run the closed-loop scenario singly",
+                "events are not located for a spacecraft with actuators or flight software (as "
+                "in a single run); remove [events] or [ensemble]",
             )
-        ensemble = _dispersions(r, r.table("ensemble"), body)
 
     # [events]
     events = None
