@@ -577,7 +577,7 @@ def _invariants(ds: Any, potential_name: str) -> dict[str, Any]:
     """The invariant diagnostics of a file that does not store them (streamed over its time
     chunks; an ensemble's over blocks of members: the largest over the members that
     succeeded)."""
-    from .scenario import InvariantTracker
+    from ._invariants import InvariantTracker
 
     counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
     if "member" in ds["q"].dims:

@@ -471,13 +471,84 @@ class StreamWriter:
             self.abort()
 
 
+class _MemberWriter(StreamWriter):
+    """:class:`StreamWriter` appending along ``member`` (unlimited) instead of time.
+
+    Variables without a ``member`` dimension (time, orbit of a shared orbit) are written once.
+    """
+
+    _along = "member"
+
+    def _create(self, ds: xr.Dataset) -> None:
+        for name in ds.variables:  # every attr checked before anything is written
+            check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
+        nc = self._open_tmp()
+        nc.createDimension("member", None)
+        for dim, size in ds.sizes.items():
+            if dim != "member":
+                nc.createDimension(dim, size)
+        comp = self._filters()
+        for name in [*ds.coords, *ds.data_vars]:
+            var = ds[name].variable
+            if var.dtype.kind in "UO":
+                v = nc.createVariable(name, str, var.dims)
+                v[:] = np.asarray(var.values, dtype=object)
+            elif "member" in var.dims:
+                chunks = self._chunks(var)
+                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
+                # A chunk cache of two netCDF chunks: complete chunks are written out at once
+                # instead of accumulating in HDF5's cache (memory would grow with N).
+                nbytes = var.dtype.itemsize * int(np.prod(chunks))
+                v.set_var_chunk_cache(size=2 * nbytes + 4096, nelems=17, preemption=1.0)
+                self._vars.append(name)
+            elif var.ndim and var.size:  # one checksummed chunk (the file's readers agree)
+                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=list(var.shape),
+                                      **comp)  # fmt: skip
+                v[:] = var.values
+            else:
+                v = nc.createVariable(name, var.dtype, var.dims)
+                v[:] = var.values
+            _set_attrs(v, _variable_attrs(ds, name))  # CF "coordinates" of the label variables
+
+    @staticmethod
+    def _chunks(var: xr.Variable) -> list[int]:
+        # About 1 MiB per netCDF chunk: all of each member's record, as many members as fit.
+        rest = list(var.shape[1:])
+        per = 8 * int(np.prod(rest)) if rest else 8
+        while per > 2**20 and rest:  # very long records: cut the time axis
+            i = int(np.argmax(rest))
+            rest[i] = max(1, rest[i] // 2)
+            per = 8 * int(np.prod(rest))
+        members = int(max(1, min(var.shape[0], 2**20 // per)))
+        return [members, *rest]
+
+    def add_variables(self, ds: xr.Dataset) -> None:
+        """Write the variables of ``ds`` that the file does not hold yet (e.g. the percentiles
+        of a statistics run, computed when every member is done); before :meth:`commit`."""
+        nc = self._nc
+        for dim, size in ds.sizes.items():
+            if dim not in nc.dimensions:
+                nc.createDimension(dim, size)
+        comp = self._filters()
+        for name in [*ds.coords, *ds.data_vars]:
+            if name in nc.variables:
+                continue
+            var = ds[name].variable
+            extra = comp if name in ds.data_vars else {}
+            v = nc.createVariable(name, var.dtype, var.dims, **extra)
+            v[:] = var.values
+            _set_attrs(v, _variable_attrs(ds, name))
+
+
 def write(ds: xr.Dataset, path: str | os.PathLike, *, complevel: int = COMPLEVEL) -> Path:
     """Write a result Dataset to a netCDF4 file (compressed, CF attrs, atomic).
 
     Parameters
     ----------
     ds : xarray.Dataset
-        A propagation result (docs/results.md): dimension ``time``, numeric data variables.
+        A propagation result (docs/results.md): dimension ``time``, numeric data variables;
+        or an ensemble's (dimension ``member``, written as ``propagate_ensemble(path=...)``
+        writes it).
     path : str or Path
         Output file; an existing file is replaced only once the new one is complete.
     complevel : int
@@ -496,6 +567,15 @@ def write(ds: xr.Dataset, path: str | os.PathLike, *, complevel: int = COMPLEVEL
     check_attrs(ds.attrs, "ds.attrs")  # before anything is written
     for name in ds.variables:
         check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
+    if "member" in ds.dims:  # an ensemble (propagate_ensemble's layout): member by member
+        with _MemberWriter(path, complevel=complevel) as w:
+            w._out.check_space(float(ds.nbytes), f"an ensemble of {ds.sizes['member']} members")
+            per = max(1, int(ds.nbytes // max(1, ds.sizes["member"])))
+            step = max(1, (64 << 20) // per)  # ~64 MB a slice
+            for i in range(0, ds.sizes["member"], step):
+                w.append(ds.isel(member=slice(i, i + step)))
+            w.attrs = dict(ds.attrs)
+        return w.path
     ticks = [k for k in ds.data_vars if "tick" in ds[k].dims]
     samples = ds.drop_vars(ticks + [k for k in ds.coords if "tick" in ds[k].dims])
     with StreamWriter(path, complevel=complevel) as w:

@@ -197,3 +197,21 @@ def test_streaming_ten_million_samples_bounded_memory(tmp_path):
     ds = io.read(tmp_path / "huge.nc", load=False)
     assert ds.sizes["time"] == n and float(ds.time[-1]) == 1.0e5
     ds.close()
+
+
+def test_an_ensemble_in_memory_is_written_as_propagate_ensemble_writes_it(tmp_path):
+    """io.write of an ensemble Dataset (member dimension) reads back equal to it, and equal to
+    the file propagate_ensemble(path=) writes of the same members."""
+    from attitude.ensemble import propagate_ensemble
+
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    Q0 = np.array([[0.0, 0.2, 0.1, -0.3], [0.0, -0.1, 0.3, 0.2], [0.0, 0.05, 0.0, 0.4]])
+    t = np.linspace(0.0, 2.0, 5)
+    body = [1.0, 2.0, 2.5]
+    ds = propagate_ensemble(body, q0, Q0, t, method="dop853")
+    io.write(ds, tmp_path / "mem.nc")
+    propagate_ensemble(body, q0, Q0, t, method="dop853", path=tmp_path / "run.nc")
+    mem, run = io.read(tmp_path / "mem.nc"), io.read(tmp_path / "run.nc")
+    for v in ds.data_vars:
+        np.testing.assert_array_equal(mem[v].values, ds[v].values, err_msg=v)
+        np.testing.assert_array_equal(mem[v].values, run[v].values, err_msg=v)

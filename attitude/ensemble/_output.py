@@ -10,7 +10,6 @@ import xarray as xr
 
 from .._core import rk as _rk
 from ..body import RigidBody
-from ..io import StreamWriter
 from ..results import build_dataset
 from ._chunks import _N_DIAG, STATUS_FLAGS
 
@@ -225,79 +224,6 @@ class _Assembler:
         a["n_members_written"] = np.int64(self.n_members)
         a["run_status"] = status
         return a
-
-
-class _MemberWriter(StreamWriter):
-    """:class:`attitude.io.StreamWriter` appending along ``member`` (unlimited) instead of time.
-
-    Variables without a ``member`` dimension (time, orbit of a shared orbit) are written once.
-    """
-
-    _along = "member"
-
-    def _create(self, ds: xr.Dataset) -> None:
-        from ..io import _set_attrs, _variable_attrs, check_attrs
-
-        for name in ds.variables:  # every attr checked before anything is written
-            check_attrs(ds[name].attrs, f"ds[{name!r}].attrs")
-        nc = self._open_tmp()
-        nc.createDimension("member", None)
-        for dim, size in ds.sizes.items():
-            if dim != "member":
-                nc.createDimension(dim, size)
-        comp = self._filters()
-        for name in [*ds.coords, *ds.data_vars]:
-            var = ds[name].variable
-            if var.dtype.kind in "UO":
-                v = nc.createVariable(name, str, var.dims)
-                v[:] = np.asarray(var.values, dtype=object)
-            elif "member" in var.dims:
-                chunks = self._chunks(var)
-                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
-                # A chunk cache of two netCDF chunks: complete chunks are written out at once
-                # instead of accumulating in HDF5's cache (memory would grow with N).
-                nbytes = var.dtype.itemsize * int(np.prod(chunks))
-                v.set_var_chunk_cache(size=2 * nbytes + 4096, nelems=17, preemption=1.0)
-                self._vars.append(name)
-            elif var.ndim and var.size:  # one checksummed chunk (the file's readers agree)
-                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=list(var.shape),
-                                      **comp)  # fmt: skip
-                v[:] = var.values
-            else:
-                v = nc.createVariable(name, var.dtype, var.dims)
-                v[:] = var.values
-            _set_attrs(v, _variable_attrs(ds, name))  # CF "coordinates" of the label variables
-
-    @staticmethod
-    def _chunks(var: xr.Variable) -> list[int]:
-        # About 1 MiB per netCDF chunk: all of each member's record, as many members as fit.
-        rest = list(var.shape[1:])
-        per = 8 * int(np.prod(rest)) if rest else 8
-        while per > 2**20 and rest:  # very long records: cut the time axis
-            i = int(np.argmax(rest))
-            rest[i] = max(1, rest[i] // 2)
-            per = 8 * int(np.prod(rest))
-        members = int(max(1, min(var.shape[0], 2**20 // per)))
-        return [members, *rest]
-
-    def add_variables(self, ds: xr.Dataset) -> None:
-        """Write the variables of ``ds`` that the file does not hold yet (e.g. the percentiles
-        of a statistics run, computed when every member is done); before :meth:`commit`."""
-        from ..io import _set_attrs, _variable_attrs
-
-        nc = self._nc
-        for dim, size in ds.sizes.items():
-            if dim not in nc.dimensions:
-                nc.createDimension(dim, size)
-        comp = self._filters()
-        for name in [*ds.coords, *ds.data_vars]:
-            if name in nc.variables:
-                continue
-            var = ds[name].variable
-            extra = comp if name in ds.data_vars else {}
-            v = nc.createVariable(name, var.dtype, var.dims, **extra)
-            v[:] = var.values
-            _set_attrs(v, _variable_attrs(ds, name))
 
 
 #: The variables split from the states and diagnostics, with their trailing shapes (in the order

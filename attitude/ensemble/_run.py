@@ -16,7 +16,7 @@ import xarray as xr
 from .._validation import as_atol, as_float_array, as_int, as_positive, as_rtol, as_times
 from ..body import RigidBody
 from ..errors import AttitudeFileError, AttitudeTypeError, AttitudeValueError, PropagationError
-from ..io import COMPLEVEL, check_attrs
+from ..io import COMPLEVEL, _MemberWriter, check_attrs
 from ..potentials import Potential
 from ..propagate import AUTO, PROJECTION_WARN, _check_max_step
 from . import _dask, _plan
@@ -44,7 +44,7 @@ from ._members import (
     _Members,
     _project,
 )
-from ._output import _Assembler, _concat, _Direct, _MemberWriter, _open_result
+from ._output import _Assembler, _concat, _Direct, _open_result
 from ._percentile_store import _PercentileStore
 from ._spacecraft_members import is_spacecraft_ensemble
 from ._spacecraft_run import propagate_spacecraft
@@ -749,7 +749,7 @@ def run_scenario(
         opts = dict(client=client, progress=progress, chunk_size=chunk_size, output=output,
                     scheduler_timeout=scheduler_timeout, every=every, percentiles=percentiles,
                     max_output_size=max_output_size, on_estimate=on_estimate)  # fmt: skip
-        return run_spacecraft_scenario(sc, out, kw, **opts)
+        return run_spacecraft_scenario(sc, out, kw, propagate_ensemble, **opts)
     q0, Q0, _ = project_state(sc.q0, sc.Q0)
     pot = sc.potential.bind(sc.body).prepare(sc.t)
     inertia = np.asarray(sc.body.inertia, dtype=np.float64)

@@ -201,7 +201,7 @@ def member_invariant_attrs(
     member's over its stored samples, the largest over the members where ``ok`` (failed
     members are NaN after their failure). ``counts``: the (wheels, magnetorquers, thrusters)
     of a spacecraft."""
-    from ..scenario import InvariantTracker
+    from .._invariants import InvariantTracker
 
     def rows(name):
         return np.asarray(ds[name].transpose("member", "time", ...).values)[ok]

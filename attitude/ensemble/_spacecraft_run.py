@@ -23,11 +23,11 @@ import xarray as xr
 
 from .._core.rk import EVENT, SUCCESS
 from ..errors import AttitudeTypeError, AttitudeValueError, PropagationError
-from ..io import COMPLEVEL
+from ..io import COMPLEVEL, _MemberWriter
 from . import _plan
 from ._chunks import CHUNK_FAILED, _Failures
 from ._members import _member_states, _project
-from ._output import _concat, _MemberWriter, _open_result
+from ._output import _concat, _open_result
 from ._spacecraft_chunks import compute_chunk
 from ._spacecraft_members import CraftMembers, _one_or_list, as_crafts
 from ._spacecraft_output import chunk_dataset, member_invariant_attrs

@@ -65,11 +65,13 @@ def members_of(sc: Any, disp: Dispersions) -> tuple[Any, np.ndarray, np.ndarray,
     return crafts, q, Q.reshape(n, 4), software
 
 
-def run_spacecraft_scenario(sc: Any, out: Any, kw: dict[str, Any], **opts: Any) -> dict[str, Any]:
+def run_spacecraft_scenario(
+    sc: Any, out: Any, kw: dict[str, Any], propagate_ensemble: Any, **opts: Any
+) -> dict[str, Any]:
     """:func:`attitude.ensemble.run_scenario` of a scenario with a spacecraft (its arguments:
     ``client``, ``progress``, ``chunk_size``, ``scheduler_timeout``, ``output``, ``every``,
-    ``percentiles``, ``max_output_size``, ``on_estimate``; ``kw`` the numerics)."""
-    from ._run import propagate_ensemble
+    ``percentiles``, ``max_output_size``, ``on_estimate``; ``kw`` the numerics;
+    ``propagate_ensemble`` the runner, passed in: this module is below it)."""
 
     disp = sc.ensemble
     if sc.events:
@@ -96,7 +98,7 @@ def run_spacecraft_scenario(sc: Any, out: Any, kw: dict[str, Any], **opts: Any) 
     )
     limit = disp.max_output_size if max_size is ... else max_size
     if disp.size > PROBE_ABOVE:  # refuse too large an output before drawing every member
-        _check_size(sc, disp, out, common, limit)
+        _check_size(sc, disp, out, common, limit, propagate_ensemble)
     crafts, q, Q, software = members_of(sc, disp)
     ds = propagate_ensemble(
         crafts, q, Q, sc.t, sc.potential, path=out, progress=opts["progress"],
@@ -120,14 +122,15 @@ class _Estimate(Exception):
         self.nbytes = nbytes
 
 
-def _check_size(sc: Any, disp: Dispersions, out: Any, common: dict, limit: Any) -> None:
+def _check_size(
+    sc: Any, disp: Dispersions, out: Any, common: dict, limit: Any, propagate_ensemble: Any
+) -> None:
     """Raise OutputSizeError if the ensemble's output would exceed ``limit``: its expected
     size is affine in the size N (per-member variables N times, the rest once), measured on
     ensembles of the first 1 and 2 members."""
     import dataclasses
 
     from . import _plan
-    from ._run import propagate_ensemble
 
     sizes = []
     for n in (1, 2):
