@@ -840,6 +840,11 @@ def _api_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
         "GravityGradient": (attitude.GravityGradient, dict(orbit=orb, inertia=None)),
         "KeplerOrbit": (KeplerOrbit, dict(
             a=7000.0, e=0.1, inc=0.5, raan=0.2, argp=0.3, f0=None, mu=None, t0=0.0)),
+        "KeplerOrbit.circular": (KeplerOrbit.circular, dict(
+            altitude=500.0, inc=0.9, raan=0.2, arg_lat=0.1, epoch=None, mu=None, t0=0.0)),
+        "SecularJ2Orbit.sun_synchronous": (SecularJ2Orbit.sun_synchronous, dict(
+            altitude=700.0, local_time_of_node="10:30", epoch="2024-03-20T12:00:00",
+            arg_lat=0.0, mu=None, j2=None, radius=None)),
         "KeplerOrbit.radius": (orb.radius, dict(t=1.0)),
         "KeplerOrbit.frame_quaternion": (orb.frame_quaternion, dict(t=[0.0, 1.0])),
         "project_state": (attitude.canonical.project_state, dict(q=q0, Q=Q0)),
@@ -1101,6 +1106,10 @@ def _closed_loop_targets(tmp: Path) -> dict[str, tuple[Any, dict[str, Any]]]:
         "propagate_software_taylor": (propagate_closed_loop, dict(
             body=wcraft, q0=q0, Q0=Q0w, t=t, method="taylor", rtol=1e-12,
             software=FlightSoftware(0.1, F.inertial(), K.MRPFeedback(1.0, 5.0)))),
+        "propagate_software_recorded": (propagate_closed_loop, dict(
+            body=wcraft, q0=q0, Q0=Q0w, t=t, method="dop853", max_output_size="1 GB",
+            software=FlightSoftware(0.1, F.inertial(), K.MRPFeedback(1.0, 5.0),
+                                    record_every=0.5 * u.s))),
         "FlightSoftware": (software, dict(
             period=0.1, guidance=F.inertial(), control=K.MRPFeedback(1.0, 5.0), allocation=None,
             sensors=None, estimator=None, modes=None, delay=1, phase=0.05,

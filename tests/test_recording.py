@@ -232,3 +232,25 @@ def test_the_command_reports_memory_exhaustion_as_bad_input(tmp_path, monkeypatc
     err = capsys.readouterr().err
     assert "out of memory" in err and "record_every" in err and "Traceback" not in err
     assert not out.exists() and not list(tmp_path.iterdir())
+
+
+def test_a_control_law_subclass_is_refused_not_zero_torque():
+    """Issue 40's silent trap: a user subclass of ControlLaw compiled to zero torque; a
+    subclass of a built-in law would run the parent's kernel, never its own code. Both are
+    refused, naming what works; the built-in laws themselves are accepted."""
+    from attitude.control import ControlLaw, RateDamping
+
+    class Mine(ControlLaw):
+        def torque(self, sigma, omega):
+            return -sigma
+
+    class Tuned(MRPFeedback):
+        pass
+
+    for law in (Mine(), Tuned(3.5, 30.0)):
+        with pytest.raises(AttitudeTypeError, match=r"control: .* subclasses .*step\(t, meas"):
+            FlightSoftware(0.1, frames.inertial(), law)
+        with pytest.raises(AttitudeTypeError, match="control: "):
+            FlightSoftware(0.1, frames.inertial(), (law,))
+    for law in (MRPFeedback(3.5, 30.0), RateDamping(2.0)):
+        assert FlightSoftware(0.1, frames.inertial(), law).modes[0][1].control is law

@@ -130,13 +130,30 @@ def _is_compiled(fn: Any) -> bool:
     return isinstance(fn, CPUDispatcher)
 
 
+def _builtin_law(law: ControlLaw) -> ControlLaw:
+    """``law`` if it is one of the built-in laws the compiled loop has a kernel for; a
+    subclass of one (its own code would never run) or of ControlLaw (it has no kernel: it
+    compiled to zero torque) is refused, naming what works."""
+    builtin = [c for c in type(law).__mro__ if c.__module__ == ControlLaw.__module__]
+    if type(law) is not builtin[0] or law._kind == 0:
+        raise AttitudeTypeError(
+            f"control: {type(law).__name__} subclasses {builtin[0].__name__}; the compiled loop "
+            "runs the built-in laws' kernels only (MRPFeedback, QuaternionFeedback, "
+            "RateDamping, BDot), so a subclass's own code would never run: give a built-in "
+            "law, or write yours as a function step(t, measurements) -> commands (Python, or "
+            "numba.njit to compile it into the loop; docs/flight_software.md, 'Your own "
+            "software')"
+        )
+    return law
+
+
 def _control(x: Any) -> tuple[Any, MomentumDumping | None, Callable | None]:
     """(law, dumping, Python step) from a law, (law, MomentumDumping), a callable or None."""
     if x is None:
         return None, None, None
     refuse_class(x, "control")  # a class is callable: it would pass for your own step
     if isinstance(x, ControlLaw):
-        return x, None, None
+        return _builtin_law(x), None, None
     if isinstance(x, MomentumDumping):
         return None, x, None
     if isinstance(x, (tuple, list)):
@@ -148,7 +165,7 @@ def _control(x: Any) -> tuple[Any, MomentumDumping | None, Callable | None]:
             raise AttitudeTypeError(
                 "control: a sequence combines one control law with one MomentumDumping"
             )
-        return (laws[0] if laws else None), (dumps[0] if dumps else None), None
+        return (_builtin_law(laws[0]) if laws else None), (dumps[0] if dumps else None), None
     if callable(x):
         return None, None, x
     raise AttitudeTypeError(
