@@ -158,16 +158,28 @@ def _stored_text(info: dict[str, Any], m: int) -> str:
     return f"every member at {times}"
 
 
-def _size_option_hint(exc: Any) -> str:
+def _size_option_hint(exc: Any, sc: Any = None) -> str:
+    """The command's words for an ensemble above its size limit: only the remedies that work
+    for this scenario (a spacecraft's stores its members: no statistics; its flight software
+    recording every k-th tick: record_every)."""
     from .ensemble._plan import format_size
 
     want = format_size(exc.expected * 1.1).replace(" ", "")
+    craft = sc is not None and getattr(sc, "spacecraft", None) is not None
+    every = getattr(getattr(sc, "software", None), "record_every", None)
+    fixes = []
+    if every is not None and "tick records" in str(exc):
+        fixes.append('record fewer ticks with record_every = "samples" (the default) in [software]')
+    fixes.append(
+        "store less with --ensemble-output final or --every K"
+        if craft
+        else "store less with --ensemble-output final, --ensemble-output statistics or --every K"
+    )
     return (
         f"the ensemble's output file would take about {format_size(exc.expected)}, above the "
         f"limit of {format_size(exc.limit)} (--max-output-size, or max_output_size in the "
-        "scenario's [ensemble] table); store less with --ensemble-output final, "
-        f"--ensemble-output statistics or --every K, or allow it: --max-output-size {want} "
-        "(none: no limit)"
+        f"scenario's [ensemble] table); {'; '.join(fixes)}; or allow it: --max-output-size "
+        f"{want} (none: no limit)"
     )
 
 
@@ -227,7 +239,7 @@ def _run_ensemble(sc: Any, out: Path, args: Any) -> None:
             **opts,
         )
     except OutputSizeError as exc:
-        raise BadInput(_size_option_hint(exc)) from None
+        raise BadInput(_size_option_hint(exc, sc)) from None
     except AttitudeError as exc:  # an output option given on the command line
         msg = str(exc)
         if msg.startswith("client:") and getattr(args, "scheduler", None):

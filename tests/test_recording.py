@@ -254,3 +254,41 @@ def test_a_control_law_subclass_is_refused_not_zero_torque():
             FlightSoftware(0.1, frames.inertial(), (law,))
     for law in (MRPFeedback(3.5, 30.0), RateDamping(2.0)):
         assert FlightSoftware(0.1, frames.inertial(), law).modes[0][1].control is law
+
+
+def test_a_closed_loop_ensembles_size_error_names_remedies_that_work():
+    """Issue 43: the ensemble's limit error suggested output='statistics' (refused for a
+    spacecraft ensemble) and never the flight software's recording. Now every remedy it names
+    is tried on the ensemble at hand and fits under the same limit (every=K as estimated:
+    about the smallest K that does); statistics are never named for a spacecraft ensemble."""
+    import re
+
+    from attitude.ensemble import propagate_ensemble
+
+    craft, q0, Q0 = _case()
+    Qs = np.tile(Q0, (8, 1))
+    t = np.linspace(0.0, 60.0, 61)  # 600 ticks
+
+    def run(record, limit, **kw):
+        return propagate_ensemble(craft, q0, Qs, t, software=_fsw(record), method="dop853",
+                                  max_output_size=limit, **kw)  # fmt: skip
+
+    named = set()
+    for record, limit in ((1, "500 kB"), (1, "1.2 MB"), (None, "300 kB")):
+        with pytest.raises(OutputSizeError) as info:
+            run(record, limit)
+        msg = str(info.value)
+        assert "statistics" not in msg and "max_output_size='10 GB'" in msg
+        if "record_every=None" in msg:
+            named.add("record_every")
+            assert record == 1
+            run(None, limit)
+        if "output='final'" in msg:
+            named.add("final")
+            assert run(record, limit, output="final").sizes["time"] == 1
+        m = re.search(r"every=(\d+) or more", msg)
+        if m:
+            named.add("every")
+            k = int(m.group(1))
+            run(record, limit, every=k)
+    assert named == {"record_every", "final", "every"}

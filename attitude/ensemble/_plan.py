@@ -148,17 +148,65 @@ def estimate_bytes(one: xr.Dataset, n: int, extra: xr.Dataset | None = None) -> 
     return int(total)
 
 
-def check_size(expected: int, plan: _Plan, n: int, in_memory: bool) -> None:
-    """Refuse an output above ``plan.limit`` (before any work)."""
+def check_size(
+    expected: int,
+    plan: _Plan,
+    n: int,
+    in_memory: bool,
+    one: xr.Dataset | None = None,
+    spacecraft: bool = False,
+    tick_every: int | None = None,
+) -> None:
+    """Refuse an output above ``plan.limit`` (before any work), naming the remedies that work
+    for this ensemble: ``one`` (one member's Dataset) tells how much of it the flight
+    software's tick records are, ``tick_every`` whether they are every k-th tick (None: those
+    at the stored times, which fewer stored times cut); a spacecraft ensemble stores its
+    members (no statistics)."""
     if expected <= plan.limit:
         return
     where = "result in memory" if in_memory else "output file"
     m = plan.stored_t.shape[0]
+    # what each remedy leaves, from one member's per-member bytes: samples S, ticks T (every
+    # k-th tick, or those at the stored times, which fewer stored times cut too), the rest R
+    S = T = 0
+    if one is not None:
+        for v in one.variables.values():
+            if "member" in v.dims and "tick" in v.dims:
+                T += int(v.nbytes)
+            elif "member" in v.dims and "time" in v.dims:
+                S += int(v.nbytes)
+    S, T = S * n, T * n
+    R = max(0, expected - S - T)
+    k = one.sizes.get("tick", 0) if one is not None else 0
+    at_samples = tick_every is None
+    fixes = []
+    if T and not at_samples and R + S + T * min(1.0, m / max(k, 1)) <= plan.limit:
+        fixes.append(
+            "record fewer ticks: FlightSoftware(record_every=None), the default, records the "
+            "ticks in effect at the stored times"
+        )
+
+    def fewer(f: float) -> float:  # keep a fraction f of the stored times
+        return R + S * f + (T * f if at_samples else T)
+
+    if m > 1 and fewer(1.0 / m) <= plan.limit:
+        lo, hi = 1, m  # the smallest every=k that fits (fewer(1/k) falls with k)
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            lo, hi = (lo, mid) if fewer(1.0 / mid) <= plan.limit else (mid, hi)
+        store = f"output='final', or every={hi} or more"
+        if not spacecraft:
+            store += ", or output='statistics'"
+        fixes.append(f"store fewer times ({store})")
+    elif not spacecraft and plan.output != "statistics":
+        fixes.append("store statistics only (output='statistics')")
+    fixes.append("raise the limit (max_output_size='10 GB', or None for no limit)")
     raise OutputSizeError(
         f"max_output_size: the {where} would take about {format_size(expected)} ({n} members, "
-        f"{m} stored samples each), above the limit of {format_size(plan.limit)}; store less "
-        "(output='final', output='statistics', or every=k) or raise the limit "
-        "(max_output_size='10 GB', or None for no limit)",
+        f"{m} stored samples each"
+        + (f", {k} tick records" if T else "")
+        + f"), above the limit of {format_size(plan.limit)}; "
+        + "; or ".join(fixes),
         expected=expected,
         limit=plan.limit,
     )

@@ -499,7 +499,7 @@ def propagate_ensemble(
         finally:
             probe.close()
     expected = _plan.estimate_bytes(one, n, extra)
-    _plan.check_size(expected, plan, n, out_path is None)
+    _plan.check_size(expected, plan, n, out_path is None, one)
     asm.attrs["expected_output_size"] = np.int64(expected)
     if on_estimate is not None:
         on_estimate(expected)

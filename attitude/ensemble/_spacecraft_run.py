@@ -139,7 +139,9 @@ def propagate_spacecraft(
     # the size: one member's Dataset (with zero samples' values), before any work
     one = _one_member(members, t_kernel, plan, run_attrs, fsw, n_terms)
     expected = _plan.estimate_bytes(one, n)
-    _plan.check_size(expected, plan, n, out_path is None)
+    sw = members.member(0)[2]
+    every = None if sw is None else sw.record_every
+    _plan.check_size(expected, plan, n, out_path is None, one, True, every)
     if out_path is not None:
         from .._files import OutputFile
 
