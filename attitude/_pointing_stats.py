@@ -128,8 +128,11 @@ def pointing_lines(ds: Any, settle: Any = None) -> list[str]:
         return []
     head = (
         f"attitude error (error_angle) after t = {s['t_settle']:.6g} s ({s['how']}; --settle): "
-        f"{s['n']} of {s['n_total']} ticks"
+        f"{s['n']} of {s['n_total']} recorded ticks"
     )
+    run = ds.attrs.get("n_ticks")
+    if run is not None and int(run) > s["n_total"] and "member" not in ds.dims:
+        head += f" (of {int(run)} run: record_every=1 records every tick)"
     if not s["n"]:
         return [head, "no guided tick after the settling time"]
     big = max(s["max"], s["rms"])

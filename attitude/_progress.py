@@ -75,3 +75,41 @@ class Progress:
         if self.shown:
             self.stream.write("\n")
             self.stream.flush()
+
+
+class ProgressBar:
+    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here).
+
+    Its rate and time left count from the first report (the first chunk done), and again from
+    the report after a compilation (:meth:`restart`): the time before, compiling or loading
+    kernels, is not the run's pace.
+    """
+
+    def __init__(self, total: int):
+        from tqdm import auto
+
+        self.bar = auto.tqdm(total=total, desc="propagate", unit="sample", leave=True)
+        self._fresh = True
+
+    def __call__(self, done: int, total: int, t: float) -> None:
+        b = self.bar
+        if not self._fresh:
+            b.update(done - b.n)
+            return
+        self._fresh = False
+        b.reset()  # the clock and the rate's moving averages from now
+        b.initial = b.n = b.last_print_n = done  # the rate counts the samples after this
+        if b.dynamic_miniters:
+            b.miniters = 0
+        b.refresh()
+
+    def restart(self) -> None:
+        """The rate and time left from the next report on."""
+        self._fresh = True
+
+    def note(self, text: str) -> None:
+        """A line above the bar (the compilation notices of attitude._compiling)."""
+        self.bar.write(f"attitude: {text}", file=sys.stderr)
+
+    def close(self) -> None:
+        self.bar.close()

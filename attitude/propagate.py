@@ -24,7 +24,6 @@ Methods
 from __future__ import annotations
 
 import math
-import sys
 import warnings
 from collections.abc import Callable
 from typing import Any
@@ -38,6 +37,7 @@ from . import _compiling
 from ._core import diagnostics as _kd
 from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
+from ._progress import ProgressBar as _ProgressBar
 from ._spacecraft_results import add_actuator_variables, add_tick_variables, tick_dataset
 from ._validation import ATOL_MIN as ATOL_MIN  # (moved beside as_atol; still importable here)
 from ._validation import as_atol, as_float_array, as_int, as_positive, as_rtol, as_times
@@ -59,44 +59,6 @@ PROJECTION_WARN = 1e-12
 #: Progress reports per run (the default chunk with ``progress``): the compiled loop returns
 #: this often; results do not depend on it (dense output at the requested times).
 PROGRESS_CHUNKS = 200
-
-
-class _ProgressBar:
-    """``progress=True``: a tqdm bar over the output samples (tqdm imported only here).
-
-    Its rate and time left count from the first report (the first chunk done), and again from
-    the report after a compilation (:meth:`restart`): the time before, compiling or loading
-    kernels, is not the run's pace.
-    """
-
-    def __init__(self, total: int):
-        from tqdm import auto
-
-        self.bar = auto.tqdm(total=total, desc="propagate", unit="sample", leave=True)
-        self._fresh = True
-
-    def __call__(self, done: int, total: int, t: float) -> None:
-        b = self.bar
-        if not self._fresh:
-            b.update(done - b.n)
-            return
-        self._fresh = False
-        b.reset()  # the clock and the rate's moving averages from now
-        b.initial = b.n = b.last_print_n = done  # the rate counts the samples after this
-        if b.dynamic_miniters:
-            b.miniters = 0
-        b.refresh()
-
-    def restart(self) -> None:
-        """The rate and time left from the next report on."""
-        self._fresh = True
-
-    def note(self, text: str) -> None:
-        """A line above the bar (the compilation notices of attitude._compiling)."""
-        self.bar.write(f"attitude: {text}", file=sys.stderr)
-
-    def close(self) -> None:
-        self.bar.close()
 
 
 #: Largest number of output samples that is computed in memory before being handed to

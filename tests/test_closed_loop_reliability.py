@@ -347,17 +347,6 @@ def test_scenario_times_that_overflow_in_seconds_warn_nothing():
             scenario.loads(text)
 
 
-def test_scenario_ensemble_of_a_closed_loop_scenario_is_refused():
-    """``attitude run`` of a closed-loop scenario with an [ensemble] table ran an ensemble of
-    the rigid body alone, exit 0: the wheels, the schedule and the software dropped in
-    silence."""
-    text = _RW + '\n[software]\nperiod = 0.5\ncontrol = "rate_damping"\nC = 30.0\n'
-    with pytest.raises(scenario.ScenarioError, match=r"ensemble: a scenario with actuators"):
-        scenario.loads(text + "\n[ensemble]\nsize = 3\nseed = 1\n")
-    with pytest.raises(scenario.ScenarioError, match=r"ensemble: a scenario with actuators"):
-        scenario.loads(_RW + "\n[ensemble]\nsize = 3\nseed = 1\n")
-
-
 # --- inputs that slipped through (issue 39) -----------------------------------------------------
 
 

@@ -54,13 +54,17 @@ P = 300.0
 [[software.sensors]]
 type = "gyro"
 arw = 1.45e-5
+arw_unit = "rad/s(1/2)"
 rrw = 3e-7
+rrw_unit = "rad/s(3/2)"
 bias = [1e-5, -2e-5, 5e-6]
+bias_unit = "rad/s"
 seed = 7
 
 [[software.sensors]]
 type = "star_tracker"
 noise = [5e-5, 1.5e-4]
+noise_unit = "rad"
 seed = 8
 
 [software.estimator]

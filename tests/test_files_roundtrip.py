@@ -75,10 +75,12 @@ _SENSORS = """
 [[software.sensors]]
 type = "gyro"
 arw = 1.45e-5
+arw_unit = "rad/s(1/2)"
 seed = 1
 [[software.sensors]]
 type = "star_tracker"
 noise = [5e-5, 1.5e-4]
+noise_unit = "rad"
 seed = 2
 [software.estimator]
 type = "mekf"

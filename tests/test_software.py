@@ -426,7 +426,7 @@ def test_bad_software_is_refused_before_any_work():
         FlightSoftware(-1.0)
     with pytest.raises(AttitudeValueError, match="magnetorquers"):
         attitude.propagate(
-            body, [1.0, 0, 0, 0], np.zeros(4), t, software=FlightSoftware(1.0, control=BDot(1.0))
+            body, [1.0, 0, 0, 0], np.zeros(4), t, software=FlightSoftware(0.1, control=BDot(1.0))
         )
     with pytest.raises(AttitudeValueError, match="P"):
         MRPFeedback(1.0, [[1.0, 2.0]])
