@@ -534,9 +534,16 @@ class _MemberWriter(StreamWriter):
             if name in nc.variables:
                 continue
             var = ds[name].variable
-            extra = comp if name in ds.data_vars else {}
-            v = nc.createVariable(name, var.dtype, var.dims, **extra)
-            v[:] = var.values
+            if var.dtype.kind in "UO":
+                v = nc.createVariable(name, str, var.dims)
+                v[:] = np.asarray(var.values, dtype=object)
+            elif var.ndim and var.size:  # one checksummed chunk (or the writer's chunks)
+                chunks = self._chunks(var) if "member" in var.dims else list(var.shape)
+                v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
+                v[:] = var.values
+            else:
+                v = nc.createVariable(name, var.dtype, var.dims)
+                v[:] = var.values
             _set_attrs(v, _variable_attrs(ds, name))
 
 

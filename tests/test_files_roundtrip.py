@@ -247,3 +247,33 @@ def test_every_reader_reads_every_kind_of_file(kind, folder, tmp_path, capsys):
         code, out, err = _run(capsys, "export", path, "--ccsds-aem", aem_path, *member[2:])
         assert code == 2 and err.count("\n") == 1 and "truncated" not in err, err
         assert ("--member" in err) == (aem == "ok"), err
+
+
+@pytest.mark.parametrize("kind", list(KINDS))
+def test_every_kind_of_file_is_chunked_compressed_and_checksummed(kind, folder):
+    """Issue 43: every variable along a growing dimension (time, tick; member in an ensemble
+    file) is in zlib chunks with a Fletcher-32 checksum, bounded in size along that dimension
+    (4096 samples or ticks; about 1 MiB of members); the static arrays one checksummed chunk."""
+    import netCDF4
+
+    path = _file(folder, kind)
+    with netCDF4.Dataset(path) as nc:
+        grown = 0
+        for name, v in nc.variables.items():
+            if v.dtype is str or not v.dimensions:
+                continue
+            f = v.filters()
+            assert f["zlib"] and f["shuffle"] and f["fletcher32"], (name, f)
+            chunks = v.chunking()
+            assert chunks != "contiguous", name
+            growing = ("member",) if "member" in nc.dimensions else ("time", "tick")
+            along = [d for d in growing if d in v.dimensions]
+            if along == ["member"]:
+                grown += 1
+                assert 8 * int(np.prod(chunks)) <= 2**21, (name, chunks)
+            elif along:
+                grown += 1
+                assert chunks[v.dimensions.index(along[0])] == 4096, (name, chunks)
+            else:  # a static array (an ensemble's shared times): one chunk
+                assert chunks == list(v.shape), (name, chunks)
+        assert grown >= 5
