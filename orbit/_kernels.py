@@ -1,7 +1,7 @@
 """Compiled scalar kernels of the two-body problem (plain floats in, tuples of floats out).
 
-One concept, Kepler's problem in compiled code (the equation's solvers with their
-cancellation-free series, anomaly conversions, the state and the orbital frame).
+The orbit on its element array in compiled code: the mean and true anomaly at t, the radius,
+the radial direction, the state and the orbital frame, and their copy for an ellipse.
 
 Everything here is decorated with :func:`orbit._shared_jit.jit`: compiled lazily by numba, or plain
 Python when JIT is disabled. No kernel allocates, so the attitude integrators call
