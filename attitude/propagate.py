@@ -31,14 +31,13 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from orbit._state_kernels import TYPE_EPHEMERIS
-
 from . import _compiling
-from ._core import diagnostics as _kd
 from ._core import rk as _rk
-from ._methods import SAMPLE_BUDGET, SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
+from ._finish import _OVERFLOW_MESSAGE, _DiagnosticsOverflow, _finish, finish_dataset
+from ._finish import _finite_prefix as _finite_prefix  # (moved to _finish; importable here)
+from ._methods import SCIPY_SOLVERS, Problem, RunResult, run_dop853, run_scipy
 from ._progress import ProgressBar as _ProgressBar
-from ._spacecraft_results import add_actuator_variables, add_tick_variables, tick_dataset
+from ._spacecraft_results import add_tick_variables, tick_dataset
 from ._validation import ATOL_MIN as ATOL_MIN  # (moved beside as_atol; still importable here)
 from ._validation import as_atol, as_float_array, as_int, as_positive, as_rtol, as_times
 from .body import RigidBody
@@ -47,7 +46,7 @@ from .errors import AttitudeTypeError, AttitudeValueError, PropagationError
 from .exact import run_exact
 from .formulations import Formulation, get_formulation
 from .potentials import Potential, as_potential
-from .results import Trajectory, add_event_variables, build_dataset, dataset_from_samples
+from .results import Trajectory, add_event_variables
 from .spacecraft import Spacecraft
 from .splitting import run_nosquish, run_splitting
 from .taylor import run_taylor
@@ -663,21 +662,6 @@ def _epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
     return out
 
 
-#: The failure of a run whose states are finite but whose energy, rates or torques overflow.
-_OVERFLOW_MESSAGE = (
-    "the energy, body rates or torque overflowed double precision (the state itself is finite)"
-)
-
-
-class _DiagnosticsOverflow(Exception):
-    """Raised from a streamed run's chunk handler: the diagnostics of sample ``n`` (at ``t``)
-    are not finite."""
-
-    def __init__(self, n: int, t: float):
-        super().__init__(n, t)
-        self.n, self.t = n, t
-
-
 def _check_initial_state(problem: Problem) -> None:
     """Refuse an initial state whose body rates or kinetic energy overflow, before any work
     (|Q0| ≈ 1e160 is a finite number; its energy is not). Plain floats: a few µs.
@@ -696,78 +680,3 @@ def _check_initial_state(problem: Problem) -> None:
             f"precision (largest |Q0| component {max(abs(p0), abs(p1), abs(p2), abs(p3)):.3g}, "
             f"inertia {problem.body.inertia.tolist()}); no run can represent it"
         )
-
-
-def finish_dataset(
-    problem: Problem,
-    y: np.ndarray,
-    attrs: dict[str, Any],
-    first: int = 0,
-    t_last: float | None = None,
-) -> xr.Dataset:
-    """Diagnostics and Dataset for the states ``y`` at ``problem.t[first : first + len(y)]``
-    (the last one at ``t_last`` instead when given: the state at a terminal event)."""
-    return _finish(problem, y, attrs, first, t_last)[0]
-
-
-def _finish(
-    problem: Problem,
-    y: np.ndarray,
-    attrs: dict[str, Any],
-    first: int = 0,
-    t_last: float | None = None,
-) -> tuple[xr.Dataset, int | None]:
-    """:func:`finish_dataset`, and the number of leading samples whose diagnostics and torques
-    are finite when a later one's are not (None: all are)."""
-    n = y.shape[0]
-    t = problem.t[first : first + n]
-    if t_last is not None and n:
-        t = t.copy()
-        t[-1] = t_last
-    if problem.spacecraft is not None:
-        from . import _holds
-
-        d = _holds.diagnostics(problem, t, y)
-        if not problem.potential.has_potential:
-            attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-        ds = build_dataset(
-            t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
-        )
-        return add_actuator_variables(ds, problem.spacecraft, y, d), None
-    # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
-    # buffer whose blocks become the Dataset's variables without copies.
-    pot = problem.potential
-    n_terms = len(pot.terms)
-    orbit = getattr(pot, "orbit", None)
-    od = orbit.kernel_data() if orbit is not None else _NO_ORBIT
-    buf = np.empty(_kd.buffer_size(n, n_terms))
-    y = np.ascontiguousarray(y, dtype=np.float64)
-    for i in range(0, n, SAMPLE_BUDGET):  # bounded compiled calls: Ctrl-C acts in between
-        j = min(n, i + SAMPLE_BUDGET)
-        problem.entry.samples(t, y, problem.params, od, orbit is not None, buf, i, j)
-    if orbit is not None and int(od[0]) == TYPE_EPHEMERIS and n:
-        # the osculating true anomaly of a table: the orbit's own (numpy) formula, bit for bit
-        buf[_kd.O_F * n : (_kd.O_F + 1) * n] = orbit.true_anomaly(t)
-    n_ok = _finite_prefix(buf, n, n_terms)
-    if not pot.has_potential:
-        attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
-    ds = dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
-    return ds, n_ok
-
-
-def _finite_prefix(buf: np.ndarray, n: int, n_terms: int) -> int | None:
-    """The number of leading samples whose diagnostics (ω … q·Q) and torques in the buffer of
-    :func:`attitude._core.diagnostics.samples_with` are finite, when a later one's are not
-    (None: all are)."""
-    diag = buf[_kd.O_OMEGA * n : _kd.O_R * n]
-    torques = buf[_kd.SAMPLE_WIDTH * n :]
-    if np.isfinite(diag).all() and np.isfinite(torques).all():
-        return None
-    ok = np.isfinite(torques.reshape(n, -1)).all(axis=1)
-    for _, off, w in _kd.BLOCKS:
-        if _kd.O_OMEGA <= off < _kd.O_R:
-            ok &= np.isfinite(buf[off * n : (off + w) * n].reshape(n, w)).all(axis=1)
-    return int(np.argmin(ok))
-
-
-_NO_ORBIT = np.zeros(1)

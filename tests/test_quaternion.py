@@ -370,7 +370,8 @@ def test_euler_round_trip_property(q, seq):
     """from_euler(to_euler(q)) is q's rotation to round-off (2e-15 rad, the largest seen over
     4.8 million random quaternions being 1.6e-15), plus, where to_euler takes the gimbal lock
     (third angle 0 with the middle one within 1e-14 rad of it), the rotation its documented
-    choice a3 = 0 drops: at most 2e-15 rad (quaternion._GIMBAL_TOL's comment)."""
+    choice a3 = 0 drops: at most 2e-15 rad (_GIMBAL_TOL's comment,
+    quaternion/_conversions.py)."""
     a = aq.to_euler(q, seq)
     assert np.all(np.isfinite(a))
     mid = a[1] if seq[0] == seq[2] else a[1] + np.pi / 2

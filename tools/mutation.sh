@@ -4,7 +4,7 @@
 #   pip install -e '.[test,mutation]'
 #   tools/mutation.sh                       # every kernel module (hours)
 #   tools/mutation.sh attitude/_core/quat.py orbit/_kernels.py   # a subset
-#   tools/mutation.sh orbit/_kernels.py:159-316                   # lines of a module only
+#   tools/mutation.sh orbit/_kepler_equation.py:93-250            # lines of a module only
 #   SAMPLE=0.2 tools/mutation.sh ...        # a seeded random 20 % of the mutants
 #   SAMPLE_N=24 tools/mutation.sh ...       # a seeded random 24 mutants of each module
 #   SAMPLE_SEED=1 SAMPLE_N=10 ...           # another sample (the seed; default 0)
@@ -95,6 +95,7 @@ declare -A MODULE_TESTS=(
   [attitude/_core/taylor.py]="tests/test_taylor.py"
   [orbit/_state_kernels.py]="tests/test_orbit_sources_runs.py tests/test_keplerorbit.py"
   [orbit/_kernels.py]="tests/test_kepler.py tests/test_keplerorbit.py"
+  [orbit/_kepler_equation.py]="tests/test_kepler.py tests/test_keplerorbit.py"
   # issues 24-26: actuators, flight software, sensors, estimation (selected tests: below)
   [attitude/_core/actuators.py]="$ACT"
   [attitude/_core/gyrostat.py]="$ACT"
