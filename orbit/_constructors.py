@@ -121,12 +121,20 @@ def local_time_of_node(raan: float, epoch: Any) -> float:
 def sun_synchronous_inclination(a: float, mu: float, j2: float, radius: float) -> float:
     """The inclination [rad] of the circular orbit of radius ``a`` [km] whose J2 node rate is
     the mean Sun's; refuses a radius where cos i < −1 (the J2 drift is too slow)."""
-    cos_i = -(2.0 / 3.0) * SUN_MEAN_NODE_RATE * a**3.5 / (j2 * radius**2 * math.sqrt(mu))
-    if cos_i < -1.0:
-        a_max = (1.5 * j2 * radius**2 * math.sqrt(mu) / SUN_MEAN_NODE_RATE) ** (2.0 / 7.0)
+    # in logarithms: a, mu or radius near the float range overflow the powers (fuzzing)
+    log_c = (
+        math.log(2.0 / 3.0 * SUN_MEAN_NODE_RATE)
+        + 3.5 * math.log(a)
+        - math.log(j2)
+        - 2.0 * math.log(radius)
+        - 0.5 * math.log(mu)
+    )
+    if log_c > 0.0:  # cos i < -1
+        log_a_max = (math.log(a) * 3.5 - log_c) / 3.5
+        a_max = math.exp(log_a_max) if log_a_max < 700.0 else math.inf
         raise OrbitValueError(
-            f"altitude: no sun-synchronous circular orbit at {a - radius:.1f} km: the J2 node "
-            f"drift there is too slow even for a polar retrograde orbit (cos i = {cos_i:.4f} "
-            f"< -1); give an altitude below {a_max - radius:.0f} km"
+            f"altitude: no sun-synchronous circular orbit at {a - radius:.6g} km: the J2 node "
+            f"drift there is too slow even for a polar retrograde orbit (cos i < -1); give an "
+            f"altitude below {a_max - radius:.0f} km"
         )
-    return math.acos(cos_i)
+    return math.acos(-math.exp(log_c))

@@ -119,6 +119,8 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
             )
         j2_ = EARTH_J2 if j2 is None else _scalar(j2, "j2", None)
         rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        if not 0.0 < rad < math.inf:
+            raise OrbitValueError(f"radius: equatorial radius must be > 0 km, got {rad!r}")
         if not (math.isfinite(j2_) and 0.0 <= j2_ <= MAX_J2):
             raise OrbitValueError(
                 f"j2: must be a number in [0, {MAX_J2:g}] (first-order secular theory is for a "
@@ -173,6 +175,8 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
         from ._constructors import circular_radius
 
         rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        if not 0.0 < rad < math.inf:
+            raise OrbitValueError(f"radius: equatorial radius must be > 0 km, got {rad!r}")
         a = circular_radius(altitude, rad)
         u = _scalar(arg_lat, "arg_lat", "rad")
         return cls(a, 0.0, inc, raan, 0.0, f0=u, epoch=epoch, mu=mu, j2=j2, radius=rad, t0=t0)
@@ -238,6 +242,8 @@ class SecularJ2Orbit(ClassicalElements, OrbitBase):
         ep = as_epoch(epoch, "epoch", allow_none=False)
         lt = c.local_time_hours(local_time_of_node)
         rad = EARTH_RADIUS if radius is None else _scalar(radius, "radius", "km")
+        if not 0.0 < rad < math.inf:
+            raise OrbitValueError(f"radius: equatorial radius must be > 0 km, got {rad!r}")
         j2_ = EARTH_J2 if j2 is None else _scalar(j2, "j2", None)
         if not j2_ > 0.0:
             raise OrbitValueError(

@@ -142,3 +142,20 @@ def test_sun_synchronous_highest_altitude_is_polar_retrograde():
 def test_local_time_needs_epoch():
     with pytest.raises(OrbitValueError, match="epoch"):
         orbit.SecularJ2Orbit.circular(700.0, 1.7).local_time_of_node()
+
+
+def test_sun_synchronous_refuses_what_fuzzing_found():
+    """Values near the float range overflowed a**3.5 (OverflowError), a negative radius took the
+    logarithm of a negative number: each an OrbitValueError naming the parameter."""
+    import pytest
+
+    from orbit import SecularJ2Orbit
+    from orbit.errors import OrbitValueError
+
+    ep = "2024-03-20T12:00:00"
+    with pytest.raises(OrbitValueError, match="altitude: no sun-synchronous"):
+        SecularJ2Orbit.sun_synchronous(1e308, "10:30", ep, mu=1e308)
+    with pytest.raises(OrbitValueError, match="radius: "):
+        SecularJ2Orbit.sun_synchronous(700.0, "10:30", ep, radius=-1.2e21)
+    with pytest.raises(OrbitValueError, match="radius: "):
+        SecularJ2Orbit.circular(700.0, 1.0, radius=0.0)
