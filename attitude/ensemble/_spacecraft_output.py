@@ -196,7 +196,7 @@ def _member_variables(members, start, blk, out, flat) -> dict[str, xr.Variable]:
 def member_invariant_attrs(
     ds: xr.Dataset, ok: np.ndarray, potential_name: str, counts: Any = None
 ) -> dict[str, float]:
-    """The invariant diagnostics of :class:`attitude.scenario.InvariantTracker` (``attrs``:
+    """The invariant diagnostics of :class:`attitude._invariants.InvariantTracker` (``attrs``:
     constraint errors, energy and momentum changes relative to the first stored sample), each
     member's over its stored samples, the largest over the members where ``ok`` (failed
     members are NaN after their failure). ``counts``: the (wheels, magnetorquers, thrusters)
