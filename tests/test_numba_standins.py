@@ -1,5 +1,5 @@
 """The stand-ins for numba's inliner copy, SSA reconstruction and flags comparison
-(orbit/_shared_jit.py, docs/cold_start.md) give the same LLVM IR as numba's own passes, and they
+(orbit/_numba_standins.py, docs/cold_start.md) give the same LLVM IR as numba's own passes, and they
 are in place only while one of the package's kernels compiles.
 
 Truth: numba itself, in a second process with the stand-ins left out
@@ -31,7 +31,8 @@ _PACKAGE = textwrap.dedent(
     """
     import hashlib, json, re, sys
     import numba
-    import orbit._shared_jit as sj  # registers the listener (unless switched off)
+    import orbit._shared_jit  # registers the listener (unless switched off)
+    from orbit import _numba_standins as sj
     from attitude._core import mekf, taylor_gyrostat as tg
     from numba.core import types
     arr = types.float64[::1]
@@ -64,7 +65,7 @@ _USER = textwrap.dedent(
     import numpy as np
     if sys.argv[1] == "attitude":
         import attitude
-        import orbit._shared_jit as sj
+        from orbit import _numba_standins as sj
         from attitude._core import mekf
         from numba.core import types
         arr = types.float64[::1]
