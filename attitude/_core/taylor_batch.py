@@ -94,7 +94,7 @@ _BATCHES: dict[int, object] = {}
 def batch(width: int | None = None):
     """The batch integrator at ``width`` lanes (default: :func:`attitude._core.lanes.simd_lanes`,
     the CPU's, chosen at run time): this module for 4, else its copy bound to
-    :mod:`attitude._core.lanes8` (:func:`orbit._shared_jit.specialise`, compiled and cached on
+    ``lanes.module(8)`` (:func:`orbit._shared_jit.specialise`, compiled and cached on
     first use under its own name). Every width gives the same results, bit for bit: lanes never
     mix, and each computes the scalar kernel's operations in its order."""
     width = simd_lanes() if width is None else int(width)
@@ -104,11 +104,7 @@ def batch(width: int | None = None):
     if mod is None:
         if width != 8:
             raise ValueError(f"batch width {width}: 4 or 8 lanes")
-        from . import lanes8
-
-        mod = _BATCHES[width] = specialise(
-            sys.modules[__name__], "lanes8", V=lanes8, LANES=lanes8.LANES
-        )
+        mod = _BATCHES[width] = specialise(sys.modules[__name__], "lanes8", V=V.module(8), LANES=8)
     return mod
 
 
