@@ -18,6 +18,7 @@ from __future__ import annotations
 from .base import Orbit
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitError, OrbitTypeError, OrbitValueError
+from .gravity_field import SphericalHarmonics
 from .j2 import SecularJ2Orbit
 from .kepler import (
     eccentric_from_true,
@@ -45,6 +46,7 @@ __all__ = [
     "OrbitTypeError",
     "OrbitValueError",
     "SecularJ2Orbit",
+    "SphericalHarmonics",
     "earth_mu",
     "eccentric_from_true",
     "hyperbolic_from_true",
