@@ -35,6 +35,7 @@ from .kepler import (
     true_from_mean_hyperbolic,
 )
 from .keplerorbit import KeplerOrbit, earth_mu
+from .third_body import ThirdBody
 from .timescales import IERSRangeWarning
 
 __all__ = [
@@ -47,6 +48,7 @@ __all__ = [
     "OrbitValueError",
     "SecularJ2Orbit",
     "SphericalHarmonics",
+    "ThirdBody",
     "earth_mu",
     "eccentric_from_true",
     "hyperbolic_from_true",

@@ -10,6 +10,9 @@ as Basilisk's gravity effector writes them: stable to high degree (no factorials
 
 The normalisation factors are a table computed once per degree (:func:`factors`, plain Python);
 the kernels take it, the coefficients and scratch arrays, and never allocate.
+
+Also the point-mass pull of a third body (the Sun, the Moon) on an Earth orbit,
+:func:`third_body`.
 """
 
 from __future__ import annotations
@@ -20,7 +23,10 @@ import numpy as np
 
 from ._shared_jit import jit
 
-__all__ = ["F_DIAG", "F_N1", "F_N2", "F_NQ1", "F_NQ2", "F_OFF", "factors", "field", "field_loop"]
+__all__ = [
+    "F_DIAG", "F_N1", "F_N2", "F_NQ1", "F_NQ2", "F_OFF",
+    "factors", "field", "field_loop", "third_body", "third_body_loop",
+]  # fmt: skip
 
 # Rows of the factor table (F_*, (n_max + 2) × (n_max + 2) each).
 F_DIAG = 0  # Ā_nn / Ā_(n-1)(n-1)  (in column 0 of row n)
@@ -128,4 +134,30 @@ def field_loop(pos, C, S, n_max, m_max, mu, a, f, V, g):
     for k in range(pos.shape[0]):
         V[k], g[k, 0], g[k, 1], g[k, 2] = field(
             pos[k, 0], pos[k, 1], pos[k, 2], C, S, n_max, m_max, mu, a, f, A, re, im
+        )
+
+
+@jit
+def third_body(mu, sx, sy, sz, rx, ry, rz):
+    """The acceleration (m/s²) at r relative to the Earth's centre by a point mass ``mu`` at s
+    (both m, the same axes): μ [(s − r)/|s − r|³ − s/|s|³], the direct pull less the Earth's,
+    in Battin's form (Battin 1999, Sect. 8.4: f(q), q = r·(r − 2s)/|s|²), which does not lose
+    the digits the difference of two nearly equal terms loses far from the body."""
+    dx = rx - sx
+    dy = ry - sy
+    dz = rz - sz
+    d2 = dx * dx + dy * dy + dz * dz
+    s2 = sx * sx + sy * sy + sz * sz
+    q = (rx * (rx - 2.0 * sx) + ry * (ry - 2.0 * sy) + rz * (rz - 2.0 * sz)) / s2
+    fq = q * (3.0 + 3.0 * q + q * q) / (1.0 + (1.0 + q) * math.sqrt(1.0 + q))
+    k = -mu / (d2 * math.sqrt(d2))
+    return k * (rx + fq * sx), k * (ry + fq * sy), k * (rz + fq * sz)
+
+
+@jit
+def third_body_loop(mu, s, r, out):
+    """:func:`third_body` for each row of ``s`` and ``r`` (k, 3) into ``out`` (k, 3)."""
+    for k in range(r.shape[0]):
+        out[k, 0], out[k, 1], out[k, 2] = third_body(
+            mu, s[k, 0], s[k, 1], s[k, 2], r[k, 0], r[k, 1], r[k, 2]
         )
