@@ -283,7 +283,7 @@ class _Source:
             r=vec(_ks.MEAS_R),
             v=vec(_ks.MEAS_V),
         )
-        tick = int(self.fs[_kf.FS_TICK])
+        tick = int(self.fs[_kf.FS.TICK])
         try:
             out = prog.python_step(m.t, m)
         except Exception as exc:
@@ -361,8 +361,8 @@ def _compiled_step_failure(src: _Source, problem: Problem) -> str:
     from ._core import fsw as _kf
     from ._core import fsw_step as _ks
 
-    tick = int(src.fs[_kf.FS_TICK])
-    t = float(src.fs[_kf.FS_NEXT])
+    tick = int(src.fs[_kf.FS.TICK])
+    t = float(src.fs[_kf.FS.NEXT])
     where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
     n = int(src.hs[_kh.HS_FAIL_N])
     nw, nm, nt = problem.spacecraft.spacecraft.counts
@@ -459,7 +459,7 @@ def _run(
         from ._core import fsw as _kf
 
         del st["n_holds"]
-        st["n_ticks"] = int(src.fs[_kf.FS_TICK])
+        st["n_ticks"] = int(src.fs[_kf.FS.TICK])
     msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
     if isinstance(failure, str):
         msg = failure

@@ -294,7 +294,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
     new = {
         "mode": var(
             ("tick",),
-            rec[:, _kf.R_MODE].astype(np.int32),
+            rec[:, _kf.R.MODE].astype(np.int32),
             None,
             "active flight-software mode",
             flag_values=np.arange(n_modes, dtype=np.int32),
@@ -302,34 +302,34 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         ),
         "reference_q": var(
             ("tick", "component"),
-            rec[:, _kf.R_QREF : _kf.R_QREF + 4],
+            rec[:, _kf.R.QREF : _kf.R.QREF + 4],
             "1",
             "reference attitude quaternion (guidance), reference to space",
         ),
         "sigma_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R_SIGMA : _kf.R_SIGMA + 3],
+            rec[:, _kf.R.SIGMA : _kf.R.SIGMA + 3],
             "1",
             "attitude error sigma_BR (modified Rodrigues parameters)",
         ),
         "error_angle": var(
-            ("tick",), rec[:, _kf.R_ANGLE], "rad", "attitude error angle from the reference"
+            ("tick",), rec[:, _kf.R.ANGLE], "rad", "attitude error angle from the reference"
         ),
         "rate_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R_DOMEGA : _kf.R_DOMEGA + 3],
+            rec[:, _kf.R.DOMEGA : _kf.R.DOMEGA + 3],
             u.rate,
             "angular velocity error omega - omega_r, body axes",
         ),
         "torque_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R_TORQUE : _kf.R_TORQUE + 3],
+            rec[:, _kf.R.TORQUE : _kf.R.TORQUE + 3],
             u.torque,
             "control torque requested by the control law, body axes",
         ),
         "dipole_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R_DIPOLE : _kf.R_DIPOLE + 3],
+            rec[:, _kf.R.DIPOLE : _kf.R.DIPOLE + 3],
             "A m^2" if u.torque != "1" else "1",
             "magnetic dipole requested, body axes",
         ),
@@ -338,7 +338,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
     if ncmd:
         labels = [*wn, *mn, *tn]
         units = [u.torque] * len(wn) + ["A m^2"] * len(mn) + ["1"] * len(tn)
-        c0 = _kf.R_CMD
+        c0 = _kf.R.CMD
         new["command_sent"] = var(
             ("tick", "command"),
             rec[:, c0 : c0 + ncmd],
@@ -358,10 +358,10 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
             {"long_name": "unit of each actuator command"},
         )
     if prog.sensors or prog.estimator is not None:
-        new.update(_sensor_variables(rec[:, _kf.R_CMD + 2 * ncmd :], prog, u, var, coords))
+        new.update(_sensor_variables(rec[:, _kf.R.CMD + 2 * ncmd :], prog, u, var, coords))
     ta = time_attrs(u.time, ds.attrs.get("epoch"))
     ta = {**ta, "long_name": "time of the flight-software tick"}
-    coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
+    coords["tick"] = ("tick", rec[:, _kf.R.T].astype(np.float64), ta)
     out = _extended(ds, coords, new)
     if prog.sensors:
         out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
@@ -419,26 +419,26 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
         e = r[:, _ks.Z_SIZE :]
         out["estimate_q"] = var(
             ("tick", "component"),
-            e[:, _kf.RS_Q : _kf.RS_Q + 4],
+            e[:, _kf.RS.Q : _kf.RS.Q + 4],
             "1",
             "estimated attitude quaternion (MEKF), body to space",
         )
         out["bias_estimate"] = var(
             ("tick", "axis"),
-            e[:, _kf.RS_B : _kf.RS_B + 3],
+            e[:, _kf.RS.B : _kf.RS.B + 3],
             u.rate,
             "estimated gyro bias (body axes)",
         )
         out["estimation_sigma"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS_SIGMA : _kf.RS_SIGMA + 6],
+            e[:, _kf.RS.SIGMA : _kf.RS.SIGMA + 6],
             None,
             "1-sigma of the error states (sqrt of the MEKF covariance"
             " diagonal; units in error_state_units)",
         )
         out["estimation_error"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS_ERR : _kf.RS_ERR + 6],
+            e[:, _kf.RS.ERR : _kf.RS.ERR + 6],
             None,
             "estimation error: the truth is the estimate "
             "rotated by the first three (rad, body axes); the "
@@ -446,7 +446,7 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
         )
         out["nees"] = var(
             ("tick",),
-            e[:, _kf.RS_NEES],
+            e[:, _kf.RS.NEES],
             "1",
             "normalised estimation error squared (6 degrees of freedom)",
         )

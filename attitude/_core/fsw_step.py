@@ -19,14 +19,8 @@ from orbit._state_kernels import orbit_state
 from .actuators import S_MTQ, S_NW, S_WHEELS, WS, state_rate, wheel_speed
 from .environment import field_body
 from .fsw import (
-    FS_ENTERED,
-    FS_MODE,
-    FS_SENSED,
-    FW_FIELD,
-    FW_MODES,
-    FW_NCMD,
-    FW_ORBIT,
-    FW_SUN,
+    FS,
+    FW,
     _field_offset,
     _sensed,
     fsw_boundary,
@@ -59,15 +53,15 @@ def measure(t, y, params, sc, fw, fs, out):
     the active mode's guidance (a slew starts here)."""
     nw = int(sc[S_NW])
     _g, omt = state_rate(sc, y)
-    sensed = fs[FS_SENSED] != 0.0
+    sensed = fs[FS.SENSED] != 0.0
     if sensed:
         q, om, bbs = _sensed(fs)
     else:
         q = (y[0], y[1], y[2], y[3])
         om = omt
-    mb = int(fw[int(fw[FW_MODES]) + int(fs[FS_MODE])])
+    mb = int(fw[int(fw[FW.MODES]) + int(fs[FS.MODE])])
     qR, wR_R, _dwR_R = guidance(fw, fs, mb, t, q)
-    fs[FS_ENTERED] = 1.0
+    fs[FS.ENTERED] = 1.0
     qBR = conj_mul(qR, q)
     sig = mrp(qBR)
     wRN = rotate_inverse(qBR, wR_R)
@@ -84,7 +78,7 @@ def measure(t, y, params, sc, fw, fs, out):
         out[MEAS_SUN + i] = math.nan
         out[MEAS_R + i] = math.nan
         out[MEAS_V + i] = math.nan
-    fo = int(fw[FW_FIELD])
+    fo = int(fw[FW.FIELD])
     if _field_offset(fw, sc) <= 0:
         bb = (math.nan, math.nan, math.nan)
     elif sensed:
@@ -93,13 +87,13 @@ def measure(t, y, params, sc, fw, fs, out):
         bb = field_body(q, t, fw, fo)
     else:
         bb = field_body(q, t, sc, int(sc[S_MTQ]))
-    oo = int(fw[FW_ORBIT])
+    oo = int(fw[FW.ORBIT])
     if oo > 0:
         st = orbit_state(fw[oo:], t)
         for i in range(3):
             out[MEAS_R + i] = st[i]
             out[MEAS_V + i] = st[3 + i]
-        so = int(fw[FW_SUN])
+        so = int(fw[FW.SUN])
         if so > 0:
             sun = orbit_state(fw[so:], t)
             dx = sun[0] - st[0]
@@ -146,7 +140,7 @@ def step_boundary_with(step, P, y, t, t_end, ctl):
     m = np.empty(MEAS_WHEELS + 2 * nw)
     measure(t, y, P[0], sc, fw, fs, m)
     out = step(t, m)
-    ncmd = int(fw[FW_NCMD])
+    ncmd = int(fw[FW.NCMD])
     want = ncmd if ncmd > 0 else 3
     if out.shape[0] != want:
         hs[HS_FAIL] = STEP_WRONG_LENGTH

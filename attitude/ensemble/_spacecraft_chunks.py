@@ -142,5 +142,5 @@ def compute_chunk(
         fs, fs_at = src[3], src[4]
         out["records"] = src[6]
         out["n_records"] = src[7][:, 0].copy()
-        out["n_ticks"] = fs[fs_at[:-1] + _kf.FS_TICK].astype(np.int64)
+        out["n_ticks"] = fs[fs_at[:-1] + _kf.FS.TICK].astype(np.int64)
     return out

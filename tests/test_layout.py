@@ -1,0 +1,140 @@
+"""Layouts declared once (issue 40, point 1): the helper of :mod:`attitude._core.layout`, and
+each public object packed through its declaration and read back field by field."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import attitude
+from attitude import frames
+from attitude._core import fsw as _kf
+from attitude._core.fsw_layout import FW, MB
+from attitude._core.layout import Appender, Field, Gap, layout
+from attitude.actuators import Magnetorquer, ReactionWheel
+from attitude.control import MomentumDumping, MRPFeedback, RateDamping, WheelAllocation
+from attitude.software import FlightSoftware, Mode, RateBelow, Slew
+from attitude.software._software import _frame_data, program
+
+# -- the helper --------------------------------------------------------------------------------
+
+
+def test_offsets_follow_the_declaration():
+    """Fields follow one another; gaps and a padded size keep later offsets; a zero-size field
+    marks where a variable tail starts."""
+    L = layout("t", a=1, b=Field(3, "m"), _g=Gap(2), c=Field(9, "kg m2", shape=(3, 3)), d=0)
+    assert (L.A, L.B, L.C, L.D, L.SIZE) == (0, 1, 6, 15, 15)
+    assert layout("p", a=2, size=8).SIZE == 8
+    assert L.unit("b") == "m" and list(L.fields) == ["a", "b", "c", "d"]
+    with pytest.raises(ValueError, match="more than size"):
+        layout("p", a=9, size=8)
+    with pytest.raises(ValueError, match="shape"):
+        layout("p", a=Field(4, shape=(3, 3)))
+    with pytest.raises(ValueError, match="lower case"):
+        layout("p", A=1)
+
+
+def test_pack_and_read_round_trip():
+    """pack writes each field where the offsets say; read gives them back (floats, vectors,
+    matrices in their shape), also a column per field from a block of records."""
+    L = layout("t", a=1, b=3, c=Field(4, shape=(2, 2)))
+    x = L.pack(a=2.5, b=[1, 2, 3], c=np.array([[1.0, 2.0], [3.0, 4.0]]))
+    assert x.tolist() == [2.5, 1, 2, 3, 1, 2, 3, 4]
+    r = L.read(x)
+    assert r["a"] == 2.5 and r["b"].tolist() == [1, 2, 3] and r["c"].tolist() == [[1, 2], [3, 4]]
+    big = L.pack_into(np.zeros(20), 5, a=7.0)
+    assert big[5] == 7.0 and L.read(big, 5)["a"] == 7.0
+    rows = np.vstack([x, 2 * x])
+    assert L.read(rows)["a"].tolist() == [2.5, 5.0] and L.read(rows)["b"].shape == (2, 3)
+    with pytest.raises(ValueError, match="2 values for 3 words"):
+        L.pack(b=[1, 2])
+    with pytest.raises(KeyError, match="no field 'z'"):
+        L.pack(z=1)
+
+
+def test_appender_returns_offsets():
+    out = Appender(np.zeros(3))
+    assert out.append([1.0, 2.0]) == 3 and out.append(np.eye(2)) == 5
+    assert out.array().tolist() == [0, 0, 0, 1, 2, 1, 0, 0, 1]
+
+
+def test_numba_reads_offsets_as_constants():
+    """A layout is a named tuple of ints: numba compiles ``a[L.X]`` to a constant index, and
+    uses the offsets where it needs compile-time constants (a tuple's index)."""
+    numba = pytest.importorskip("numba")
+    L = layout("t", a=1, b=3)
+
+    @numba.njit
+    def f(a):
+        t = (10.0, 20.0, 30.0, 40.0)
+        return a[L.B + 2] + t[L.B] + L.SIZE
+
+    assert f(np.arange(5.0)) == 3.0 + 20.0 + 4
+
+
+# -- the flight software -------------------------------------------------------------------------
+
+
+def _software_and_craft():
+    body = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
+    wheels = [ReactionWheel(np.eye(3)[k], 0.02, max_torque=0.1) for k in range(3)]
+    rods = [Magnetorquer(np.eye(3)[k], 5.0) for k in range(3)]
+    craft = attitude.Spacecraft(body, wheels, rods, field=[2e-5, -1e-5, 3e-5])
+    target = frames.inertial([math.cos(0.3), math.sin(0.3), 0.0, 0.0])
+    fsw = FlightSoftware(
+        0.5,
+        modes=[
+            (None, Mode(control=RateDamping(2.0), name="damp")),
+            (
+                RateBelow(0.01),
+                Mode(
+                    Slew(target, 0.02, 0.001),
+                    (MRPFeedback(1.5, 12.0, Ki=0.01, integral_limit=0.2), MomentumDumping(1e-3)),
+                    WheelAllocation(null_gain=0.05, null_speeds=[10.0, -5.0, 2.0]),
+                ),
+            ),
+        ],
+        delay=1,
+        phase=0.25,
+        inertia=[12.5, 10.0, 8.0],
+        record_every=2,
+    )
+    return fsw, craft
+
+
+def test_flight_software_round_trip():
+    """The program's header and mode blocks, read through their declarations, are the
+    software's and its modes' attributes (SI)."""
+    fsw, craft = _software_and_craft()
+    prog = program(fsw, craft, 10.0, 40.0)
+    h = FW.read(prog.fw)
+    assert h["period"] == fsw.period and h["t0"] == 10.0 + fsw.phase
+    assert h["delay"] == fsw.delay and h["nmodes"] == len(fsw.modes)
+    assert h["ncmd"] == 6 and h["ideal"] == 0.0 and h["record_every"] == 2
+    np.testing.assert_array_equal(h["inertia"], fsw.inertia)
+    assert FW.unit("inertia") == "kg m2" and FW.unit("period") == "s"
+    table = prog.fw[int(h["modes"]) : int(h["modes"]) + len(fsw.modes)].astype(int)
+    for (cond, mode), at in zip(fsw.modes, table, strict=True):
+        m = MB.read(prog.fw, at)
+        law, dump = (mode.control, None) if not isinstance(mode.control, tuple) else mode.control
+        K, P, Ki, lim, lt = law._gains()
+        assert (m["ctrl"], m["k"], m["ki"], m["ilim"], m["lawtype"]) == (law._kind, K, Ki, lim, lt)
+        np.testing.assert_array_equal(m["p"], P)
+        if cond is not None:
+            assert m["cond"] == cond._kind and m["cond_x"] == cond.threshold
+        if isinstance(mode.guidance, Slew):
+            assert m["guid"] == _kf.GUID_SLEW
+            assert (m["slew_rate"], m["slew_acc"]) == (0.02, 0.001)
+            want = _frame_data(mode.guidance.target, 10.0, 40.0)
+            at_f = int(m["guid_frame"])
+            np.testing.assert_array_equal(prog.fw[at_f : at_f + want.size], want)
+        if dump is not None:
+            assert m["dump"] == dump.gain
+            np.testing.assert_array_equal(m["dump_ref"], dump.reference)
+        if mode.allocation is not None:
+            al = mode.allocation
+            at_s = int(m["null_speeds"])
+            assert m["null"] == al.null_gain
+            np.testing.assert_array_equal(prog.fw[at_s : at_s + 3], al.null_speeds)
