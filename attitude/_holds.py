@@ -260,28 +260,17 @@ class _Source:
         prog = self.prog
         craft = self.run.spacecraft
         nw = craft.counts[0]
-        meas = np.empty(_ks.MEAS_WHEELS + 2 * nw)
+        meas = np.empty(_ks.MEAS.WHEEL_SPEEDS + 2 * nw)
         _ks.measure_from_python(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc,
                                 prog.fw, self.fs, meas)  # fmt: skip
 
-        def vec(i, n=3):
-            v = meas[i : i + n].copy()
-            return None if np.isnan(v).any() else v
-
+        got = _ks.MEAS.read(meas)  # views of this call's own array
+        for k in ("field", "sun", "r", "v"):  # NaN: unavailable (no orbit, no epoch)
+            if np.isnan(got[k]).any():
+                got[k] = None
+        w = _ks.MEAS.WHEEL_SPEEDS
         m = Measurements(
-            t=float(meas[_ks.MEAS_T]),
-            q=meas[_ks.MEAS_Q : _ks.MEAS_Q + 4].copy(),
-            omega=meas[_ks.MEAS_OMEGA : _ks.MEAS_OMEGA + 3].copy(),
-            q_ref=meas[_ks.MEAS_QREF : _ks.MEAS_QREF + 4].copy(),
-            omega_ref=meas[_ks.MEAS_OMEGA_REF : _ks.MEAS_OMEGA_REF + 3].copy(),
-            sigma_error=meas[_ks.MEAS_SIGMA : _ks.MEAS_SIGMA + 3].copy(),
-            omega_error=meas[_ks.MEAS_DOMEGA : _ks.MEAS_DOMEGA + 3].copy(),
-            wheel_speeds=meas[_ks.MEAS_WHEELS : _ks.MEAS_WHEELS + nw].copy(),
-            wheel_momenta=meas[_ks.MEAS_WHEELS + nw : _ks.MEAS_WHEELS + 2 * nw].copy(),
-            field=vec(_ks.MEAS_FIELD),
-            sun=vec(_ks.MEAS_SUN),
-            r=vec(_ks.MEAS_R),
-            v=vec(_ks.MEAS_V),
+            **got, wheel_speeds=meas[w : w + nw], wheel_momenta=meas[w + nw : w + 2 * nw]
         )
         tick = int(self.fs[_kf.FS.TICK])
         try:

@@ -291,10 +291,11 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         return xr.Variable(dims, np.ascontiguousarray(data), attrs)
 
     n_modes = len(prog.mode_names)
+    f = _kf.R.read(rec)  # the record's fields, a column or columns each
     new = {
         "mode": var(
             ("tick",),
-            rec[:, _kf.R.MODE].astype(np.int32),
+            f["mode"].astype(np.int32),
             None,
             "active flight-software mode",
             flag_values=np.arange(n_modes, dtype=np.int32),
@@ -302,34 +303,34 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         ),
         "reference_q": var(
             ("tick", "component"),
-            rec[:, _kf.R.QREF : _kf.R.QREF + 4],
+            f["qref"],
             "1",
             "reference attitude quaternion (guidance), reference to space",
         ),
         "sigma_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R.SIGMA : _kf.R.SIGMA + 3],
+            f["sigma"],
             "1",
             "attitude error sigma_BR (modified Rodrigues parameters)",
         ),
         "error_angle": var(
-            ("tick",), rec[:, _kf.R.ANGLE], "rad", "attitude error angle from the reference"
+            ("tick",), f["angle"], "rad", "attitude error angle from the reference"
         ),
         "rate_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R.DOMEGA : _kf.R.DOMEGA + 3],
+            f["domega"],
             u.rate,
             "angular velocity error omega - omega_r, body axes",
         ),
         "torque_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R.TORQUE : _kf.R.TORQUE + 3],
+            f["torque"],
             u.torque,
             "control torque requested by the control law, body axes",
         ),
         "dipole_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R.DIPOLE : _kf.R.DIPOLE + 3],
+            f["dipole"],
             "A m^2" if u.torque != "1" else "1",
             "magnetic dipole requested, body axes",
         ),
@@ -361,7 +362,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         new.update(_sensor_variables(rec[:, _kf.R.CMD + 2 * ncmd :], prog, u, var, coords))
     ta = time_attrs(u.time, ds.attrs.get("epoch"))
     ta = {**ta, "long_name": "time of the flight-software tick"}
-    coords["tick"] = ("tick", rec[:, _kf.R.T].astype(np.float64), ta)
+    coords["tick"] = ("tick", f["t"].astype(np.float64), ta)
     out = _extended(ds, coords, new)
     if prog.sensors:
         out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
@@ -375,23 +376,24 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
 
     kinds = {x.kind for x in prog.sensors}
     out: dict[str, Any] = {}
+    z = _ks.Z.read(r)
     if "gyro" in kinds:
         out["gyro_rate"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_OMEGA : _ks.Z_OMEGA + 3],
+            z["omega"],
             u.rate,
             "gyro measurement (body axes)",
         )
     if "star_tracker" in kinds:
         out["star_tracker_q"] = var(
             ("tick", "component"),
-            r[:, _ks.Z_Q : _ks.Z_Q + 4],
+            z["q"],
             "1",
             "star tracker attitude quaternion, body to space",
         )
         out["star_tracker_status"] = var(
             ("tick",),
-            r[:, _ks.Z_ST_FLAG].astype(np.int8),
+            z["st_flag"].astype(np.int8),
             None,
             "star tracker measurement status",
             flag_values=np.array([0, 1, 2, 3], dtype=np.int8),
@@ -400,45 +402,45 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
     if "magnetometer" in kinds:
         out["magnetometer"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_B : _ks.Z_B + 3],
+            z["b"],
             "T",
             "magnetometer measurement (body axes)",
         )
     if "sun_sensor" in kinds:
         out["sun_direction"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_SUN : _ks.Z_SUN + 3],
+            z["sun"],
             "1",
             "Sun direction from the coarse Sun sensor (body axes; NaN: not enough heads lit)",
         )
     if kinds & {"sun_sensor", "star_tracker"}:
         out["sunlight"] = var(
-            ("tick",), r[:, _ks.Z_ECLIPSE], "1", "fraction of the solar disk visible (0: umbra)"
+            ("tick",), z["eclipse"], "1", "fraction of the solar disk visible (0: umbra)"
         )
     if prog.estimator is not None:
-        e = r[:, _ks.Z_SIZE :]
+        est = _kf.RS.read(r, _ks.Z.SIZE)
         out["estimate_q"] = var(
             ("tick", "component"),
-            e[:, _kf.RS.Q : _kf.RS.Q + 4],
+            est["q"],
             "1",
             "estimated attitude quaternion (MEKF), body to space",
         )
         out["bias_estimate"] = var(
             ("tick", "axis"),
-            e[:, _kf.RS.B : _kf.RS.B + 3],
+            est["b"],
             u.rate,
             "estimated gyro bias (body axes)",
         )
         out["estimation_sigma"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS.SIGMA : _kf.RS.SIGMA + 6],
+            est["sigma"],
             None,
             "1-sigma of the error states (sqrt of the MEKF covariance"
             " diagonal; units in error_state_units)",
         )
         out["estimation_error"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS.ERR : _kf.RS.ERR + 6],
+            est["err"],
             None,
             "estimation error: the truth is the estimate "
             "rotated by the first three (rad, body axes); the "
@@ -446,7 +448,7 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
         )
         out["nees"] = var(
             ("tick",),
-            e[:, _kf.RS.NEES],
+            est["nees"],
             "1",
             "normalised estimation error squared (6 degrees of freedom)",
         )

@@ -4,6 +4,7 @@ each public object packed through its declaration and read back field by field."
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -138,3 +139,88 @@ def test_flight_software_round_trip():
             at_s = int(m["null_speeds"])
             assert m["null"] == al.null_gain
             np.testing.assert_array_equal(prog.fw[at_s : at_s + 3], al.null_speeds)
+
+
+# -- sensors, the estimator, the measurements ----------------------------------------------------
+
+
+def _sensor_craft():
+    from attitude.scenario import load
+
+    orbit = None
+    for name in ("cubesat_environment", "nadir_wheels_dumping", "cubesat_bdot"):
+        sc = load(f"{Path(__file__).parent.parent}/scenarios/{name}.toml").spacecraft
+        if sc is not None and getattr(getattr(sc, "orbit", None), "epoch", None) is not None:
+            orbit = sc.orbit
+            break
+    if orbit is None:
+        pytest.skip("no shipped scenario with a dated orbit")
+    return attitude.Spacecraft(attitude.RigidBody([10.0, 11.0, 12.0], units="kg m2"), orbit=orbit)
+
+
+def test_sensor_program_round_trip():
+    """Each sensor's record, read through its declaration, holds the sensor's attributes; the
+    header's offsets point at the records."""
+    from attitude._core import sensors as _ks
+    from attitude.sensors import Gyro, Magnetometer, StarTracker, SunSensor
+    from attitude.sensors._models import sensor_program
+
+    craft = _sensor_craft()
+    gyro = Gyro(3e-6, 2e-9, bias=[1e-5, -2e-5, 3e-6], saturation=0.5, seed=1)
+    st = StarTracker([5e-5, 4e-4], boresight=[1.0, 1.0, 0.0], rate=0.5, sun_exclusion=0.5, seed=2)
+    mag = Magnetometer(2e-7, bias=[1e-7, -2e-7, 0.0], seed=3)
+    sun = SunSensor(np.vstack([np.eye(3), -np.eye(3)]), 0.01, seed=4)
+    period = 0.5
+    sn, ss = sensor_program((gyro, st, mag, sun), period, craft, 0.0, 100.0)
+    h = _ks.SN.read(sn)
+    assert all(h[k] >= _ks.SN.SIZE for k in ("gyro", "st", "mag", "sun", "orbit", "suntab"))
+    g = _ks.GYRO.read(sn, int(h["gyro"]))
+    assert (g["sv"], g["su"], g["sat"], g["identity"]) == (gyro.arw, gyro.rrw, 0.5, 1.0)
+    assert (g["sd"], g["sq"]) == _ks.gyro_tick_sigmas(gyro.arw, gyro.rrw, period)
+    np.testing.assert_array_equal(g["b0"], gyro.bias)
+    np.testing.assert_array_equal(g["c"], gyro.matrix)
+    t = _ks.ST.read(sn, int(h["st"]))
+    assert (t["sc"], t["sb"]) == tuple(st.noise) and t["every"] == 4
+    assert (t["sun_excl"], t["earth_excl"]) == (st.sun_exclusion, st.earth_exclusion)
+    np.testing.assert_array_equal(t["cbs"], st.frame)
+    m = _ks.MAG.read(sn, int(h["mag"]))
+    assert m["sigma"] == mag.noise
+    np.testing.assert_array_equal(m["bias"], mag.bias)
+    s = _ks.SUNS.read(sn, int(h["sun"]))
+    assert (s["nheads"], s["sigma"]) == (6, sun.noise)
+    at = int(h["sun"]) + _ks.SUNS.NORMALS
+    np.testing.assert_array_equal(sn[at : at + 18].reshape(6, 3), sun.normals)
+    states = sorted(int(x["state"]) for x in (g, t, m, s))
+    assert states[0] == 0 and states[-1] < ss.size  # each stream in the sensor state
+
+
+def test_mekf_record_round_trip():
+    """The MEKF's record, read through its declaration, holds the filter's settings and the
+    sensors' noise it weighs the updates with."""
+    from attitude._core import mekf as _km
+    from attitude.estimation import MEKF
+    from attitude.sensors import Gyro, Magnetometer, StarTracker
+
+    gyro = Gyro(3e-6, 2e-9, seed=1)
+    st = StarTracker(5e-5, seed=2)
+    mag = Magnetometer(2e-7, seed=3)
+    q0 = np.array([math.cos(0.1), 0.0, math.sin(0.1), 0.0])
+    est = MEKF(q0, [1e-6, 0.0, -1e-6], 0.01, 1e-4, use_magnetometer=True)
+    r = _km.EP.read(est.record((gyro, st, mag)))
+    assert (r["sv"], r["su"], r["init"], r["mag"], r["sun"]) == (3e-6, 2e-9, 1.0, 2e-7, 0.0)
+    np.testing.assert_array_equal(r["p0"], [1e-4] * 3 + [1e-8] * 3)
+    np.testing.assert_array_equal(r["q0"], est.initial_attitude)
+    np.testing.assert_array_equal(r["b0"], est.initial_bias)
+    np.testing.assert_array_equal(r["st_r"], st.covariance)
+
+
+def test_measurement_index_is_the_declared_layout():
+    """MeasurementIndex (public) names the offsets of the declared measurement vector, in the
+    order of the fields of Measurements."""
+    from attitude._core.fsw_step import MEAS
+    from attitude.software import MeasurementIndex, Measurements
+
+    assert {k.upper(): f.offset for k, f in MEAS.fields.items()} == {
+        m.name: int(m) for m in MeasurementIndex
+    }
+    assert set(MEAS.fields) - {"wheel_speeds"} <= set(Measurements._fields)

@@ -70,14 +70,8 @@ from .holds import (
     RECORDS_FULL,
 )
 from .mekf import (
-    E_B,
-    E_INIT,
-    E_PHI,
-    E_Q,
-    EP_INIT,
-    EP_MAG,
-    EP_Q0,
-    EP_SUN,
+    EP,
+    E,
     estimation_error,
     mekf_covariance_at,
     mekf_init,
@@ -88,18 +82,9 @@ from .mekf import (
 from .quat import conj_mul, cross, mrp, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE
 from .sensors import (
-    G_B0,
-    G_STATE,
-    SN_GYRO,
-    Z_B,
-    Z_GYRO_OK,
-    Z_MAG_OK,
-    Z_OMEGA,
-    Z_Q,
-    Z_SIZE,
-    Z_ST_OK,
-    Z_SUN,
-    Z_SUN_OK,
+    GYRO,
+    SN,
+    Z,
     measure_sensors_inline,
     sun_and_earth,
 )
@@ -128,7 +113,7 @@ DOMEGA_STEP = 0.5
 
 def record_width(n_cmd: int, sensors: bool = False) -> int:
     """Columns of a tick record."""
-    return R.SIZE + 2 * n_cmd + ((Z_SIZE + RS.SIZE) if sensors else 0)
+    return R.SIZE + 2 * n_cmd + ((Z.SIZE + RS.SIZE) if sensors else 0)
 
 
 def state_size(delay: int, n_cmd: int) -> int:
@@ -296,70 +281,70 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
     sn = fw[so:]
     ss = fs[int(fw[FW.SS]) :]
     zo = int(fw[FW.Z])
-    z = fs[zo : zo + Z_SIZE]
-    scratch = fs[zo + Z_SIZE :]
+    z = fs[zo : zo + Z.SIZE]
+    scratch = fs[zo + Z.SIZE :]
     tick = int(fs[FS.TICK])
     dt = fw[FW.PERIOD]
     measure_sensors_inline(sn, ss, t, tick, q, om, bb, z, scratch, rec_at >= 0)
     qu = q
     wu = om
     bu = bb
-    if z[Z_GYRO_OK] != 0.0:
-        wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2])
-    if z[Z_MAG_OK] != 0.0:
-        bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2])
+    if z[Z.GYRO_OK] != 0.0:
+        wu = (z[Z.OMEGA], z[Z.OMEGA + 1], z[Z.OMEGA + 2])
+    if z[Z.MAG_OK] != 0.0:
+        bu = (z[Z.B], z[Z.B + 1], z[Z.B + 2])
     eo = int(fw[FW.EST])
     es = fs[int(fw[FW.ES]) :]
     if eo == 0:
-        if z[Z_ST_OK] != 0.0:
+        if z[Z.ST_OK] != 0.0:
             for i in range(4):
-                es[ES.LAST_Q + i] = z[Z_Q + i]
+                es[ES.LAST_Q + i] = z[Z.Q + i]
             es[ES.HAS_Q] = 1.0
         if es[ES.HAS_Q] != 0.0:
             qu = (es[ES.LAST_Q], es[ES.LAST_Q + 1], es[ES.LAST_Q + 2], es[ES.LAST_Q + 3])
     else:
         ep = fw[eo:]
-        if es[E_INIT] == 0.0:
-            if ep[EP_INIT] != 0.0:
+        if es[E.INIT] == 0.0:
+            if ep[EP.INIT] != 0.0:
                 mekf_init(
-                    es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 + 3]), ep[13:16]
+                    es, ep, (ep[EP.Q0], ep[EP.Q0 + 1], ep[EP.Q0 + 2], ep[EP.Q0 + 3]), ep[13:16]
                 )
                 _updates(es, ep, z, q, bb, sn, t)
-            elif z[Z_ST_OK] != 0.0:
+            elif z[Z.ST_OK] != 0.0:
                 # the first measurement is the estimate: no update with it
-                mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1], z[Z_Q + 2], z[Z_Q + 3]), ep[13:16])
+                mekf_init(es, ep, (z[Z.Q], z[Z.Q + 1], z[Z.Q + 2], z[Z.Q + 3]), ep[13:16])
         else:
             # the gyro's rate of this tick is the mean over the interval just ended
             for i in range(3):
                 es[ES.OMEGA_PREV + i] = wu[i]
             mekf_propagate_inline(es, ep, es[ES.OMEGA_PREV : ES.OMEGA_PREV + 3], dt)
-            if z[Z_ST_OK] != 0.0 or z[Z_MAG_OK] != 0.0 or z[Z_SUN_OK] != 0.0:
+            if z[Z.ST_OK] != 0.0 or z[Z.MAG_OK] != 0.0 or z[Z.SUN_OK] != 0.0:
                 _updates(es, ep, z, q, bb, sn, t)
-        if es[E_INIT] != 0.0:
-            qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
-            wu = (wu[0] - es[E_B], wu[1] - es[E_B + 1], wu[2] - es[E_B + 2])
+        if es[E.INIT] != 0.0:
+            qu = (es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3])
+            wu = (wu[0] - es[E.B], wu[1] - es[E.B + 1], wu[2] - es[E.B + 2])
     if rec_at >= 0:
-        for i in range(Z_SIZE):
+        for i in range(Z.SIZE):
             rec_row[rec_at + i] = z[i]
-        r = rec_at + Z_SIZE
+        r = rec_at + Z.SIZE
         for i in range(RS.SIZE):
             rec_row[r + i] = math.nan
-        if eo != 0 and es[E_INIT] != 0.0:
+        if eo != 0 and es[E.INIT] != 0.0:
             for i in range(4):
-                rec_row[r + RS.Q + i] = es[E_Q + i]
+                rec_row[r + RS.Q + i] = es[E.Q + i]
             for i in range(3):
-                rec_row[r + RS.B + i] = es[E_B + i]
-            mekf_covariance_at(es, ep, E_PHI)  # P at this tick, in a scratch copy
+                rec_row[r + RS.B + i] = es[E.B + i]
+            mekf_covariance_at(es, ep, E.PHI)  # P at this tick, in a scratch copy
             for i in range(6):
-                rec_row[r + RS.SIGMA + i] = math.sqrt(max(es[E_PHI + 7 * i], 0.0))
-            g = int(sn[SN_GYRO])
-            gs = int(sn[g + G_STATE]) + RNG_SIZE
+                rec_row[r + RS.SIGMA + i] = math.sqrt(max(es[E.PHI + 7 * i], 0.0))
+            g = int(sn[SN.GYRO])
+            gs = int(sn[g + GYRO.STATE]) + RNG_SIZE
             bt = (
-                sn[g + G_B0] + ss[gs],
-                sn[g + G_B0 + 1] + ss[gs + 1],
-                sn[g + G_B0 + 2] + ss[gs + 2],
+                sn[g + GYRO.B0] + ss[gs],
+                sn[g + GYRO.B0 + 1] + ss[gs + 1],
+                sn[g + GYRO.B0 + 2] + ss[gs + 2],
             )
-            e, nees = estimation_error(es, E_PHI, q, bt)
+            e, nees = estimation_error(es, E.PHI, q, bt)
             for i in range(6):
                 rec_row[r + RS.ERR + i] = e[i]
             rec_row[r + RS.NEES] = nees
@@ -370,15 +355,15 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
 def _updates(es, ep, z, q, bb, sn, t):
     """The filter's updates with the valid measurements of the tick (q, bb: the truth, for
     the reference vectors in space the filter knows: the field model, the Sun's ephemeris)."""
-    if z[Z_ST_OK] != 0.0:
-        mekf_update_quaternion(es, ep, z[Z_Q : Z_Q + 4])
-    if ep[EP_MAG] > 0.0 and z[Z_MAG_OK] != 0.0:
+    if z[Z.ST_OK] != 0.0:
+        mekf_update_quaternion(es, ep, z[Z.Q : Z.Q + 4])
+    if ep[EP.MAG] > 0.0 and z[Z.MAG_OK] != 0.0:
         r = rotate(q, bb)  # the field model in space (the IGRF tables)
-        mekf_update_vector(es, ep, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
-    if ep[EP_SUN] > 0.0 and z[Z_SUN_OK] != 0.0:
+        mekf_update_vector(es, ep, z[Z.B], z[Z.B + 1], z[Z.B + 2], r[0], r[1], r[2], ep[EP.MAG])
+    if ep[EP.SUN] > 0.0 and z[Z.SUN_OK] != 0.0:
         _, s, _ = sun_and_earth(sn, t)  # the Sun's direction in space (its ephemeris)
-        mekf_update_vector(es, ep, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
-                           ep[EP_SUN])  # fmt: skip
+        mekf_update_vector(es, ep, z[Z.SUN], z[Z.SUN + 1], z[Z.SUN + 2], s[0], s[1], s[2],
+                           ep[EP.SUN])  # fmt: skip
 
 
 @jit

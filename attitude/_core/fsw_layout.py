@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from .layout import Field, Gap, layout
-from .mekf import E_SIZE
+from .mekf import E
 
 # --- the program fw: header ---------------------------------------------------------------------
 FW = layout(
@@ -98,7 +98,7 @@ R = layout(
     dipole=Field(3, "A m2", "dipole request, body axes"),
     cmd=Field(0, "", "commands computed at this tick (n_cmd), then those applied (n_cmd)"),
 )
-#: With sensors, after the commands: the measurements (Z_SIZE), then the estimate.
+#: With sensors, after the commands: the measurements (Z.SIZE), then the estimate.
 RS = layout(
     "tick record: the estimate",
     q=Field(4, "", "q̂"),
@@ -111,7 +111,7 @@ RS = layout(
 #: Filter state slots kept in fs beside the filter's own (the gyro rate of the last tick).
 ES = layout(
     "filter state",
-    filter=Field(E_SIZE, "", "the MEKF's state (attitude._core.mekf)"),
+    filter=Field(E.SIZE, "", "the MEKF's state (attitude._core.mekf)"),
     omega_prev=Field(3, "rad/s"),
     last_q=Field(4, "", "the last valid star tracker quaternion (without a filter)"),
     has_q=1,

@@ -244,18 +244,18 @@ class MeasurementIndex(IntEnum):
     orbit: field, Sun, r, v). numba reads the members as constants.
     """
 
-    T = _kstep.MEAS_T
-    Q = _kstep.MEAS_Q  # 4
-    OMEGA = _kstep.MEAS_OMEGA
-    Q_REF = _kstep.MEAS_QREF  # 4
-    OMEGA_REF = _kstep.MEAS_OMEGA_REF
-    SIGMA_ERROR = _kstep.MEAS_SIGMA
-    OMEGA_ERROR = _kstep.MEAS_DOMEGA
-    FIELD = _kstep.MEAS_FIELD
-    SUN = _kstep.MEAS_SUN
-    R = _kstep.MEAS_R
-    V = _kstep.MEAS_V
-    WHEEL_SPEEDS = _kstep.MEAS_WHEELS
+    T = _kstep.MEAS.T
+    Q = _kstep.MEAS.Q  # 4
+    OMEGA = _kstep.MEAS.OMEGA
+    Q_REF = _kstep.MEAS.Q_REF  # 4
+    OMEGA_REF = _kstep.MEAS.OMEGA_REF
+    SIGMA_ERROR = _kstep.MEAS.SIGMA_ERROR
+    OMEGA_ERROR = _kstep.MEAS.OMEGA_ERROR
+    FIELD = _kstep.MEAS.FIELD
+    SUN = _kstep.MEAS.SUN
+    R = _kstep.MEAS.R
+    V = _kstep.MEAS.V
+    WHEEL_SPEEDS = _kstep.MEAS.WHEEL_SPEEDS
 
 
 class FlightSoftware:
@@ -628,7 +628,7 @@ def program(
         fs_size += ss0.size + ES.SIZE
         h["z"] = fs_size
         heads = max((x.normals.shape[0] for x in sensors if isinstance(x, SunSensor)), default=0)
-        fs_size += _ks.Z_SIZE + heads
+        fs_size += _ks.Z.SIZE + heads
         if software.estimator is not None:
             from ..estimation import MEKF
 
