@@ -313,9 +313,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
             "1",
             "attitude error sigma_BR (modified Rodrigues parameters)",
         ),
-        "error_angle": var(
-            ("tick",), f["angle"], "rad", "attitude error angle from the reference"
-        ),
+        "error_angle": var(("tick",), f["angle"], "rad", "attitude error angle from the reference"),
         "rate_error": var(
             ("tick", "axis"),
             f["domega"],
