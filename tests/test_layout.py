@@ -224,3 +224,55 @@ def test_measurement_index_is_the_declared_layout():
         m.name: int(m) for m in MeasurementIndex
     }
     assert set(MEAS.fields) - {"wheel_speeds"} <= set(Measurements._fields)
+
+
+# -- the spacecraft block -------------------------------------------------------------------------
+
+
+def test_spacecraft_block_round_trip():
+    """The spacecraft block's header and each actuator's record, read through their
+    declarations, hold the spacecraft's and the actuators' attributes (SI)."""
+    from attitude._core import actuators as _ka
+    from attitude.actuators import Thruster
+
+    wheels = [
+        ReactionWheel([1.0, 0.0, 0.0], 0.02, max_torque=0.1, max_speed=600.0, speed=50.0,
+                      coulomb_friction=1e-3, static_friction=2e-3, viscous_friction=1e-5,
+                      stribeck_speed=0.1, min_torque=1e-4, max_power=20.0),
+        ReactionWheel([0.0, 0.6, 0.8], 0.03),
+    ]  # fmt: skip
+    rods = [Magnetorquer([0.0, 0.0, 1.0], 5.0)]
+    jets = [Thruster([0.5, 0.0, 0.0], [0.0, 1.0, 0.0], 2.0, min_impulse_bit=0.01)]
+    body = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
+    craft = attitude.Spacecraft(body, wheels, rods, jets, field=[2e-5, -1e-5, 3e-5])
+    sc = craft.block([0.0, 10.0])
+    h = _ka.SC.read(sc)
+    assert (h["nw"], h["nm"], h["nt"]) == (2, 1, 1) and h["mtq"] > _ka.SC.WHEELS
+    np.testing.assert_array_equal(h["minv"], craft._minv)
+    for k, w in enumerate(wheels):
+        r = _ka.WHEEL.read(sc, _ka.wheel_base(sc, k))
+        np.testing.assert_array_equal(r["axis"], w.axis)
+        assert (r["j"], r["invj"], r["umax"], r["omax"]) == (
+            w.inertia,
+            1.0 / w.inertia,
+            w.max_torque,
+            w.max_speed,
+        )
+        assert (r["fc"], r["fs"], r["cv"], r["lc"]) == (
+            w.coulomb_friction,
+            w.static_friction,
+            w.viscous_friction,
+            w.limit_cycle_speed,
+        )
+        assert (r["umin"], r["pmax"], r["omega_before"]) == (w.min_torque, w.max_power, w.speed)
+        assert r["beta"] == (-1.0 if w.stribeck_speed is None else w.stribeck_speed)
+        assert r["friction"] == float(w.coulomb_friction > 0)
+        assert r["u"] == r["ucmd"] == r["flags"] == 0.0  # held slots: zero until a hold
+    m = _ka.MTQ.read(sc, _ka.magnetorquer_base(sc, 0))
+    np.testing.assert_array_equal(m["axis"], rods[0].axis)
+    assert m["max"] == rods[0].max_dipole and m["cmd"] == 0.0
+    t = _ka.THR.read(sc, _ka.thruster_base(sc, 0))
+    np.testing.assert_array_equal(t["dir"], jets[0].direction)
+    np.testing.assert_allclose(t["arm"], np.cross(jets[0].position - craft.center_of_mass,
+                                                  jets[0].direction))  # fmt: skip
+    assert (t["fmax"], t["min_on"]) == (jets[0].max_thrust, jets[0].min_on_time)

@@ -41,15 +41,8 @@ import math
 from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
-    S_IDEAL,
-    S_MTQ,
-    S_NM,
-    S_NT,
-    S_NW,
-    S_WHEELS,
-    W_J,
-    W_U,
-    WS,
+    SC,
+    WHEEL,
     configure_hold,
     configure_hold_rate,
     next_thruster_off,
@@ -371,7 +364,7 @@ def _field_offset(fw, sc):
     """Offset of the field block the software reads (its own, else the magnetorquers')."""
     fo = int(fw[FW.FIELD])
     if fo == 0:
-        fo = int(sc[S_MTQ])
+        fo = int(sc[SC.MTQ])
     return fo
 
 
@@ -406,8 +399,8 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     commands to apply into ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``
     if ``keep`` (an unrecorded tick writes nothing there and skips what only the record needs:
     the error angle, the estimation error and its NEES)."""
-    nw = int(sc[S_NW])
-    nm = int(sc[S_NM])
+    nw = int(sc[SC.NW])
+    nm = int(sc[SC.NM])
     ncmd = int(fw[FW.NCMD])
     fo = _field_offset(fw, sc)
     if fs[FS.SENSED] != 0.0:  # measured when your own step asked for its commands
@@ -554,10 +547,10 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             for k in range(nw):
                 acc = 0.0
                 for j in range(nw):
-                    b = S_WHEELS + j * WS
+                    b = SC.WHEELS + j * WHEEL.SIZE
                     Om = wheel_speed(sc, b, y[8 + j], om)
                     ref = fw[so + j] if so > 0 else 0.0
-                    acc += fw[npj + nw * k + j] * sc[b + W_J] * (Om - ref)
+                    acc += fw[npj + nw * k + j] * sc[b + WHEEL.J] * (Om - ref)
                 out[k] -= kn * acc
     else:
         for i in range(ncmd):
@@ -572,9 +565,9 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             out[nw + j] = (
                 fw[ap + 3 * j] * m[0] + fw[ap + 3 * j + 1] * m[1] + fw[ap + 3 * j + 2] * m[2]
             )
-    sc[S_IDEAL] = ideal[0]
-    sc[S_IDEAL + 1] = ideal[1]
-    sc[S_IDEAL + 2] = ideal[2]
+    sc[SC.IDEAL] = ideal[0]
+    sc[SC.IDEAL + 1] = ideal[1]
+    sc[SC.IDEAL + 2] = ideal[2]
     # record what was computed, then the delay
     if keep:
         rec_row[R.T] = t
@@ -619,9 +612,9 @@ def fsw_boundary(P, y, t, t_end, ctl):
             for i in range(cmd.shape[0]):
                 cmd[i] = 0.0
             configure_hold(sc, y, cmd, t, fw[FW.T0])
-            sc[S_IDEAL] = 0.0
-            sc[S_IDEAL + 1] = 0.0
-            sc[S_IDEAL + 2] = 0.0
+            sc[SC.IDEAL] = 0.0
+            sc[SC.IDEAL + 1] = 0.0
+            sc[SC.IDEAL + 2] = 0.0
             hs[HS_HOLD_END] = fw[FW.T0]
     if t >= fs[FS.NEXT]:
         k = int(fs[FS.TICK])
@@ -653,17 +646,17 @@ def fsw_boundary(P, y, t, t_end, ctl):
         # the applied commands of the tick (after the wheels' limits)
         if keep:
             ncmd = int(fw[FW.NCMD])
-            nw = int(sc[S_NW])
+            nw = int(sc[SC.NW])
             for i in range(ncmd):
                 row[R.CMD + ncmd + i] = cmd[i]
             for j in range(nw):
-                row[R.CMD + ncmd + j] = sc[S_WHEELS + j * WS + W_U]
+                row[R.CMD + ncmd + j] = sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.U]
             rc[0] += 1
             fs[FS.RECORD_NEXT] += 1.0  # (read only with every = 0)
         fs[FS.TICK] = k + 1
         fs[FS.NEXT] = t_next
         hs[HS_HOLD_END] = t_next
-    if sc[S_NT] > 0.0:
+    if sc[SC.NT] > 0.0:
         thrusters_off_at(sc, t)
         hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
     else:

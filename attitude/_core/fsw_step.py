@@ -16,7 +16,12 @@ import numpy as np
 from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 
-from .actuators import S_MTQ, S_NW, S_WHEELS, WS, state_rate, wheel_speed
+from .actuators import (
+    SC,
+    WHEEL,
+    state_rate,
+    wheel_speed,
+)
 from .environment import field_body
 from .fsw import (
     FS,
@@ -56,7 +61,7 @@ def measure(t, y, params, sc, fw, fs, out):
     the sensors' and the estimator's, as stored by :func:`fsw_boundary` at this tick); r, v
     and the Sun's direction (in the software's body axes) from the on-board ephemerides. Runs
     the active mode's guidance (a slew starts here)."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     _g, omt = state_rate(sc, y)
     sensed = fs[FS.SENSED] != 0.0
     if sensed:
@@ -91,7 +96,7 @@ def measure(t, y, params, sc, fw, fs, out):
     elif fo > 0:
         bb = field_body(q, t, fw, fo)
     else:
-        bb = field_body(q, t, sc, int(sc[S_MTQ]))
+        bb = field_body(q, t, sc, int(sc[SC.MTQ]))
     oo = int(fw[FW.ORBIT])
     if oo > 0:
         st = orbit_state(fw[oo:], t)
@@ -111,7 +116,7 @@ def measure(t, y, params, sc, fw, fs, out):
     for i in range(3):
         out[MEAS.FIELD + i] = bb[i]
     for k in range(nw):
-        b = S_WHEELS + k * WS
+        b = SC.WHEELS + k * WHEEL.SIZE
         out[MEAS.WHEEL_SPEEDS + k] = wheel_speed(sc, b, y[8 + k], omt)  # the tachometers
         out[MEAS.WHEEL_SPEEDS + nw + k] = y[8 + k]
 
@@ -141,7 +146,7 @@ def step_boundary_with(step, P, y, t, t_end, ctl):
         return status
     hs, fw, fs, cmd = ctl[0], ctl[1], ctl[2], ctl[3]
     sc = P[1]
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     m = np.empty(MEAS.WHEEL_SPEEDS + 2 * nw)
     measure(t, y, P[0], sc, fw, fs, m)
     out = step(t, m)

@@ -40,7 +40,10 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
 
 from . import lanes as V
-from .actuators import S_IDEAL, S_MINV, S_TAU, S_WHEELS, W_AXIS, W_INVJ, W_U, WS
+from .actuators import (
+    SC,
+    WHEEL,
+)
 from .ensemble import NOT_STARTED, RUNNING, member_begin
 from .fsw import fsw_boundary  # noqa: F401 (bound by name)
 from .holds import (
@@ -451,7 +454,7 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
     for j in range(nw):
         cf[0, CH + j, lane] = work[0, CH + j]
     for r in range(9):
-        cst[K_M + r, lane] = sc[S_MINV + r]
+        cst[K_M + r, lane] = sc[SC.MINV + r]
     cst[K_N, lane] = n
     kind = int(params[P_KIND])
     if kind == KIND_HEAVY_TOP:
@@ -465,18 +468,18 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
         cst[K_D + 1, lane] = params[0] - params[2]
         cst[K_D + 2, lane] = params[1] - params[0]
     for j in range(3):
-        cst[K_TAU + j, lane] = sc[S_TAU + j] + sc[S_IDEAL + j]  # thrusters' + ideal control
+        cst[K_TAU + j, lane] = sc[SC.TAU + j] + sc[SC.IDEAL + j]  # thrusters' + ideal control
     for j in range(nw):
-        b = S_WHEELS + j * WS
+        b = SC.WHEELS + j * WHEEL.SIZE
         r = K_WHEEL + KW * j
-        cst[r, lane] = sc[b + W_AXIS]
-        cst[r + 1, lane] = sc[b + W_AXIS + 1]
-        cst[r + 2, lane] = sc[b + W_AXIS + 2]
-        cst[r + 3, lane] = sc[b + W_INVJ]
+        cst[r, lane] = sc[b + WHEEL.AXIS]
+        cst[r + 1, lane] = sc[b + WHEEL.AXIS + 1]
+        cst[r + 2, lane] = sc[b + WHEEL.AXIS + 2]
+        cst[r + 3, lane] = sc[b + WHEEL.INVJ]
         c1, c0 = _piece_coefficients(sc, b, int(tstate[TS_SIZE + j]))
         cst[r + 4, lane] = c1
         cst[r + 5, lane] = c0
-        cst[r + 6, lane] = sc[b + W_U]
+        cst[r + 6, lane] = sc[b + WHEEL.U]
     # the tolerances of gyrostat_coefficients' order test, from row 0
     floor = atol / rtol
     sq = max(_block4(work, 0, 0), floor)

@@ -37,20 +37,10 @@ import math
 from orbit._shared_jit import jit
 
 from .actuators import (
-    M_APPLIED,
-    M_CMD,
-    S_IDEAL,
-    S_NM,
-    S_NT,
-    S_NW,
-    S_WHEELS,
-    T_CMD,
-    T_FIRING,
-    W_FLAGS,
-    W_STRIBECK,
-    W_U,
-    W_UCMD,
-    WS,
+    MTQ,
+    SC,
+    THR,
+    WHEEL,
     configure_hold,
     magnetorquer_base,
     next_thruster_off,
@@ -110,26 +100,26 @@ def record(sc, row, c0):
     Stribeck regime), per magnetorquer (command, applied dipole), per thruster (command,
     firing 0/1), then the ideal control torque (3)."""
     c = c0
-    for k in range(int(sc[S_NW])):
-        b = S_WHEELS + k * WS
-        row[c] = sc[b + W_UCMD]
-        row[c + 1] = sc[b + W_U]
-        row[c + 2] = sc[b + W_FLAGS]
-        row[c + 3] = sc[b + W_STRIBECK]
+    for k in range(int(sc[SC.NW])):
+        b = SC.WHEELS + k * WHEEL.SIZE
+        row[c] = sc[b + WHEEL.UCMD]
+        row[c + 1] = sc[b + WHEEL.U]
+        row[c + 2] = sc[b + WHEEL.FLAGS]
+        row[c + 3] = sc[b + WHEEL.STRIBECK]
         c += 4
-    for j in range(int(sc[S_NM])):
+    for j in range(int(sc[SC.NM])):
         b = magnetorquer_base(sc, j)
-        row[c] = sc[b + M_CMD]
-        row[c + 1] = sc[b + M_APPLIED]
+        row[c] = sc[b + MTQ.CMD]
+        row[c + 1] = sc[b + MTQ.APPLIED]
         c += 2
-    for j in range(int(sc[S_NT])):
+    for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
-        row[c] = sc[b + T_CMD]
-        row[c + 1] = sc[b + T_FIRING]
+        row[c] = sc[b + THR.CMD]
+        row[c + 1] = sc[b + THR.FIRING]
         c += 2
-    row[c] = sc[S_IDEAL]
-    row[c + 1] = sc[S_IDEAL + 1]
-    row[c + 2] = sc[S_IDEAL + 2]
+    row[c] = sc[SC.IDEAL]
+    row[c + 1] = sc[SC.IDEAL + 1]
+    row[c + 2] = sc[SC.IDEAL + 2]
 
 
 @jit

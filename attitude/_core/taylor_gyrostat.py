@@ -49,19 +49,8 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
-    S_IDEAL,
-    S_NW,
-    S_TAU,
-    S_WHEELS,
-    W_AXIS,
-    W_CV,
-    W_FC,
-    W_FRICTION,
-    W_INVJ,
-    W_LC,
-    W_SLOPE_C,
-    W_U,
-    WS,
+    SC,
+    WHEEL,
 )
 from .fma import fma as F
 from .holds import (
@@ -132,20 +121,20 @@ def _piece_of(om, lc):
 def _piece_coefficients(sc, b, piece):
     """(c₁, c₀) of the friction force c₁ Ω + c₀ in a piece (the torque on the wheel is minus
     it)."""
-    if sc[b + W_FRICTION] == 0.0:
+    if sc[b + WHEEL.FRICTION] == 0.0:
         return 0.0, 0.0
     if piece == PIECE_INSIDE:
-        return sc[b + W_SLOPE_C], 0.0
+        return sc[b + WHEEL.SLOPE_C], 0.0
     if piece == PIECE_POS:
-        return sc[b + W_CV], sc[b + W_FC]
-    return sc[b + W_CV], -sc[b + W_FC]
+        return sc[b + WHEEL.CV], sc[b + WHEEL.FC]
+    return sc[b + WHEEL.CV], -sc[b + WHEEL.FC]
 
 
 @jit(inline="always")
 def has_friction(sc, nw):
     """True if a wheel has friction (else the wheels' h are linear in a step: TS_HLIN)."""
     for j in range(nw):
-        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
+        if sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.FRICTION] != 0.0:
             return True
     return False
 
@@ -260,11 +249,11 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         else:
             l0 = l1 = l2 = 0.0
             for j in range(nw):
-                b = S_WHEELS + j * WS
+                b = SC.WHEELS + j * WHEEL.SIZE
                 h = cf[k, CH + j]
-                l0 = F(h, sc[b + W_AXIS], l0)
-                l1 = F(h, sc[b + W_AXIS + 1], l1)
-                l2 = F(h, sc[b + W_AXIS + 2], l2)
+                l0 = F(h, sc[b + WHEEL.AXIS], l0)
+                l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
+                l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
             e0 = cf[k, CG] - l0
             e1 = cf[k, CG + 1] - l1
             e2 = cf[k, CG + 2] - l2
@@ -276,9 +265,13 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k, CW + 2] = w2
         if friction and k > 0:
             for j in range(nw):
-                b = S_WHEELS + j * WS
-                aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
-                cf[k, CO + j] = F(cf[k, CH + j], sc[b + W_INVJ], -aw)
+                b = SC.WHEELS + j * WHEEL.SIZE
+                aw = F(
+                    sc[b + WHEEL.AXIS + 2],
+                    w2,
+                    F(sc[b + WHEEL.AXIS + 1], w1, sc[b + WHEEL.AXIS] * w0),
+                )
+                cf[k, CO + j] = F(cf[k, CH + j], sc[b + WHEEL.INVJ], -aw)
         if k == p:
             return k
         # Cauchy products over j = k..0: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
@@ -330,23 +323,23 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k + 1, 3] = hh * (b30 + b31 + b32)
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
         if k == 0:  # the held torques: thrusters' and the ideal control torque (as in
-            t0 += sc[S_TAU] + sc[S_IDEAL]  # actuators.actuator_torque)
-            t1 += sc[S_TAU + 1] + sc[S_IDEAL + 1]
-            t2 += sc[S_TAU + 2] + sc[S_IDEAL + 2]
+            t0 += sc[SC.TAU] + sc[SC.IDEAL]  # actuators.actuator_torque)
+            t1 += sc[SC.TAU + 1] + sc[SC.IDEAL + 1]
+            t2 += sc[SC.TAU + 2] + sc[SC.IDEAL + 2]
         cf[k + 1, CG] = F(n, t0, p0) * inv
         cf[k + 1, CG + 1] = F(n, t1, p1) * inv
         cf[k + 1, CG + 2] = F(n, t2, p2) * inv
         if friction:
             for j in range(nw):
-                b = S_WHEELS + j * WS
+                b = SC.WHEELS + j * WHEEL.SIZE
                 c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
                 r = -c1 * cf[k, CO + j]
                 if k == 0:
-                    r += sc[b + W_U] - c0
+                    r += sc[b + WHEEL.U] - c0
                 cf[k + 1, CH + j] = r * inv
         elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS_HLIN)
             for j in range(nw):
-                cf[1, CH + j] = sc[S_WHEELS + j * WS + W_U] * inv
+                cf[1, CH + j] = sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.U] * inv
         k += 1
         dk *= d
         tq = _block4(cf, k, 0) * dk
@@ -457,9 +450,9 @@ def _kink(work, p, sc, pieces, nw, h):
     best = h
     which = -1
     for j in range(nw):
-        b = S_WHEELS + j * WS
-        lc = sc[b + W_LC]
-        if sc[b + W_FRICTION] == 0.0 or lc <= 0.0:
+        b = SC.WHEELS + j * WHEEL.SIZE
+        lc = sc[b + WHEEL.LC]
+        if sc[b + WHEEL.FRICTION] == 0.0 or lc <= 0.0:
             continue
         piece = int(pieces[j])
         end = _horner(work, p, CO + j, best)
@@ -496,7 +489,7 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
     auxiliary series, ω[0] and Ω[0]) from the state in ``work[Y]``, and the friction pieces
     of the step. Returns ``(status, n, c, d)``: n = |q|², c = q·Q, d the longest step (to
     ``seg_end``, at most ``max_step``)."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     t = tstate[0]
     y = work[Y]
     n, c = _initial_row(work, t, params)
@@ -521,8 +514,8 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
         gyrostat_order0(work, sc, nw)
         for j in range(nw):
             if pieces[j] < 0.0:
-                b = S_WHEELS + j * WS
-                pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
+                b = SC.WHEELS + j * WHEEL.SIZE
+                pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + WHEEL.LC])
     return SUCCESS, n, c, d
 
 
@@ -531,7 +524,7 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     """The second half of :func:`gyrostat_step`, once the table holds the orders 0..``pu``
     (:func:`gyrostat_coefficients`): the step size, a friction kink inside the step, the new
     state. Returns a status."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     t = tstate[0]
     p = int(tstate[3])
     y = work[Y]
@@ -602,7 +595,7 @@ def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_s
     status, n, c, d = step_prepare(params, sc, work, tstate, seg_end, max_step)
     if status != SUCCESS:
         return status
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     pieces = tstate[TS_SIZE : TS_SIZE + nw]
     pu = gyrostat_coefficients(work, int(tstate[3]), params, sc, n, pieces, d, rtol, atol, nw)
     counters[1] += pu
@@ -614,11 +607,11 @@ def gyrostat_order0(cf, sc, nw):
     """ω[0] = M (g[0] − ℓ[0]) and Ω_j[0] into row 0 (as the recurrences compute them)."""
     l0 = l1 = l2 = 0.0
     for j in range(nw):
-        b = S_WHEELS + j * WS
+        b = SC.WHEELS + j * WHEEL.SIZE
         h = cf[0, CH + j]
-        l0 = F(h, sc[b + W_AXIS], l0)
-        l1 = F(h, sc[b + W_AXIS + 1], l1)
-        l2 = F(h, sc[b + W_AXIS + 2], l2)
+        l0 = F(h, sc[b + WHEEL.AXIS], l0)
+        l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
+        l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
     e0 = cf[0, CG] - l0
     e1 = cf[0, CG + 1] - l1
     e2 = cf[0, CG + 2] - l2
@@ -626,9 +619,9 @@ def gyrostat_order0(cf, sc, nw):
     w1 = F(sc[8], e2, F(sc[7], e1, sc[6] * e0))
     w2 = F(sc[11], e2, F(sc[10], e1, sc[9] * e0))
     for j in range(nw):
-        b = S_WHEELS + j * WS
-        aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
-        cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + W_INVJ], -aw)
+        b = SC.WHEELS + j * WHEEL.SIZE
+        aw = F(sc[b + WHEEL.AXIS + 2], w2, F(sc[b + WHEEL.AXIS + 1], w1, sc[b + WHEEL.AXIS] * w0))
+        cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + WHEEL.INVJ], -aw)
 
 
 # One step inlined whole into the single-run driver (entry_points binds it; the SIMD batch
@@ -666,7 +659,7 @@ def taylor_holds_run(
     hs = ctl[0]
     params = P[0]
     sc = P[1]
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     n = y0.shape[0]
     m = t_out.shape[0]
     y = work[Y]
