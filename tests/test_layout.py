@@ -276,3 +276,76 @@ def test_spacecraft_block_round_trip():
     np.testing.assert_allclose(t["arm"], np.cross(jets[0].position - craft.center_of_mass,
                                                   jets[0].direction))  # fmt: skip
     assert (t["fmax"], t["min_on"]) == (jets[0].max_thrust, jets[0].min_on_time)
+
+
+# -- the environment models ---------------------------------------------------------------------
+
+
+def test_environment_blocks_round_trip():
+    """Each environment model's block, read through its declaration, holds the model's
+    attributes; its table's segment header the table's nodes; the facet groups follow."""
+    from attitude import environment as env
+    from attitude._core import environment as _ke
+    from attitude.facets import box_wing, drag_groups, optical_groups
+    from attitude.potentials import (
+        AerodynamicDrag,
+        EddyCurrentDamping,
+        MagneticDipole,
+        SolarRadiation,
+    )
+
+    orbit = _sensor_craft().orbit
+    span = np.array([0.0, 600.0])
+    facets = box_wing([1.0, 2.0, 3.0], center=[0.1, 0.0, -0.2], specular=0.3, diffuse=0.2)
+    dip = MagneticDipole(orbit, [0.1, 0.2, 0.3], "dipole")
+    p = dip.prepare(span)._kernel_params(span)
+    b = _ke.DIPOLE.read(p)
+    assert b["kind"] == dip._kind and b["vec"].tolist() == [0.1, 0.2, 0.3]
+    seg = int(b["tab"]) + 1 + int(p[int(b["tab"])])  # the first segment follows the offsets
+    s = _ke.SEG.read(p, seg)
+    assert s["ncomp"] == 3 and s["n"] >= _ke.WINDOW and s["lo"] <= 0.0 and s["hi"] >= 600.0
+    assert s["inv_h"] == 1.0 / s["h"]
+    eddy = EddyCurrentDamping(orbit, np.diag([1.0, 2.0, 3.0]), "dipole")
+    e = _ke.EDDY.read(eddy.prepare(span)._kernel_params(span))
+    np.testing.assert_array_equal(e["tensor"], eddy.tensor)
+    drag = AerodynamicDrag(orbit, facets, density="exponential")
+    p = drag.prepare(span)._kernel_params(span)
+    d = _ke.DRAG.read(p)
+    groups = drag_groups(facets)
+    assert (d["kind"], d["nf"], d["density"]) == (drag._kind, len(groups), _ke.DENSITY_EXPONENTIAL)
+    at = _ke.DRAG.FACETS
+    np.testing.assert_array_equal(p[at : at + groups.size].reshape(groups.shape), groups)
+    g0 = _ke.DRAG_GROUP.read(p, at)
+    np.testing.assert_array_equal(g0["normal"], groups[0, :3])
+    bands = np.ravel(env.VALLADO_EXPONENTIAL)
+    assert d["bands"] == at + groups.size and d["nb"] == len(env.VALLADO_EXPONENTIAL)
+    np.testing.assert_array_equal(p[int(d["bands"]) : int(d["bands"]) + bands.size], bands)
+    srp = SolarRadiation(orbit, facets)
+    p = srp.prepare(span)._kernel_params(span)
+    r = _ke.SRP.read(p)
+    groups = optical_groups(facets)
+    assert (r["nf"], r["p"], r["au"]) == (len(groups), env.P_SUN_1AU, env.AU_KM)
+    assert r["eclipse"] == _ke.ECLIPSE_CONICAL and r["umbra"] == float(srp._umbra)
+    np.testing.assert_array_equal(p[_ke.SRP.FACETS : int(r["tab"])], groups.ravel())
+
+
+def test_environment_index_is_the_declared_layout():
+    """EnvironmentIndex (public) names the offsets of the declared environment vector; the
+    environment block's header points at the field, the orbit and the Sun."""
+    from attitude._core import environment as _ke
+    from attitude.potentials import ENVIRONMENT_SIZE, EnvironmentIndex
+    from attitude.potentials._user import _TorqueEnvironment
+
+    assert {m.name: int(m) for m in EnvironmentIndex} == {
+        k.upper(): f.offset for k, f in _ke.ENV.fields.items()
+    }
+    assert ENVIRONMENT_SIZE == _ke.ENV.SIZE
+    orbit = _sensor_craft().orbit
+    te = _TorqueEnvironment(orbit, "dipole", 60.0)
+    te.prepare(np.array([0.0, 600.0]))
+    h = _ke.ENVB.read(te._block)
+    data = np.asarray(orbit.kernel_data(), dtype=np.float64)
+    at = int(h["orbit"])
+    np.testing.assert_array_equal(te._block[at : at + data.size], data)
+    assert _ke.DIPOLE.read(te._block, int(h["field"]))["vec"].tolist() == [0.0, 0.0, 0.0]
+    assert h["sun"] > at

@@ -34,7 +34,10 @@ import math
 
 from orbit._shared_jit import jit
 
-from .environment import M_VEC, field_body
+from .environment import (
+    DIPOLE,
+    field_body,
+)
 from .layout import Field, layout
 from .quat import conj_mul, cross
 
@@ -213,7 +216,7 @@ def actuator_torque(sc, q, t):
     o = int(sc[SC.MTQ])
     if o >= 0:
         bb = field_body(q, t, sc, o)
-        k = o + M_VEC
+        k = o + DIPOLE.VEC
         c = cross((sc[k], sc[k + 1], sc[k + 2]), bb)
         t0 += c[0]
         t1 += c[1]
@@ -309,9 +312,9 @@ def configure_hold_rate(sc, y, om, cmd, t_hold, t_next):
         m2 += m * sc[b + MTQ.AXIS + 2]
     o = int(sc[SC.MTQ])
     if o >= 0:
-        sc[o + M_VEC] = m0
-        sc[o + M_VEC + 1] = m1
-        sc[o + M_VEC + 2] = m2
+        sc[o + DIPOLE.VEC] = m0
+        sc[o + DIPOLE.VEC + 1] = m1
+        sc[o + DIPOLE.VEC + 2] = m2
     if sc[SC.NT] == 0.0:  # SC.TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick;
         return  # the thrusters' work comes last: add what every hold needs above this line)
     nt = int(sc[SC.NT])

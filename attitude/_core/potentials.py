@@ -41,7 +41,7 @@ from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
 
 from .environment import (
-    ENV_SIZE,
+    ENV,
     drag_torque,
     eddy_torque,
     environment_vector,
@@ -352,8 +352,8 @@ def user_torque_rates(tau_fn, q, w, t):
 @jit_generic
 def user_torque_env(tau_fn, q, w, t, params, e):
     """A user's ``tau(q, t, env)``: ``env`` the environment at t (:func:`environment_vector`
-    on the block of the ``e``-th user term reading it), a 1-D array of ENV_SIZE floats."""
-    env = np.empty(ENV_SIZE)
+    on the block of the ``e``-th user term reading it), a 1-D array of ENV.SIZE floats."""
+    env = np.empty(ENV.SIZE)
     environment_vector(q, t, params, user_env_base(params, e), env)
     tau = tau_fn(q, t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
@@ -362,7 +362,7 @@ def user_torque_env(tau_fn, q, w, t, params, e):
 @jit_generic
 def user_torque_rates_env(tau_fn, q, w, t, params, e):
     """A user's ``tau(q, omega, t, env)`` (:func:`user_torque_rates` with the environment)."""
-    env = np.empty(ENV_SIZE)
+    env = np.empty(ENV.SIZE)
     environment_vector(q, t, params, user_env_base(params, e), env)
     tau = tau_fn(q, np.array((w[0], w[1], w[2])), t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
