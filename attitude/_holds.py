@@ -215,7 +215,7 @@ class _Source:
     def __init__(self, run: SpacecraftRun, problem: Problem):
         self.run = run
         self.problem = problem
-        self.hs = np.zeros(_kh.HS_SIZE)
+        self.hs = np.zeros(_kh.HS.SIZE)
         prog = run.program
         self.prog = prog
         if prog is None:
@@ -243,7 +243,7 @@ class _Source:
             self.ctl = (self.hs, self.prog.fw, self.fs, self.cmd, self.rec, self.rc)
             return
         self._step(y, t, sc)
-        self.hs[_kh.HS_READY] = 1.0
+        self.hs[_kh.HS.READY] = 1.0
 
     def flush(self) -> None:
         """Hand the tick records so far to the sink; the buffer starts again."""
@@ -353,10 +353,10 @@ def _compiled_step_failure(src: _Source, problem: Problem) -> str:
     tick = int(src.fs[_kf.FS.TICK])
     t = float(src.fs[_kf.FS.NEXT])
     where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
-    n = int(src.hs[_kh.HS_FAIL_N])
+    n = int(src.hs[_kh.HS.FAIL_N])
     nw, nm, nt = problem.spacecraft.spacecraft.counts
     want = nw + nm + nt
-    if src.hs[_kh.HS_FAIL] == _ks.STEP_WRONG_LENGTH:
+    if src.hs[_kh.HS.FAIL] == _ks.STEP_WRONG_LENGTH:
         what = (
             "the body torque (3,)"
             if want == 0
@@ -443,7 +443,7 @@ def _run(
         if src.sink is not None:
             src.flush()
         sr.ticks = src.rec[: int(src.rc[0])].copy()
-    st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS_NEXT])}
+    st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS.NEXT])}
     if src.prog is not None:
         from ._core import fsw as _kf
 

@@ -62,11 +62,13 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     terms ``wheels`` (the torque of the wheels' motors and bearings on the body: internal,
     left out of ``total``), ``magnetorquers`` and ``thrusters``.
     """
+    from ._core import holds as _kh
+
     craft = run.spacecraft
     u = UnitSystem(craft.body)
     nw, nm, nt = craft.counts
     n = run.n_state
-    rec = d["records"]
+    rec = d["records"]  # per actuator its columns (attitude._core.holds *_REC), a row a sample
     wn, mn, tn = craft.names()
 
     def var(dims, data, units, long_name, **extra):
@@ -80,7 +82,9 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     c = 0
     if nw:
         coords.update(_indexed("wheel", wn, "reaction wheel"))
-        r = rec[:, c : c + 4 * nw].reshape(-1, nw, 4)
+        r = _kh.WHEEL_REC.read(
+            rec[:, c : c + _kh.WHEEL_REC.SIZE * nw].reshape(-1, nw, _kh.WHEEL_REC.SIZE)
+        )
         new["wheel_speed"] = var(
             ("time", "wheel"), d["wheels"][:, :, 0], u.rate, "wheel speed relative to the body"
         )
@@ -91,11 +95,11 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             "axial angular momentum of the wheel, J (a.omega + speed)",
         )
         new["wheel_torque_command"] = var(
-            ("time", "wheel"), r[:, :, 0], u.torque, "commanded motor torque"
+            ("time", "wheel"), r["cmd"], u.torque, "commanded motor torque"
         )
         new["wheel_torque"] = var(
             ("time", "wheel"),
-            r[:, :, 1],
+            r["torque"],
             u.torque,
             "applied motor torque (after the wheel's limits)",
         )
@@ -107,40 +111,44 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         )
         new["wheel_limit"] = var(
             ("time", "wheel"),
-            r[:, :, 2].astype(np.int8),
+            r["flags"].astype(np.int8),
             None,
             "limits acting on the wheel command",
             flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),
             flag_meanings=" ".join(name for _, name in WHEEL_LIMIT_FLAGS),
         )
         new.update(_constants(craft, u, var, "wheel"))
-        c += 4 * nw
+        c += _kh.WHEEL_REC.SIZE * nw
     if nm:
         coords.update(_indexed("magnetorquer", mn, "magnetorquer"))
-        r = rec[:, c : c + 2 * nm].reshape(-1, nm, 2)
+        r = _kh.MTQ_REC.read(
+            rec[:, c : c + _kh.MTQ_REC.SIZE * nm].reshape(-1, nm, _kh.MTQ_REC.SIZE)
+        )
         dip = "A m^2" if u.torque != "1" else "1"
         new["dipole_command"] = var(
-            ("time", "magnetorquer"), r[:, :, 0], dip, "commanded magnetic dipole"
+            ("time", "magnetorquer"), r["cmd"], dip, "commanded magnetic dipole"
         )
         new["dipole"] = var(
             ("time", "magnetorquer"),
-            r[:, :, 1],
+            r["applied"],
             dip,
             "applied magnetic dipole (clipped to the rod's limit)",
         )
         new.update(_constants(craft, u, var, "magnetorquer"))
-        c += 2 * nm
+        c += _kh.MTQ_REC.SIZE * nm
     if nt:
         coords.update(_indexed("thruster", tn, "thruster"))
-        r = rec[:, c : c + 2 * nt].reshape(-1, nt, 2)
+        r = _kh.THR_REC.read(
+            rec[:, c : c + _kh.THR_REC.SIZE * nt].reshape(-1, nt, _kh.THR_REC.SIZE)
+        )
         fmax = np.array([x.max_thrust for x in craft.thrusters])
         force = u.torque.replace(" m", "") if u.torque != "1" else "1"
         new["thruster_command"] = var(
-            ("time", "thruster"), r[:, :, 0], "1", "commanded on-time fraction of the hold"
+            ("time", "thruster"), r["cmd"], "1", "commanded on-time fraction of the hold"
         )
         new["thruster_force"] = var(
             ("time", "thruster"),
-            r[:, :, 1] * fmax,
+            r["firing"] * fmax,
             force,
             "thrust at the sample (0 when not firing)",
         )

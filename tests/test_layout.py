@@ -349,3 +349,50 @@ def test_environment_index_is_the_declared_layout():
     np.testing.assert_array_equal(te._block[at : at + data.size], data)
     assert _ke.DIPOLE.read(te._block, int(h["field"]))["vec"].tolist() == [0.0, 0.0, 0.0]
     assert h["sun"] > at
+
+
+# -- the records --------------------------------------------------------------------------------
+
+
+def test_actuator_record_columns_round_trip():
+    """The commands in force, written into the spacecraft block's held slots, come back from
+    a sample's record columns read through their declarations."""
+    from attitude._core import actuators as _ka
+    from attitude._core import holds as _kh
+    from attitude.actuators import Thruster
+
+    wheels = [ReactionWheel(np.eye(3)[k], 0.02) for k in range(2)]
+    rods = [Magnetorquer([0.0, 0.0, 1.0], 5.0)]
+    jets = [Thruster([0.5, 0.0, 0.0], [0.0, 1.0, 0.0], 2.0)]
+    body = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
+    craft = attitude.Spacecraft(body, wheels, rods, jets, field=[2e-5, -1e-5, 3e-5])
+    sc = craft.block([0.0, 10.0])
+    for k in range(2):
+        _ka.WHEEL.pack_into(sc, _ka.wheel_base(sc, k), ucmd=0.1 + k, u=0.05 + k, flags=k + 1,
+                            stribeck=k)  # fmt: skip
+    _ka.MTQ.pack_into(sc, _ka.magnetorquer_base(sc, 0), cmd=7.0, applied=5.0)
+    _ka.THR.pack_into(sc, _ka.thruster_base(sc, 0), cmd=0.25, firing=1.0)
+    _ka.SC.pack_into(sc, 0, ideal=[1.0, 2.0, 3.0])
+    row = np.full(_kh.record_width(2, 1, 1) + 1, np.nan)
+    _kh.record.py_func(sc, row, 1)
+    w = _kh.WHEEL_REC.read(row[1 : 1 + 2 * _kh.WHEEL_REC.SIZE].reshape(2, -1))
+    assert w["cmd"].tolist() == [0.1, 1.1] and w["torque"].tolist() == [0.05, 1.05]
+    assert w["flags"].tolist() == [1, 2] and w["stribeck"].tolist() == [0, 1]
+    c = 1 + 2 * _kh.WHEEL_REC.SIZE
+    assert _kh.MTQ_REC.read(row, c) == {"cmd": 7.0, "applied": 5.0}
+    c += _kh.MTQ_REC.SIZE
+    assert _kh.THR_REC.read(row, c) == {"cmd": 0.25, "firing": 1.0}
+    c += _kh.THR_REC.SIZE
+    assert _kh.IDEAL_REC.read(row, c)["torque"].tolist() == [1.0, 2.0, 3.0]
+    assert c + _kh.IDEAL_REC.SIZE == row.size
+
+
+def test_diagnostic_blocks_follow_the_declaration():
+    """The diagnostic buffer's blocks (the result's variables) are the declared sample's
+    fields, in order, contiguous."""
+    from attitude._core import diagnostics as _kd
+
+    names = [b[0] for b in _kd.BLOCKS]
+    assert names[:3] == ["q", "Q", "omega"] and names[-1] == "p"
+    ends = [off + w for _, off, w in _kd.BLOCKS]
+    assert [off for _, off, _ in _kd.BLOCKS] == [0, *ends[:-1]] and ends[-1] == _kd.SAMPLE.SIZE

@@ -57,9 +57,7 @@ from .fsw_layout import ES, FS, FW, MB, RS, R
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_READY,
-    HS_SEG_END,
+    HS,
     RECORDS_FULL,
 )
 from .mekf import (
@@ -603,7 +601,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
     params = P[0]
     sc = P[1]
     per = fw[FW.PERIOD]
-    if hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # first call: zero commands until the first tick
+    if hs[HS.HOLD_END] != hs[HS.HOLD_END]:  # first call: zero commands until the first tick
         fs[FS.NEXT] = fw[FW.T0]
         fs[FS.TICK] = 0.0
         fs[FS.MODE] = 0.0
@@ -615,7 +613,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
             sc[SC.IDEAL] = 0.0
             sc[SC.IDEAL + 1] = 0.0
             sc[SC.IDEAL + 2] = 0.0
-            hs[HS_HOLD_END] = fw[FW.T0]
+            hs[HS.HOLD_END] = fw[FW.T0]
     if t >= fs[FS.NEXT]:
         k = int(fs[FS.TICK])
         every = int(fw[FW.RECORD_EVERY])
@@ -627,7 +625,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
         if keep and rc[0] >= rec.shape[0]:
             return RECORDS_FULL
         row = rec[int(rc[0]) if keep else 0]  # (an unrecorded tick writes nothing there)
-        if fw[FW.EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
+        if fw[FW.EXTERNAL] != 0.0 and hs[HS.READY] == 0.0:
             # your own step: measure once (recorded in this row), then ask for the commands
             if fs[FS.SENSED] == 0.0:
                 q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
@@ -638,7 +636,7 @@ def fsw_boundary(P, y, t, t_end, ctl):
                     fs[FS.SB + i] = bb[i]
                 fs[FS.SENSED] = 1.0
             return BOUNDARY_NEEDS_COMMANDS
-        hs[HS_READY] = 0.0
+        hs[HS.READY] = 0.0
         _g, omt = state_rate(sc, y)  # the truth's rate, for the sensors and the wheels' limits
         fsw_tick(t, y, omt, params, sc, fw, fs, cmd, row, keep)
         t_next = fw[FW.T0] + (k + 1) * per
@@ -655,12 +653,12 @@ def fsw_boundary(P, y, t, t_end, ctl):
             fs[FS.RECORD_NEXT] += 1.0  # (read only with every = 0)
         fs[FS.TICK] = k + 1
         fs[FS.NEXT] = t_next
-        hs[HS_HOLD_END] = t_next
+        hs[HS.HOLD_END] = t_next
     if sc[SC.NT] > 0.0:
         thrusters_off_at(sc, t)
-        hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+        hs[HS.SEG_END] = next_thruster_off(sc, t, min(hs[HS.HOLD_END], t_end))
     else:
-        hs[HS_SEG_END] = min(hs[HS_HOLD_END], t_end)
+        hs[HS.SEG_END] = min(hs[HS.HOLD_END], t_end)
     return BOUNDARY_DONE
 
 

@@ -31,7 +31,11 @@ from .fsw import (
     fsw_boundary,
     guidance,
 )
-from .holds import BOUNDARY_NEEDS_COMMANDS, HS_FAIL, HS_FAIL_N, HS_READY, STEP_FAILED
+from .holds import (
+    BOUNDARY_NEEDS_COMMANDS,
+    HS,
+    STEP_FAILED,
+)
 from .layout import Field, layout
 from .quat import conj_mul, mrp, rotate_inverse
 
@@ -129,7 +133,7 @@ def measure_from_python(t, y, params, sc, fw, fs, out):
     measure(t, y, params, sc, fw, fs, out)
 
 
-#: Why a compiled step's commands were refused (``hs[HS_FAIL]``; ``hs[HS_FAIL_N]``: the length
+#: Why a compiled step's commands were refused (``hs[HS.FAIL]``; ``hs[HS.FAIL_N]``: the length
 #: it returned).
 STEP_WRONG_LENGTH = 1.0
 STEP_NONFINITE = 2.0
@@ -153,15 +157,15 @@ def step_boundary_with(step, P, y, t, t_end, ctl):
     ncmd = int(fw[FW.NCMD])
     want = ncmd if ncmd > 0 else 3
     if out.shape[0] != want:
-        hs[HS_FAIL] = STEP_WRONG_LENGTH
-        hs[HS_FAIL_N] = out.shape[0]
+        hs[HS.FAIL] = STEP_WRONG_LENGTH
+        hs[HS.FAIL_N] = out.shape[0]
         return STEP_FAILED
     for i in range(want):
         v = float(out[i])
         if not math.isfinite(v):
-            hs[HS_FAIL] = STEP_NONFINITE
-            hs[HS_FAIL_N] = i
+            hs[HS.FAIL] = STEP_NONFINITE
+            hs[HS.FAIL_N] = i
             return STEP_FAILED
         cmd[i] = v
-    hs[HS_READY] = 1.0
+    hs[HS.READY] = 1.0
     return fsw_boundary(P, y, t, t_end, ctl)

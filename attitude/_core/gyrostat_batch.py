@@ -49,10 +49,7 @@ from .fsw import fsw_boundary  # noqa: F401 (bound by name)
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_NEXT,
-    HS_PENDING,
-    HS_SEG_END,
+    HS,
     NEEDS_COMMANDS,
     RECORDS_FULL,
     record,
@@ -544,7 +541,7 @@ def _advance(boundary, k, limit, n, params, sc, t, y_out, work, tstate, counters
             to = t[k]
             tt = tstate[0]
             if to == tt:
-                if hs[HS_PENDING] != 0.0:
+                if hs[HS.PENDING] != 0.0:
                     break
                 for j in range(n):
                     y_out[k, j] = y[j]
@@ -554,13 +551,13 @@ def _advance(boundary, k, limit, n, params, sc, t, y_out, work, tstate, counters
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS_PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0:
             bs = boundary(P, y, tstate[0], t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 return NEEDS_COMMANDS, k
             if bs != BOUNDARY_DONE:
                 return RECORDS_FULL, k
-            hs[HS_PENDING] = 0.0
+            hs[HS.PENDING] = 0.0
             continue
         if k == m:
             return SUCCESS, k
@@ -618,9 +615,9 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                         set_order(ts, p)
                         for j in range(nw):
                             ts[TS_SIZE + j] = PIECE_FREE
-                        hs[HS_NEXT] = 0.0
-                        hs[HS_PENDING] = 1.0
-                        hs[HS_HOLD_END] = math.nan
+                        hs[HS.NEXT] = 0.0
+                        hs[HS.PENDING] = 1.0
+                        hs[HS.HOLD_END] = math.nan
                         counters[i, 3] = 1
                         counters[i, 4] = 0
                     lint[lane, L_MEMBER] = i
@@ -634,7 +631,7 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                 lint[lane, L_K] = k
                 if st == _NEEDS_STEP:
                     st, nn, cc, d = step_prepare(params[i], blk, work[i], tstate[i],
-                                                 ctl[0][HS_SEG_END], max_step)  # fmt: skip
+                                                 ctl[0][HS.SEG_END], max_step)  # fmt: skip
                     if st == SUCCESS:
                         _load_lane(cf, cst, lf, lint, lane, params[i], blk, work[i], tstate[i],
                                    nn, cc, d, rtol, atol, nw)  # fmt: skip
@@ -655,7 +652,7 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
             counters[i, 1] += pu
             blk = sc[sc_at[i] : sc_at[i + 1]]
             hs = CTL(i, src)[0]
-            seg_end = hs[HS_SEG_END]
+            seg_end = hs[HS.SEG_END]
             st = step_complete(blk, w, tstate[i], counters[i], rtol, atol, seg_end, max_step, pu,
                                lf[lane, LF_N], lf[lane, LF_C], lf[lane, LF_D])  # fmt: skip
             if st != SUCCESS:
@@ -664,7 +661,7 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                 lint[lane, L_MEMBER] = -1
                 continue
             if tstate[i, 0] == seg_end and seg_end < t_end:
-                hs[HS_PENDING] = 1.0
+                hs[HS.PENDING] = 1.0
 
 
 #: The same group driver with the flight software as the members' command source.

@@ -56,10 +56,7 @@ from .fma import fma as F
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_NEXT,
-    HS_PENDING,
-    HS_SEG_END,
+    HS,
     NEEDS_COMMANDS,
     record,
     schedule_boundary,
@@ -672,9 +669,9 @@ def taylor_holds_run(
         set_order(tstate, order_from_tolerance(rtol))
         for j in range(nw):
             tstate[TS_SIZE + j] = PIECE_FREE
-        hs[HS_NEXT] = 0.0
-        hs[HS_PENDING] = 1.0
-        hs[HS_HOLD_END] = math.nan
+        hs[HS.NEXT] = 0.0
+        hs[HS.PENDING] = 1.0
+        hs[HS.HOLD_END] = math.nan
         counters[3] = 1
         counters[4] = 0
     k = 0
@@ -683,7 +680,7 @@ def taylor_holds_run(
             to = t_out[k]
             t = tstate[0]
             if to == t:
-                if hs[HS_PENDING] != 0.0:
+                if hs[HS.PENDING] != 0.0:
                     break
                 for i in range(n):
                     y_out[k, i] = y[i]
@@ -693,21 +690,21 @@ def taylor_holds_run(
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS_PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0:
             bs = BOUNDARY(P, y, tstate[0], t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 return NEEDS_COMMANDS, k
             if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
                 return bs, k
-            hs[HS_PENDING] = 0.0
+            hs[HS.PENDING] = 0.0
             continue
         if k == m:
             return SUCCESS, k
         if counters[0] >= max_steps:
             return TOO_MANY_STEPS, k
-        seg_end = hs[HS_SEG_END]
+        seg_end = hs[HS.SEG_END]
         status = gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step)
         if status != SUCCESS:
             return status, k
         if tstate[0] == seg_end and seg_end < t_end:
-            hs[HS_PENDING] = 1.0
+            hs[HS.PENDING] = 1.0

@@ -330,7 +330,7 @@ class CraftMembers:
             "projection": corr,
             "potential": pot,
         }
-        hs = np.zeros((c, _kh.HS_SIZE))
+        hs = np.zeros((c, _kh.HS.SIZE))
         prog = self.program
         if prog is None:
             scheds = [(run.hold_t, run.hold_u) for run in runs]
