@@ -114,7 +114,7 @@ class _EventBuffers:
     def __init__(self, n_events: int, n_state: int = 8, capacity: int = 64):
         from ._core import events as _ke
 
-        self.evs = np.zeros((n_events, _ke.EVS_COLS))
+        self.evs = np.zeros((n_events, _ke.EVS.SIZE))
         self.count = np.zeros(2, dtype=np.int64)
         self.t = np.empty(capacity)
         self.k = np.empty((capacity, 2), dtype=np.int64)
@@ -135,8 +135,8 @@ class _EventBuffers:
             self.k[:k, 0].copy(),
             self.k[:k, 1].copy(),
             self.y[:k].copy(),
-            self.evs[:, _ke.EVS_COUNT].astype(np.int64),
-            self.evs[:, _ke.EVS_FIRST].copy(),
+            self.evs[:, _ke.EVS.COUNT].astype(np.int64),
+            self.evs[:, _ke.EVS.FIRST].copy(),
         )
 
 

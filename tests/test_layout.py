@@ -396,3 +396,52 @@ def test_diagnostic_blocks_follow_the_declaration():
     assert names[:3] == ["q", "Q", "omega"] and names[-1] == "p"
     ends = [off + w for _, off, w in _kd.BLOCKS]
     assert [off for _, off, _ in _kd.BLOCKS] == [0, *ends[:-1]] and ends[-1] == _kd.SAMPLE.SIZE
+
+
+# -- frames and events --------------------------------------------------------------------------
+
+
+def test_frame_data_round_trip():
+    """A frame's kernel data, read through its declaration, holds the frame's attributes."""
+    from attitude._core import frames as _kfr
+
+    q = np.array([0.6, 0.8, 0.0, 0.0])
+    f = frames.inertial(q).offset([math.cos(0.2), 0.0, 0.0, math.sin(0.2)])
+    d = _kfr.INERTIAL.read(f.kernel_data(0.0, 10.0))
+    assert d["type"] == _kfr.FRAME_INERTIAL
+    np.testing.assert_array_equal(d["q"], f.q)
+    np.testing.assert_array_equal(d["offset"], f._offset)
+    orbit = _sensor_craft().orbit
+    a = frames.aligned(orbit, ("+x", "sun"), ("+z", "nadir"))
+    data = a.kernel_data(0.0, 600.0)
+    r = _kfr.ALIGNED.read(data)
+    assert r["type"] == _kfr.FRAME_ALIGNED
+    assert (r["pdir"], r["sdir"]) == (a.primary_code, a.secondary_code) == (
+        _kfr.DIR_SUN, _kfr.DIR_NADIR)  # fmt: skip
+    np.testing.assert_array_equal(r["body"].ravel(), a._body)
+    od = np.asarray(orbit.kernel_data(), dtype=np.float64)
+    assert r["orbit"] == _kfr.ALIGNED.SIZE and r["sun"] == _kfr.ALIGNED.SIZE + od.size
+    np.testing.assert_array_equal(data[int(r["orbit"]) : int(r["orbit"]) + od.size], od)
+    assert r["target"] == 0.0
+
+
+def test_event_data_round_trip():
+    """The event set's data, read through its declarations: the header, each event's block
+    (kind, direction, terminal) where the header's offsets say."""
+    from attitude._core import events as _kev
+    from attitude.events import PointingExceeds, RateExceeds, build
+
+    evs = [
+        RateExceeds(0.1, terminal=True),
+        PointingExceeds(frames.inertial(), [0.0, 0.0, 1.0], 0.3, direction="falling"),
+    ]
+    ev = build(evs, np.linspace(0.0, 10.0, 11))
+    h = _kev.EV.read(ev.data)
+    assert h["n"] == 2 and h["nsub"] == max(e.samples for e in evs)
+    offsets = ev.data[_kev.EV.OFFSETS : _kev.EV.OFFSETS + 2].astype(int)
+    assert offsets[0] == _kev.EV.SIZE + 2
+    for e, at in zip(evs, offsets, strict=True):
+        b = _kev.EVB.read(ev.data, at)
+        assert (b["kind"], b["terminal"]) == (e._code, float(e.terminal))
+    assert _kev.EVB.read(ev.data, offsets[0])["direction"] == _kev.RISING
+    assert _kev.EVB.read(ev.data, offsets[1])["direction"] == _kev.FALLING

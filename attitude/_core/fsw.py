@@ -52,7 +52,12 @@ from .actuators import (
     wheel_speed,
 )
 from .environment import field_body
-from .frames import F_TYPE, FRAME_INERTIAL, frame_eval, inertial_frame
+from .frames import (
+    FRAME,
+    FRAME_INERTIAL,
+    frame_eval,
+    inertial_frame,
+)
 from .fsw_layout import ES, FS, FW, MB, RS, R
 from .holds import (
     BOUNDARY_DONE,
@@ -139,7 +144,7 @@ def frame_reference(d, t):
     r = frame_eval(d, t)
     q = (r[0], r[1], r[2], r[3])
     w = (r[4], r[5], r[6])
-    if int(d[F_TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
+    if int(d[FRAME.TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
         return q, w, (0.0, 0.0, 0.0)
     h = DOMEGA_STEP
     a = frame_eval(d, t + h)
@@ -191,7 +196,7 @@ def guidance(fw, fs, mb, t, q_meas):
     if kind == GUID_NONE:
         return (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     o = int(fw[mb + MB.GUID_FRAME])
-    if int(fw[o + F_TYPE]) == FRAME_INERTIAL:  # no calls a tick for the fixed frame
+    if int(fw[o + FRAME.TYPE]) == FRAME_INERTIAL:  # no calls a tick for the fixed frame
         qB, wB = inertial_frame(fw[o:])
         dwB = (0.0, 0.0, 0.0)
     else:

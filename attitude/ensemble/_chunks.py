@@ -213,7 +213,7 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel,
     from .._core import events as _kev
 
     ev = setup.events
-    evs = np.zeros((y0.shape[0], ev.n, _kev.EVS_COLS))
+    evs = np.zeros((y0.shape[0], ev.n, _kev.EVS.SIZE))
     fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
     while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
         fn(
@@ -225,8 +225,8 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel,
         if not np.any(out["status"] == _ke.RUNNING):
             break
     out["t_stop"] = tstate[:, 0].copy()
-    out["event_count"] = evs[:, :, _kev.EVS_COUNT].astype(np.int64)
-    out["event_first"] = evs[:, :, _kev.EVS_FIRST].copy()
+    out["event_count"] = evs[:, :, _kev.EVS.COUNT].astype(np.int64)
+    out["event_first"] = evs[:, :, _kev.EVS.FIRST].copy()
     return out
 
 
