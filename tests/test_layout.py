@@ -445,3 +445,26 @@ def test_event_data_round_trip():
         assert (b["kind"], b["terminal"]) == (e._code, float(e.terminal))
     assert _kev.EVB.read(ev.data, offsets[0])["direction"] == _kev.RISING
     assert _kev.EVB.read(ev.data, offsets[1])["direction"] == _kev.FALLING
+
+
+def test_model_parameters_round_trip():
+    """A model's parameters, read through their declarations: the inertia and kind, a single
+    model's block, a sum's term offsets pointing at its terms' blocks."""
+    from attitude._core import potentials as _kp
+    from attitude.potentials import HeavyTop, MagneticDipole
+
+    inertia = np.array([1.0, 2.0, 2.5])
+    top = HeavyTop(9.81, [0.0, 0.1, 0.3])
+    p = top._params(inertia)
+    m = _kp.MODEL.read(p)
+    assert m["inertia"].tolist() == inertia.tolist() and m["kind"] == _kp.KIND_HEAVY_TOP
+    b = _kp.HEAVY_TOP.read(p, _kp.MODEL.KIND)
+    assert b["weight"] == top.weight and b["cm"].tolist() == top.center_of_mass.tolist()
+    dip = MagneticDipole(_sensor_craft().orbit, [0.1, 0.2, 0.3], "dipole")
+    dip.prepare(np.array([0.0, 600.0]))
+    p = (top + dip)._params(inertia)
+    s = _kp.SUM.read(p)
+    assert (s["kind"], s["nterms"]) == (_kp.KIND_SUM, 2)
+    at = p[_kp.SUM.OFFSETS : _kp.SUM.OFFSETS + 2].astype(int)
+    assert _kp.HEAVY_TOP.read(p, at[0])["weight"] == top.weight
+    assert p[at[1]] == _kp.KIND_MAGNETIC_DIPOLE

@@ -56,7 +56,12 @@ from .holds import (
     schedule_boundary,
 )
 from .lanes import LANES
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .rk import SUCCESS, TOO_MANY_STEPS
 from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     RECORDS_WAIT,
@@ -453,14 +458,14 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
     for r in range(9):
         cst[K_M + r, lane] = sc[SC.MINV + r]
     cst[K_N, lane] = n
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     if kind == KIND_HEAVY_TOP:
-        cst[K_W, lane] = params[P0]
-        cst[K_CM, lane] = params[P0 + 1]
-        cst[K_CM + 1, lane] = params[P0 + 2]
-        cst[K_CM + 2, lane] = params[P0 + 3]
+        cst[K_W, lane] = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cst[K_CM, lane] = params[MODEL.KIND + HEAVY_TOP.CM]
+        cst[K_CM + 1, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cst[K_CM + 2, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        cst[K_MU, lane] = params[P0 + _SK.MU]
+        cst[K_MU, lane] = params[MODEL.DATA + _SK.MU]
         cst[K_D, lane] = params[2] - params[1]
         cst[K_D + 1, lane] = params[0] - params[2]
         cst[K_D + 2, lane] = params[1] - params[0]
@@ -579,7 +584,7 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
     n = y0.shape[1]
     nw = n - 8
     p = order_from_tolerance(rtol)
-    kind = int(params[start, P_KIND])
+    kind = int(params[start, MODEL.KIND])
     for lane in range(LANES):
         lint[lane, L_MEMBER] = -1
         lint[lane, L_STEP] = 0

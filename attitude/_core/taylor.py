@@ -69,7 +69,12 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit
 
 from .fma import fma as F
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .quat import rotate_inverse
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 
@@ -131,7 +136,7 @@ def _initial_row(work, t, params):
     cf[0, CG + 1] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
     cf[0, CG + 2] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
     n = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     q = (q0, q1, q2, q3)
     if kind == KIND_HEAVY_TOP:
         s = rotate_inverse(q, (0.0, 0.0, 1.0))
@@ -141,7 +146,7 @@ def _initial_row(work, t, params):
     elif kind == KIND_GRAVITY_GRADIENT:
         # Exact Kepler restart: the orbit's state at t, in body axes (the trig of the constant
         # angles precomputed in the orbit's kernel data: bit for bit orbit._kernels.state).
-        x, yy, z, vx, vy, vz = _SK.orbit_state(params[P0:], t)
+        x, yy, z, vx, vy, vz = _SK.orbit_state(params[MODEL.DATA :], t)
         r = rotate_inverse(q, (x, yy, z))
         v = rotate_inverse(q, (vx, vy, vz))
         for i in range(3):
@@ -159,7 +164,7 @@ def taylor_coefficients(cf, p, params, n, c):
     (:func:`attitude._core.taylor_batch.taylor_coefficients_lanes`) repeats these operations
     lane by lane and reproduces this table bit for bit.
     """
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     iI0 = 1.0 / params[0]
     iI1 = 1.0 / params[1]
     iI2 = 1.0 / params[2]
@@ -173,12 +178,12 @@ def taylor_coefficients(cf, p, params, n, c):
     mu = 0.0
     D0 = D1 = D2 = 0.0
     if kind == KIND_HEAVY_TOP:
-        W = params[P0]
-        cx = params[P0 + 1]
-        cy = params[P0 + 2]
-        cz = params[P0 + 3]
+        W = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cx = params[MODEL.KIND + HEAVY_TOP.CM]
+        cy = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cz = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        mu = params[P0 + _SK.MU]
+        mu = params[MODEL.DATA + _SK.MU]
         # r × I r = ((I2 − I1) r1 r2, (I0 − I2) r2 r0, (I1 − I0) r0 r1)
         D0 = params[2] - params[1]
         D1 = params[0] - params[2]

@@ -52,10 +52,10 @@ from .dynamics import diagnostics_row, diagnostics_with
 from .fma import fma as F
 from .lanes import LANES, simd_lanes
 from .potentials import (
+    HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
     KIND_HEAVY_TOP,
-    P0,
-    P_KIND,
+    MODEL,
     builtin_potential,
     gravity_gradient_potential_radial,
 )
@@ -139,14 +139,14 @@ def _lane_constants(params, i, cst, lane):
     cst[K_E, lane] = iI2 - iI1
     cst[K_E + 1, lane] = iI0 - iI2
     cst[K_E + 2, lane] = iI1 - iI0
-    kind = int(params[i, P_KIND])
+    kind = int(params[i, MODEL.KIND])
     if kind == KIND_HEAVY_TOP:
-        cst[K_W, lane] = params[i, P0]
-        cst[K_CM, lane] = params[i, P0 + 1]
-        cst[K_CM + 1, lane] = params[i, P0 + 2]
-        cst[K_CM + 2, lane] = params[i, P0 + 3]
+        cst[K_W, lane] = params[i, MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cst[K_CM, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM]
+        cst[K_CM + 1, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM + 1]
+        cst[K_CM + 2, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        cst[K_MU, lane] = params[i, P0 + _SK.MU]
+        cst[K_MU, lane] = params[i, MODEL.DATA + _SK.MU]
         cst[K_D, lane] = params[i, 2] - params[i, 1]
         cst[K_D + 1, lane] = params[i, 0] - params[i, 2]
         cst[K_D + 2, lane] = params[i, 1] - params[i, 0]
@@ -370,7 +370,7 @@ def _lane_initial_row(cf, lane, t, params, i):
     cf[0, CG + 1, lane] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
     cf[0, CG + 2, lane] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
     n = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    kind = int(params[i, P_KIND])
+    kind = int(params[i, MODEL.KIND])
     q = (q0, q1, q2, q3)
     if kind == KIND_HEAVY_TOP:
         s = rotate_inverse(q, (0.0, 0.0, 1.0))
@@ -378,7 +378,7 @@ def _lane_initial_row(cf, lane, t, params, i):
         cf[0, CA + 1, lane] = s[1]
         cf[0, CA + 2, lane] = s[2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        x, yy, z, vx, vy, vz = _SK.orbit_state(params[i, P0:], t)
+        x, yy, z, vx, vy, vz = _SK.orbit_state(params[i, MODEL.DATA :], t)
         r = rotate_inverse(q, (x, yy, z))
         v = rotate_inverse(q, (vx, vy, vz))
         for j in range(3):
@@ -503,7 +503,7 @@ def diagnostics_orbit_table(y, params, tab, out):
     """:func:`attitude._core.dynamics.diagnostics_with` for the gravity gradient with the
     orbit looked up in ``tab`` (:func:`orbit_radial_table`): the same operations on the same
     numbers, without a Kepler solve per sample."""
-    mu = params[P0 + _SK.MU]
+    mu = params[MODEL.DATA + _SK.MU]
     for k in range(y.shape[0]):
         q = (y[k, 0], y[k, 1], y[k, 2], y[k, 3])
         U = gravity_gradient_potential_radial(
@@ -575,7 +575,7 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
     t_end = t[m - 1]
     direction = 1.0 if t_end >= t[0] else -1.0
     p = order_from_tolerance(rtol)
-    kind = int(params[start, P_KIND])
+    kind = int(params[start, MODEL.KIND])
     if gst[G_DONE] != 0:
         return 0
     if gst[G_NEXT] < 0:

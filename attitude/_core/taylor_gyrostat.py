@@ -61,7 +61,12 @@ from .holds import (
     record,
     schedule_boundary,
 )
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
     CG,
@@ -195,16 +200,16 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     h[k >= 2] = 0 written (:data:`TS_HLIN`: the table's readers take h as linear). Together
     with the register-held wheel chains of :func:`dense_state`: 372 → 294 ns a hold on the
     open-loop run of a sensor day's 72 000 noisy holds (order 5), measured."""
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     W = cx = cy = cz = 0.0
     mu = D0 = D1 = D2 = 0.0
     if kind == KIND_HEAVY_TOP:
-        W = params[P0]
-        cx = params[P0 + 1]
-        cy = params[P0 + 2]
-        cz = params[P0 + 3]
+        W = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cx = params[MODEL.KIND + HEAVY_TOP.CM]
+        cy = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cz = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        mu = params[P0 + _SK.MU]
+        mu = params[MODEL.DATA + _SK.MU]
         D0 = params[2] - params[1]
         D1 = params[0] - params[2]
         D2 = params[1] - params[0]

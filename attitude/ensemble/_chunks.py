@@ -149,18 +149,21 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
     """:func:`_compute_chunk` with ``method="taylor"``: members in SIMD batches
     (:mod:`attitude._core.taylor_batch`), in groups run in parallel."""
     from .._core import taylor_batch as _tb0
-    from .._core.potentials import KIND_GRAVITY_GRADIENT, P0, P_KIND
+    from .._core.potentials import (
+        KIND_GRAVITY_GRADIENT,
+        MODEL,
+    )
 
     _tb = _tb0.batch()  # lanes sized to the CPU (same results at any width)
 
     c = y0.shape[0]
     tstate = np.empty((c, 5))
     orbit_tab = np.empty((0, 4))
-    shared = (params[:, P_KIND:] == params[0, P_KIND:]).all()
-    if int(params[0, P_KIND]) == KIND_GRAVITY_GRADIENT and shared:
+    shared = (params[:, MODEL.KIND :] == params[0, MODEL.KIND :]).all()
+    if int(params[0, MODEL.KIND]) == KIND_GRAVITY_GRADIENT and shared:
         # one orbit for all: looked up once per output time for the diagnostics
         orbit_tab = np.empty((setup.t.shape[0], 4))
-        _tb.orbit_radial_table(params[0, P0:], setup.t, orbit_tab)
+        _tb.orbit_radial_table(params[0, MODEL.DATA :], setup.t, orbit_tab)
     args = (
         params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
         out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
