@@ -499,7 +499,7 @@ def run_dop853(
         }
 
     return _run(
-        problem, kernel, work, tstate, counters, _rk.Y, rtol=rtol, atol=atol,
+        problem, kernel, work, tstate, counters, _rk.WORK.Y, rtol=rtol, atol=atol,
         max_step=max_step, max_steps=max_steps, progress=progress, chunk=chunk,
         on_chunk=on_chunk, stats=stats,
     )  # fmt: skip
@@ -529,7 +529,7 @@ def run_taylor(
     check_taylor(sr.spacecraft, problem.potential)
     nw = sr.n_state - 8
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
-    tstate = np.zeros(_ktg.TS_SIZE + nw)
+    tstate = np.zeros(_ktg.TS.SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
     entry = problem.entry
     kernel = entry.taylor_spacecraft if sr.program is None else entry.taylor_spacecraft_fsw

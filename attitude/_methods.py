@@ -383,7 +383,7 @@ def _run_dop853_events(
     if status == _rk.EVENT:
         t_event = float(tstate[0])
         if not (done and t[done - 1] == t_event):  # the state at the event: one more sample
-            y_ev = work[_rk.Y].copy()[None, :]
+            y_ev = work[_rk.WORK.Y].copy()[None, :]
             if on_chunk is not None:
                 on_chunk(done, y_ev, t_event)
                 first = done

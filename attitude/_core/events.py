@@ -64,11 +64,10 @@ from .quat import conj_mul, rotate
 from .rk import (
     EVENT,
     EVENT_BUFFER_FULL,
-    F0,
     NONFINITE,
     SUCCESS,
     TOO_MANY_STEPS,
-    Y,
+    WORK,
     _dense_coefficients,
     _initial_step,
     _interpolate,
@@ -361,7 +360,7 @@ def _locate_in_step(
         if s == nsub:
             tb = t_new
             for i in range(n):
-                yb[i] = work[Y, i]
+                yb[i] = work[WORK.Y, i]
         else:
             tb = t_old + h * (s / nsub)
             _interpolate(work, tstate, tb, yb)
@@ -388,7 +387,7 @@ def _locate_in_step(
             tr = ct[c]
             if tr == tb and s == nsub:
                 for i in range(n):
-                    yr[i] = work[Y, i]
+                    yr[i] = work[WORK.Y, i]
             else:
                 _interpolate(work, tstate, tr, yr)
             jc = int(cj[c])
@@ -440,7 +439,7 @@ def dop853_events_run(
     Returns
     -------
     status : int
-        ``SUCCESS``, ``EVENT`` (a terminal event: ``tstate[0]`` is its time and ``work[Y]`` the
+        ``SUCCESS``, ``EVENT`` (a terminal event: ``tstate[0]`` is its time and ``work[WORK.Y]`` the
         state there), ``EVENT_BUFFER_FULL`` (the records need room: enlarge them and call again
         with the remaining output times; nothing is lost) or a failure of ``dop853_run``.
     n_done : int
@@ -450,8 +449,8 @@ def dop853_events_run(
     m = t_out.shape[0]
     n_ev = int(evd[EV.N])
     nsub = int(evd[EV.NSUB])
-    y = work[Y]
-    f = work[F0]
+    y = work[WORK.Y]
+    f = work[WORK.F0]
     scr = np.empty((7, max(n, n_ev, 6)))
     if counters[3] == 0:
         for i in range(n):

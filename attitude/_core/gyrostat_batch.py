@@ -56,6 +56,7 @@ from .holds import (
     schedule_boundary,
 )
 from .lanes import LANES
+from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
@@ -70,15 +71,7 @@ from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     schedule_ctl,
 )
 from .taylor import (
-    CA,
-    CG,
-    CR2,
-    CU3,
-    CU5,
-    CV,
-    CW,
-    CX,
-    NCOL,
+    COL,
     RECIPROCALS,
     WORK_ROWS,
     Y,
@@ -90,7 +83,7 @@ from .taylor_gyrostat import (
     PIECE_FREE,
     PMIN,
     ROUNDOFF,
-    TS_SIZE,
+    TS,
     _block3,
     _block4,
     _blockh,
@@ -105,48 +98,62 @@ from .taylor_gyrostat import (
 __all__ = ["LANES", "fsw_parallel", "new_workspaces", "schedule_parallel"]
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
-K_M = 0  # M = Ĩ⁻¹ (9, row-major)
-K_N = 9  # n = |q|²
-K_W = 10  # heavy top: weight
-K_CM = 11  # heavy top: centre of mass (3)
-K_MU = 14  # gravity gradient: μ
-K_D = 15  # gravity gradient: I3 − I2, I1 − I3, I2 − I1
-K_TAU = 18  # the thrusters' held torque (3)
-K_WHEEL = 21  # per wheel: axis (3), 1/J, friction slope c₁, friction offset c₀, motor torque u
-KW = 7
+GCONST = layout(
+    "per-lane constants",
+    m=Field(9, "", "M = Ĩ⁻¹ (row-major)", (3, 3)),
+    n=Field(1, "", "n = |q|²"),
+    w=Field(1, "N", "heavy top: weight"),
+    cm=Field(3, "m", "heavy top: centre of mass"),
+    mu=Field(1, "km3/s2", "gravity gradient: μ"),
+    d=Field(3, "", "gravity gradient: I3 − I2, I1 − I3, I2 − I1"),
+    tau=Field(3, "N m", "the thrusters' held torque"),
+    wheel=Field(0, "", "per wheel: GWHEEL"),
+)
+GWHEEL = layout(
+    "per-lane wheel constants",
+    axis=3,
+    invj=Field(1, "", "1/J"),
+    c1=Field(1, "", "friction slope c₁"),
+    c0=Field(1, "", "friction offset c₀"),
+    u=Field(1, "N m", "motor torque"),
+)
 # Per-lane numbers of the step's order control (columns of ``lf``).
-LF_D = 0  # the longest step d
-LF_TQ = 1  # ORDER_MARGIN rtol S_q
-LF_TG = 2  # ORDER_MARGIN rtol S_g
-LF_TH = 3  # ORDER_MARGIN rtol S_h
-LF_DK = 4  # d^k
-LF_N = 5  # n of the step
-LF_C = 6  # c of the step
-LF_RO = 7  # ROUNDOFF S_b (q, g, h)
-LF_T = 10  # the blocks' terms at the last two orders (q, g, h: t_{k−1}, t_{k−2} each)
-NLF = 16
+LF = layout(
+    "order control",
+    d=Field(1, "", "the longest step d"),
+    tq=Field(1, "", "ORDER_MARGIN rtol S_q"),
+    tg=Field(1, "", "ORDER_MARGIN rtol S_g"),
+    th=Field(1, "", "ORDER_MARGIN rtol S_h"),
+    dk=Field(1, "", "d^k"),
+    n=Field(1, "", "n of the step"),
+    c=Field(1, "", "c of the step"),
+    ro=Field(3, "", "ROUNDOFF S_b (q, g, h)"),
+    t=Field(6, "", "the blocks' terms at the last two orders (q, g, h: t_{k−1}, t_{k−2} each)"),
+)
 # Per-lane integers (columns of ``lint``).
-L_MEMBER = 0  # the member in the lane (−1: none)
-L_K = 1  # its next output sample
-L_LIMIT = 2  # its step limit in this call
-L_STOP = 3  # the order its recurrences stop at (−1: not yet)
-L_STEP = 4  # 1: it takes a step in this round
-NLI = 5
+GLANE = layout(
+    "lane state",
+    member=Field(1, "", "the member in the lane (−1: none)"),
+    k=Field(1, "", "its next output sample"),
+    limit=Field(1, "", "its step limit in this call"),
+    stop=Field(1, "", "the order its recurrences stop at (−1: not yet)"),
+    step=Field(1, "", "1: it takes a step in this round"),
+)
 
 
 def n_constants(nw: int) -> int:
     """Rows of ``cst`` for ``nw`` wheels."""
-    return K_WHEEL + KW * nw
+    return GCONST.WHEEL + GWHEEL.SIZE * nw
 
 
 def new_workspaces(groups: int, nw: int) -> tuple[np.ndarray, ...]:
     """The arrays of ``groups`` batch integrators: ``(cf, cst, lf, lint)``, one row each (made
     by the caller: the parallel loop runs without numba's reference counting)."""
     return (
-        np.zeros((groups, WORK_ROWS, NCOL + 2 * nw, LANES)),
-        np.zeros((groups, K_WHEEL + KW * nw, LANES)),
-        np.zeros((groups, LANES, NLF)),
-        np.zeros((groups, LANES, NLI), dtype=np.int64),
+        np.zeros((groups, WORK_ROWS, COL.SIZE + 2 * nw, LANES)),
+        np.zeros((groups, GCONST.WHEEL + GWHEEL.SIZE * nw, LANES)),
+        np.zeros((groups, LANES, LF.SIZE)),
+        np.zeros((groups, LANES, GLANE.SIZE), dtype=np.int64),
     )
 
 
@@ -162,95 +169,95 @@ def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
     t0 = t1 = t2 = Z
     inv = RECIPROCALS[k]
     if kind == KIND_HEAVY_TOP:
-        s0 = V.load(cf, k, CA)
-        s1 = V.load(cf, k, CA + 1)
-        s2 = V.load(cf, k, CA + 2)
+        s0 = V.load(cf, k, COL.A)
+        s1 = V.load(cf, k, COL.A + 1)
+        s2 = V.load(cf, k, COL.A + 2)
         t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
         t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
         t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
         b0 = b1 = b2 = Z
         for j in range(k + 1):
-            s0 = V.load(cf, j, CA)
-            s1 = V.load(cf, j, CA + 1)
-            s2 = V.load(cf, j, CA + 2)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
+            s0 = V.load(cf, j, COL.A)
+            s1 = V.load(cf, j, COL.A + 1)
+            s2 = V.load(cf, j, COL.A + 2)
+            w0 = V.load(cf, k - j, COL.W)
+            w1 = V.load(cf, k - j, COL.W + 1)
+            w2 = V.load(cf, k - j, COL.W + 2)
             b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
             b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
             b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
-        V.store(cf, k + 1, CA, V.smul(inv, b0))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
+        V.store(cf, k + 1, COL.A, V.smul(inv, b0))
+        V.store(cf, k + 1, COL.A + 1, V.smul(inv, b1))
+        V.store(cf, k + 1, COL.A + 2, V.smul(inv, b2))
     elif kind == KIND_GRAVITY_GRADIENT:
         s = x0 = x1 = x2 = Z
         for j in range(k + 1):
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            u0 = V.load(cf, k - j, CA)
-            u1 = V.load(cf, k - j, CA + 1)
-            u2 = V.load(cf, k - j, CA + 2)
+            r0 = V.load(cf, j, COL.A)
+            r1 = V.load(cf, j, COL.A + 1)
+            r2 = V.load(cf, j, COL.A + 2)
+            u0 = V.load(cf, k - j, COL.A)
+            u1 = V.load(cf, k - j, COL.A + 1)
+            u2 = V.load(cf, k - j, COL.A + 2)
             s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
             x0 = V.fma(r1, u2, x0)
             x1 = V.fma(r2, u0, x1)
             x2 = V.fma(r0, u1, x2)
-        V.store(cf, k, CR2, s)
-        V.store(cf, k, CX, V.mul(D0, x0))
-        V.store(cf, k, CX + 1, V.mul(D1, x1))
-        V.store(cf, k, CX + 2, V.mul(D2, x2))
-        s00 = V.load(cf, 0, CR2)
+        V.store(cf, k, COL.R2, s)
+        V.store(cf, k, COL.X, V.mul(D0, x0))
+        V.store(cf, k, COL.X + 1, V.mul(D1, x1))
+        V.store(cf, k, COL.X + 2, V.mul(D2, x2))
+        s00 = V.load(cf, 0, COL.R2)
         if k == 0:
             for ln in range(LANES):
-                r2s = cf[0, CR2, ln]
-                cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
-                cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
+                r2s = cf[0, COL.R2, ln]
+                cf[0, COL.U3, ln] = 1.0 / (r2s * math.sqrt(r2s))
+                cf[0, COL.U5, ln] = cf[0, COL.U3, ln] / r2s
         else:
             acc = Z
             for j in range(k):
                 coef = -1.5 * (k - j) - j
-                acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
-            V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
-            acc = V.load(cf, k, CU3)
+                acc = V.fma(V.smul(coef, V.load(cf, k - j, COL.R2)), V.load(cf, j, COL.U3), acc)
+            V.store(cf, k, COL.U3, V.div(acc, V.smul(k, s00)))
+            acc = V.load(cf, k, COL.U3)
             for j in range(1, k + 1):
-                acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
-            V.store(cf, k, CU5, V.div(acc, s00))
+                acc = V.fma(V.neg(V.load(cf, j, COL.R2)), V.load(cf, k - j, COL.U5), acc)
+            V.store(cf, k, COL.U5, V.div(acc, s00))
         b0 = b1 = b2 = Z
         d0 = d1 = d2 = Z
         f0 = f1 = f2 = Z
         for j in range(k + 1):
-            u5 = V.load(cf, j, CU5)
-            u3 = V.load(cf, j, CU3)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            v0 = V.load(cf, j, CV)
-            v1 = V.load(cf, j, CV + 1)
-            v2 = V.load(cf, j, CV + 2)
-            t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
-            t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
-            t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
+            u5 = V.load(cf, j, COL.U5)
+            u3 = V.load(cf, j, COL.U3)
+            w0 = V.load(cf, k - j, COL.W)
+            w1 = V.load(cf, k - j, COL.W + 1)
+            w2 = V.load(cf, k - j, COL.W + 2)
+            r0 = V.load(cf, j, COL.A)
+            r1 = V.load(cf, j, COL.A + 1)
+            r2 = V.load(cf, j, COL.A + 2)
+            v0 = V.load(cf, j, COL.V)
+            v1 = V.load(cf, j, COL.V + 1)
+            v2 = V.load(cf, j, COL.V + 2)
+            t0 = V.fma(u5, V.load(cf, k - j, COL.X), t0)
+            t1 = V.fma(u5, V.load(cf, k - j, COL.X + 1), t1)
+            t2 = V.fma(u5, V.load(cf, k - j, COL.X + 2), t2)
             b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
             b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
             b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
             d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
             d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
             d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
-            f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
-            f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
-            f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
+            f0 = V.fma(u3, V.load(cf, k - j, COL.A), f0)
+            f1 = V.fma(u3, V.load(cf, k - j, COL.A + 1), f1)
+            f2 = V.fma(u3, V.load(cf, k - j, COL.A + 2), f2)
         t0 = V.mul(t0, mu3)
         t1 = V.mul(t1, mu3)
         t2 = V.mul(t2, mu3)
-        V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
-        V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
-        V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
-        V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
+        V.store(cf, k + 1, COL.A, V.smul(inv, V.add(V.load(cf, k, COL.V), b0)))
+        V.store(cf, k + 1, COL.A + 1, V.smul(inv, V.add(V.load(cf, k, COL.V + 1), b1)))
+        V.store(cf, k + 1, COL.A + 2, V.smul(inv, V.add(V.load(cf, k, COL.V + 2), b2)))
+        V.store(cf, k + 1, COL.V, V.smul(inv, V.fma(mmu, f0, d0)))
+        V.store(cf, k + 1, COL.V + 1, V.smul(inv, V.fma(mmu, f1, d1)))
+        V.store(cf, k + 1, COL.V + 2, V.smul(inv, V.fma(mmu, f2, d2)))
     return t0, t1, t2
 
 
@@ -283,38 +290,38 @@ def _lane_blockh(cf, k, nw, lane):
 @slp_vectorized
 @jit
 def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
-    """Rows 1.. of the table of every lane taking a step (``lint[:, L_STEP]``) from its row 0:
+    """Rows 1.. of the table of every lane taking a step (``lint[:, GLANE.STEP]``) from its row 0:
     the recurrences of :func:`attitude._core.taylor_gyrostat.gyrostat_coefficients`, statement
     for statement, on lane tuples. Each lane stops at its own order (that function's test, on
-    its own numbers): its order in ``lint[:, L_STOP]``, its rows 0..order (ω and Ω also at
+    its own numbers): its order in ``lint[:, GLANE.STOP]``, its rows 0..order (ω and Ω also at
     that order) as that function fills them; the recurrences run until every lane is done."""
     Z = V.ZERO
-    m00 = V.load_row(cst, K_M)
-    m01 = V.load_row(cst, K_M + 1)
-    m02 = V.load_row(cst, K_M + 2)
-    m10 = V.load_row(cst, K_M + 3)
-    m11 = V.load_row(cst, K_M + 4)
-    m12 = V.load_row(cst, K_M + 5)
-    m20 = V.load_row(cst, K_M + 6)
-    m21 = V.load_row(cst, K_M + 7)
-    m22 = V.load_row(cst, K_M + 8)
-    n = V.load_row(cst, K_N)
-    mW = V.neg(V.load_row(cst, K_W))
-    cx = V.load_row(cst, K_CM)
-    cy = V.load_row(cst, K_CM + 1)
-    cz = V.load_row(cst, K_CM + 2)
-    mu = V.load_row(cst, K_MU)
+    m00 = V.load_row(cst, GCONST.M)
+    m01 = V.load_row(cst, GCONST.M + 1)
+    m02 = V.load_row(cst, GCONST.M + 2)
+    m10 = V.load_row(cst, GCONST.M + 3)
+    m11 = V.load_row(cst, GCONST.M + 4)
+    m12 = V.load_row(cst, GCONST.M + 5)
+    m20 = V.load_row(cst, GCONST.M + 6)
+    m21 = V.load_row(cst, GCONST.M + 7)
+    m22 = V.load_row(cst, GCONST.M + 8)
+    n = V.load_row(cst, GCONST.N)
+    mW = V.neg(V.load_row(cst, GCONST.W))
+    cx = V.load_row(cst, GCONST.CM)
+    cy = V.load_row(cst, GCONST.CM + 1)
+    cz = V.load_row(cst, GCONST.CM + 2)
+    mu = V.load_row(cst, GCONST.MU)
     mu3 = V.smul(3.0, mu)
     mmu = V.neg(mu)
-    D0 = V.load_row(cst, K_D)
-    D1 = V.load_row(cst, K_D + 1)
-    D2 = V.load_row(cst, K_D + 2)
-    tau0 = V.load_row(cst, K_TAU)
-    tau1 = V.load_row(cst, K_TAU + 1)
-    tau2 = V.load_row(cst, K_TAU + 2)
+    D0 = V.load_row(cst, GCONST.D)
+    D1 = V.load_row(cst, GCONST.D + 1)
+    D2 = V.load_row(cst, GCONST.D + 2)
+    tau0 = V.load_row(cst, GCONST.TAU)
+    tau1 = V.load_row(cst, GCONST.TAU + 1)
+    tau2 = V.load_row(cst, GCONST.TAU + 2)
     for lane in range(LANES):
-        lint[lane, L_STOP] = -1 if lint[lane, L_STEP] != 0 else 0
-        lf[lane, LF_DK] = 1.0
+        lint[lane, GLANE.STOP] = -1 if lint[lane, GLANE.STEP] != 0 else 0
+        lf[lane, LF.DK] = 1.0
     CO = CH + nw
     k = 0
     while True:
@@ -322,32 +329,37 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
         l0 = l1 = l2 = Z
         for j in range(nw):
             h = V.load(cf, k, CH + j)
-            r = K_WHEEL + KW * j
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
             l0 = V.fma(h, V.load_row(cst, r), l0)
             l1 = V.fma(h, V.load_row(cst, r + 1), l1)
             l2 = V.fma(h, V.load_row(cst, r + 2), l2)
-        e0 = V.sub(V.load(cf, k, CG), l0)
-        e1 = V.sub(V.load(cf, k, CG + 1), l1)
-        e2 = V.sub(V.load(cf, k, CG + 2), l2)
+        e0 = V.sub(V.load(cf, k, COL.G), l0)
+        e1 = V.sub(V.load(cf, k, COL.G + 1), l1)
+        e2 = V.sub(V.load(cf, k, COL.G + 2), l2)
         w0 = V.fma(m02, e2, V.fma(m01, e1, V.mul(m00, e0)))
         w1 = V.fma(m12, e2, V.fma(m11, e1, V.mul(m10, e0)))
         w2 = V.fma(m22, e2, V.fma(m21, e1, V.mul(m20, e0)))
-        V.store(cf, k, CW, w0)
-        V.store(cf, k, CW + 1, w1)
-        V.store(cf, k, CW + 2, w2)
+        V.store(cf, k, COL.W, w0)
+        V.store(cf, k, COL.W + 1, w1)
+        V.store(cf, k, COL.W + 2, w2)
         for j in range(nw):
-            r = K_WHEEL + KW * j
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
             aw = V.fma(
                 V.load_row(cst, r + 2),
                 w2,
                 V.fma(V.load_row(cst, r + 1), w1, V.mul(V.load_row(cst, r), w0)),
             )
-            V.store(cf, k, CO + j, V.fma(V.load(cf, k, CH + j), V.load_row(cst, r + 3), V.neg(aw)))
+            V.store(
+                cf,
+                k,
+                CO + j,
+                V.fma(V.load(cf, k, CH + j), V.load_row(cst, r + GWHEEL.INVJ), V.neg(aw)),
+            )
         if k == p:
             break
         done = True
         for lane in range(LANES):
-            if lint[lane, L_STOP] < 0:
+            if lint[lane, GLANE.STOP] < 0:
                 done = False
         if done:
             break
@@ -363,12 +375,12 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
             q1 = V.load(cf, j, 1)
             q2 = V.load(cf, j, 2)
             q3 = V.load(cf, j, 3)
-            o0 = V.load(cf, i, CW)
-            o1 = V.load(cf, i, CW + 1)
-            o2 = V.load(cf, i, CW + 2)
-            g0 = V.load(cf, j, CG)
-            g1 = V.load(cf, j, CG + 1)
-            g2 = V.load(cf, j, CG + 2)
+            o0 = V.load(cf, i, COL.W)
+            o1 = V.load(cf, i, COL.W + 1)
+            o2 = V.load(cf, i, COL.W + 2)
+            g0 = V.load(cf, j, COL.G)
+            g1 = V.load(cf, j, COL.G + 1)
+            g2 = V.load(cf, j, COL.G + 2)
             b00 = V.fma(V.neg(q1), o0, b00)
             b10 = V.fma(q0, o0, b10)
             b20 = V.fma(q3, o0, b20)
@@ -401,41 +413,41 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
             t0 = V.add(t0, tau0)
             t1 = V.add(t1, tau1)
             t2 = V.add(t2, tau2)
-        V.store(cf, k + 1, CG, V.smul(inv, V.fma(n, t0, p0)))
-        V.store(cf, k + 1, CG + 1, V.smul(inv, V.fma(n, t1, p1)))
-        V.store(cf, k + 1, CG + 2, V.smul(inv, V.fma(n, t2, p2)))
+        V.store(cf, k + 1, COL.G, V.smul(inv, V.fma(n, t0, p0)))
+        V.store(cf, k + 1, COL.G + 1, V.smul(inv, V.fma(n, t1, p1)))
+        V.store(cf, k + 1, COL.G + 2, V.smul(inv, V.fma(n, t2, p2)))
         for j in range(nw):
-            r = K_WHEEL + KW * j
-            v = V.mul(V.neg(V.load_row(cst, r + 4)), V.load(cf, k, CO + j))
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
+            v = V.mul(V.neg(V.load_row(cst, r + GWHEEL.C1)), V.load(cf, k, CO + j))
             if k == 0:
-                v = V.add(v, V.sub(V.load_row(cst, r + 6), V.load_row(cst, r + 5)))
+                v = V.add(v, V.sub(V.load_row(cst, r + GWHEEL.U), V.load_row(cst, r + GWHEEL.C0)))
             V.store(cf, k + 1, CH + j, V.smul(inv, v))
         k += 1
         # each lane's own test: the last two terms over its d below its tolerances
         for lane in range(LANES):
-            if lint[lane, L_STOP] >= 0:
+            if lint[lane, GLANE.STOP] >= 0:
                 continue
-            dk = lf[lane, LF_DK] * lf[lane, LF_D]
-            lf[lane, LF_DK] = dk
+            dk = lf[lane, LF.DK] * lf[lane, LF.D]
+            lf[lane, LF.DK] = dk
             tq = _lane_block4(cf, k, 0, lane) * dk
-            tg = _lane_block3(cf, k, CG, lane) * dk
+            tg = _lane_block3(cf, k, COL.G, lane) * dk
             th = _lane_blockh(cf, k, nw, lane) * dk
             ok = (
-                order_enough(tq, lf[lane, LF_T], lf[lane, LF_T + 1], lf[lane, LF_TQ],
-                             lf[lane, LF_RO])
-                and order_enough(tg, lf[lane, LF_T + 2], lf[lane, LF_T + 3], lf[lane, LF_TG],
-                                 lf[lane, LF_RO + 1])
-                and order_enough(th, lf[lane, LF_T + 4], lf[lane, LF_T + 5], lf[lane, LF_TH],
-                                 lf[lane, LF_RO + 2])
+                order_enough(tq, lf[lane, LF.T], lf[lane, LF.T + 1], lf[lane, LF.TQ],
+                             lf[lane, LF.RO])
+                and order_enough(tg, lf[lane, LF.T + 2], lf[lane, LF.T + 3], lf[lane, LF.TG],
+                                 lf[lane, LF.RO + 1])
+                and order_enough(th, lf[lane, LF.T + 4], lf[lane, LF.T + 5], lf[lane, LF.TH],
+                                 lf[lane, LF.RO + 2])
             )  # fmt: skip
             if ok and k >= PMIN:
-                lint[lane, L_STOP] = k
+                lint[lane, GLANE.STOP] = k
             for b, t in enumerate((tq, tg, th)):
-                lf[lane, LF_T + 2 * b + 1] = lf[lane, LF_T + 2 * b]
-                lf[lane, LF_T + 2 * b] = t
+                lf[lane, LF.T + 2 * b + 1] = lf[lane, LF.T + 2 * b]
+                lf[lane, LF.T + 2 * b] = t
     for lane in range(LANES):
-        if lint[lane, L_STOP] < 0:
-            lint[lane, L_STOP] = p
+        if lint[lane, GLANE.STOP] < 0:
+            lint[lane, GLANE.STOP] = p
 
 
 # ------------------------------------------------------------------------------------------------
@@ -450,54 +462,54 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
     for col in range(4):
         cf[0, col, lane] = work[0, col]
     for j in range(3):
-        cf[0, CG + j, lane] = work[0, CG + j]
-        cf[0, CA + j, lane] = work[0, CA + j]
-        cf[0, CV + j, lane] = work[0, CV + j]
+        cf[0, COL.G + j, lane] = work[0, COL.G + j]
+        cf[0, COL.A + j, lane] = work[0, COL.A + j]
+        cf[0, COL.V + j, lane] = work[0, COL.V + j]
     for j in range(nw):
         cf[0, CH + j, lane] = work[0, CH + j]
     for r in range(9):
-        cst[K_M + r, lane] = sc[SC.MINV + r]
-    cst[K_N, lane] = n
+        cst[GCONST.M + r, lane] = sc[SC.MINV + r]
+    cst[GCONST.N, lane] = n
     kind = int(params[MODEL.KIND])
     if kind == KIND_HEAVY_TOP:
-        cst[K_W, lane] = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
-        cst[K_CM, lane] = params[MODEL.KIND + HEAVY_TOP.CM]
-        cst[K_CM + 1, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 1]
-        cst[K_CM + 2, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 2]
+        cst[GCONST.W, lane] = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cst[GCONST.CM, lane] = params[MODEL.KIND + HEAVY_TOP.CM]
+        cst[GCONST.CM + 1, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cst[GCONST.CM + 2, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        cst[K_MU, lane] = params[MODEL.DATA + _SK.MU]
-        cst[K_D, lane] = params[2] - params[1]
-        cst[K_D + 1, lane] = params[0] - params[2]
-        cst[K_D + 2, lane] = params[1] - params[0]
+        cst[GCONST.MU, lane] = params[MODEL.DATA + _SK.MU]
+        cst[GCONST.D, lane] = params[2] - params[1]
+        cst[GCONST.D + 1, lane] = params[0] - params[2]
+        cst[GCONST.D + 2, lane] = params[1] - params[0]
     for j in range(3):
-        cst[K_TAU + j, lane] = sc[SC.TAU + j] + sc[SC.IDEAL + j]  # thrusters' + ideal control
+        cst[GCONST.TAU + j, lane] = sc[SC.TAU + j] + sc[SC.IDEAL + j]  # thrusters' + ideal control
     for j in range(nw):
         b = SC.WHEELS + j * WHEEL.SIZE
-        r = K_WHEEL + KW * j
+        r = GCONST.WHEEL + GWHEEL.SIZE * j
         cst[r, lane] = sc[b + WHEEL.AXIS]
         cst[r + 1, lane] = sc[b + WHEEL.AXIS + 1]
         cst[r + 2, lane] = sc[b + WHEEL.AXIS + 2]
-        cst[r + 3, lane] = sc[b + WHEEL.INVJ]
-        c1, c0 = _piece_coefficients(sc, b, int(tstate[TS_SIZE + j]))
-        cst[r + 4, lane] = c1
-        cst[r + 5, lane] = c0
-        cst[r + 6, lane] = sc[b + WHEEL.U]
+        cst[r + GWHEEL.INVJ, lane] = sc[b + WHEEL.INVJ]
+        c1, c0 = _piece_coefficients(sc, b, int(tstate[TS.SIZE + j]))
+        cst[r + GWHEEL.C1, lane] = c1
+        cst[r + GWHEEL.C0, lane] = c0
+        cst[r + GWHEEL.U, lane] = sc[b + WHEEL.U]
     # the tolerances of gyrostat_coefficients' order test, from row 0
     floor = atol / rtol
     sq = max(_block4(work, 0, 0), floor)
-    sg = max(_block3(work, 0, CG), floor)
+    sg = max(_block3(work, 0, COL.G), floor)
     sh = max(_blockh(work, 0, nw), floor)
-    lf[lane, LF_TQ] = ORDER_MARGIN * rtol * sq
-    lf[lane, LF_TG] = ORDER_MARGIN * rtol * sg
-    lf[lane, LF_TH] = ORDER_MARGIN * rtol * sh
+    lf[lane, LF.TQ] = ORDER_MARGIN * rtol * sq
+    lf[lane, LF.TG] = ORDER_MARGIN * rtol * sg
+    lf[lane, LF.TH] = ORDER_MARGIN * rtol * sh
     for b, sb in enumerate((sq, sg, sh)):
-        lf[lane, LF_RO + b] = ROUNDOFF * sb
-        lf[lane, LF_T + 2 * b] = sb  # the scale S_b before order 1 (as gyrostat_coefficients)
-        lf[lane, LF_T + 2 * b + 1] = sb
-    lf[lane, LF_D] = d
-    lf[lane, LF_N] = n
-    lf[lane, LF_C] = c
-    lint[lane, L_STEP] = 1
+        lf[lane, LF.RO + b] = ROUNDOFF * sb
+        lf[lane, LF.T + 2 * b] = sb  # the scale S_b before order 1 (as gyrostat_coefficients)
+        lf[lane, LF.T + 2 * b + 1] = sb
+    lf[lane, LF.D] = d
+    lf[lane, LF.N] = n
+    lf[lane, LF.C] = c
+    lint[lane, GLANE.STEP] = 1
 
 
 @jit(inline="always")
@@ -509,7 +521,7 @@ def _unload_lane(cf, lane, pu, work, nw):
         for col in range(4):
             work[k, col] = cf[k, col, lane]
         for j in range(3):
-            work[k, CG + j] = cf[k, CG + j, lane]
+            work[k, COL.G + j] = cf[k, COL.G + j, lane]
         for j in range(nw):
             work[k, CH + j] = cf[k, CH + j, lane]
             work[k, CO + j] = cf[k, CO + j, lane]
@@ -586,15 +598,15 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
     p = order_from_tolerance(rtol)
     kind = int(params[start, MODEL.KIND])
     for lane in range(LANES):
-        lint[lane, L_MEMBER] = -1
-        lint[lane, L_STEP] = 0
+        lint[lane, GLANE.MEMBER] = -1
+        lint[lane, GLANE.STEP] = 0
     nxt = start
     while True:
         stepping = 0
         for lane in range(LANES):
-            lint[lane, L_STEP] = 0
+            lint[lane, GLANE.STEP] = 0
             while True:  # until the lane holds a member that takes a step (or none is left)
-                i = lint[lane, L_MEMBER]
+                i = lint[lane, GLANE.MEMBER]
                 if i < 0:
                     if nxt >= stop:
                         break
@@ -619,21 +631,21 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                         ts[2] = t[0]
                         set_order(ts, p)
                         for j in range(nw):
-                            ts[TS_SIZE + j] = PIECE_FREE
+                            ts[TS.SIZE + j] = PIECE_FREE
                         hs[HS.NEXT] = 0.0
                         hs[HS.PENDING] = 1.0
                         hs[HS.HOLD_END] = math.nan
                         counters[i, 3] = 1
                         counters[i, 4] = 0
-                    lint[lane, L_MEMBER] = i
-                    lint[lane, L_K] = k0
-                    lint[lane, L_LIMIT] = limit
+                    lint[lane, GLANE.MEMBER] = i
+                    lint[lane, GLANE.K] = k0
+                    lint[lane, GLANE.LIMIT] = limit
                 ctl = CTL(i, src)
                 blk = sc[sc_at[i] : sc_at[i + 1]]
-                st, k = _advance(BOUNDARY, lint[lane, L_K], lint[lane, L_LIMIT], n, params[i],
-                                 blk, t, y_out[i], work[i], tstate[i], counters[i],
+                st, k = _advance(BOUNDARY, lint[lane, GLANE.K], lint[lane, GLANE.LIMIT], n,
+                                 params[i], blk, t, y_out[i], work[i], tstate[i], counters[i],
                                  ctl)  # fmt: skip
-                lint[lane, L_K] = k
+                lint[lane, GLANE.K] = k
                 if st == _NEEDS_STEP:
                     st, nn, cc, d = step_prepare(params[i], blk, work[i], tstate[i],
                                                  ctl[0][HS.SEG_END], max_step)  # fmt: skip
@@ -642,16 +654,16 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                                    nn, cc, d, rtol, atol, nw)  # fmt: skip
                         stepping += 1
                         break
-                member_stop(i, st, k, lint[lane, L_LIMIT], max_steps, y_out, status, n_done)
-                lint[lane, L_MEMBER] = -1
+                member_stop(i, st, k, lint[lane, GLANE.LIMIT], max_steps, y_out, status, n_done)
+                lint[lane, GLANE.MEMBER] = -1
         if stepping == 0:
             return
         gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint)
         for lane in range(LANES):
-            if lint[lane, L_STEP] == 0:
+            if lint[lane, GLANE.STEP] == 0:
                 continue
-            i = lint[lane, L_MEMBER]
-            pu = lint[lane, L_STOP]
+            i = lint[lane, GLANE.MEMBER]
+            pu = lint[lane, GLANE.STOP]
             w = work[i]
             _unload_lane(cf, lane, pu, w, nw)
             counters[i, 1] += pu
@@ -659,11 +671,11 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
             hs = CTL(i, src)[0]
             seg_end = hs[HS.SEG_END]
             st = step_complete(blk, w, tstate[i], counters[i], rtol, atol, seg_end, max_step, pu,
-                               lf[lane, LF_N], lf[lane, LF_C], lf[lane, LF_D])  # fmt: skip
+                               lf[lane, LF.N], lf[lane, LF.C], lf[lane, LF.D])  # fmt: skip
             if st != SUCCESS:
-                member_stop(i, st, lint[lane, L_K], lint[lane, L_LIMIT], max_steps, y_out,
+                member_stop(i, st, lint[lane, GLANE.K], lint[lane, GLANE.LIMIT], max_steps, y_out,
                             status, n_done)  # fmt: skip
-                lint[lane, L_MEMBER] = -1
+                lint[lane, GLANE.MEMBER] = -1
                 continue
             if tstate[i, 0] == seg_end and seg_end < t_end:
                 hs[HS.PENDING] = 1.0

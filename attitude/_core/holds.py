@@ -49,10 +49,9 @@ from .actuators import (
 )
 from .layout import Field, layout
 from .rk import (
-    F0,
     SUCCESS,
     TOO_MANY_STEPS,
-    Y,
+    WORK,
     _dense_coefficients,
     _initial_step,
     _interpolate,
@@ -185,8 +184,8 @@ def holds_run(
     sc = P[1]
     n = y0.shape[0]
     m = t_out.shape[0]
-    y = work[Y]
-    f = work[F0]
+    y = work[WORK.Y]
+    f = work[WORK.F0]
     if counters[3] == 0:
         for i in range(n):
             y[i] = y0[i]

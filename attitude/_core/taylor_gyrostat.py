@@ -34,11 +34,11 @@ Two additions to Jorba & Zou's scheme:
   (bisection on the step's polynomial of Ω) and the next step starts in the next piece. So a
   kink is resolved to round-off, not smoothed by a step that straddles it.
 
-Layout: ``work`` (WORK_ROWS, NCOL + 2 n_w): rows 0..p the coefficients (columns of
+Layout: ``work`` (WORK_ROWS, COL.SIZE + 2 n_w): rows 0..p the coefficients (columns of
 :mod:`attitude._core.taylor`, then h_k at CH + k and Ω_k at CH + n_w + k), row Y the state
-(q, Q, h). ``tstate`` (TS_SIZE + n_w,): ``[t, h_last, t_old, p, step factor, p_used, n, c, g (3),
+(q, Q, h). ``tstate`` (TS.SIZE + n_w,): ``[t, h_last, t_old, p, step factor, p_used, n, c, g (3),
 has g]`` then each wheel's friction piece for the next step (−1: from Ω at its start). The
-steps carry g from one to the next (TS_G) instead of recomputing it from the rebuilt Q.
+steps carry g from one to the next (TS.G) instead of recomputing it from the rebuilt Q.
 """
 
 from __future__ import annotations
@@ -61,6 +61,7 @@ from .holds import (
     record,
     schedule_boundary,
 )
+from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
@@ -69,9 +70,7 @@ from .potentials import (
 )
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
-    CG,
-    CW,
-    NCOL,
+    COL,
     RECIPROCALS,
     Y,
     _initial_row,
@@ -81,14 +80,22 @@ from .taylor import (
     torque_series,
 )
 
-CH = NCOL  # first wheel momentum column
-TS_P_USED = 5
-TS_N = 6
-TS_C = 7
-TS_G = 8  # g at the end of the last step (3): the next step starts from it
-TS_HAS_G = 11  # 1 once TS_G holds it
-TS_HLIN = 12  # 1: no wheel has friction, the wheels' h are linear in the step (h[k] = 0, k >= 2)
-TS_SIZE = 13  # then one friction piece per wheel
+CH = COL.SIZE  # first wheel momentum column
+TS = layout(
+    "gyrostat Taylor state",
+    t=Field(1, "s"),
+    h_last=Field(1, "s"),
+    t_old=Field(1, "s"),
+    p=Field(1, "", "order"),
+    factor=Field(1, "", "step factor"),
+    p_used=1,
+    n=1,
+    c=1,
+    g=Field(3, "", "g at the end of the last step: the next step starts from it"),
+    has_g=Field(1, "", "1 once G holds it"),
+    hlin=Field(1, "", "1: no wheel has friction, the wheels' h are linear in the step"),
+    pieces=Field(0, "", "then one friction piece per wheel"),
+)
 
 PIECE_FREE = -1  # decide from Ω at the step's start
 PIECE_INSIDE = 0  # |Ω| < ω_lc: f = slope Ω
@@ -107,7 +114,7 @@ PMIN = 2
 
 def work_columns(n_w: int) -> int:
     """Columns of the work array for ``n_w`` wheels."""
-    return max(NCOL + 2 * n_w, 8 + n_w)
+    return max(COL.SIZE + 2 * n_w, 8 + n_w)
 
 
 @jit(inline="always")
@@ -134,7 +141,7 @@ def _piece_coefficients(sc, b, piece):
 
 @jit(inline="always")
 def has_friction(sc, nw):
-    """True if a wheel has friction (else the wheels' h are linear in a step: TS_HLIN)."""
+    """True if a wheel has friction (else the wheels' h are linear in a step: TS.HLIN)."""
     for j in range(nw):
         if sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.FRICTION] != 0.0:
             return True
@@ -197,7 +204,7 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     chains, 1/(k+1) is a table entry, not a division. Without friction the wheels' Ω enters
     nothing (h[k+1] = u/(k+1) at k = 0, else 0) and is not computed, nor ℓ[k] = 0 for k >= 2
     (the same numbers as computing them, but for the sign of a zero), nor are the rows
-    h[k >= 2] = 0 written (:data:`TS_HLIN`: the table's readers take h as linear). Together
+    h[k >= 2] = 0 written (:data:`TS.HLIN`: the table's readers take h as linear). Together
     with the register-held wheel chains of :func:`dense_state`: 372 → 294 ns a hold on the
     open-loop run of a sensor day's 72 000 noisy holds (order 5), measured."""
     kind = int(params[MODEL.KIND])
@@ -224,7 +231,7 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     m22 = sc[11]
     floor = atol / rtol
     sq = max(_block4(cf, 0, 0), floor)
-    sg = max(_block3(cf, 0, CG), floor)
+    sg = max(_block3(cf, 0, COL.G), floor)
     sh = max(_blockh(cf, 0, nw), floor)
     tol_q = ORDER_MARGIN * rtol * sq
     tol_g = ORDER_MARGIN * rtol * sg
@@ -245,9 +252,9 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     while True:
         # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
         if k >= 2 and not friction:
-            e0 = cf[k, CG]
-            e1 = cf[k, CG + 1]
-            e2 = cf[k, CG + 2]
+            e0 = cf[k, COL.G]
+            e1 = cf[k, COL.G + 1]
+            e2 = cf[k, COL.G + 2]
         else:
             l0 = l1 = l2 = 0.0
             for j in range(nw):
@@ -256,15 +263,15 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
                 l0 = F(h, sc[b + WHEEL.AXIS], l0)
                 l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
                 l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
-            e0 = cf[k, CG] - l0
-            e1 = cf[k, CG + 1] - l1
-            e2 = cf[k, CG + 2] - l2
+            e0 = cf[k, COL.G] - l0
+            e1 = cf[k, COL.G + 1] - l1
+            e2 = cf[k, COL.G + 2] - l2
         w0 = F(m02, e2, F(m01, e1, m00 * e0))
         w1 = F(m12, e2, F(m11, e1, m10 * e0))
         w2 = F(m22, e2, F(m21, e1, m20 * e0))
-        cf[k, CW] = w0
-        cf[k, CW + 1] = w1
-        cf[k, CW + 2] = w2
+        cf[k, COL.W] = w0
+        cf[k, COL.W + 1] = w1
+        cf[k, COL.W + 2] = w2
         if friction and k > 0:
             for j in range(nw):
                 b = SC.WHEELS + j * WHEEL.SIZE
@@ -290,12 +297,12 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
             q1 = cf[j, 1]
             q2 = cf[j, 2]
             q3 = cf[j, 3]
-            o0 = cf[i, CW]
-            o1 = cf[i, CW + 1]
-            o2 = cf[i, CW + 2]
-            g0 = cf[j, CG]
-            g1 = cf[j, CG + 1]
-            g2 = cf[j, CG + 2]
+            o0 = cf[i, COL.W]
+            o1 = cf[i, COL.W + 1]
+            o2 = cf[i, COL.W + 2]
+            g0 = cf[j, COL.G]
+            g1 = cf[j, COL.G + 1]
+            g2 = cf[j, COL.G + 2]
             b00 = F(-q1, o0, b00)
             b10 = F(q0, o0, b10)
             b20 = F(q3, o0, b20)
@@ -328,9 +335,9 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
             t0 += sc[SC.TAU] + sc[SC.IDEAL]  # actuators.actuator_torque)
             t1 += sc[SC.TAU + 1] + sc[SC.IDEAL + 1]
             t2 += sc[SC.TAU + 2] + sc[SC.IDEAL + 2]
-        cf[k + 1, CG] = F(n, t0, p0) * inv
-        cf[k + 1, CG + 1] = F(n, t1, p1) * inv
-        cf[k + 1, CG + 2] = F(n, t2, p2) * inv
+        cf[k + 1, COL.G] = F(n, t0, p0) * inv
+        cf[k + 1, COL.G + 1] = F(n, t1, p1) * inv
+        cf[k + 1, COL.G + 2] = F(n, t2, p2) * inv
         if friction:
             for j in range(nw):
                 b = SC.WHEELS + j * WHEEL.SIZE
@@ -339,13 +346,13 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
                 if k == 0:
                     r += sc[b + WHEEL.U] - c0
                 cf[k + 1, CH + j] = r * inv
-        elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS_HLIN)
+        elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS.HLIN)
             for j in range(nw):
                 cf[1, CH + j] = sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.U] * inv
         k += 1
         dk *= d
         tq = _block4(cf, k, 0) * dk
-        tg = _block3(cf, k, CG) * dk
+        tg = _block3(cf, k, COL.G) * dk
         th = 0.0 if k >= 2 and not friction else _blockh(cf, k, nw) * dk  # (h linear)
         ok = (
             order_enough(tq, tq1, tq0, tol_q, ro_q)
@@ -368,12 +375,12 @@ def _jz_radius(cf, p, rtol, atol, nw):
     """Jorba & Zou's ρ over the blocks q, g, h from the orders p − 1 and p."""
     floor = atol / rtol
     sq = max(_block4(cf, 0, 0), floor)
-    sg = max(_block3(cf, 0, CG), floor)
+    sg = max(_block3(cf, 0, COL.G), floor)
     sh = max(_blockh(cf, 0, nw), floor)
     rho = math.inf
     for j in (p - 1, p):
         rho = min(rho, _ratio(sq, _block4(cf, j, 0), j))
-        rho = min(rho, _ratio(sg, _block3(cf, j, CG), j))
+        rho = min(rho, _ratio(sg, _block3(cf, j, COL.G), j))
         if nw > 0:
             rho = min(rho, _ratio(sh, _blockh(cf, j, nw), j))
     return rho
@@ -397,27 +404,27 @@ def dense_state(work, tstate, tau, out, nw):
     dependent multiply–adds then overlap instead of running one after the other. Returning g
     spares the step's end evaluating it again: 68 → 20 ns at order 5 with three wheels
     (measured, the two together)."""
-    p = int(tstate[TS_P_USED])
-    c = tstate[TS_C]
+    p = int(tstate[TS.P_USED])
+    c = tstate[TS.C]
     q0 = work[p, 0]
     q1 = work[p, 1]
     q2 = work[p, 2]
     q3 = work[p, 3]
-    h0 = work[p, CG]
-    h1 = work[p, CG + 1]
-    h2 = work[p, CG + 2]
+    h0 = work[p, COL.G]
+    h1 = work[p, COL.G + 1]
+    h2 = work[p, COL.G + 2]
     for i in range(p):
         k = p - 1 - i
         q0 = F(q0, tau, work[k, 0])
         q1 = F(q1, tau, work[k, 1])
         q2 = F(q2, tau, work[k, 2])
         q3 = F(q3, tau, work[k, 3])
-        h0 = F(h0, tau, work[k, CG])
-        h1 = F(h1, tau, work[k, CG + 1])
-        h2 = F(h2, tau, work[k, CG + 2])
+        h0 = F(h0, tau, work[k, COL.G])
+        h1 = F(h1, tau, work[k, COL.G + 1])
+        h2 = F(h2, tau, work[k, COL.G + 2])
     # the wheels one at a time, each chain in a register (the wheels' chains still overlap:
     # no dependence between them; through ``out`` each order waited on the last one's store)
-    if tstate[TS_HLIN] != 0.0:  # h = h[0] + h[1] τ: Horner's rule on the zero rows, the same bits
+    if tstate[TS.HLIN] != 0.0:  # h = h[0] + h[1] τ: Horner's rule on the zero rows, the same bits
         for j in range(nw):
             out[8 + j] = F(work[1, CH + j], tau, work[0, CH + j])
     else:
@@ -495,21 +502,21 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
     t = tstate[0]
     y = work[Y]
     n, c = _initial_row(work, t, params)
-    if tstate[TS_HAS_G] != 0.0:
+    if tstate[TS.HAS_G] != 0.0:
         # g as the last step ended, not ½ vec(q̃∘Q) of the rebuilt Q: that round trip is
         # biased by 3e-17 relative (measured), a drift of |g| over 1e5 steps
-        work[0, CG] = tstate[TS_G]
-        work[0, CG + 1] = tstate[TS_G + 1]
-        work[0, CG + 2] = tstate[TS_G + 2]
+        work[0, COL.G] = tstate[TS.G]
+        work[0, COL.G + 1] = tstate[TS.G + 1]
+        work[0, COL.G + 2] = tstate[TS.G + 2]
     for j in range(nw):
         work[0, CH + j] = y[8 + j]
     # order 0 of ω and Ω, for the friction pieces
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
     d = min(seg_end - t, max_step)
     if not d > 0.0:
         return STEP_TOO_SMALL, n, c, d
     friction = has_friction(sc, nw)
-    tstate[TS_HLIN] = 0.0 if friction else 1.0
+    tstate[TS.HLIN] = 0.0 if friction else 1.0
     if friction:
         # ω[0], Ω[0] first (the pieces depend on Ω[0]; without friction the recurrences
         # compute ω[0] and nothing reads Ω or a piece)
@@ -530,8 +537,8 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     t = tstate[0]
     p = int(tstate[3])
     y = work[Y]
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
-    hlin = tstate[TS_HLIN] != 0.0
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
+    hlin = tstate[TS.HLIN] != 0.0
     if pu >= p:
         if hlin:  # the rows of h Jorba & Zou's radius reads, unwritten by the recurrences
             for k in range(2, p + 1):
@@ -545,9 +552,9 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     if status != SUCCESS:
         return status
     h = t_new - t
-    tstate[TS_P_USED] = pu
-    tstate[TS_N] = n
-    tstate[TS_C] = c
+    tstate[TS.P_USED] = pu
+    tstate[TS.N] = n
+    tstate[TS.C] = c
     hk = h
     which = -1
     if not hlin:
@@ -566,10 +573,10 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
             for j in range(nw):
                 y[8 + j] = work[0, CH + j]
             return NONFINITE
-    tstate[TS_G] = gh[0]
-    tstate[TS_G + 1] = gh[1]
-    tstate[TS_G + 2] = gh[2]
-    tstate[TS_HAS_G] = 1.0
+    tstate[TS.G] = gh[0]
+    tstate[TS.G + 1] = gh[1]
+    tstate[TS.G + 2] = gh[2]
+    tstate[TS.HAS_G] = 1.0
     # the next step's pieces: the crossed wheel enters the next piece, the others re-decide
     if not hlin:
         for j in range(nw):
@@ -598,7 +605,7 @@ def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_s
     if status != SUCCESS:
         return status
     nw = int(sc[SC.NW])
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
     pu = gyrostat_coefficients(work, int(tstate[3]), params, sc, n, pieces, d, rtol, atol, nw)
     counters[1] += pu
     return step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu, n, c, d)
@@ -614,9 +621,9 @@ def gyrostat_order0(cf, sc, nw):
         l0 = F(h, sc[b + WHEEL.AXIS], l0)
         l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
         l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
-    e0 = cf[0, CG] - l0
-    e1 = cf[0, CG + 1] - l1
-    e2 = cf[0, CG + 2] - l2
+    e0 = cf[0, COL.G] - l0
+    e1 = cf[0, COL.G + 1] - l1
+    e2 = cf[0, COL.G + 2] - l2
     w0 = F(sc[5], e2, F(sc[4], e1, sc[3] * e0))
     w1 = F(sc[8], e2, F(sc[7], e1, sc[6] * e0))
     w2 = F(sc[11], e2, F(sc[10], e1, sc[9] * e0))
@@ -673,7 +680,7 @@ def taylor_holds_run(
         tstate[2] = t0
         set_order(tstate, order_from_tolerance(rtol))
         for j in range(nw):
-            tstate[TS_SIZE + j] = PIECE_FREE
+            tstate[TS.SIZE + j] = PIECE_FREE
         hs[HS.NEXT] = 0.0
         hs[HS.PENDING] = 1.0
         hs[HS.HOLD_END] = math.nan

@@ -63,7 +63,7 @@ class Potential:
         env = self._user_env_blocks()
         if not env:
             return head
-        # a user model alone: the environment's directory at P0 (_core.potentials)
+        # a user model alone: the environment's directory at MODEL.DATA (_core.potentials)
         assert kind == _kp.KIND_USER and head.shape[0] == _kp.MODEL.DATA
         return np.concatenate([head, _user_environment(_kp.MODEL.DATA, env)])
 
