@@ -4,6 +4,7 @@ each public object packed through its declaration and read back field by field."
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -468,3 +469,27 @@ def test_model_parameters_round_trip():
     at = p[_kp.SUM.OFFSETS : _kp.SUM.OFFSETS + 2].astype(int)
     assert _kp.HEAVY_TOP.read(p, at[0])["weight"] == top.weight
     assert p[at[1]] == _kp.KIND_MAGNETIC_DIPOLE
+
+
+# -- no hand-numbered offsets -------------------------------------------------------------------
+
+#: What may stay a number in attitude._core: enumerations (codes a block holds, not offsets),
+#: statuses, and sizes that are not layouts (SIMD widths, orders, stage counts).
+_CODES = re.compile(r"^(KIND|COND|GUID|CTRL|DIR|FRAME|FLAG|DENSITY|ECLIPSE|PIECE|INVARIANTS)_")
+_STATUSES = {"SUCCESS", "NONFINITE", "STEP_TOO_SMALL", "TOO_MANY_STEPS", "EVENT", "PAUSED",
+             "EVENT_BUFFER_FULL", "NOT_STARTED", "RUNNING", "RECORDS_WAIT", "BOUNDARY_DONE",
+             "BOUNDARY_NEEDS_COMMANDS", "NEEDS_COMMANDS", "RECORDS_FULL", "STEP_FAILED",
+             "RISING", "FALLING", "BOTH", "KICK", "ROTOR", "FREE"}  # fmt: skip
+_SIZES = {"LANES", "PMAX", "PMIN", "WINDOW", "N_STAGES", "N_STAGES_EXTENDED",
+          "INTERPOLATOR_POWER", "RNG_SIZE", "SPAN_TICKS", "N_COUNTERS", "NDIAG"}  # fmt: skip
+
+
+def test_no_hand_numbered_offsets_in_core():
+    """Every integer constant written as a number in attitude._core is a code, a status or a
+    size; the offsets of the float arrays come from layout declarations."""
+    core = Path(attitude.__file__).parent / "_core"
+    found = set()
+    for f in core.glob("*.py"):
+        found |= set(re.findall(r"^([A-Z][A-Z0-9_]*) = -?\d+\s*(?:#.*)?$", f.read_text(), re.M))
+    stray = {n for n in found if not _CODES.match(n)} - _STATUSES - _SIZES
+    assert not stray, f"hand-numbered constants (declare them with attitude._core.layout): {stray}"
