@@ -56,6 +56,17 @@ def test_pack_and_read_round_trip():
         L.pack(z=1)
 
 
+def test_layouts_pickle():
+    """A layout pickles by reference to its declaring module (as numba's cache and process
+    pools may need)."""
+    import pickle
+
+    from attitude._core.mekf import E
+
+    assert pickle.loads(pickle.dumps(FW)) == FW and type(pickle.loads(pickle.dumps(E))) is type(E)
+    assert pickle.loads(pickle.dumps(FW)).fields == FW.fields
+
+
 def test_appender_returns_offsets():
     out = Appender(np.zeros(3))
     assert out.append([1.0, 2.0]) == 3 and out.append(np.eye(2)) == 5

@@ -19,6 +19,7 @@ Pure Python and numpy: nothing here is compiled.
 
 from __future__ import annotations
 
+import sys
 from collections import namedtuple
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -151,8 +152,17 @@ def layout(name: str, *, size: int | None = None, **fields: int | Field | Gap) -
             raise ValueError(f"{name}: the fields take {at} words, more than size={size}")
         at = size
     names = [k.upper() for k in infos] + ["SIZE"]
-    base = namedtuple("_" + "".join(c if c.isalnum() else "_" for c in name), names)
-    cls = type(base.__name__, (base, Layout), {"__slots__": (), "_name": name, "_infos": infos})
+    # the class lives in the declaring module under a name of its own, so that it pickles by
+    # reference (a process that imports that module finds it)
+    where = sys._getframe(1).f_globals
+    tag = "_layout_" + "".join(c if c.isalnum() else "_" for c in name)
+    qual, k = tag, 2
+    while qual in where:
+        qual, k = f"{tag}_{k}", k + 1
+    base = namedtuple(qual, names)
+    cls = type(qual, (base, Layout), {"__slots__": (), "_name": name, "_infos": infos})
+    cls.__module__ = where.get("__name__", __name__)
+    where[qual] = cls
     return cls(*[f.offset for f in infos.values()], at)
 
 
