@@ -85,7 +85,7 @@ def _finish(
         problem.entry.samples(t, y, problem.params, od, orbit is not None, buf, i, j)
     if orbit is not None and int(od[0]) == TYPE_EPHEMERIS and n:
         # the osculating true anomaly of a table: the orbit's own (numpy) formula, bit for bit
-        buf[_kd.O_F * n : (_kd.O_F + 1) * n] = orbit.true_anomaly(t)
+        buf[_kd.SAMPLE.F * n : (_kd.SAMPLE.F + 1) * n] = orbit.true_anomaly(t)
     n_ok = _finite_prefix(buf, n, n_terms)
     if not pot.has_potential:
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
@@ -97,13 +97,13 @@ def _finite_prefix(buf: np.ndarray, n: int, n_terms: int) -> int | None:
     """The number of leading samples whose diagnostics (ω … q·Q) and torques in the buffer of
     :func:`attitude._core.diagnostics.samples_with` are finite, when a later one's are not
     (None: all are)."""
-    diag = buf[_kd.O_OMEGA * n : _kd.O_R * n]
-    torques = buf[_kd.SAMPLE_WIDTH * n :]
+    diag = buf[_kd.SAMPLE.OMEGA * n : _kd.SAMPLE.R * n]
+    torques = buf[_kd.SAMPLE.SIZE * n :]
     if np.isfinite(diag).all() and np.isfinite(torques).all():
         return None
     ok = np.isfinite(torques.reshape(n, -1)).all(axis=1)
     for _, off, w in _kd.BLOCKS:
-        if _kd.O_OMEGA <= off < _kd.O_R:
+        if _kd.SAMPLE.OMEGA <= off < _kd.SAMPLE.R:
             ok &= np.isfinite(buf[off * n : (off + w) * n].reshape(n, w)).all(axis=1)
     return int(np.argmin(ok))
 

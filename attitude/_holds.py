@@ -215,7 +215,7 @@ class _Source:
     def __init__(self, run: SpacecraftRun, problem: Problem):
         self.run = run
         self.problem = problem
-        self.hs = np.zeros(_kh.HS_SIZE)
+        self.hs = np.zeros(_kh.HS.SIZE)
         prog = run.program
         self.prog = prog
         if prog is None:
@@ -243,7 +243,7 @@ class _Source:
             self.ctl = (self.hs, self.prog.fw, self.fs, self.cmd, self.rec, self.rc)
             return
         self._step(y, t, sc)
-        self.hs[_kh.HS_READY] = 1.0
+        self.hs[_kh.HS.READY] = 1.0
 
     def flush(self) -> None:
         """Hand the tick records so far to the sink; the buffer starts again."""
@@ -260,30 +260,19 @@ class _Source:
         prog = self.prog
         craft = self.run.spacecraft
         nw = craft.counts[0]
-        meas = np.empty(_ks.MEAS_WHEELS + 2 * nw)
+        meas = np.empty(_ks.MEAS.WHEEL_SPEEDS + 2 * nw)
         _ks.measure_from_python(t, np.ascontiguousarray(y[: 8 + nw]), self.problem.params, sc,
                                 prog.fw, self.fs, meas)  # fmt: skip
 
-        def vec(i, n=3):
-            v = meas[i : i + n].copy()
-            return None if np.isnan(v).any() else v
-
+        got = _ks.MEAS.read(meas)  # views of this call's own array
+        for k in ("field", "sun", "r", "v"):  # NaN: unavailable (no orbit, no epoch)
+            if np.isnan(got[k]).any():
+                got[k] = None
+        w = _ks.MEAS.WHEEL_SPEEDS
         m = Measurements(
-            t=float(meas[_ks.MEAS_T]),
-            q=meas[_ks.MEAS_Q : _ks.MEAS_Q + 4].copy(),
-            omega=meas[_ks.MEAS_OMEGA : _ks.MEAS_OMEGA + 3].copy(),
-            q_ref=meas[_ks.MEAS_QREF : _ks.MEAS_QREF + 4].copy(),
-            omega_ref=meas[_ks.MEAS_OMEGA_REF : _ks.MEAS_OMEGA_REF + 3].copy(),
-            sigma_error=meas[_ks.MEAS_SIGMA : _ks.MEAS_SIGMA + 3].copy(),
-            omega_error=meas[_ks.MEAS_DOMEGA : _ks.MEAS_DOMEGA + 3].copy(),
-            wheel_speeds=meas[_ks.MEAS_WHEELS : _ks.MEAS_WHEELS + nw].copy(),
-            wheel_momenta=meas[_ks.MEAS_WHEELS + nw : _ks.MEAS_WHEELS + 2 * nw].copy(),
-            field=vec(_ks.MEAS_FIELD),
-            sun=vec(_ks.MEAS_SUN),
-            r=vec(_ks.MEAS_R),
-            v=vec(_ks.MEAS_V),
+            **got, wheel_speeds=meas[w : w + nw], wheel_momenta=meas[w + nw : w + 2 * nw]
         )
-        tick = int(self.fs[_kf.FS_TICK])
+        tick = int(self.fs[_kf.FS.TICK])
         try:
             out = prog.python_step(m.t, m)
         except Exception as exc:
@@ -361,13 +350,13 @@ def _compiled_step_failure(src: _Source, problem: Problem) -> str:
     from ._core import fsw as _kf
     from ._core import fsw_step as _ks
 
-    tick = int(src.fs[_kf.FS_TICK])
-    t = float(src.fs[_kf.FS_NEXT])
+    tick = int(src.fs[_kf.FS.TICK])
+    t = float(src.fs[_kf.FS.NEXT])
     where = f"software: your compiled step function at tick {tick} (t = {t!r} s)"
-    n = int(src.hs[_kh.HS_FAIL_N])
+    n = int(src.hs[_kh.HS.FAIL_N])
     nw, nm, nt = problem.spacecraft.spacecraft.counts
     want = nw + nm + nt
-    if src.hs[_kh.HS_FAIL] == _ks.STEP_WRONG_LENGTH:
+    if src.hs[_kh.HS.FAIL] == _ks.STEP_WRONG_LENGTH:
         what = (
             "the body torque (3,)"
             if want == 0
@@ -454,12 +443,12 @@ def _run(
         if src.sink is not None:
             src.flush()
         sr.ticks = src.rec[: int(src.rc[0])].copy()
-    st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS_NEXT])}
+    st = {"rtol": rtol, "atol": atol, **stats(), "n_holds": int(src.hs[_kh.HS.NEXT])}
     if src.prog is not None:
         from ._core import fsw as _kf
 
         del st["n_holds"]
-        st["n_ticks"] = int(src.fs[_kf.FS_TICK])
+        st["n_ticks"] = int(src.fs[_kf.FS.TICK])
     msg = _rk.STATUS_MESSAGES.get(int(status), "stopped")
     if isinstance(failure, str):
         msg = failure
@@ -510,7 +499,7 @@ def run_dop853(
         }
 
     return _run(
-        problem, kernel, work, tstate, counters, _rk.Y, rtol=rtol, atol=atol,
+        problem, kernel, work, tstate, counters, _rk.WORK.Y, rtol=rtol, atol=atol,
         max_step=max_step, max_steps=max_steps, progress=progress, chunk=chunk,
         on_chunk=on_chunk, stats=stats,
     )  # fmt: skip
@@ -540,7 +529,7 @@ def run_taylor(
     check_taylor(sr.spacecraft, problem.potential)
     nw = sr.n_state - 8
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
-    tstate = np.zeros(_ktg.TS_SIZE + nw)
+    tstate = np.zeros(_ktg.TS.SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
     entry = problem.entry
     kernel = entry.taylor_spacecraft if sr.program is None else entry.taylor_spacecraft_fsw

@@ -114,7 +114,7 @@ class _EventBuffers:
     def __init__(self, n_events: int, n_state: int = 8, capacity: int = 64):
         from ._core import events as _ke
 
-        self.evs = np.zeros((n_events, _ke.EVS_COLS))
+        self.evs = np.zeros((n_events, _ke.EVS.SIZE))
         self.count = np.zeros(2, dtype=np.int64)
         self.t = np.empty(capacity)
         self.k = np.empty((capacity, 2), dtype=np.int64)
@@ -135,8 +135,8 @@ class _EventBuffers:
             self.k[:k, 0].copy(),
             self.k[:k, 1].copy(),
             self.y[:k].copy(),
-            self.evs[:, _ke.EVS_COUNT].astype(np.int64),
-            self.evs[:, _ke.EVS_FIRST].copy(),
+            self.evs[:, _ke.EVS.COUNT].astype(np.int64),
+            self.evs[:, _ke.EVS.FIRST].copy(),
         )
 
 
@@ -383,7 +383,7 @@ def _run_dop853_events(
     if status == _rk.EVENT:
         t_event = float(tstate[0])
         if not (done and t[done - 1] == t_event):  # the state at the event: one more sample
-            y_ev = work[_rk.Y].copy()[None, :]
+            y_ev = work[_rk.WORK.Y].copy()[None, :]
             if on_chunk is not None:
                 on_chunk(done, y_ev, t_event)
                 first = done

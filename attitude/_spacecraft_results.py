@@ -62,11 +62,13 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     terms ``wheels`` (the torque of the wheels' motors and bearings on the body: internal,
     left out of ``total``), ``magnetorquers`` and ``thrusters``.
     """
+    from ._core import holds as _kh
+
     craft = run.spacecraft
     u = UnitSystem(craft.body)
     nw, nm, nt = craft.counts
     n = run.n_state
-    rec = d["records"]
+    rec = d["records"]  # per actuator its columns (attitude._core.holds *_REC), a row a sample
     wn, mn, tn = craft.names()
 
     def var(dims, data, units, long_name, **extra):
@@ -80,7 +82,9 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     c = 0
     if nw:
         coords.update(_indexed("wheel", wn, "reaction wheel"))
-        r = rec[:, c : c + 4 * nw].reshape(-1, nw, 4)
+        r = _kh.WHEEL_REC.read(
+            rec[:, c : c + _kh.WHEEL_REC.SIZE * nw].reshape(-1, nw, _kh.WHEEL_REC.SIZE)
+        )
         new["wheel_speed"] = var(
             ("time", "wheel"), d["wheels"][:, :, 0], u.rate, "wheel speed relative to the body"
         )
@@ -91,11 +95,11 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
             "axial angular momentum of the wheel, J (a.omega + speed)",
         )
         new["wheel_torque_command"] = var(
-            ("time", "wheel"), r[:, :, 0], u.torque, "commanded motor torque"
+            ("time", "wheel"), r["cmd"], u.torque, "commanded motor torque"
         )
         new["wheel_torque"] = var(
             ("time", "wheel"),
-            r[:, :, 1],
+            r["torque"],
             u.torque,
             "applied motor torque (after the wheel's limits)",
         )
@@ -107,40 +111,44 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         )
         new["wheel_limit"] = var(
             ("time", "wheel"),
-            r[:, :, 2].astype(np.int8),
+            r["flags"].astype(np.int8),
             None,
             "limits acting on the wheel command",
             flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),
             flag_meanings=" ".join(name for _, name in WHEEL_LIMIT_FLAGS),
         )
         new.update(_constants(craft, u, var, "wheel"))
-        c += 4 * nw
+        c += _kh.WHEEL_REC.SIZE * nw
     if nm:
         coords.update(_indexed("magnetorquer", mn, "magnetorquer"))
-        r = rec[:, c : c + 2 * nm].reshape(-1, nm, 2)
+        r = _kh.MTQ_REC.read(
+            rec[:, c : c + _kh.MTQ_REC.SIZE * nm].reshape(-1, nm, _kh.MTQ_REC.SIZE)
+        )
         dip = "A m^2" if u.torque != "1" else "1"
         new["dipole_command"] = var(
-            ("time", "magnetorquer"), r[:, :, 0], dip, "commanded magnetic dipole"
+            ("time", "magnetorquer"), r["cmd"], dip, "commanded magnetic dipole"
         )
         new["dipole"] = var(
             ("time", "magnetorquer"),
-            r[:, :, 1],
+            r["applied"],
             dip,
             "applied magnetic dipole (clipped to the rod's limit)",
         )
         new.update(_constants(craft, u, var, "magnetorquer"))
-        c += 2 * nm
+        c += _kh.MTQ_REC.SIZE * nm
     if nt:
         coords.update(_indexed("thruster", tn, "thruster"))
-        r = rec[:, c : c + 2 * nt].reshape(-1, nt, 2)
+        r = _kh.THR_REC.read(
+            rec[:, c : c + _kh.THR_REC.SIZE * nt].reshape(-1, nt, _kh.THR_REC.SIZE)
+        )
         fmax = np.array([x.max_thrust for x in craft.thrusters])
         force = u.torque.replace(" m", "") if u.torque != "1" else "1"
         new["thruster_command"] = var(
-            ("time", "thruster"), r[:, :, 0], "1", "commanded on-time fraction of the hold"
+            ("time", "thruster"), r["cmd"], "1", "commanded on-time fraction of the hold"
         )
         new["thruster_force"] = var(
             ("time", "thruster"),
-            r[:, :, 1] * fmax,
+            r["firing"] * fmax,
             force,
             "thrust at the sample (0 when not firing)",
         )
@@ -291,10 +299,11 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         return xr.Variable(dims, np.ascontiguousarray(data), attrs)
 
     n_modes = len(prog.mode_names)
+    f = _kf.R.read(rec)  # the record's fields, a column or columns each
     new = {
         "mode": var(
             ("tick",),
-            rec[:, _kf.R_MODE].astype(np.int32),
+            f["mode"].astype(np.int32),
             None,
             "active flight-software mode",
             flag_values=np.arange(n_modes, dtype=np.int32),
@@ -302,34 +311,32 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         ),
         "reference_q": var(
             ("tick", "component"),
-            rec[:, _kf.R_QREF : _kf.R_QREF + 4],
+            f["qref"],
             "1",
             "reference attitude quaternion (guidance), reference to space",
         ),
         "sigma_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R_SIGMA : _kf.R_SIGMA + 3],
+            f["sigma"],
             "1",
             "attitude error sigma_BR (modified Rodrigues parameters)",
         ),
-        "error_angle": var(
-            ("tick",), rec[:, _kf.R_ANGLE], "rad", "attitude error angle from the reference"
-        ),
+        "error_angle": var(("tick",), f["angle"], "rad", "attitude error angle from the reference"),
         "rate_error": var(
             ("tick", "axis"),
-            rec[:, _kf.R_DOMEGA : _kf.R_DOMEGA + 3],
+            f["domega"],
             u.rate,
             "angular velocity error omega - omega_r, body axes",
         ),
         "torque_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R_TORQUE : _kf.R_TORQUE + 3],
+            f["torque"],
             u.torque,
             "control torque requested by the control law, body axes",
         ),
         "dipole_request": var(
             ("tick", "axis"),
-            rec[:, _kf.R_DIPOLE : _kf.R_DIPOLE + 3],
+            f["dipole"],
             "A m^2" if u.torque != "1" else "1",
             "magnetic dipole requested, body axes",
         ),
@@ -338,7 +345,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
     if ncmd:
         labels = [*wn, *mn, *tn]
         units = [u.torque] * len(wn) + ["A m^2"] * len(mn) + ["1"] * len(tn)
-        c0 = _kf.R_CMD
+        c0 = _kf.R.CMD
         new["command_sent"] = var(
             ("tick", "command"),
             rec[:, c0 : c0 + ncmd],
@@ -358,10 +365,10 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
             {"long_name": "unit of each actuator command"},
         )
     if prog.sensors or prog.estimator is not None:
-        new.update(_sensor_variables(rec[:, _kf.R_CMD + 2 * ncmd :], prog, u, var, coords))
+        new.update(_sensor_variables(rec[:, _kf.R.CMD + 2 * ncmd :], prog, u, var, coords))
     ta = time_attrs(u.time, ds.attrs.get("epoch"))
     ta = {**ta, "long_name": "time of the flight-software tick"}
-    coords["tick"] = ("tick", rec[:, _kf.R_T].astype(np.float64), ta)
+    coords["tick"] = ("tick", f["t"].astype(np.float64), ta)
     out = _extended(ds, coords, new)
     if prog.sensors:
         out.attrs["sensor_seeds"] = ", ".join(f"{x.kind}={x.seed}" for x in prog.sensors)
@@ -375,23 +382,24 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
 
     kinds = {x.kind for x in prog.sensors}
     out: dict[str, Any] = {}
+    z = _ks.Z.read(r)
     if "gyro" in kinds:
         out["gyro_rate"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_OMEGA : _ks.Z_OMEGA + 3],
+            z["omega"],
             u.rate,
             "gyro measurement (body axes)",
         )
     if "star_tracker" in kinds:
         out["star_tracker_q"] = var(
             ("tick", "component"),
-            r[:, _ks.Z_Q : _ks.Z_Q + 4],
+            z["q"],
             "1",
             "star tracker attitude quaternion, body to space",
         )
         out["star_tracker_status"] = var(
             ("tick",),
-            r[:, _ks.Z_ST_FLAG].astype(np.int8),
+            z["st_flag"].astype(np.int8),
             None,
             "star tracker measurement status",
             flag_values=np.array([0, 1, 2, 3], dtype=np.int8),
@@ -400,45 +408,45 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
     if "magnetometer" in kinds:
         out["magnetometer"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_B : _ks.Z_B + 3],
+            z["b"],
             "T",
             "magnetometer measurement (body axes)",
         )
     if "sun_sensor" in kinds:
         out["sun_direction"] = var(
             ("tick", "axis"),
-            r[:, _ks.Z_SUN : _ks.Z_SUN + 3],
+            z["sun"],
             "1",
             "Sun direction from the coarse Sun sensor (body axes; NaN: not enough heads lit)",
         )
     if kinds & {"sun_sensor", "star_tracker"}:
         out["sunlight"] = var(
-            ("tick",), r[:, _ks.Z_ECLIPSE], "1", "fraction of the solar disk visible (0: umbra)"
+            ("tick",), z["eclipse"], "1", "fraction of the solar disk visible (0: umbra)"
         )
     if prog.estimator is not None:
-        e = r[:, _ks.Z_SIZE :]
+        est = _kf.RS.read(r, _ks.Z.SIZE)
         out["estimate_q"] = var(
             ("tick", "component"),
-            e[:, _kf.RS_Q : _kf.RS_Q + 4],
+            est["q"],
             "1",
             "estimated attitude quaternion (MEKF), body to space",
         )
         out["bias_estimate"] = var(
             ("tick", "axis"),
-            e[:, _kf.RS_B : _kf.RS_B + 3],
+            est["b"],
             u.rate,
             "estimated gyro bias (body axes)",
         )
         out["estimation_sigma"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS_SIGMA : _kf.RS_SIGMA + 6],
+            est["sigma"],
             None,
             "1-sigma of the error states (sqrt of the MEKF covariance"
             " diagonal; units in error_state_units)",
         )
         out["estimation_error"] = var(
             ("tick", "error_state"),
-            e[:, _kf.RS_ERR : _kf.RS_ERR + 6],
+            est["err"],
             None,
             "estimation error: the truth is the estimate "
             "rotated by the first three (rad, body axes); the "
@@ -446,7 +454,7 @@ def _sensor_variables(r: np.ndarray, prog: Any, u: UnitSystem, var: Any, coords:
         )
         out["nees"] = var(
             ("tick",),
-            e[:, _kf.RS_NEES],
+            est["nees"],
             "1",
             "normalised estimation error squared (6 degrees of freedom)",
         )

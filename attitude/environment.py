@@ -271,9 +271,8 @@ def pack_segment(t: np.ndarray, values: np.ndarray, lo: float, hi: float) -> np.
     n, ncomp = v.shape
     h = float(t[1] - t[0]) if n > 1 else 0.0
     inv_h = 1.0 / h if n > 1 else 0.0
-    return np.concatenate(
-        [[n, h, inv_h, ncomp, lo, hi], np.asarray(t, dtype=np.float64), v.ravel()]
-    )
+    head = _ke.SEG.pack(n=n, h=h, inv_h=inv_h, ncomp=ncomp, lo=lo, hi=hi)
+    return np.concatenate([head, np.asarray(t, dtype=np.float64), v.ravel()])
 
 
 def pack_table(segments: list[np.ndarray]) -> np.ndarray:

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ._core import events as _ke
+from ._core.layout import Appender
 from ._user_kernels import compile_failure
 from ._validation import as_scalar
 from .errors import AttitudeTypeError, AttitudeValueError
@@ -531,17 +532,15 @@ def build(events: Any, t: np.ndarray, epoch: Any = None) -> EventSet:
     t_min, t_max = float(np.min(t)), float(np.max(t))
     ctx = _Context(t_min, t_max, run_epoch)
     n = len(evs)
-    head = [float(n), float(max(e.samples for e in evs))] + [0.0] * n
-    blocks: list[np.ndarray] = []
-    at = len(head)
-    for j, e in enumerate(evs):
-        head[_ke.EV_OFFSETS + j] = float(at)
-        numbers, arrays = e._numbers(ctx, at + _ke.B_DATA)
-        block = [float(e._code), float(_DIRECTIONS[e.direction]), float(e.terminal), *numbers]
-        arr = np.concatenate([np.asarray(block, dtype=np.float64), *arrays])
-        blocks.append(arr)
-        at += arr.size
-    data = np.ascontiguousarray(np.concatenate([np.asarray(head), *blocks]), dtype=np.float64)
+    out = Appender(np.zeros(_ke.EV.SIZE + n))  # the header, then an offset per event
+    offsets = []
+    for e in evs:
+        numbers, arrays = e._numbers(ctx, out.size + _ke.EVB.DATA)
+        block = _ke.EVB.pack(kind=e._code, direction=_DIRECTIONS[e.direction], terminal=e.terminal)
+        numbers = np.asarray(numbers, dtype=np.float64)
+        offsets.append(out.append(np.concatenate([block, numbers, *arrays])))
+    data = _ke.EV.pack_into(out.array(), 0, n=n, nsub=max(e.samples for e in evs))
+    data[_ke.EV.OFFSETS : _ke.EV.OFFSETS + n] = offsets
     labels: list[str] = []
     for e in evs:
         name, k = e.name, 2

@@ -211,7 +211,7 @@ class Formulation:
         if status != _rk.SUCCESS:
             stats["t_stop"] = float(tstate[0])
             status, message = self.failure(
-                problem, params, int(status), float(tstate[0]), work[_rk.Y].copy()
+                problem, params, int(status), float(tstate[0]), work[_rk.WORK.Y].copy()
             )
         return y_out[:done], status, message, stats
 

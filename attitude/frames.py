@@ -47,6 +47,7 @@ import numpy as np
 from orbit._shared_jit import interpreted as _interpreted
 
 from ._core import frames as _kf
+from ._core.layout import Appender
 from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
@@ -219,7 +220,7 @@ class Frame:
             Span [s since the epoch] the tabulated inputs (Sun, ground station) must cover.
         """
         d = self._data(float(start), float(stop))
-        d[_kf.F_OFFSET : _kf.F_OFFSET + 4] = self._offset
+        d[_kf.FRAME.OFFSET : _kf.FRAME.OFFSET + 4] = self._offset
         return d
 
     def _data(self, start: float, stop: float) -> np.ndarray:  # pragma: no cover - abstract
@@ -294,9 +295,7 @@ class Inertial(Frame):
         return f"inertial(q={np.round(self.q, 12).tolist()})"
 
     def _data(self, start: float, stop: float) -> np.ndarray:
-        d = np.zeros(_kf.INERTIAL_LEN)
-        d[_kf.F_TYPE] = _kf.FRAME_INERTIAL
-        d[_kf.F_Q : _kf.F_Q + 4] = self.q
+        d = _kf.INERTIAL.pack(type=_kf.FRAME_INERTIAL, q=self.q)
         return d
 
 
@@ -414,28 +413,22 @@ class Aligned(Frame):
         return out
 
     def _data(self, start: float, stop: float) -> np.ndarray:
-        head = np.zeros(_kf.F_LEN)
-        head[_kf.F_TYPE] = _kf.FRAME_ALIGNED
-        head[_kf.F_PDIR] = self.primary_code
-        head[_kf.F_SDIR] = self.secondary_code
-        head[_kf.F_BODY : _kf.F_BODY + 9] = self._body
-        head[_kf.F_PVEC : _kf.F_PVEC + 3] = self.primary_vec
-        head[_kf.F_SVEC : _kf.F_SVEC + 3] = self.secondary_vec
-        blocks = [np.asarray(self.orbit.kernel_data(), dtype=np.float64)]
-        at = _kf.F_LEN
-        head[_kf.F_ORBIT] = at
-        at += blocks[0].size
-        tabs = self._tables(start, stop) if self.needs_epoch else []
-        k = 0
+        h = dict(
+            type=_kf.FRAME_ALIGNED,
+            pdir=self.primary_code,
+            sdir=self.secondary_code,
+            body=self._body,
+            pvec=self.primary_vec,
+            svec=self.secondary_vec,
+        )
+        out = Appender(np.zeros(_kf.ALIGNED.SIZE))
+        h["orbit"] = out.append(self.orbit.kernel_data())
+        tabs = iter(self._tables(start, stop) if self.needs_epoch else [])
         if self._uses_sun:
-            head[_kf.F_SUN] = at
-            at += tabs[k].size
-            blocks.append(tabs[k])
-            k += 1
+            h["sun"] = out.append(next(tabs))
         if self._uses_target:
-            head[_kf.F_TARGET] = at
-            blocks.append(tabs[k])
-        return np.concatenate([head, *blocks])
+            h["target"] = out.append(next(tabs))
+        return _kf.ALIGNED.pack_into(out.array(), 0, **h)
 
 
 # ---------------------------------------------------------------------------------------------

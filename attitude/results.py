@@ -402,7 +402,7 @@ def dataset_from_samples(
         v = buf[off * m : (off + width) * m]
         blocks[name] = v.reshape(m, width) if width > 1 else v
     w3 = 3 * (n_terms + 1)
-    o = _kd.SAMPLE_WIDTH * m
+    o = _kd.SAMPLE.SIZE * m
     blocks["torque"] = buf[o : o + w3 * m].reshape(m, n_terms + 1, 3)
     return _assemble(t, blocks, body, potential, attrs)
 

@@ -319,12 +319,7 @@ class Spacecraft:
         """The spacecraft block of the compiled kernels for a run at the times ``t`` (the field
         table of the magnetorquers covers them); held slots zero."""
         nw, nm, nt = self.counts
-        head = np.zeros(_ka.S_WHEELS)
-        head[_ka.S_NW] = nw
-        head[_ka.S_NM] = nm
-        head[_ka.S_NT] = nt
-        head[_ka.S_MINV : _ka.S_MINV + 9] = self._minv.reshape(-1)
-        head[_ka.S_MTQ] = -1.0
+        head = _ka.SC.pack(nw=nw, nm=nm, nt=nt, minv=self._minv, mtq=-1.0)
         parts = [head]
         parts += [wheel_record(w) for w in self.wheels]
         parts += [magnetorquer_record(m) for m in self.magnetorquers]
@@ -335,7 +330,7 @@ class Spacecraft:
             tt = np.asarray(t, dtype=np.float64).reshape(-1)
             fm.prepare(tt)
             fb = fm._kernel_params(tt)
-            sc[_ka.S_MTQ] = sc.shape[0]
+            sc[_ka.SC.MTQ] = sc.shape[0]
             sc = np.concatenate([sc, fb])
         return np.ascontiguousarray(sc, dtype=np.float64)
 

@@ -282,8 +282,8 @@ def test_batch_kernel_is_simd_code():
         fresh(cf, p, kind, cst)
 
     cf = np.ones((tb.WORK_ROWS, tb.NCOL, tb.LANES))
-    caller(cf, 10, 2, np.ones((tb.NCONST, tb.LANES)))
-    fresh(cf, 10, 2, np.ones((tb.NCONST, tb.LANES)))
+    caller(cf, 10, 2, np.ones((tb.CONST.SIZE, tb.LANES)))
+    fresh(cf, 10, 2, np.ones((tb.CONST.SIZE, tb.LANES)))
     import re
 
     for d in {id(fresh): fresh, id(inner): inner}.values():  # both copies are SIMD code

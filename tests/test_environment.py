@@ -693,10 +693,10 @@ def test_shadow_margins_decide_light_and_umbra_as_the_shadow_function_does(sso):
     assert (nu == 0).sum() > 1000 and (nu == 1).sum() > 1000 and ((nu > 0) & (nu < 1)).sum() > 5
     params = model._kernel_params(t)
     r = np.empty((t.size, 8))
-    ke.table_loop(t, params, int(params[ke.B_TAB]), r)
+    ke.table_loop(t, params, int(params[ke.BLOCK.TAB]), r)
     d, x = r[:, :3], r[:, 3:6]
     exact = [
-        ke.shadow(ke.ECLIPSE_CONICAL, *x[i], *d[i], params[ke.S_REARTH], params[ke.S_RSUN])
+        ke.shadow(ke.ECLIPSE_CONICAL, *x[i], *d[i], params[ke.SRP.REARTH], params[ke.SRP.RSUN])
         for i in range(t.size)
     ]
     np.testing.assert_array_equal(nu, exact)

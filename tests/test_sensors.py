@@ -530,8 +530,8 @@ def test_small_rotation_series_against_mpmath():
     from attitude._core import mekf as M
     from attitude._core import quat as Q
 
-    es = np.zeros(M.E_SIZE)
-    ep = np.zeros(M.EP_SIZE)
+    es = np.zeros(M.E.SIZE)
+    ep = np.zeros(M.EP.SIZE)
     for x2 in np.concatenate([[0.0, 1e-30, 1e-12], np.linspace(1e-6, Q.SERIES_X2, 40)[:-1]]):
         sinc, cos = Q.sinc_cos_series(x2)
         with mpmath.workdps(40):
@@ -549,13 +549,13 @@ def test_small_rotation_series_against_mpmath():
         dt = 0.1
         w = 2.0 * math.sqrt(x2) / dt
         M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-        es[M.E_P : M.E_P + 36] = np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]).ravel()
+        es[M.E.P : M.E.P + 36] = np.diag([0.0, 0.0, 0.0, 1.0, 1.0, 1.0]).ravel()
         M.mekf_propagate(es, ep, np.array([w, 0.0, 0.0]), dt)
         M.mekf_covariance(es, ep)
         with mpmath.workdps(40):
             mw = mpmath.mpf(w)
             want = float(4 * mpmath.sin(mw * mpmath.mpf(dt) / 2) ** 2 / mw**2)
-        got = es[M.E_P + 7]
+        got = es[M.E.P + 7]
         assert abs(got - want) <= 8 * math.ulp(dt * dt), (x2, got, want)
 
 
@@ -587,37 +587,37 @@ def test_mekf_covariance_steps_equal_the_dense_matrix_formulas():
     rng = np.random.default_rng(7)
     A = rng.normal(size=(6, 6)) * np.array([1e-3] * 3 + [1e-6] * 3)[:, None]
     P0 = A @ A.T + np.diag([1e-6] * 3 + [1e-12] * 3)
-    ep = np.zeros(M.EP_SIZE)
-    ep[M.EP_SV], ep[M.EP_SU] = 3e-6, 2e-9
+    ep = np.zeros(M.EP.SIZE)
+    ep[M.EP.SV], ep[M.EP.SU] = 3e-6, 2e-9
     R = np.diag([4e-10, 4e-10, 9e-9])
-    ep[M.EP_ST_R : M.EP_ST_R + 9] = R.ravel()
-    es = np.zeros(M.E_SIZE)
+    ep[M.EP.ST_R : M.EP.ST_R + 9] = R.ravel()
+    es = np.zeros(M.E.SIZE)
     M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), (1e-5, -2e-5, 3e-5))
-    es[M.E_P : M.E_P + 36] = P0.ravel()
+    es[M.E.P : M.E.P + 36] = P0.ravel()
     om, dt = np.array([0.02, -0.05, 0.03]), 0.1
     M.mekf_propagate(es, ep, om, dt)
     M.mekf_covariance(es, ep)
     w = om - np.array([1e-5, -2e-5, 3e-5])
-    Phi, Q = _dense_transition(w, dt, ep[M.EP_SV], ep[M.EP_SU])
+    Phi, Q = _dense_transition(w, dt, ep[M.EP.SV], ep[M.EP.SU])
     P1 = Phi @ P0 @ Phi.T + Q
-    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    got = es[M.E.P : M.E.P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
     np.testing.assert_allclose(got, P1, rtol=1e-12, atol=1e-12 * np.abs(P1).max())
-    q_before = es[M.E_Q : M.E_Q + 4].copy()
-    b_before = es[M.E_B : M.E_B + 3].copy()
+    q_before = es[M.E.Q : M.E.Q + 4].copy()
+    b_before = es[M.E.B : M.E.B + 3].copy()
     qm = qt.multiply(q_before, qt.from_rotation_vector([2e-5, -1e-5, 3e-5]))
     M.mekf_update_quaternion(es, ep, tuple(qm))
     H = np.hstack([np.eye(3), np.zeros((3, 3))])
     K, P2 = _joseph_update(P1, H, R)
-    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    got = es[M.E.P : M.E.P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
     np.testing.assert_allclose(got, P2, rtol=1e-9, atol=1e-9 * np.abs(P2).max())
     r = qt.multiply(qt.conjugate(q_before), qm)
     dx = K @ (2.0 * np.sign(r[0]) * r[1:])
-    np.testing.assert_allclose(es[M.E_B : M.E_B + 3], b_before + dx[3:], rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(es[M.E.B : M.E.B + 3], b_before + dx[3:], rtol=1e-12, atol=1e-20)
     dq = np.concatenate([[1.0], 0.5 * dx[:3]])
     want_q = qt.multiply(q_before, dq / np.linalg.norm(dq))
-    np.testing.assert_allclose(es[M.E_Q : M.E_Q + 4], want_q, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(es[M.E.Q : M.E.Q + 4], want_q, rtol=0, atol=1e-15)
 
 
 def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
@@ -635,9 +635,9 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
     P0 = A @ A.T + np.diag([1e-5] * 3 + [1e-11] * 3)
     q_hat = qt.normalize([0.7, -0.2, 0.5, 0.4])
     b_hat = np.array([2e-5, -1e-5, 4e-5])
-    es = np.zeros(M.E_SIZE)
-    M.mekf_init(es, np.zeros(M.EP_SIZE), tuple(q_hat), tuple(b_hat))
-    es[M.E_P : M.E_P + 36] = P0.ravel()
+    es = np.zeros(M.E.SIZE)
+    M.mekf_init(es, np.zeros(M.EP.SIZE), tuple(q_hat), tuple(b_hat))
+    es[M.E.P : M.E.P + 36] = P0.ravel()
     r = np.array([0.3, -0.8, 0.5])
     r /= np.linalg.norm(r)
     sigma = 3e-3
@@ -652,25 +652,25 @@ def test_mekf_vector_update_and_estimation_error_against_dense_formulas():
         d[k] = h
         H[:, k] = (body(d) - body(-d)) / (2 * h)
     bm = body(np.array([0.01, -0.02, 0.015])) + np.array([1e-3, -2e-3, 5e-4])
-    M.mekf_update_vector(es, np.zeros(M.EP_SIZE), *bm, *r, sigma)
+    M.mekf_update_vector(es, np.zeros(M.EP.SIZE), *bm, *r, sigma)
     R = sigma**2 * np.eye(3)
     K, P1 = _joseph_update(P0, H, R)
-    got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+    got = es[M.E.P : M.E.P + 36].reshape(6, 6)
     np.testing.assert_array_equal(got, got.T)
     np.testing.assert_allclose(got, P1, rtol=1e-8, atol=1e-8 * np.abs(P1).max())
     dx = K @ (bm - body(np.zeros(3)))
-    np.testing.assert_allclose(es[M.E_B : M.E_B + 3], b_hat + dx[3:], rtol=1e-8, atol=1e-16)
+    np.testing.assert_allclose(es[M.E.B : M.E.B + 3], b_hat + dx[3:], rtol=1e-8, atol=1e-16)
     dq = np.concatenate([[1.0], 0.5 * dx[:3]])
     want_q = qt.multiply(q_hat, dq / np.linalg.norm(dq))
-    np.testing.assert_allclose(es[M.E_Q : M.E_Q + 4], want_q, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(es[M.E.Q : M.E.Q + 4], want_q, rtol=0, atol=1e-10)
 
     # the estimation error of the updated estimate against a truth 2° away, and its NEES
-    q_new = es[M.E_Q : M.E_Q + 4].copy()
-    b_new = es[M.E_B : M.E_B + 3].copy()
+    q_new = es[M.E.Q : M.E.Q + 4].copy()
+    b_new = es[M.E.B : M.E.B + 3].copy()
     q_true = qt.multiply(q_new, qt.from_rotation_vector(np.radians([1.2, -0.9, 1.3])))
     beta = b_new + np.array([3e-6, -1e-6, 2e-6])
     for sign in (1.0, -1.0):  # q and −q: the same attitude, the same error
-        e, nees = M.estimation_error(es, M.E_P, tuple(sign * q_true), tuple(beta))
+        e, nees = M.estimation_error(es, M.E.P, tuple(sign * q_true), tuple(beta))
         rot = Rotation.from_quat(np.roll(q_new, -1)).inv() * Rotation.from_quat(np.roll(q_true, -1))
         want = np.concatenate([rot.as_rotvec(), beta - b_new])
         np.testing.assert_allclose(e, want, rtol=1e-12, atol=1e-18)
@@ -748,24 +748,24 @@ def test_mekf_propagation_against_expm_at_any_rotation_per_step(rate):
     rng = np.random.default_rng(3)
     A = rng.normal(size=(6, 6)) * np.array([1e-3] * 3 + [1e-5] * 3)[:, None]
     P0 = A @ A.T + np.diag([1e-6] * 3 + [1e-10] * 3)
-    ep = np.zeros(M.EP_SIZE)
-    ep[M.EP_SV], ep[M.EP_SU] = 3e-4, 2e-5
+    ep = np.zeros(M.EP.SIZE)
+    ep[M.EP.SV], ep[M.EP.SU] = 3e-4, 2e-5
     bias = np.array([1e-3, -2e-3, 3e-3]) * (rate > 0)
     om = bias + rate * np.array([0.6, -0.48, 0.64])
     dt = 2.0
-    Phi, Q = _dense_transition(rate * np.array([0.6, -0.48, 0.64]), dt, ep[M.EP_SV], ep[M.EP_SU])
+    Phi, Q = _dense_transition(rate * np.array([0.6, -0.48, 0.64]), dt, ep[M.EP.SV], ep[M.EP.SU])
     for P, want in ((P0, Phi @ P0 @ Phi.T + Q), (np.zeros((6, 6)), Q)):
-        es = np.zeros(M.E_SIZE)
+        es = np.zeros(M.E.SIZE)
         M.mekf_init(es, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
-        es[M.E_P : M.E_P + 36] = P.ravel()
+        es[M.E.P : M.E.P + 36] = P.ravel()
         M.mekf_propagate(es, ep, om, dt)
         M.mekf_covariance(es, ep)
-        got = es[M.E_P : M.E_P + 36].reshape(6, 6)
+        got = es[M.E.P : M.E.P + 36].reshape(6, 6)
         np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-13 * np.abs(want).max())
         if not P.any():
             np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
     # the attitude turned by exp(ω̂ Δt/2), ω̂ = ω − β̂
-    q = es[M.E_Q : M.E_Q + 4]
+    q = es[M.E.Q : M.E.Q + 4]
     np.testing.assert_allclose(q, qt.from_rotation_vector((om - bias) * dt), rtol=0, atol=1e-15)
 
 
@@ -785,8 +785,8 @@ def test_mekf_covariance_over_a_span_is_the_product_of_its_ticks():
     rng = np.random.default_rng(5)
     A = rng.normal(size=(6, 6)) * np.array([1e-4] * 3 + [1e-7] * 3)[:, None]
     P0 = A @ A.T + np.diag([1e-9] * 3 + [1e-14] * 3)
-    ep = np.zeros(M.EP_SIZE)
-    ep[M.EP_SV], ep[M.EP_SU] = 1.45e-5, 2e-9
+    ep = np.zeros(M.EP.SIZE)
+    ep[M.EP.SV], ep[M.EP.SU] = 1.45e-5, 2e-9
     dt, n = 0.1, 5
     bias = np.array([1e-6, 0.0, -1e-6])
     for rates, rel in (
@@ -794,31 +794,31 @@ def test_mekf_covariance_over_a_span_is_the_product_of_its_ticks():
         (np.tile([2e-3, -1e-3, 3e-3], (n, 1)), 2e-11),
         (np.array([1e-5, -2e-5, 1e-5]) + rng.normal(0.0, 5e-5, (n, 3)), 5e-9),
     ):
-        es = [np.zeros(M.E_SIZE) for _ in range(2)]
+        es = [np.zeros(M.E.SIZE) for _ in range(2)]
         for e in es:
             M.mekf_init(e, ep, (1.0, 0.0, 0.0, 0.0), tuple(bias))
-            e[M.E_P : M.E_P + 36] = P0.ravel()
+            e[M.E.P : M.E.P + 36] = P0.ravel()
         for w in rates:
             M.mekf_propagate(es[0], ep, w, dt)
             M.mekf_covariance(es[0], ep)  # every tick: the per-tick product
             M.mekf_propagate(es[1], ep, w, dt)
         before = es[1].copy()
-        M.mekf_covariance_at(es[1], ep, M.E_PHI)
-        lazy = es[1][M.E_PHI : M.E_PHI + 36].reshape(6, 6)
-        untouched = np.r_[0 : M.E_PHI, M.E_PHI + 36 : M.E_SIZE]
+        M.mekf_covariance_at(es[1], ep, M.E.PHI)
+        lazy = es[1][M.E.PHI : M.E.PHI + 36].reshape(6, 6)
+        untouched = np.r_[0 : M.E.PHI, M.E.PHI + 36 : M.E.SIZE]
         np.testing.assert_array_equal(es[1][untouched], before[untouched])
         M.mekf_covariance(es[1], ep)
-        np.testing.assert_array_equal(es[1][M.E_P : M.E_P + 36].reshape(6, 6), lazy)
-        np.testing.assert_array_equal(es[1][M.E_Q : M.E_Q + 4], es[0][M.E_Q : M.E_Q + 4])
-        ticks = es[0][M.E_P : M.E_P + 36].reshape(6, 6)
+        np.testing.assert_array_equal(es[1][M.E.P : M.E.P + 36].reshape(6, 6), lazy)
+        np.testing.assert_array_equal(es[1][M.E.Q : M.E.Q + 4], es[0][M.E.Q : M.E.Q + 4])
+        ticks = es[0][M.E.P : M.E.P + 36].reshape(6, 6)
         scale = np.sqrt(np.outer(np.diag(ticks), np.diag(ticks)))
         err = np.max(np.abs(lazy - ticks) / scale)
         assert err < rel, err
     # SPAN_TICKS ticks without an update: the span is brought current by itself
     for _ in range(M.SPAN_TICKS):
-        assert es[1][M.E_SPAN] < (M.SPAN_TICKS - 0.5) * dt
+        assert es[1][M.E.SPAN] < (M.SPAN_TICKS - 0.5) * dt
         M.mekf_propagate(es[1], ep, rates[0], dt)
-    assert es[1][M.E_SPAN] == 0.0 and es[1][M.E_NSPAN] == 0.0
+    assert es[1][M.E.SPAN] == 0.0 and es[1][M.E.NSPAN] == 0.0
 
 
 @pytest.mark.parametrize("vector", ["magnetometer", "sun_sensor"])
@@ -859,11 +859,11 @@ def test_mekf_with_a_vector_sensor_in_the_loop_is_the_filter_replayed_by_hand(ve
         ref /= np.linalg.norm(ref, axis=1)[:, None]
         meas = ds.sun_direction.values
         assert np.isnan(meas[:, 0]).sum() < t.size / 2
-    ep = np.zeros(M.EP_SIZE)
-    ep[M.EP_SV], ep[M.EP_SU] = gyro.arw, gyro.rrw
-    ep[M.EP_MAG if vector == "magnetometer" else M.EP_SUN] = vec.noise
-    ep[M.EP_P0 : M.EP_P0 + 6] = [sa**2] * 3 + [sb**2] * 3
-    es = np.zeros(M.E_SIZE)
+    ep = np.zeros(M.EP.SIZE)
+    ep[M.EP.SV], ep[M.EP.SU] = gyro.arw, gyro.rrw
+    ep[M.EP.MAG if vector == "magnetometer" else M.EP.SUN] = vec.noise
+    ep[M.EP.P0 : M.EP.P0 + 6] = [sa**2] * 3 + [sb**2] * 3
+    es = np.zeros(M.E.SIZE)
     M.mekf_init(es, ep, tuple(q_e), (0.0, 0.0, 0.0))
     q_hat, b_hat = [], []
     for n in range(t.size):
@@ -871,8 +871,8 @@ def test_mekf_with_a_vector_sensor_in_the_loop_is_the_filter_replayed_by_hand(ve
             M.mekf_propagate(es, ep, ds.gyro_rate.values[n], t[n] - t[n - 1])
         if not np.isnan(meas[n, 0]):  # (no Sun direction with fewer than 3 heads lit)
             M.mekf_update_vector(es, ep, *meas[n], *ref[n], vec.noise)
-        q_hat.append(es[M.E_Q : M.E_Q + 4].copy())
-        b_hat.append(es[M.E_B : M.E_B + 3].copy())
+        q_hat.append(es[M.E.Q : M.E.Q + 4].copy())
+        b_hat.append(es[M.E.B : M.E.B + 3].copy())
     np.testing.assert_allclose(ds.estimate_q.values, q_hat, rtol=0, atol=1e-9)
     np.testing.assert_allclose(ds.bias_estimate.values, b_hat, rtol=0, atol=1e-12)
     # and the filter is consistent: its attitude errors within its own 3σ

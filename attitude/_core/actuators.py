@@ -6,15 +6,15 @@ float64 array ``sc``, the *spacecraft block*, beside the model's ``params``
 marked (held): those hold the commands in force, written at every hold boundary by
 :func:`configure_hold` (zero-order hold: constant until the next boundary). Layout::
 
-    sc[S_NW], sc[S_NM], sc[S_NT]   numbers of wheels, magnetorquers, thrusters
-    sc[S_MINV : +9]                M = Ĩ⁻¹, Ĩ = I − Σ J_k a_k a_kᵀ (row-major, body axes)
-    sc[S_TAU : +3]                 (held) the thrusters' torque about the centre of mass (N m)
-    sc[S_MTQ]                      offset of the magnetic-field block (−1: no magnetorquers)
-    sc[S_IDEAL : +3]               (held) an ideal control torque (N m, body axes): the flight
+    sc[SC.NW], [SC.NM], [SC.NT]    numbers of wheels, magnetorquers, thrusters
+    sc[SC.MINV : +9]                M = Ĩ⁻¹, Ĩ = I − Σ J_k a_k a_kᵀ (row-major, body axes)
+    sc[SC.TAU : +3]                 (held) the thrusters' torque about the centre of mass (N m)
+    sc[SC.MTQ]                      offset of the magnetic-field block (−1: no magnetorquers)
+    sc[SC.IDEAL : +3]               (held) an ideal control torque (N m, body axes): the flight
                                    software's request on a spacecraft without actuators
-    sc[S_WHEELS]...                n_w wheel records of WS numbers (W_* fields)
-    then                           n_m magnetorquer records of MS numbers (M_* fields)
-    then                           n_t thruster records of TS numbers (T_* fields)
+    sc[SC.WHEELS]...                n_w wheel records (the WHEEL layout)
+    then                           n_m magnetorquer records (MTQ)
+    then                           n_t thruster records (THR)
     then                           the field block (the layout of a ``MagneticDipole`` block
                                    of :mod:`attitude._core.environment`, its dipole slots
                                    (held) the magnetorquers' total dipole Σ m_j â_j)
@@ -34,61 +34,74 @@ import math
 
 from orbit._shared_jit import jit
 
-from .environment import M_VEC, field_body
+from .environment import (
+    DIPOLE,
+    field_body,
+)
+from .layout import Field, layout
 from .quat import conj_mul, cross
 
 # Header of the spacecraft block.
-S_NW = 0
-S_NM = 1
-S_NT = 2
-S_MINV = 3
-S_TAU = 12
-S_MTQ = 15
-S_IDEAL = 16
-S_WHEELS = 19
+SC = layout(
+    "spacecraft block header",
+    nw=Field(1, "", "number of wheels"),
+    nm=Field(1, "", "number of magnetorquers"),
+    nt=Field(1, "", "number of thrusters"),
+    minv=Field(9, "1/(kg m2)", "M = Ĩ⁻¹, Ĩ = I − Σ J_k a_k a_kᵀ (body axes)", (3, 3)),
+    tau=Field(3, "N m", "(held) the thrusters' torque about the centre of mass"),
+    mtq=Field(1, "", "offset of the magnetic-field block (−1: no magnetorquers)"),
+    ideal=Field(3, "N m", "(held) an ideal control torque, body axes"),
+    wheels=Field(0, "", "the wheel, magnetorquer and thruster records, the field block"),
+)
 
 # Wheel record (relative to its start).
-W_AXIS = 0  # a (3), unit, body axes
-W_J = 3  # axial inertia J (kg m²)
-W_INVJ = 4  # 1/J
-W_U = 5  # (held) applied motor torque u (N m)
-W_STRIBECK = 6  # (held) 1: the Stribeck friction regime, 0: Coulomb + viscous
-W_FC = 7  # Coulomb friction torque (N m)
-W_FS = 8  # static friction torque (N m)
-W_BETA = 9  # Stribeck speed β (rad/s; <= 0: no Stribeck regime)
-W_CV = 10  # viscous friction coefficient (N m s)
-W_LC = 11  # limit-cycle speed ω_lc (rad/s; friction linear in Ω below it; 0: none)
-W_SLOPE_C = 12  # friction slope below ω_lc in the Coulomb regime, (f_c + c_v ω_lc)/ω_lc
-W_SLOPE_S = 13  # the same in the Stribeck regime
-W_UMAX = 14  # motor torque limit (N m; inf: none)
-W_OMAX = 15  # speed limit (rad/s; inf: none)
-W_UMIN = 16  # smallest torque applied (N m; below it the command is 0)
-W_PMAX = 17  # motor power limit (W; inf: none)
-W_UCMD = 18  # (held) the command as given (N m)
-W_FLAGS = 19  # (held) limit flags of the hold (FLAG_* bits)
-W_OMEGA_BEFORE = 20  # (held) Ω at the previous hold boundary (Basilisk's omegaBefore)
-W_FRICTION = 21  # 1.0 if any friction term is non-zero (skip the kernel otherwise)
-WS = 22
+WHEEL = layout(
+    "reaction wheel record",
+    axis=Field(3, "", "a, unit, body axes"),
+    j=Field(1, "kg m2", "axial inertia J"),
+    invj=Field(1, "1/(kg m2)", "1/J"),
+    u=Field(1, "N m", "(held) applied motor torque u"),
+    stribeck=Field(1, "", "(held) 1: the Stribeck friction regime, 0: Coulomb + viscous"),
+    fc=Field(1, "N m", "Coulomb friction torque"),
+    fs=Field(1, "N m", "static friction torque"),
+    beta=Field(1, "rad/s", "Stribeck speed β (<= 0: no Stribeck regime)"),
+    cv=Field(1, "N m s", "viscous friction coefficient"),
+    lc=Field(1, "rad/s", "limit-cycle speed ω_lc (friction linear in Ω below it; 0: none)"),
+    slope_c=Field(1, "N m s", "friction slope below ω_lc, Coulomb regime, (f_c + c_v ω_lc)/ω_lc"),
+    slope_s=Field(1, "N m s", "the same in the Stribeck regime"),
+    umax=Field(1, "N m", "motor torque limit (inf: none)"),
+    omax=Field(1, "rad/s", "speed limit (inf: none)"),
+    umin=Field(1, "N m", "smallest torque applied (below it the command is 0)"),
+    pmax=Field(1, "W", "motor power limit (inf: none)"),
+    ucmd=Field(1, "N m", "(held) the command as given"),
+    flags=Field(1, "", "(held) limit flags of the hold (FLAG_* bits)"),
+    omega_before=Field(1, "rad/s", "(held) Ω at the previous hold boundary"),
+    friction=Field(1, "", "1.0 if any friction term is non-zero (skip the kernel otherwise)"),
+)
 
 # Magnetorquer record.
-M_AXIS = 0  # â (3)
-M_MAX = 3  # largest dipole magnitude (A m²)
-M_CMD = 4  # (held) commanded dipole (A m²)
-M_APPLIED = 5  # (held) applied dipole, the command clipped to ±max
-MS = 6
+MTQ = layout(
+    "magnetorquer record",
+    axis=Field(3, "", "â"),
+    max=Field(1, "A m2", "largest dipole magnitude"),
+    cmd=Field(1, "A m2", "(held) commanded dipole"),
+    applied=Field(1, "A m2", "(held) applied dipole, the command clipped to ±max"),
+)
 
 # Thruster record.
-T_ARM = 0  # (r − r_cm) × d̂ (3, m): torque per newton
-T_DIR = 3  # d̂ (3): force direction, body axes
-T_FMAX = 6  # thrust (N)
-T_MIN_ON = 7  # shortest on-time (s): shorter firings are dropped (minimum impulse bit / F)
-T_CMD = 8  # (held) commanded on-time fraction of the hold
-T_ON = 9  # (held) on-time from the hold's start (s)
-T_OFF_AT = 10  # (held) the time the thruster turns off (t_hold + on-time)
-T_FIRING = 11  # (held) 1.0 while firing in the current segment
-TS = 12
+THR = layout(
+    "thruster record",
+    arm=Field(3, "m", "(r − r_cm) × d̂: torque per newton"),
+    dir=Field(3, "", "d̂: force direction, body axes"),
+    fmax=Field(1, "N", "thrust"),
+    min_on=Field(1, "s", "shortest on-time: shorter firings are dropped"),
+    cmd=Field(1, "", "(held) commanded on-time fraction of the hold"),
+    on=Field(1, "s", "(held) on-time from the hold's start"),
+    off_at=Field(1, "s", "(held) the time the thruster turns off (t_hold + on-time)"),
+    firing=Field(1, "", "(held) 1.0 while firing in the current segment"),
+)
 
-# Limit flags of a wheel command (W_FLAGS), Basilisk's ConfigureRWRequests in this order.
+# Limit flags of a wheel command (WHEEL.FLAGS), Basilisk's ConfigureRWRequests in this order.
 FLAG_TORQUE = 1  # clipped to ±max_torque
 FLAG_SPEED = 2  # at or past the speed limit: a command spinning it further was cut to 0
 FLAG_POWER = 4  # clipped to max_power / |Ω|
@@ -100,19 +113,19 @@ _SQRT2E_OVER_SQRT2 = math.sqrt(2.0 * math.e) / math.sqrt(2.0)
 @jit(inline="always")
 def wheel_base(sc, k):
     """Start of wheel ``k``'s record."""
-    return S_WHEELS + k * WS
+    return SC.WHEELS + k * WHEEL.SIZE
 
 
 @jit(inline="always")
 def magnetorquer_base(sc, j):
     """Start of magnetorquer ``j``'s record."""
-    return S_WHEELS + int(sc[S_NW]) * WS + j * MS
+    return SC.WHEELS + int(sc[SC.NW]) * WHEEL.SIZE + j * MTQ.SIZE
 
 
 @jit(inline="always")
 def thruster_base(sc, j):
     """Start of thruster ``j``'s record."""
-    return S_WHEELS + int(sc[S_NW]) * WS + int(sc[S_NM]) * MS + j * TS
+    return SC.WHEELS + int(sc[SC.NW]) * WHEEL.SIZE + int(sc[SC.NM]) * MTQ.SIZE + j * THR.SIZE
 
 
 @jit(inline="always")
@@ -122,7 +135,7 @@ def body_rate(sc, g0, g1, g2, l0, l1, l2):
     d0 = g0 - l0
     d1 = g1 - l1
     d2 = g2 - l2
-    m = S_MINV
+    m = SC.MINV
     return (
         sc[m] * d0 + sc[m + 1] * d1 + sc[m + 2] * d2,
         sc[m + 3] * d0 + sc[m + 4] * d1 + sc[m + 5] * d2,
@@ -136,8 +149,8 @@ def wheel_momentum_sum(sc, y):
     l0 = 0.0
     l1 = 0.0
     l2 = 0.0
-    for k in range(int(sc[S_NW])):
-        b = S_WHEELS + k * WS
+    for k in range(int(sc[SC.NW])):
+        b = SC.WHEELS + k * WHEEL.SIZE
         h = y[8 + k]
         l0 += h * sc[b]
         l1 += h * sc[b + 1]
@@ -157,7 +170,7 @@ def state_rate(sc, y):
 @jit(inline="always")
 def wheel_speed(sc, b, h, om):
     """Ω = h/J − a·ω: the wheel's speed relative to the body."""
-    return h * sc[b + W_INVJ] - (sc[b] * om[0] + sc[b + 1] * om[1] + sc[b + 2] * om[2])
+    return h * sc[b + WHEEL.INVJ] - (sc[b] * om[0] + sc[b + 1] * om[1] + sc[b + 2] * om[2])
 
 
 @jit
@@ -169,20 +182,20 @@ def wheel_friction(sc, b, Om):
     (Basilisk ``reactionWheelStateEffector.cpp``, ``updateContributions``); below the
     limit-cycle speed ω_lc, f is linear in Ω through its value at ω_lc.
     """
-    if sc[b + W_FRICTION] == 0.0:
+    if sc[b + WHEEL.FRICTION] == 0.0:
         return 0.0
-    fc = sc[b + W_FC]
-    cv = sc[b + W_CV]
-    lc = sc[b + W_LC]
+    fc = sc[b + WHEEL.FC]
+    cv = sc[b + WHEEL.CV]
+    lc = sc[b + WHEEL.LC]
     a = abs(Om)
-    stribeck = sc[b + W_STRIBECK] != 0.0
+    stribeck = sc[b + WHEEL.STRIBECK] != 0.0
     if a < lc:
-        f = (sc[b + W_SLOPE_S] if stribeck else sc[b + W_SLOPE_C]) * Om
+        f = (sc[b + WHEEL.SLOPE_S] if stribeck else sc[b + WHEEL.SLOPE_C]) * Om
     elif stribeck:
-        beta = sc[b + W_BETA]
+        beta = sc[b + WHEEL.BETA]
         x = Om / beta
         f = (
-            _SQRT2E_OVER_SQRT2 * (sc[b + W_FS] - fc) * math.exp(-0.5 * x * x) * x
+            _SQRT2E_OVER_SQRT2 * (sc[b + WHEEL.FS] - fc) * math.exp(-0.5 * x * x) * x
             + fc * math.tanh(10.0 * x)
             + cv * Om
         )
@@ -197,13 +210,13 @@ def actuator_torque(sc, q, t):
     """External torque of the actuators in force (body axes): the thrusters' held torque, the
     ideal control torque, and the magnetorquers' m × B_B (Wertz 1978, Sect. 17.2.3), B_B
     from the field table at t."""
-    t0 = sc[S_TAU] + sc[S_IDEAL]
-    t1 = sc[S_TAU + 1] + sc[S_IDEAL + 1]
-    t2 = sc[S_TAU + 2] + sc[S_IDEAL + 2]
-    o = int(sc[S_MTQ])
+    t0 = sc[SC.TAU] + sc[SC.IDEAL]
+    t1 = sc[SC.TAU + 1] + sc[SC.IDEAL + 1]
+    t2 = sc[SC.TAU + 2] + sc[SC.IDEAL + 2]
+    o = int(sc[SC.MTQ])
     if o >= 0:
         bb = field_body(q, t, sc, o)
-        k = o + M_VEC
+        k = o + DIPOLE.VEC
         c = cross((sc[k], sc[k + 1], sc[k + 2]), bb)
         t0 += c[0]
         t1 += c[1]
@@ -246,93 +259,95 @@ def configure_hold(sc, y, cmd, t_hold, t_next):
 def configure_hold_rate(sc, y, om, cmd, t_hold, t_next):
     """:func:`configure_hold` with the body rate ω of ``y`` already known (the flight
     software's tick has it from its sensing)."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     for k in range(nw):
-        b = S_WHEELS + k * WS
+        b = SC.WHEELS + k * WHEEL.SIZE
         Om = wheel_speed(sc, b, y[8 + k], om)
         u = cmd[k]
         flags = 0
-        umax = sc[b + W_UMAX]
+        umax = sc[b + WHEEL.UMAX]
         if u > umax:
             u = umax
             flags |= FLAG_TORQUE
         elif u < -umax:
             u = -umax
             flags |= FLAG_TORQUE
-        if abs(u) < sc[b + W_UMIN] and u != 0.0:
+        if abs(u) < sc[b + WHEEL.UMIN] and u != 0.0:
             u = 0.0
             flags |= FLAG_DEADBAND
-        pmax = sc[b + W_PMAX]
+        pmax = sc[b + WHEEL.PMAX]
         if abs(u * Om) >= pmax:
             u = math.copysign(pmax / abs(Om), u)
             flags |= FLAG_POWER
-        if abs(Om) >= sc[b + W_OMAX]:
+        if abs(Om) >= sc[b + WHEEL.OMAX]:
             flags |= FLAG_SPEED
             if Om * u >= 0.0:
                 u = 0.0
         # Basilisk's Stribeck-regime test (updateContributions), at the boundary (never in
         # the regime without a Stribeck velocity β: the test's work skipped then)
-        beta = sc[b + W_BETA]
+        beta = sc[b + WHEEL.BETA]
         st = 0.0
         if beta > 0.0:
-            st = _stribeck_regime(sc[b + W_STRIBECK], Om, sc[b + W_OMEGA_BEFORE], sc[b + W_LC])
-        sc[b + W_STRIBECK] = st
-        sc[b + W_U] = u
-        sc[b + W_UCMD] = cmd[k]
-        sc[b + W_FLAGS] = flags
-        sc[b + W_OMEGA_BEFORE] = Om
-    nm = int(sc[S_NM])
+            st = _stribeck_regime(
+                sc[b + WHEEL.STRIBECK], Om, sc[b + WHEEL.OMEGA_BEFORE], sc[b + WHEEL.LC]
+            )
+        sc[b + WHEEL.STRIBECK] = st
+        sc[b + WHEEL.U] = u
+        sc[b + WHEEL.UCMD] = cmd[k]
+        sc[b + WHEEL.FLAGS] = flags
+        sc[b + WHEEL.OMEGA_BEFORE] = Om
+    nm = int(sc[SC.NM])
     m0 = 0.0
     m1 = 0.0
     m2 = 0.0
     for j in range(nm):
         b = magnetorquer_base(sc, j)
         m = cmd[nw + j]
-        mx = sc[b + M_MAX]
-        sc[b + M_CMD] = m
+        mx = sc[b + MTQ.MAX]
+        sc[b + MTQ.CMD] = m
         m = min(max(m, -mx), mx)
-        sc[b + M_APPLIED] = m
-        m0 += m * sc[b + M_AXIS]
-        m1 += m * sc[b + M_AXIS + 1]
-        m2 += m * sc[b + M_AXIS + 2]
-    o = int(sc[S_MTQ])
+        sc[b + MTQ.APPLIED] = m
+        m0 += m * sc[b + MTQ.AXIS]
+        m1 += m * sc[b + MTQ.AXIS + 1]
+        m2 += m * sc[b + MTQ.AXIS + 2]
+    o = int(sc[SC.MTQ])
     if o >= 0:
-        sc[o + M_VEC] = m0
-        sc[o + M_VEC + 1] = m1
-        sc[o + M_VEC + 2] = m2
-    if sc[S_NT] == 0.0:  # S_TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick;
+        sc[o + DIPOLE.VEC] = m0
+        sc[o + DIPOLE.VEC + 1] = m1
+        sc[o + DIPOLE.VEC + 2] = m2
+    if sc[SC.NT] == 0.0:  # SC.TAU stays zero: nothing to do a hold (5 % of a 10 Hz sensor tick;
         return  # the thrusters' work comes last: add what every hold needs above this line)
-    nt = int(sc[S_NT])
+    nt = int(sc[SC.NT])
     span = t_next - t_hold
     for j in range(nt):
         b = thruster_base(sc, j)
         f = cmd[nw + nm + j]
-        sc[b + T_CMD] = f
+        sc[b + THR.CMD] = f
         f = min(max(f, 0.0), 1.0)
         on = f * span
-        if on < sc[b + T_MIN_ON]:
+        if on < sc[b + THR.MIN_ON]:
             on = 0.0
-        sc[b + T_ON] = on
-        sc[b + T_OFF_AT] = t_hold + on
-        sc[b + T_FIRING] = 1.0 if on > 0.0 else 0.0
+        sc[b + THR.ON] = on
+        sc[b + THR.OFF_AT] = t_hold + on
+        sc[b + THR.FIRING] = 1.0 if on > 0.0 else 0.0
     thrusters_update(sc)
 
 
 @jit
 def thrusters_update(sc):
-    """The held thruster torque from the thrusters firing (T_FIRING). (Their force moves no
+    """The held thruster torque from the thrusters firing (THR.FIRING). (Their force moves no
     orbit here: the orbit is prescribed; each thruster's force is in the results.)"""
     a0 = a1 = a2 = 0.0
-    for j in range(int(sc[S_NT])):
+    for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
-        if sc[b + T_FIRING] != 0.0:
-            fm = sc[b + T_FMAX]
-            a0 += fm * sc[b + T_ARM]
-            a1 += fm * sc[b + T_ARM + 1]
-            a2 += fm * sc[b + T_ARM + 2]
-    sc[S_TAU] = a0
-    sc[S_TAU + 1] = a1
-    sc[S_TAU + 2] = a2
+        if sc[b + THR.FIRING] != 0.0:
+            fm = sc[b + THR.FMAX]
+            a0 += fm * sc[b + THR.ARM]
+            a1 += fm * sc[b + THR.ARM + 1]
+            a2 += fm * sc[b + THR.ARM + 2]
+    sc[SC.TAU] = a0
+    sc[SC.TAU + 1] = a1
+    sc[SC.TAU + 2] = a2
 
 
 @jit
@@ -340,10 +355,10 @@ def next_thruster_off(sc, t, t_next):
     """The earliest time after ``t`` and before ``t_next`` a firing thruster turns off
     (``t_next`` if none)."""
     te = t_next
-    for j in range(int(sc[S_NT])):
+    for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
-        if sc[b + T_FIRING] != 0.0:
-            off = sc[b + T_OFF_AT]
+        if sc[b + THR.FIRING] != 0.0:
+            off = sc[b + THR.OFF_AT]
             if t < off < te:
                 te = off
     return te
@@ -353,10 +368,10 @@ def next_thruster_off(sc, t, t_next):
 def thrusters_off_at(sc, t):
     """Turn off the thrusters whose on-time ends at or before ``t``; True if any did."""
     changed = False
-    for j in range(int(sc[S_NT])):
+    for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
-        if sc[b + T_FIRING] != 0.0 and sc[b + T_OFF_AT] <= t:
-            sc[b + T_FIRING] = 0.0
+        if sc[b + THR.FIRING] != 0.0 and sc[b + THR.OFF_AT] <= t:
+            sc[b + THR.FIRING] = 0.0
             changed = True
     if changed:
         thrusters_update(sc)

@@ -13,9 +13,9 @@ order): ``tests/test_results_fast.py`` compares them with the previous path.
 
 Layout
 ------
-``out`` is one flat float64 buffer of ``m * (SAMPLE_WIDTH + 3 (n_terms + 1))`` values, a
+``out`` is one flat float64 buffer of ``m * (SAMPLE.SIZE + 3 (n_terms + 1))`` values, a
 contiguous C-ordered block per variable, in this order (block offsets are ``m`` times the
-``O_*`` constants):
+offsets of the SAMPLE layout):
 
 =================  =========  ============================================
 block              per sample
@@ -47,36 +47,30 @@ from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import TYPE, TYPE_KEPLER
 
 from .dynamics import diagnostic_values
+from .layout import Field, layout
 
-# Block offsets, in units of m (the number of samples), and the widths per sample.
-O_Q = 0
-O_P = 4
-O_OMEGA = 8
-O_G = 11
-O_GS = 14
-O_ENERGY = 17
-O_U = 18
-O_NORM = 19
-O_QQ = 20
-O_R = 21
-O_F = 22
-O_ORBIT_P = 23
-SAMPLE_WIDTH = 27  # then the torques: 3 (n_terms + 1) per sample
+# The blocks of a sample, each stored for all m samples in turn (block offsets in units of
+# m), then the torques: 3 (n_terms + 1) per sample.
+SAMPLE = layout(
+    "diagnostic sample",
+    q=Field(4, "", "attitude quaternion"),
+    p=Field(4, "", "conjugate momenta Q"),
+    omega=Field(3, "rad/s", "body rate"),
+    g=Field(3, "", "angular momentum, body axes"),
+    gs=Field(3, "", "angular momentum, space axes"),
+    energy=1,
+    u=Field(1, "", "potential energy"),
+    norm=Field(1, "", "| |q| − 1 |"),
+    qq=Field(1, "", "q·Q"),
+    r=Field(1, "km", "orbit radius"),
+    f=Field(1, "rad", "true anomaly"),
+    orbit_p=Field(4, "", "the orbit's frame quaternion"),
+)
 
-#: (name, offset, width) of the blocks before the torques.
-BLOCKS = (
-    ("q", O_Q, 4),
-    ("Q", O_P, 4),
-    ("omega", O_OMEGA, 3),
-    ("g", O_G, 3),
-    ("G", O_GS, 3),
-    ("energy", O_ENERGY, 1),
-    ("potential_energy", O_U, 1),
-    ("norm_error", O_NORM, 1),
-    ("qQ", O_QQ, 1),
-    ("r", O_R, 1),
-    ("f", O_F, 1),
-    ("p", O_ORBIT_P, 4),
+#: (name, offset, width) of the blocks before the torques, by the result's names.
+_NAMES = "q Q omega g G energy potential_energy norm_error qQ r f p".split()
+BLOCKS = tuple(
+    (name, f.offset, f.size) for name, f in zip(_NAMES, SAMPLE.fields.values(), strict=True)
 )
 
 ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
@@ -84,7 +78,7 @@ ZERO9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 def buffer_size(m: int, n_terms: int) -> int:
     """Length of ``out`` for ``m`` samples of a model of ``n_terms`` terms."""
-    return m * (SAMPLE_WIDTH + 3 * (n_terms + 1))
+    return m * (SAMPLE.SIZE + 3 * (n_terms + 1))
 
 
 @jit
@@ -106,7 +100,7 @@ def samples_with(
     """
     m = t.shape[0]
     w3 = 3 * (n_terms + 1)
-    o_tq = SAMPLE_WIDTH * m
+    o_tq = SAMPLE.SIZE * m
     continuous = has_orbit and int(od[TYPE]) != TYPE_KEPLER
     for k in range(k0, k1):
         tk = t[k]
@@ -120,17 +114,17 @@ def samples_with(
         d = diagnostic_values(q, Q, U, params)
         b = 4 * k
         for i in range(4):
-            out[O_Q * m + b + i] = q[i]
-            out[O_P * m + b + i] = Q[i]
+            out[SAMPLE.Q * m + b + i] = q[i]
+            out[SAMPLE.P * m + b + i] = Q[i]
         b = 3 * k
         for i in range(3):
-            out[O_OMEGA * m + b + i] = d[i]
-            out[O_G * m + b + i] = d[3 + i]
-            out[O_GS * m + b + i] = d[6 + i]
-        out[O_ENERGY * m + k] = d[9]
-        out[O_NORM * m + k] = d[10]
-        out[O_QQ * m + k] = d[11]
-        out[O_U * m + k] = d[12]
+            out[SAMPLE.OMEGA * m + b + i] = d[i]
+            out[SAMPLE.G * m + b + i] = d[3 + i]
+            out[SAMPLE.GS * m + b + i] = d[6 + i]
+        out[SAMPLE.ENERGY * m + k] = d[9]
+        out[SAMPLE.NORM * m + k] = d[10]
+        out[SAMPLE.QQ * m + k] = d[11]
+        out[SAMPLE.U * m + k] = d[12]
         # The torque of each term and their sum (as attitude._core.dynamics.term_torques_with).
         om = (d[0], d[1], d[2])
         b = o_tq + w3 * k
@@ -152,10 +146,10 @@ def samples_with(
         out[b + 3 * n_terms + 1] = s1
         out[b + 3 * n_terms + 2] = s2
         if has_orbit:
-            out[O_R * m + k] = orb[0]
-            out[O_F * m + k] = orb[4]
+            out[SAMPLE.R * m + k] = orb[0]
+            out[SAMPLE.F * m + k] = orb[4]
             p0, p1, p2, p3 = orb[5], orb[6], orb[7], orb[8]
-            b = O_ORBIT_P * m + 4 * k
+            b = SAMPLE.ORBIT_P * m + 4 * k
             if continuous and k > 0:
                 # p_k · p_{k−1} < 0 (against the stored, already continuous p_{k−1}): flip.
                 if p0 * out[b - 4] + p1 * out[b - 3] + p2 * out[b - 2] + p3 * out[b - 1] < 0.0:

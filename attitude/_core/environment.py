@@ -54,46 +54,69 @@ from orbit._shared_jit import jit
 from orbit._state_kernels import frame_from_state, orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
+from .layout import Field, layout
 from .quat import cross, rotate_inverse
 
-# Segment header.
-T_N = 0
-T_H = 1
-T_INV_H = 2
-T_NCOMP = 3
-T_LO = 4
-T_HI = 5
-T_TIMES = 6
+# A table: [nseg, nseg segment offsets (relative to the table), the segments]; a segment: its
+# header, then n node times, then n rows of ncomp values.
+SEG = layout(
+    "table segment header",
+    n=Field(1, "", "nodes"),
+    h=Field(1, "s", "node spacing"),
+    inv_h=Field(1, "1/s", "1/h"),
+    ncomp=Field(1, "", "values per node"),
+    lo=Field(1, "s", "start of the segment's validity"),
+    hi=Field(1, "s", "its end"),
+    times=Field(0, "s", "the n node times, then the n rows of values"),
+)
 #: Nodes of the interpolation window (degree 7).
 WINDOW = 8
 
-# Block fields shared by every environment kind.
-B_TAB = 1  # relative offset of the table
-
-# Magnetic dipole / eddy currents.
-M_VEC = 2  # dipole (3) or tensor (9)
-
-# Drag.
-D_NF = 2
-D_DENSITY = 3
-D_BANDS = 4
-D_NB = 5
-D_FACETS = 6
-D_STRIDE = 9
+# Blocks of the environment models: [kind, offset of the table, the model's fields, table].
+_BLOCK_HEAD = dict(
+    kind=Field(1, "", "the model's KIND_* (attitude._core.potentials)"),
+    tab=Field(1, "", "offset of the table, relative to the block"),
+)
+BLOCK = layout("environment model block", **_BLOCK_HEAD, fields=Field(0))
+DIPOLE = layout("magnetic dipole block", **_BLOCK_HEAD, vec=Field(3, "A m2", "the dipole"))
+EDDY = layout(
+    "eddy-current block", **_BLOCK_HEAD, tensor=Field(9, "A m2 s/T", "magnetic tensor", (3, 3))
+)
+DRAG = layout(
+    "drag block",
+    **_BLOCK_HEAD,
+    nf=Field(1, "", "facet groups"),
+    density=Field(1, "", "DENSITY_*"),
+    bands=Field(1, "", "offset of the exponential bands (h0, ρ0, H), relative to the block"),
+    nb=Field(1, "", "their number"),
+    facets=Field(0, "", "nf facet groups (DRAG_GROUP), then the bands"),
+)
+#: A drag facet group: its normal, then Σ C_D A r of the facets along n̂ and along −n̂.
+DRAG_GROUP = layout("drag facet group", normal=3, plus=Field(3, "m3"), minus=Field(3, "m3"))
 DENSITY_TABLE = 0  # ln ρ tabulated
 DENSITY_EXPONENTIAL = 1  # geodetic height tabulated, exponential bands evaluated here
 DENSITY_FOLDED = 2  # √ρ v_rel tabulated in place of v_rel (then ln ρ, for the Python side)
 
-# Solar radiation.
-S_NF = 2
-S_ECLIPSE = 3
-S_P = 4
-S_AU = 5
-S_RSUN = 6
-S_REARTH = 7
-S_UMBRA = 8
-S_FACETS = 9
-S_STRIDE = 21
+SRP = layout(
+    "solar radiation block",
+    **_BLOCK_HEAD,
+    nf=Field(1, "", "facet groups"),
+    eclipse=Field(1, "", "ECLIPSE_*"),
+    p=Field(1, "N/m2", "solar pressure at 1 AU"),
+    au=Field(1, "km", "1 AU"),
+    rsun=Field(1, "km", "the Sun's radius"),
+    rearth=Field(1, "km", "the Earth's radius"),
+    umbra=Field(1, "", "1: the shadow margins may decide the umbra"),
+    facets=Field(0, "", "nf facet groups (SRP_GROUP)"),
+)
+#: A solar radiation facet group: its normal, then a, β_s, β_d (3 each) of the facets along n̂
+#: and along −n̂ (attitude.facets.optical_groups).
+SRP_GROUP = layout(
+    "solar radiation facet group",
+    normal=3,
+    plus=Field(9, "m3", "a, β_s, β_d along n̂"),
+    minus=Field(9, "m3", "a, β_s, β_d along −n̂"),
+)
 #: Margin [rad] of the tabulated shadow margins beyond which light or umbra is taken from them
 #: (the interpolation error of the margins is ~1e-12 rad; the exact shadow function decides
 #: nearer the boundaries).
@@ -158,7 +181,7 @@ def table_segment(d, o, t):
     s = o + 1 + nseg  # the first segment follows the offsets
     for j in range(1, nseg):
         sj = o + int(d[o + 1 + j])
-        if t >= d[sj + T_LO] - 1e-9 * d[sj + T_H]:  # a boundary belongs to the later segment
+        if t >= d[sj + SEG.LO] - 1e-9 * d[sj + SEG.H]:  # a boundary belongs to the later segment
             s = sj
     return s
 
@@ -177,16 +200,16 @@ def table_locate(d, o, t):
     header, then the window.
     """
     s = table_segment(d, o, t)
-    n = int(d[s + T_N])
-    ncomp = int(d[s + T_NCOMP])
-    toff = s + T_TIMES
+    n = int(d[s + SEG.N])
+    ncomp = int(d[s + SEG.NCOMP])
+    toff = s + SEG.TIMES
     voff = toff + n
     if n == 1:
         return s, voff, (1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    tol = 1e-9 * d[s + T_H]
-    if not (t >= d[s + T_LO] - tol and t <= d[s + T_HI] + tol):
+    tol = 1e-9 * d[s + SEG.H]
+    if not (t >= d[s + SEG.LO] - tol and t <= d[s + SEG.HI] + tol):
         return s, voff, (_NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN)
-    inv_h = d[s + T_INV_H]
+    inv_h = d[s + SEG.INV_H]
     u = (t - d[toff]) * inv_h - 3.0
     j0 = 0
     if u >= n - WINDOW:
@@ -217,18 +240,18 @@ def window_sum(d, r, ncomp, w):
 @jit(inline="always")
 def table_component(d, s, row, w, c):
     """Interpolated component ``c`` of segment ``s`` from the window at ``row``, weights ``w``."""
-    if int(d[s + T_N]) == 1:
+    if int(d[s + SEG.N]) == 1:
         return d[row + c]
-    return window_sum(d, row + c, int(d[s + T_NCOMP]), w)
+    return window_sum(d, row + c, int(d[s + SEG.NCOMP]), w)
 
 
 @jit(inline="always")
 def table_vec3(d, s, row, w, c0):
     """Components c0, c0 + 1, c0 + 2 as a 3-tuple."""
     r = row + c0
-    if int(d[s + T_N]) == 1:
+    if int(d[s + SEG.N]) == 1:
         return d[r], d[r + 1], d[r + 2]
-    ncomp = int(d[s + T_NCOMP])
+    ncomp = int(d[s + SEG.NCOMP])
     return (
         window_sum(d, r, ncomp, w),
         window_sum(d, r + 1, ncomp, w),
@@ -240,7 +263,7 @@ def table_vec3(d, s, row, w, c0):
 def table_eval(d, o, t, out):
     """All components at t into ``out`` (for the Python-side checks of the tables)."""
     s, row, w = table_locate(d, o, t)
-    for c in range(int(d[s + T_NCOMP])):
+    for c in range(int(d[s + SEG.NCOMP])):
         out[c] = table_component(d, s, row, w, c)
 
 
@@ -250,7 +273,7 @@ def table_eval(d, o, t, out):
 @jit(inline="always")
 def field_body(q, t, params, base):
     """The magnetic field in body axes, B_B = q̃∘B_S∘q [T], B_S from the block's table."""
-    s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
+    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     return rotate_inverse(q, table_vec3(params, s, row, w, 0))
 
 
@@ -258,7 +281,7 @@ def field_body(q, t, params, base):
 def magnetic_torque(q, t, params, base):
     # τ = m × B_B for a body-fixed dipole m (Wertz 1978, Sect. 17.2.3).
     b = field_body(q, t, params, base)
-    m = (params[base + M_VEC], params[base + M_VEC + 1], params[base + M_VEC + 2])
+    m = (params[base + DIPOLE.VEC], params[base + DIPOLE.VEC + 1], params[base + DIPOLE.VEC + 2])
     return cross(m, b)
 
 
@@ -266,7 +289,7 @@ def magnetic_torque(q, t, params, base):
 def magnetic_potential(q, t, params, base):
     # U = −m·B_B: the torque above is minus its derivative under body rotations.
     b = field_body(q, t, params, base)
-    k = base + M_VEC
+    k = base + DIPOLE.VEC
     return -(params[k] * b[0] + params[k + 1] * b[1] + params[k + 2] * b[2])
 
 
@@ -278,12 +301,12 @@ def eddy_torque(q, w, t, params, base):
     # constant in space this is Ortiz Gómez & Walker (2015), τ = (M (ω × B)) × B; along an
     # orbit dB_S/dt (tabulated) adds the field's own rotation, up to ~4e-3 rad/s in LEO.
     # τ ⊥ B, and ω·τ = −(ω × B)·M (ω × B) ≤ 0 for M ≥ 0 when dB_S/dt = 0.
-    s, row, wt = table_locate(params, base + int(params[base + B_TAB]), t)
+    s, row, wt = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     b = rotate_inverse(q, table_vec3(params, s, row, wt, 0))
     bd = rotate_inverse(q, table_vec3(params, s, row, wt, 3))
     wb = cross(w, b)
     u = (wb[0] - bd[0], wb[1] - bd[1], wb[2] - bd[2])
-    k = base + M_VEC
+    k = base + EDDY.TENSOR
     mu = (
         params[k] * u[0] + params[k + 1] * u[1] + params[k + 2] * u[2],
         params[k + 3] * u[0] + params[k + 4] * u[1] + params[k + 5] * u[2],
@@ -320,16 +343,16 @@ def drag_torque(q, t, params, base):
     # With √ρ v tabulated (DENSITY_FOLDED, where the tables showed it interpolates as well as
     # v and ln ρ apart) the same sum over that vector is the torque with ρ = 1: τ is
     # homogeneous of degree 2 in v (max(n̂·λv, 0) = λ max(n̂·v, 0) for λ > 0).
-    s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
+    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     vs = table_vec3(params, s, row, w, 0)
-    code = int(params[base + D_DENSITY])
+    code = int(params[base + DRAG.DENSITY])
     if code == DENSITY_FOLDED:
         rho = 1.0
     else:
         x = table_component(params, s, row, w, 3)
         if code == DENSITY_EXPONENTIAL:
             rho = exponential_density(
-                params, base + int(params[base + D_BANDS]), int(params[base + D_NB]), x
+                params, base + int(params[base + DRAG.BANDS]), int(params[base + DRAG.NB]), x
             )
         else:
             rho = math.exp(x)
@@ -337,9 +360,9 @@ def drag_torque(q, t, params, base):
     ax = 0.0
     ay = 0.0
     az = 0.0
-    f0 = base + D_FACETS
-    for i in range(int(params[base + D_NF])):
-        f = params[f0 + D_STRIDE * i : f0 + D_STRIDE * (i + 1)]
+    f0 = base + DRAG.FACETS
+    for i in range(int(params[base + DRAG.NF])):
+        f = params[f0 + DRAG_GROUP.SIZE * i : f0 + DRAG_GROUP.SIZE * (i + 1)]
         c = v[0] * f[0] + v[1] * f[1] + v[2] * f[2]
         # the facets along n̂ face the flow when c > 0, those along −n̂ when c < 0 (unsigned
         # offsets: no negative-index wraparound code on the loads)
@@ -423,7 +446,7 @@ def sunlight(code, umbra, params, base, s, row, w):
     r = table_vec3(params, s, row, w, 3)
     return shadow(
         code, r[0], r[1], r[2], ds[0], ds[1], ds[2],
-        params[base + S_REARTH], params[base + S_RSUN],
+        params[base + SRP.REARTH], params[base + SRP.RSUN],
     )  # fmt: skip
 
 
@@ -435,17 +458,17 @@ def solar_torque(q, t, params, base):
     # Montenbruck & Gill 2000, Sect. 3.4.1), P = ν P_1AU (1 AU/d)², ν the shadow fraction;
     # τ = Σ c × F = −P [(Σ cos θ A (1 − C_s) c) × ŝ + Σ (2 A C_s cos² θ + ⅔ A C_d cos θ) c × n̂]
     # over the facets with cos θ > 0. Facets shadowing each other are not handled.
-    s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
+    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     nu = sunlight(
-        int(params[base + S_ECLIPSE]), params[base + S_UMBRA] != 0.0, params, base, s, row, w
+        int(params[base + SRP.ECLIPSE]), params[base + SRP.UMBRA] != 0.0, params, base, s, row, w
     )
     if nu == 0.0:
         return 0.0, 0.0, 0.0
     ds = table_vec3(params, s, row, w, 0)  # satellite → Sun [km]
     d2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2]
     idn = 1.0 / math.sqrt(d2)
-    au = params[base + S_AU] * idn  # 1 AU / d
-    pressure = nu * params[base + S_P] * (au * au)
+    au = params[base + SRP.AU] * idn  # 1 AU / d
+    pressure = nu * params[base + SRP.P] * (au * au)
     sb = rotate_inverse(q, (ds[0] * idn, ds[1] * idn, ds[2] * idn))
     ax = 0.0
     ay = 0.0
@@ -453,9 +476,9 @@ def solar_torque(q, t, params, base):
     bx = 0.0
     by = 0.0
     bz = 0.0
-    f0 = base + S_FACETS
-    for i in range(int(params[base + S_NF])):
-        f = params[f0 + S_STRIDE * i : f0 + S_STRIDE * (i + 1)]
+    f0 = base + SRP.FACETS
+    for i in range(int(params[base + SRP.NF])):
+        f = params[f0 + SRP_GROUP.SIZE * i : f0 + SRP_GROUP.SIZE * (i + 1)]
         c = sb[0] * f[0] + sb[1] * f[1] + sb[2] * f[2]
         # the facets along n̂ face the Sun when c > 0, those along −n̂ when c < 0 (unsigned
         # offsets: no negative-index wraparound code on the loads)
@@ -478,11 +501,11 @@ def solar_torque(q, t, params, base):
 @jit
 def solar_state(t, params, base):
     """(ν, |Sun − satellite| km, ŝ space axes 3) at t: the Sun as the torque kernel sees it."""
-    s, row, w = table_locate(params, base + int(params[base + B_TAB]), t)
+    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     ds = table_vec3(params, s, row, w, 0)
     dn = math.sqrt(ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2])
     nu = sunlight(
-        int(params[base + S_ECLIPSE]), params[base + S_UMBRA] != 0.0, params, base, s, row, w
+        int(params[base + SRP.ECLIPSE]), params[base + SRP.UMBRA] != 0.0, params, base, s, row, w
     )
     return nu, dn, ds[0] / dn, ds[1] / dn, ds[2] / dn
 
@@ -514,45 +537,45 @@ def table_loop(t, params, o, out):
 #     orbit: the orbit's kernel_data() (orbit._state_kernels)
 #     Sun: the Sun's table (orbit.sun.SunTable.kernel_data(), geocentric GCRS km)
 
-#: The environment vector (body axes unless noted; NaN where unavailable).
-ENV_FIELD = 0  # 3, geomagnetic field, T, body axes
-ENV_SUN = 3  # 3, unit vector from the spacecraft to the Sun, body axes
-ENV_R = 6  # 3, position, km, space axes (GCRS)
-ENV_V = 9  # 3, velocity, km/s, space axes
-ENV_Q_RSW = 12  # 4, orbital frame (radial, along-track, normal) → space, scalar first
-ENV_SUN_DISTANCE = 16  # km, spacecraft to Sun
-ENV_SHADOW = 17  # fraction of the Sun's disk seen (conical shadow with penumbra): 1 lit, 0 umbra
-ENV_SIZE = 18
-
-E_FIELD = 0
-E_ORBIT = 1
-E_SUN = 2
-E_HEAD = 3
+#: The environment vector (body axes unless noted; NaN where unavailable), whose public face
+#: is :class:`attitude.potentials.EnvironmentIndex`.
+ENV = layout(
+    "environment vector",
+    field=Field(3, "T", "geomagnetic field, body axes"),
+    sun=Field(3, "", "unit vector from the spacecraft to the Sun, body axes"),
+    r=Field(3, "km", "position, space axes (GCRS)"),
+    v=Field(3, "km/s", "velocity, space axes"),
+    q_rsw=Field(4, "", "orbital frame (radial, along-track, normal) → space, scalar first"),
+    sun_distance=Field(1, "km", "spacecraft to Sun"),
+    shadow=Field(1, "", "fraction of the Sun's disk seen (conical shadow): 1 lit, 0 umbra"),
+)
+#: The header of the environment's block (offsets relative to the block; 0: none).
+ENVB = layout("environment block header", field=1, orbit=1, sun=1)
 
 
 @jit
 def environment_vector(q, t, params, base, out):
-    """The environment at t seen by a body at attitude ``q`` into ``out`` (ENV_SIZE): the
+    """The environment at t seen by a body at attitude ``q`` into ``out`` (ENV.SIZE): the
     field as :func:`field_body` (the magnetic dipole's kernel), r and v from the orbit's
     dispatcher, the Sun's direction (as the flight software's measurements), the RSW frame from
     r and v, the Sun's distance and the Earth's conical shadow."""
-    for i in range(ENV_SIZE):
+    for i in range(ENV.SIZE):
         out[i] = _NAN
-    fo = int(params[base + E_FIELD])
+    fo = int(params[base + ENVB.FIELD])
     if fo > 0:
         b = field_body(q, t, params, base + fo)
         for i in range(3):
-            out[ENV_FIELD + i] = b[i]
-    st = orbit_state(params[base + int(params[base + E_ORBIT]) :], t)
+            out[ENV.FIELD + i] = b[i]
+    st = orbit_state(params[base + int(params[base + ENVB.ORBIT]) :], t)
     for i in range(3):
-        out[ENV_R + i] = st[i]
-        out[ENV_V + i] = st[3 + i]
+        out[ENV.R + i] = st[i]
+        out[ENV.V + i] = st[3 + i]
     _r, p0, p1, p2, p3 = frame_from_state(st[0], st[1], st[2], st[3], st[4], st[5])
-    out[ENV_Q_RSW] = p0
-    out[ENV_Q_RSW + 1] = p1
-    out[ENV_Q_RSW + 2] = p2
-    out[ENV_Q_RSW + 3] = p3
-    so = int(params[base + E_SUN])
+    out[ENV.Q_RSW] = p0
+    out[ENV.Q_RSW + 1] = p1
+    out[ENV.Q_RSW + 2] = p2
+    out[ENV.Q_RSW + 3] = p3
+    so = int(params[base + ENVB.SUN])
     if so > 0:
         sun = orbit_state(params[base + so :], t)
         dx = sun[0] - st[0]
@@ -561,15 +584,15 @@ def environment_vector(q, t, params, base, out):
         n = math.sqrt(dx * dx + dy * dy + dz * dz)
         sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
         for i in range(3):
-            out[ENV_SUN + i] = sb[i]
-        out[ENV_SUN_DISTANCE] = n
-        out[ENV_SHADOW] = conical_shadow(
+            out[ENV.SUN + i] = sb[i]
+        out[ENV.SUN_DISTANCE] = n
+        out[ENV.SHADOW] = conical_shadow(
             st[0], st[1], st[2], sun[0], sun[1], sun[2], R_EARTH, R_SUN
         )[0]
 
 
 @jit
 def environment_loop(q, t, params, base, out):
-    """:func:`environment_vector` at each (q[i], t[i]) into ``out`` (m, ENV_SIZE)."""
+    """:func:`environment_vector` at each (q[i], t[i]) into ``out`` (m, ENV.SIZE)."""
     for i in range(t.shape[0]):
         environment_vector(q[i], t[i], params, base, out[i])

@@ -9,9 +9,9 @@ points (the package's own ``event`` is :func:`builtin_event`).
 
 Layout of the event data ``evd`` (float64)::
 
-    evd[EV_N]        n, the number of events
-    evd[EV_NSUB]     sub-intervals sampled per step (>= 1)
-    evd[EV_OFFSETS + j]  offset b_j of event j's block
+    evd[EV.N]        n, the number of events
+    evd[EV.NSUB]     sub-intervals sampled per step (>= 1)
+    evd[EV.OFFSETS + j]  offset b_j of event j's block
     block:  evd[b] kind, evd[b + 1] direction (+1 rising, −1 falling, 0 both),
             evd[b + 2] terminal (1/0), then the kind's numbers:
 
@@ -31,7 +31,7 @@ Layout of the event data ``evd`` (float64)::
                                                          and the Sun (seen from the orbit, or
                                                          from the geocentre if orbit_off = 0)
 
-Per-event state ``evs`` (n, EVS_COLS) float64: the value of g at the end of the last step, the
+Per-event state ``evs`` (n, EVS.SIZE) float64: the value of g at the end of the last step, the
 number of occurrences, the time of the first. Records (single runs): ``rec_t`` (cap,),
 ``rec_k`` (cap, 2) int64 (event number, direction), ``rec_y`` (cap, n_state), and ``ev_count``
 (2,) int64: records written, occurrences in all. A capacity of 0 keeps no records (ensembles
@@ -59,15 +59,15 @@ from orbit.sun import conical_shadow
 
 from .ensemble import member_begin, member_end
 from .frames import frame_attitude
+from .layout import Field, layout
 from .quat import conj_mul, rotate
 from .rk import (
     EVENT,
     EVENT_BUFFER_FULL,
-    F0,
     NONFINITE,
     SUCCESS,
     TOO_MANY_STEPS,
-    Y,
+    WORK,
     _dense_coefficients,
     _initial_step,
     _interpolate,
@@ -83,13 +83,19 @@ from .splitting import (
 )
 
 # Layout.
-EV_N = 0
-EV_NSUB = 1
-EV_OFFSETS = 2
-B_KIND = 0
-B_DIRECTION = 1
-B_TERMINAL = 2
-B_DATA = 3
+EV = layout(
+    "event set header",
+    n=Field(1, "", "the number of events"),
+    nsub=Field(1, "", "sub-intervals sampled per step (>= 1)"),
+    offsets=Field(0, "", "offset b_j of event j's block, one per event"),
+)
+EVB = layout(
+    "event block",
+    kind=Field(1, "", "KIND_*"),
+    direction=Field(1, "", "RISING, FALLING or BOTH"),
+    terminal=Field(1, "", "1: the run stops at the event"),
+    data=Field(0, "", "the event's numbers, then its arrays"),
+)
 
 KIND_USER = 0
 KIND_POINTING = 1
@@ -102,10 +108,12 @@ FALLING = -1
 BOTH = 0
 
 # Per-event state columns.
-EVS_G = 0
-EVS_COUNT = 1
-EVS_FIRST = 2
-EVS_COLS = 3
+EVS = layout(
+    "event state",
+    g=Field(1, "", "the event function at the last step"),
+    count=Field(1, "", "occurrences so far"),
+    first=Field(1, "s", "time of the first occurrence"),
+)
 
 #: Absolute time tolerance of the root refinement [s] (on top of 4 ulp of t).
 XTOL = 1e-12
@@ -118,7 +126,7 @@ _MAX_ITER = 200
 @jit
 def event_base(j, evd):
     """Offset of event j's block."""
-    return int(evd[EV_OFFSETS + j])
+    return int(evd[EV.OFFSETS + j])
 
 
 @jit
@@ -135,7 +143,7 @@ def builtin_event(j, t, q, w, evd):
     """g of built-in event j at time t, attitude q (4,) and body rates w (3-tuple)."""
     b = event_base(j, evd)
     kind = int(evd[b])
-    p = b + B_DATA
+    p = b + EVB.DATA
     if kind == KIND_RATE:
         return math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]) - evd[p]
     if kind == KIND_POINTING:
@@ -189,7 +197,7 @@ def event_at(event, j, t, y, params, evd):
 @jit_generic
 def event_values_with(event, t, y, params, evd, out):
     """``out[k, j]`` = g_j(t[k], y[k]) for canonical states y (m, 8)."""
-    n = int(evd[EV_N])
+    n = int(evd[EV.N])
     for k in range(t.shape[0]):
         for j in range(n):
             out[k, j] = event_at(event, j, t[k], y[k], params, evd)
@@ -270,21 +278,21 @@ def crossing(ga, gb):
 @jit
 def wanted(evd, j, sign):
     """Whether a crossing of direction ``sign`` is one event j records."""
-    d = evd[event_base(j, evd) + B_DIRECTION]
+    d = evd[event_base(j, evd) + EVB.DIRECTION]
     return d == 0.0 or d == sign
 
 
 @jit
 def is_terminal(evd, j):
-    return evd[event_base(j, evd) + B_TERMINAL] != 0.0
+    return evd[event_base(j, evd) + EVB.TERMINAL] != 0.0
 
 
 @jit
 def record(evs, ev_count, rec_t, rec_k, rec_y, j, sign, t, y):
     """Count an occurrence of event j at t (and keep it when there are record buffers)."""
-    if evs[j, EVS_COUNT] == 0.0:
-        evs[j, EVS_FIRST] = t
-    evs[j, EVS_COUNT] += 1.0
+    if evs[j, EVS.COUNT] == 0.0:
+        evs[j, EVS.FIRST] = t
+    evs[j, EVS.COUNT] += 1.0
     i = ev_count[0]
     if i < rec_t.shape[0]:
         rec_t[i] = t
@@ -299,9 +307,9 @@ def record(evs, ev_count, rec_t, rec_k, rec_y, j, sign, t, y):
 @jit
 def reset_state(evs, ev_count):
     for j in range(evs.shape[0]):
-        evs[j, EVS_G] = 0.0
-        evs[j, EVS_COUNT] = 0.0
-        evs[j, EVS_FIRST] = math.nan
+        evs[j, EVS.G] = 0.0
+        evs[j, EVS.COUNT] = 0.0
+        evs[j, EVS.FIRST] = math.nan
     ev_count[0] = 0
     ev_count[1] = 0
 
@@ -332,8 +340,8 @@ def _locate_in_step(
     Returns (stopped, t_stop): a terminal event's root, where the run ends.
     """
     n = work.shape[1]
-    n_ev = int(evd[EV_N])
-    nsub = int(evd[EV_NSUB])
+    n_ev = int(evd[EV.N])
+    nsub = int(evd[EV.NSUB])
     t_old = tstate[2]
     h = tstate[3]
     t_new = tstate[0]
@@ -352,7 +360,7 @@ def _locate_in_step(
         if s == nsub:
             tb = t_new
             for i in range(n):
-                yb[i] = work[Y, i]
+                yb[i] = work[WORK.Y, i]
         else:
             tb = t_old + h * (s / nsub)
             _interpolate(work, tstate, tb, yb)
@@ -360,7 +368,7 @@ def _locate_in_step(
             gb[j] = event_at(event, j, tb, yb, params, evd)
         nc = 0
         for j in range(n_ev):
-            ga = evs[j, EVS_G]
+            ga = evs[j, EVS.G]
             sign = crossing(ga, gb[j])
             if sign == 0 or not wanted(evd, j, sign):
                 continue
@@ -379,7 +387,7 @@ def _locate_in_step(
             tr = ct[c]
             if tr == tb and s == nsub:
                 for i in range(n):
-                    yr[i] = work[Y, i]
+                    yr[i] = work[WORK.Y, i]
             else:
                 _interpolate(work, tstate, tr, yr)
             jc = int(cj[c])
@@ -393,7 +401,7 @@ def _locate_in_step(
                     scr[0, i] = yr[i]
                 return True, tr
         for j in range(n_ev):
-            evs[j, EVS_G] = gb[j]
+            evs[j, EVS.G] = gb[j]
         ta = tb
     return False, t_new
 
@@ -431,7 +439,7 @@ def dop853_events_run(
     Returns
     -------
     status : int
-        ``SUCCESS``, ``EVENT`` (a terminal event: ``tstate[0]`` is its time and ``work[Y]`` the
+        ``SUCCESS``, ``EVENT`` (a terminal event: ``tstate[0]`` is its time and ``work[WORK.Y]`` the
         state there), ``EVENT_BUFFER_FULL`` (the records need room: enlarge them and call again
         with the remaining output times; nothing is lost) or a failure of ``dop853_run``.
     n_done : int
@@ -439,10 +447,10 @@ def dop853_events_run(
     """
     n = y0.shape[0]
     m = t_out.shape[0]
-    n_ev = int(evd[EV_N])
-    nsub = int(evd[EV_NSUB])
-    y = work[Y]
-    f = work[F0]
+    n_ev = int(evd[EV.N])
+    nsub = int(evd[EV.NSUB])
+    y = work[WORK.Y]
+    f = work[WORK.F0]
     scr = np.empty((7, max(n, n_ev, 6)))
     if counters[3] == 0:
         for i in range(n):
@@ -457,7 +465,7 @@ def dop853_events_run(
         counters[4] = 0
         reset_state(evs, ev_count)
         for j in range(n_ev):
-            evs[j, EVS_G] = event_at(event, j, t0, y, params, evd)
+            evs[j, EVS.G] = event_at(event, j, t0, y, params, evd)
     direction = 1.0 if t_end >= tstate[0] else -1.0
 
     k = 0
@@ -632,7 +640,7 @@ def composition_events_run(
     The steps are those of ``composition_run`` (the fewest equal steps <= dt between output
     times), each applied whole; g is evaluated at every step's end, and a sign change is
     refined by Brent's method on g(t_s + τ, Φ_τ(y_s)), Φ_τ one step of the method of size τ
-    from the step's start y_s. ``evs[:, EVS_G]`` must hold g at ``t_start`` on the first call.
+    from the step's start y_s. ``evs[:, EVS.G]`` must hold g at ``t_start`` on the first call.
 
     ``counters`` (int64, 5): steps, kick and free-flow evaluations, then as in
     ``composition_run`` the step at which the first interval resumes and the most steps this
@@ -645,7 +653,7 @@ def composition_events_run(
     time: enlarge the records and call again from there) or ``TOO_MANY_STEPS`` (paused).
     """
     m = t_out.shape[0]
-    n_ev = int(evd[EV_N])
+    n_ev = int(evd[EV.N])
     cap = rec_t.shape[0]
     sbak = np.empty(8)
     trial = np.empty(8)
@@ -696,7 +704,7 @@ def composition_events_run(
                     gb[e] = event_at(event, e, te, yc, params, evd)
                 nc = 0
                 for e in range(n_ev):
-                    ga = evs[e, EVS_G]
+                    ga = evs[e, EVS.G]
                     sign = crossing(ga, gb[e])
                     if sign == 0 or not wanted(evd, e, sign):
                         continue
@@ -740,7 +748,7 @@ def composition_events_run(
                             state[i] = trial[i]
                         return EVENT, k
                 for e in range(n_ev):
-                    evs[e, EVS_G] = gb[e]
+                    evs[e, EVS.G] = gb[e]
         state_to_canonical(state, y_out[k])
         ok = True
         for i in range(8):

@@ -31,12 +31,21 @@ import math
 
 from orbit._shared_jit import jit, jit_generic
 
+from .layout import Field, layout
 from .quat import conj_mul, mul, mul_vec
 
-N_EXTRA = 6
-X_MIN_SIN = -6
-X_TOL = -5
-X_SCRATCH = -4
+#: The slots at the end of ``params`` owned by this module.
+EXTRA = layout(
+    "formulation slots",
+    min_sin=Field(1, "", "smallest sin ϑ met below the stop threshold (Euler angles; written)"),
+    tol=Field(1, "", "stop threshold on sin ϑ (Euler angles; read)"),
+    scratch=Field(4, "", "the unit attitude quaternion handed to ``torque``"),
+)
+N_EXTRA = EXTRA.SIZE
+# Their offsets from the end of ``params`` (negative).
+X_MIN_SIN = EXTRA.MIN_SIN - EXTRA.SIZE
+X_TOL = EXTRA.TOL - EXTRA.SIZE
+X_SCRATCH = EXTRA.SCRATCH - EXTRA.SIZE
 
 
 @jit

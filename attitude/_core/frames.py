@@ -36,16 +36,10 @@ and their opposites (NADIR = −ZENITH, ...). Frames: LVLH (CCSDS/Vallado: z to 
 minus the orbit normal) is P = NADIR on z, S = ANTI_NORMAL on y; RSW (the orbital frame p(t)
 of Arribas et al. Sect. 6.2) is ZENITH on x, NORMAL on z; VNC is VELOCITY on x, NORMAL on y.
 
-Layout (index constants below)::
-
-    d[F_TYPE]          FRAME_INERTIAL = 0 or FRAME_ALIGNED = 1
-    d[F_OFFSET : +4]   offset quaternion o (identity by default): q = q_R∘o, ω = õ∘ω_R∘o
-    inertial:  d[F_Q : +4]  the constant q_R
-    aligned:   d[F_PDIR], d[F_SDIR]    direction codes of P and S
-               d[F_BODY : +9]          t1, t2, t3 (reference axes of the triad)
-               d[F_PVEC : +3], d[F_SVEC : +3]   fixed directions (FIXED), else unused
-               d[F_ORBIT], d[F_SUN], d[F_TARGET]   offsets of the blocks (0: absent)
-               blocks: the orbit's ``kernel_data()``, the Sun table, the target table
+Layout (the declarations INERTIAL and ALIGNED below): the frame's type and an offset
+quaternion, then an inertial frame's constant q_R, or an aligned frame's direction codes,
+triad axes, fixed directions and the offsets of its blocks (the orbit's ``kernel_data()``, the
+Sun table, the target table) that follow.
 
 A parallel P and S (e.g. the Sun at the zenith for a Sun-pointing frame whose secondary points
 at nadir) leaves the frame undefined: the kernel then returns NaN.
@@ -65,24 +59,30 @@ from orbit._state_kernels import (
     quaternion_from_axes,
 )
 
+from .layout import Field, layout
 from .quat import mul, rotate_inverse
 
 FRAME_INERTIAL = 0
 FRAME_ALIGNED = 1
 
-F_TYPE = 0
-F_OFFSET = 1
-F_Q = 5
-F_PDIR = 5
-F_SDIR = 6
-F_BODY = 7
-F_PVEC = 16
-F_SVEC = 19
-F_ORBIT = 22
-F_SUN = 23
-F_TARGET = 24
-F_LEN = 25
-INERTIAL_LEN = 9
+_FRAME_HEAD = dict(
+    type=Field(1, "", "FRAME_INERTIAL or FRAME_ALIGNED"),
+    offset=Field(4, "", "offset quaternion o: q = q_R∘o, ω = õ∘ω_R∘o"),
+)
+FRAME = layout("frame header", **_FRAME_HEAD)
+INERTIAL = layout("inertial frame", **_FRAME_HEAD, q=Field(4, "", "the constant q_R"))
+ALIGNED = layout(
+    "aligned frame",
+    **_FRAME_HEAD,
+    pdir=Field(1, "", "direction code of P"),
+    sdir=Field(1, "", "direction code of S"),
+    body=Field(9, "", "t1, t2, t3 (reference axes of the triad)", (3, 3)),
+    pvec=Field(3, "", "fixed direction of P (FIXED), else unused"),
+    svec=Field(3, "", "fixed direction of S (FIXED), else unused"),
+    orbit=Field(1, "", "offset of the orbit's kernel_data() (0: absent)"),
+    sun=Field(1, "", "offset of the Sun table (0: absent)"),
+    target=Field(1, "", "offset of the target table (0: absent)"),
+)
 
 DIR_ZENITH = 1
 DIR_NADIR = 2
@@ -167,9 +167,9 @@ def _acceleration(od, t, st):
 @jit
 def _aligned(d, t, with_rate):
     zero6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    pc = int(d[F_PDIR])
-    sc = int(d[F_SDIR])
-    o = int(d[F_ORBIT])
+    pc = int(d[ALIGNED.PDIR])
+    sc = int(d[ALIGNED.SDIR])
+    o = int(d[ALIGNED.ORBIT])
     st = zero6
     acc = (0.0, 0.0, 0.0)
     if o > 0:
@@ -178,13 +178,13 @@ def _aligned(d, t, with_rate):
         if with_rate and (_needs_acceleration(pc) or _needs_acceleration(sc)):
             acc = _acceleration(od, t, st)
     sun = zero6
-    if int(d[F_SUN]) > 0:
-        sun = orbit_state(d[int(d[F_SUN]) :], t)
+    if int(d[ALIGNED.SUN]) > 0:
+        sun = orbit_state(d[int(d[ALIGNED.SUN]) :], t)
     tgt = zero6
-    if int(d[F_TARGET]) > 0:
-        tgt = orbit_state(d[int(d[F_TARGET]) :], t)
-    p = _direction(pc, F_PVEC, d, t, st, acc, sun, tgt)
-    s = _direction(sc, F_SVEC, d, t, st, acc, sun, tgt)
+    if int(d[ALIGNED.TARGET]) > 0:
+        tgt = orbit_state(d[int(d[ALIGNED.TARGET]) :], t)
+    p = _direction(pc, ALIGNED.PVEC, d, t, st, acc, sun, tgt)
+    s = _direction(sc, ALIGNED.SVEC, d, t, st, acc, sun, tgt)
     # space triad and its derivative
     T1x, T1y, T1z, dT1x, dT1y, dT1z = p
     ux, uy, uz = _cross(p[0], p[1], p[2], s[0], s[1], s[2])
@@ -197,7 +197,7 @@ def _aligned(d, t, with_rate):
     )
     T3x, T3y, T3z = _cross(T1x, T1y, T1z, T2x, T2y, T2z)
     # R = Σ T_i t_iᵀ; its column k is R e_k = Σ_i T_i t_i[k]
-    b = F_BODY
+    b = ALIGNED.BODY
     c0x, c0y, c0z = _column(d, b, 0, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
     c1x, c1y, c1z = _column(d, b, 1, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
     c2x, c2y, c2z = _column(d, b, 2, T1x, T1y, T1z, T2x, T2y, T2z, T3x, T3y, T3z)
@@ -253,7 +253,7 @@ def frame_attitude(d, t):
 @jit(inline="always")
 def _offset(d, q, w):
     """(q, ω) of a frame turned by its fixed offset (none: as they are)."""
-    o = (d[F_OFFSET], d[F_OFFSET + 1], d[F_OFFSET + 2], d[F_OFFSET + 3])
+    o = (d[FRAME.OFFSET], d[FRAME.OFFSET + 1], d[FRAME.OFFSET + 2], d[FRAME.OFFSET + 3])
     if o[0] != 1.0 or o[1] != 0.0 or o[2] != 0.0 or o[3] != 0.0:
         q = mul(q, o)
         w = rotate_inverse(o, w)
@@ -262,14 +262,16 @@ def _offset(d, q, w):
 
 @jit(inline="always")
 def inertial_frame(d):
-    """(q_R, ω_R) of an inertial frame's data ``d`` (``d[F_TYPE] == FRAME_INERTIAL``), as
+    """(q_R, ω_R) of an inertial frame's data ``d`` (``d[FRAME.TYPE] == FRAME_INERTIAL``), as
     :func:`frame_eval` gives them: inlined where a loop asks every tick."""
-    return _offset(d, (d[F_Q], d[F_Q + 1], d[F_Q + 2], d[F_Q + 3]), (0.0, 0.0, 0.0))
+    return _offset(
+        d, (d[INERTIAL.Q], d[INERTIAL.Q + 1], d[INERTIAL.Q + 2], d[INERTIAL.Q + 3]), (0.0, 0.0, 0.0)
+    )
 
 
 @jit
 def _frame(d, t, with_rate):
-    if int(d[F_TYPE]) == FRAME_INERTIAL:
+    if int(d[FRAME.TYPE]) == FRAME_INERTIAL:
         q, w = inertial_frame(d)
     else:
         r = _aligned(d, t, with_rate)

@@ -10,7 +10,7 @@ hold; ``delay`` whole ticks later if the software has a latency).
 
 Everything is data, as the torque models are: the program ``fw`` (float64: header, modes,
 frames, allocation matrices) and the state ``fs`` (the laws' memory: integral term, previous
-field, slew start, mode, delayed commands). Layouts: the constants below.
+field, slew start, mode, delayed commands). Layouts: :mod:`attitude._core.fsw_layout`.
 
 Control laws (body-axis torque request L_r or dipole request):
 
@@ -41,15 +41,8 @@ import math
 from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
-    S_IDEAL,
-    S_MTQ,
-    S_NM,
-    S_NT,
-    S_NW,
-    S_WHEELS,
-    W_J,
-    W_U,
-    WS,
+    SC,
+    WHEEL,
     configure_hold,
     configure_hold_rate,
     next_thruster_off,
@@ -59,24 +52,22 @@ from .actuators import (
     wheel_speed,
 )
 from .environment import field_body
-from .frames import F_TYPE, FRAME_INERTIAL, frame_eval, inertial_frame
+from .frames import (
+    FRAME,
+    FRAME_INERTIAL,
+    frame_eval,
+    inertial_frame,
+)
+from .fsw_layout import ES, FS, FW, MB, RS, R
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_READY,
-    HS_SEG_END,
+    HS,
     RECORDS_FULL,
 )
 from .mekf import (
-    E_B,
-    E_INIT,
-    E_PHI,
-    E_Q,
-    EP_INIT,
-    EP_MAG,
-    EP_Q0,
-    EP_SUN,
+    EP,
+    E,
     estimation_error,
     mekf_covariance_at,
     mekf_init,
@@ -87,69 +78,12 @@ from .mekf import (
 from .quat import conj_mul, cross, mrp, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE
 from .sensors import (
-    G_B0,
-    G_STATE,
-    SN_GYRO,
-    Z_B,
-    Z_GYRO_OK,
-    Z_MAG_OK,
-    Z_OMEGA,
-    Z_Q,
-    Z_SIZE,
-    Z_ST_OK,
-    Z_SUN,
-    Z_SUN_OK,
+    GYRO,
+    SN,
+    Z,
     measure_sensors_inline,
     sun_and_earth,
 )
-
-# --- the program fw: header ---------------------------------------------------------------------
-FW_PERIOD = 0
-FW_T0 = 1  # time of the first tick
-FW_DELAY = 2  # whole ticks between a command's computation and its application
-FW_NMODES = 3
-FW_NCMD = 4  # raw commands: n_w + n_m + n_t
-FW_MODES = 5  # offset of the table of mode offsets
-FW_IDEAL = 6  # 1: the request is an ideal body torque (no actuators)
-FW_INERTIA = 7  # the software's inertia model (9, row-major)
-FW_FIELD = 16  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
-FW_RECORD_EVERY = 17  # record every k-th tick; 0: the ticks listed at FW_RECORD_TABLE
-FW_NAPINV = 18  # offset of the magnetorquers' pseudo-inverse (n_m × 3; 0: none)
-FW_GPINV = 19  # offset of the wheels' pseudo-inverse G⁺ (n_w × 3)
-FW_NULLP = 20  # offset of the null-space projector N (n_w × n_w)
-FW_EXTERNAL = 21  # 1: the commands come from Python at each tick (your own step function)
-FW_ORBIT = 22  # offset of the orbit's kernel data (0: none)
-FW_SUN = 23  # offset of the Sun's table (0: none)
-FW_SENSORS = 24  # offset of the sensor program (attitude._core.sensors; 0: the truth)
-FW_EST = 25  # offset of the MEKF's record (attitude._core.mekf EP_*; 0: no estimator)
-FW_SS = 26  # offset in fs of the sensors' state
-FW_ES = 27  # offset in fs of the filter's state
-FW_Z = 28  # offset in fs of the measurement vector (Z_SIZE) and the Sun heads' scratch
-FW_RECORD_TABLE = 29  # offset of the recorded ticks' indices (increasing; FW_RECORD_EVERY = 0)
-FW_RECORD_N = 30  # their number
-FW_HEADER = 32
-
-# --- mode blocks (offsets relative to the block) --------------------------------------------------
-MB_COND = 0  # COND_*
-MB_COND_X = 1  # threshold (rad/s, rad or s)
-MB_COND_FRAME = 2  # offset of the condition's frame (pointing)
-MB_COND_AXIS = 3  # body axis (3); zero: the total rotation angle
-MB_GUID = 6  # GUID_*
-MB_GUID_FRAME = 7  # offset of the reference (target) frame
-MB_SLEW_RATE = 8
-MB_SLEW_ACC = 9
-MB_CTRL = 10  # CTRL_*
-MB_K = 11
-MB_P = 12  # 3 × 3
-MB_KI = 21
-MB_ILIM = 22
-MB_LAWTYPE = 23  # MRP feedback: Basilisk's controlLawType 0 (ω_r + K_I z) or 1 (ω); B-dot:
-# 0 m = −k Ḃ, 1 m = −(k/|B|) ḃ
-MB_DUMP = 24  # momentum-dumping gain (1/s; 0: off)
-MB_DUMP_REF = 25  # reference wheel momentum in body axes (3)
-MB_NULL = 28  # null-space gain (1/s; 0: off)
-MB_NULL_SPEEDS = 29  # offset of the reference wheel speeds (n_w; 0: zero)
-MB_SIZE = 32
 
 COND_ALWAYS = 0
 COND_RATE_BELOW = 1
@@ -168,45 +102,6 @@ CTRL_QUATERNION = 2
 CTRL_RATE_DAMPING = 3
 CTRL_BDOT = 4
 
-# --- the state fs -------------------------------------------------------------------------------
-FS_MODE = 0
-FS_TICK = 1
-FS_NEXT = 2  # time of the next tick
-FS_INT = 3  # MRP feedback's ∫ K σ dt (3)
-FS_PRIOR = 6  # time of the last control update (NaN: none yet)
-FS_BPREV = 7  # field measured at the last tick (3)
-FS_BVALID = 10
-FS_SLEW_T0 = 11  # start of the slew
-FS_SLEW_AXIS = 12  # axis of the offset from the target (3, target axes)
-FS_SLEW_ANGLE = 15  # its angle
-FS_ENTERED = 16  # 1 once the active mode has run a tick (0 at its entry)
-FS_SENSED = 17  # 1: this tick's measurements were taken (your own step asked for commands)
-FS_RECORD_NEXT = 18  # next entry of the table of recorded ticks
-FS_SQ = 20  # the attitude the software uses at this tick (4), then its rate (3), its field (3)
-FS_SW = 24
-FS_SB = 27
-FS_QUEUE = 32  # delayed commands: delay rows of n_cmd, a ring indexed by the tick
-FS_HEADER = 32
-
-# --- tick records -------------------------------------------------------------------------------
-R_T = 0
-R_MODE = 1
-R_QREF = 2  # 4
-R_SIGMA = 6  # σ_BR (3)
-R_ANGLE = 9  # error angle
-R_DOMEGA = 10  # ω_BR (3)
-R_TORQUE = 13  # torque request L_r (3)
-R_DIPOLE = 16  # dipole request, body axes (3)
-R_CMD = 19  # commands computed at this tick (n_cmd), then those applied (n_cmd)
-R_HEADER = 19
-#: With sensors, after the commands: the measurements (Z_SIZE), then the estimate q̂ (4),
-#: β̂ (3), the 1-σ of the six error states, the estimation errors δθ, δβ (6) and the NEES.
-RS_Q = 0
-RS_B = 4
-RS_SIGMA = 7
-RS_ERR = 13
-RS_NEES = 19
-RS_SIZE = 20
 
 #: Finite-difference half-step for ω̇ of a frame (s): the frames give q_R and ω_R exactly.
 DOMEGA_STEP = 0.5
@@ -214,12 +109,12 @@ DOMEGA_STEP = 0.5
 
 def record_width(n_cmd: int, sensors: bool = False) -> int:
     """Columns of a tick record."""
-    return R_HEADER + 2 * n_cmd + ((Z_SIZE + RS_SIZE) if sensors else 0)
+    return R.SIZE + 2 * n_cmd + ((Z.SIZE + RS.SIZE) if sensors else 0)
 
 
 def state_size(delay: int, n_cmd: int) -> int:
     """Length of the software state ``fs`` before the sensors' and the filter's."""
-    return FS_HEADER + max(delay, 0) * n_cmd
+    return FS.SIZE + max(delay, 0) * n_cmd
 
 
 @jit(inline="always")
@@ -227,7 +122,7 @@ def _momentum(fw, sc, y, om):
     """The body's angular momentum in body axes as the software models it: I ω + Σ h a (the
     wheels' h from the state: Σ J (a·ω + Ω) a)."""
     hw = wheel_momentum_sum(sc, y)
-    Iw = _mv(fw, FW_INERTIA, om[0], om[1], om[2])
+    Iw = _mv(fw, FW.INERTIA, om[0], om[1], om[2])
     return (Iw[0] + hw[0], Iw[1] + hw[1], Iw[2] + hw[2])
 
 
@@ -249,7 +144,7 @@ def frame_reference(d, t):
     r = frame_eval(d, t)
     q = (r[0], r[1], r[2], r[3])
     w = (r[4], r[5], r[6])
-    if int(d[F_TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
+    if int(d[FRAME.TYPE]) == FRAME_INERTIAL:  # fixed (an offset of a fixed frame is fixed)
         return q, w, (0.0, 0.0, 0.0)
     h = DOMEGA_STEP
     a = frame_eval(d, t + h)
@@ -297,11 +192,11 @@ def slew_profile(theta0, t, wmax, amax):
 @jit
 def guidance(fw, fs, mb, t, q_meas):
     """(q_R, ω_R, ω̇_R) of the active mode's guidance at t (rates in reference axes)."""
-    kind = int(fw[mb + MB_GUID])
+    kind = int(fw[mb + MB.GUID])
     if kind == GUID_NONE:
         return (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
-    o = int(fw[mb + MB_GUID_FRAME])
-    if int(fw[o + F_TYPE]) == FRAME_INERTIAL:  # no calls a tick for the fixed frame
+    o = int(fw[mb + MB.GUID_FRAME])
+    if int(fw[o + FRAME.TYPE]) == FRAME_INERTIAL:  # no calls a tick for the fixed frame
         qB, wB = inertial_frame(fw[o:])
         dwB = (0.0, 0.0, 0.0)
     else:
@@ -309,23 +204,23 @@ def guidance(fw, fs, mb, t, q_meas):
     if kind == GUID_FRAME:
         return qB, wB, dwB
     # slew: q_R = q_B∘exp(θ e/2), e fixed in the target's axes (from the attitude at entry)
-    if fs[FS_ENTERED] == 0.0:
+    if fs[FS.ENTERED] == 0.0:
         off = shorter(conj_mul(qB, q_meas))  # rotation from the target to the spacecraft
         sv = math.sqrt(off[1] * off[1] + off[2] * off[2] + off[3] * off[3])
         ang = 2.0 * math.atan2(sv, off[0])
         if sv > 0.0:
-            fs[FS_SLEW_AXIS] = off[1] / sv
-            fs[FS_SLEW_AXIS + 1] = off[2] / sv
-            fs[FS_SLEW_AXIS + 2] = off[3] / sv
+            fs[FS.SLEW_AXIS] = off[1] / sv
+            fs[FS.SLEW_AXIS + 1] = off[2] / sv
+            fs[FS.SLEW_AXIS + 2] = off[3] / sv
         else:
-            fs[FS_SLEW_AXIS] = 1.0
-            fs[FS_SLEW_AXIS + 1] = 0.0
-            fs[FS_SLEW_AXIS + 2] = 0.0
-        fs[FS_SLEW_ANGLE] = ang
-        fs[FS_SLEW_T0] = t
-    e = (fs[FS_SLEW_AXIS], fs[FS_SLEW_AXIS + 1], fs[FS_SLEW_AXIS + 2])
+            fs[FS.SLEW_AXIS] = 1.0
+            fs[FS.SLEW_AXIS + 1] = 0.0
+            fs[FS.SLEW_AXIS + 2] = 0.0
+        fs[FS.SLEW_ANGLE] = ang
+        fs[FS.SLEW_T0] = t
+    e = (fs[FS.SLEW_AXIS], fs[FS.SLEW_AXIS + 1], fs[FS.SLEW_AXIS + 2])
     th, thd, thdd = slew_profile(
-        fs[FS_SLEW_ANGLE], t - fs[FS_SLEW_T0], fw[mb + MB_SLEW_RATE], fw[mb + MB_SLEW_ACC]
+        fs[FS.SLEW_ANGLE], t - fs[FS.SLEW_T0], fw[mb + MB.SLEW_RATE], fw[mb + MB.SLEW_ACC]
     )
     c = math.cos(0.5 * th)
     s = math.sin(0.5 * th)
@@ -343,8 +238,8 @@ def guidance(fw, fs, mb, t, q_meas):
 @jit
 def condition_holds(fw, mb, t, q, om):
     """Whether the mode's entry condition holds at t for the attitude q and rate ω."""
-    kind = int(fw[mb + MB_COND])
-    x = fw[mb + MB_COND_X]
+    kind = int(fw[mb + MB.COND])
+    x = fw[mb + MB.COND_X]
     if kind == COND_ALWAYS:
         return True
     if kind == COND_RATE_BELOW or kind == COND_RATE_ABOVE:
@@ -352,10 +247,10 @@ def condition_holds(fw, mb, t, q, om):
         return r < x if kind == COND_RATE_BELOW else r > x
     if kind == COND_AFTER:
         return t >= x
-    o = int(fw[mb + MB_COND_FRAME])
+    o = int(fw[mb + MB.COND_FRAME])
     r = frame_eval(fw[o:], t)
     e = conj_mul((r[0], r[1], r[2], r[3]), q)  # rotation from the frame to the body
-    a = (fw[mb + MB_COND_AXIS], fw[mb + MB_COND_AXIS + 1], fw[mb + MB_COND_AXIS + 2])
+    a = (fw[mb + MB.COND_AXIS], fw[mb + MB.COND_AXIS + 1], fw[mb + MB.COND_AXIS + 2])
     if a[0] == 0.0 and a[1] == 0.0 and a[2] == 0.0:
         sv = math.sqrt(e[1] * e[1] + e[2] * e[2] + e[3] * e[3])
         ang = 2.0 * math.atan2(sv, abs(e[0]))
@@ -368,13 +263,6 @@ def condition_holds(fw, mb, t, q, om):
     return ang < x if kind == COND_POINTING_WITHIN else ang > x
 
 
-#: Filter state slots kept in fs beside the filter's own (the gyro rate of the last tick).
-ES_OMEGA_PREV = 160  # after attitude._core.mekf.E_SIZE
-ES_LAST_Q = 163  # the last valid star tracker quaternion (without a filter)
-ES_HAS_Q = 167
-ES_SIZE = 168
-
-
 @jit
 def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
     """The sensors' measurements and the estimate at this tick: (q, ω, B) the software uses.
@@ -383,79 +271,79 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
     quaternion and the gyro's rate; with the MEKF its estimate (propagated over the period
     with this tick's gyro rate, the mean over that interval, then updated). Writes the tick's
     sensor and estimator record at ``rec_at`` of ``rec_row`` (if ``rec_at`` >= 0)."""
-    so = int(fw[FW_SENSORS])
+    so = int(fw[FW.SENSORS])
     if so == 0:
         return q, om, bb
     sn = fw[so:]
-    ss = fs[int(fw[FW_SS]) :]
-    zo = int(fw[FW_Z])
-    z = fs[zo : zo + Z_SIZE]
-    scratch = fs[zo + Z_SIZE :]
-    tick = int(fs[FS_TICK])
-    dt = fw[FW_PERIOD]
+    ss = fs[int(fw[FW.SS]) :]
+    zo = int(fw[FW.Z])
+    z = fs[zo : zo + Z.SIZE]
+    scratch = fs[zo + Z.SIZE :]
+    tick = int(fs[FS.TICK])
+    dt = fw[FW.PERIOD]
     measure_sensors_inline(sn, ss, t, tick, q, om, bb, z, scratch, rec_at >= 0)
     qu = q
     wu = om
     bu = bb
-    if z[Z_GYRO_OK] != 0.0:
-        wu = (z[Z_OMEGA], z[Z_OMEGA + 1], z[Z_OMEGA + 2])
-    if z[Z_MAG_OK] != 0.0:
-        bu = (z[Z_B], z[Z_B + 1], z[Z_B + 2])
-    eo = int(fw[FW_EST])
-    es = fs[int(fw[FW_ES]) :]
+    if z[Z.GYRO_OK] != 0.0:
+        wu = (z[Z.OMEGA], z[Z.OMEGA + 1], z[Z.OMEGA + 2])
+    if z[Z.MAG_OK] != 0.0:
+        bu = (z[Z.B], z[Z.B + 1], z[Z.B + 2])
+    eo = int(fw[FW.EST])
+    es = fs[int(fw[FW.ES]) :]
     if eo == 0:
-        if z[Z_ST_OK] != 0.0:
+        if z[Z.ST_OK] != 0.0:
             for i in range(4):
-                es[ES_LAST_Q + i] = z[Z_Q + i]
-            es[ES_HAS_Q] = 1.0
-        if es[ES_HAS_Q] != 0.0:
-            qu = (es[ES_LAST_Q], es[ES_LAST_Q + 1], es[ES_LAST_Q + 2], es[ES_LAST_Q + 3])
+                es[ES.LAST_Q + i] = z[Z.Q + i]
+            es[ES.HAS_Q] = 1.0
+        if es[ES.HAS_Q] != 0.0:
+            qu = (es[ES.LAST_Q], es[ES.LAST_Q + 1], es[ES.LAST_Q + 2], es[ES.LAST_Q + 3])
     else:
         ep = fw[eo:]
-        if es[E_INIT] == 0.0:
-            if ep[EP_INIT] != 0.0:
+        if es[E.INIT] == 0.0:
+            if ep[EP.INIT] != 0.0:
                 mekf_init(
-                    es, ep, (ep[EP_Q0], ep[EP_Q0 + 1], ep[EP_Q0 + 2], ep[EP_Q0 + 3]), ep[13:16]
+                    es, ep, (ep[EP.Q0], ep[EP.Q0 + 1], ep[EP.Q0 + 2], ep[EP.Q0 + 3]), ep[13:16]
                 )
                 _updates(es, ep, z, q, bb, sn, t)
-            elif z[Z_ST_OK] != 0.0:
+            elif z[Z.ST_OK] != 0.0:
                 # the first measurement is the estimate: no update with it
-                mekf_init(es, ep, (z[Z_Q], z[Z_Q + 1], z[Z_Q + 2], z[Z_Q + 3]), ep[13:16])
+                mekf_init(es, ep, (z[Z.Q], z[Z.Q + 1], z[Z.Q + 2], z[Z.Q + 3]), ep[13:16])
         else:
             # the gyro's rate of this tick is the mean over the interval just ended
             for i in range(3):
-                es[ES_OMEGA_PREV + i] = wu[i]
-            mekf_propagate_inline(es, ep, es[ES_OMEGA_PREV : ES_OMEGA_PREV + 3], dt)
-            if z[Z_ST_OK] != 0.0 or z[Z_MAG_OK] != 0.0 or z[Z_SUN_OK] != 0.0:
+                es[ES.OMEGA_PREV + i] = wu[i]
+            mekf_propagate_inline(es, ep, es[ES.OMEGA_PREV : ES.OMEGA_PREV + 3], dt)
+            if z[Z.ST_OK] != 0.0 or z[Z.MAG_OK] != 0.0 or z[Z.SUN_OK] != 0.0:
                 _updates(es, ep, z, q, bb, sn, t)
-        if es[E_INIT] != 0.0:
-            qu = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
-            wu = (wu[0] - es[E_B], wu[1] - es[E_B + 1], wu[2] - es[E_B + 2])
+        if es[E.INIT] != 0.0:
+            qu = (es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3])
+            wu = (wu[0] - es[E.B], wu[1] - es[E.B + 1], wu[2] - es[E.B + 2])
     if rec_at >= 0:
-        for i in range(Z_SIZE):
+        for i in range(Z.SIZE):
             rec_row[rec_at + i] = z[i]
-        r = rec_at + Z_SIZE
-        for i in range(RS_SIZE):
+        r = rec_at + Z.SIZE
+        for i in range(RS.SIZE):
             rec_row[r + i] = math.nan
-        if eo != 0 and es[E_INIT] != 0.0:
+        if eo != 0 and es[E.INIT] != 0.0:
             for i in range(4):
-                rec_row[r + RS_Q + i] = es[E_Q + i]
+                rec_row[r + RS.Q + i] = es[E.Q + i]
             for i in range(3):
-                rec_row[r + RS_B + i] = es[E_B + i]
-            mekf_covariance_at(es, ep, E_PHI)  # P at this tick, in a scratch copy
+                rec_row[r + RS.B + i] = es[E.B + i]
+            mekf_covariance_at(es, ep, E.PHI)  # P at this tick, in a scratch copy
             for i in range(6):
-                rec_row[r + RS_SIGMA + i] = math.sqrt(max(es[E_PHI + 7 * i], 0.0))
-            g = int(sn[SN_GYRO])
-            gs = int(sn[g + G_STATE]) + RNG_SIZE
+                rec_row[r + RS.SIGMA + i] = math.sqrt(max(es[E.PHI + 7 * i], 0.0))
+            g = int(sn[SN.GYRO])
+            gs = int(sn[g + GYRO.STATE]) + RNG_SIZE
             bt = (
-                sn[g + G_B0] + ss[gs],
-                sn[g + G_B0 + 1] + ss[gs + 1],
-                sn[g + G_B0 + 2] + ss[gs + 2],
+                sn[g + GYRO.B0] + ss[gs],
+                sn[g + GYRO.B0 + 1] + ss[gs + 1],
+                sn[g + GYRO.B0 + 2] + ss[gs + 2],
             )
-            e, nees = estimation_error(es, E_PHI, q, bt)
+            e, nees = estimation_error(es, E.PHI, q, bt)
             for i in range(6):
-                rec_row[r + RS_ERR + i] = e[i]
-            rec_row[r + RS_NEES] = nees
+                rec_row[r + RS.ERR + i] = e[i]
+            rec_row[r + RS.NEES] = nees
     return qu, wu, bu
 
 
@@ -463,23 +351,23 @@ def sense_and_estimate(t, q, om, bb, fw, fs, rec_row, rec_at):
 def _updates(es, ep, z, q, bb, sn, t):
     """The filter's updates with the valid measurements of the tick (q, bb: the truth, for
     the reference vectors in space the filter knows: the field model, the Sun's ephemeris)."""
-    if z[Z_ST_OK] != 0.0:
-        mekf_update_quaternion(es, ep, z[Z_Q : Z_Q + 4])
-    if ep[EP_MAG] > 0.0 and z[Z_MAG_OK] != 0.0:
+    if z[Z.ST_OK] != 0.0:
+        mekf_update_quaternion(es, ep, z[Z.Q : Z.Q + 4])
+    if ep[EP.MAG] > 0.0 and z[Z.MAG_OK] != 0.0:
         r = rotate(q, bb)  # the field model in space (the IGRF tables)
-        mekf_update_vector(es, ep, z[Z_B], z[Z_B + 1], z[Z_B + 2], r[0], r[1], r[2], ep[EP_MAG])
-    if ep[EP_SUN] > 0.0 and z[Z_SUN_OK] != 0.0:
+        mekf_update_vector(es, ep, z[Z.B], z[Z.B + 1], z[Z.B + 2], r[0], r[1], r[2], ep[EP.MAG])
+    if ep[EP.SUN] > 0.0 and z[Z.SUN_OK] != 0.0:
         _, s, _ = sun_and_earth(sn, t)  # the Sun's direction in space (its ephemeris)
-        mekf_update_vector(es, ep, z[Z_SUN], z[Z_SUN + 1], z[Z_SUN + 2], s[0], s[1], s[2],
-                           ep[EP_SUN])  # fmt: skip
+        mekf_update_vector(es, ep, z[Z.SUN], z[Z.SUN + 1], z[Z.SUN + 2], s[0], s[1], s[2],
+                           ep[EP.SUN])  # fmt: skip
 
 
 @jit
 def _field_offset(fw, sc):
     """Offset of the field block the software reads (its own, else the magnetorquers')."""
-    fo = int(fw[FW_FIELD])
+    fo = int(fw[FW.FIELD])
     if fo == 0:
-        fo = int(sc[S_MTQ])
+        fo = int(sc[SC.MTQ])
     return fo
 
 
@@ -492,19 +380,19 @@ def _sense(t, y, omt, sc, fw, fs, rec_row, keep):
     fo = _field_offset(fw, sc)
     bbt = (0.0, 0.0, 0.0)
     if fo > 0:
-        bbt = field_body(qt, t, fw if int(fw[FW_FIELD]) > 0 else sc, fo)
-    if fw[FW_SENSORS] == 0.0:  # the truth (not even the call's entry a tick)
+        bbt = field_body(qt, t, fw if int(fw[FW.FIELD]) > 0 else sc, fo)
+    if fw[FW.SENSORS] == 0.0:  # the truth (not even the call's entry a tick)
         return qt, omt, bbt
-    at = R_CMD + 2 * int(fw[FW_NCMD]) if keep else -1
+    at = R.CMD + 2 * int(fw[FW.NCMD]) if keep else -1
     return sense_and_estimate(t, qt, omt, bbt, fw, fs, rec_row, at)
 
 
 @jit
 def _sensed(fs):
     """The (q, ω, B_body) stored by :func:`fsw_boundary` at this tick."""
-    q = (fs[FS_SQ], fs[FS_SQ + 1], fs[FS_SQ + 2], fs[FS_SQ + 3])
-    om = (fs[FS_SW], fs[FS_SW + 1], fs[FS_SW + 2])
-    bb = (fs[FS_SB], fs[FS_SB + 1], fs[FS_SB + 2])
+    q = (fs[FS.SQ], fs[FS.SQ + 1], fs[FS.SQ + 2], fs[FS.SQ + 3])
+    om = (fs[FS.SW], fs[FS.SW + 1], fs[FS.SW + 2])
+    bb = (fs[FS.SB], fs[FS.SB + 1], fs[FS.SB + 2])
     return q, om, bb
 
 
@@ -514,31 +402,31 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     commands to apply into ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``
     if ``keep`` (an unrecorded tick writes nothing there and skips what only the record needs:
     the error angle, the estimation error and its NEES)."""
-    nw = int(sc[S_NW])
-    nm = int(sc[S_NM])
-    ncmd = int(fw[FW_NCMD])
+    nw = int(sc[SC.NW])
+    nm = int(sc[SC.NM])
+    ncmd = int(fw[FW.NCMD])
     fo = _field_offset(fw, sc)
-    if fs[FS_SENSED] != 0.0:  # measured when your own step asked for its commands
+    if fs[FS.SENSED] != 0.0:  # measured when your own step asked for its commands
         q, om, bb = _sensed(fs)
-        fs[FS_SENSED] = 0.0
+        fs[FS.SENSED] = 0.0
     else:
         q, om, bb = _sense(t, y, omt, sc, fw, fs, rec_row, keep)
     # modes: forward to the next one when its condition holds
-    mode = int(fs[FS_MODE])
-    nmodes = int(fw[FW_NMODES])
+    mode = int(fs[FS.MODE])
+    nmodes = int(fw[FW.NMODES])
     if mode + 1 < nmodes:
-        nb = int(fw[int(fw[FW_MODES]) + mode + 1])
+        nb = int(fw[int(fw[FW.MODES]) + mode + 1])
         if condition_holds(fw, nb, t, q, om):
             mode += 1
-            fs[FS_MODE] = mode
-            fs[FS_ENTERED] = 0.0
-            fs[FS_INT] = 0.0
-            fs[FS_INT + 1] = 0.0
-            fs[FS_INT + 2] = 0.0
-            fs[FS_PRIOR] = math.nan
-    mb = int(fw[int(fw[FW_MODES]) + mode])
+            fs[FS.MODE] = mode
+            fs[FS.ENTERED] = 0.0
+            fs[FS.INT] = 0.0
+            fs[FS.INT + 1] = 0.0
+            fs[FS.INT + 2] = 0.0
+            fs[FS.PRIOR] = math.nan
+    mb = int(fw[int(fw[FW.MODES]) + mode])
     qR, wR_R, dwR_R = guidance(fw, fs, mb, t, q)
-    fs[FS_ENTERED] = 1.0
+    fs[FS.ENTERED] = 1.0
     # errors: q_BR = q̃_R∘q, rates of the reference in body axes
     qBR = conj_mul(qR, q)
     sig = mrp(qBR)
@@ -549,32 +437,32 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         wRN = rotate_inverse(qBR, wR_R)
         dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
-    I = FW_INERTIA
-    external = fw[FW_EXTERNAL] != 0.0
+    I = FW.INERTIA
+    external = fw[FW.EXTERNAL] != 0.0
     # control law
-    ctrl = CTRL_NONE if external else int(fw[mb + MB_CTRL])
+    ctrl = CTRL_NONE if external else int(fw[mb + MB.CTRL])
     L = (0.0, 0.0, 0.0)
     m = (0.0, 0.0, 0.0)
-    K = fw[mb + MB_K]
-    P = mb + MB_P
+    K = fw[mb + MB.K]
+    P = mb + MB.P
     if ctrl == CTRL_MRP:
-        Ki = fw[mb + MB_KI]
+        Ki = fw[mb + MB.KI]
         z = (0.0, 0.0, 0.0)
-        prior = fs[FS_PRIOR]
+        prior = fs[FS.PRIOR]
         dt = 0.0 if prior != prior else t - prior
-        fs[FS_PRIOR] = t
+        fs[FS.PRIOR] = t
         if Ki > 0.0:
-            lim = fw[mb + MB_ILIM]
+            lim = fw[mb + MB.ILIM]
             for i in range(3):
-                v = fs[FS_INT + i] + K * dt * sig[i]
+                v = fs[FS.INT + i] + K * dt * sig[i]
                 if abs(v) > lim:
                     v *= lim / abs(v)
-                fs[FS_INT + i] = v
+                fs[FS.INT + i] = v
             Idw = _mv(fw, I, dw[0], dw[1], dw[2])
-            z = (fs[FS_INT] + Idw[0], fs[FS_INT + 1] + Idw[1], fs[FS_INT + 2] + Idw[2])
+            z = (fs[FS.INT] + Idw[0], fs[FS.INT + 1] + Idw[1], fs[FS.INT + 2] + Idw[2])
         Pd = _mv(fw, P, dw[0], dw[1], dw[2])
         lr = (K * sig[0] + Pd[0], K * sig[1] + Pd[1], K * sig[2] + Pd[2])
-        law0 = fw[mb + MB_LAWTYPE] == 0.0
+        law0 = fw[mb + MB.LAWTYPE] == 0.0
         # K_I z and v = ω_r + K_I z (law type 0) are zeros for a fixed reference without an
         # integral term: not computed then (tested against the full law at a fixed attitude).
         if Ki > 0.0 or not still or not law0:
@@ -608,10 +496,10 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         Cd = _mv(fw, P, dw[0], dw[1], dw[2])
         L = (-Cd[0], -Cd[1], -Cd[2])
     elif ctrl == CTRL_BDOT:
-        if fs[FS_BVALID] != 0.0:
-            per = fw[FW_PERIOD]
-            p0, p1, p2 = fs[FS_BPREV], fs[FS_BPREV + 1], fs[FS_BPREV + 2]
-            if fw[mb + MB_LAWTYPE] == 0.0:  # m = −k Ḃ
+        if fs[FS.BVALID] != 0.0:
+            per = fw[FW.PERIOD]
+            p0, p1, p2 = fs[FS.BPREV], fs[FS.BPREV + 1], fs[FS.BPREV + 2]
+            if fw[mb + MB.LAWTYPE] == 0.0:  # m = −k Ḃ
                 m = (-K * (bb[0] - p0) / per, -K * (bb[1] - p1) / per, -K * (bb[2] - p2) / per)
             else:  # m = −(k/|B|) ḃ, b = B/|B|
                 nb = math.sqrt(bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2])
@@ -623,16 +511,16 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
                         c * (bb[1] / nb - p1 / npv),
                         c * (bb[2] / nb - p2 / npv),
                     )
-    fs[FS_BPREV] = bb[0]
-    fs[FS_BPREV + 1] = bb[1]
-    fs[FS_BPREV + 2] = bb[2]
-    fs[FS_BVALID] = 1.0 if fo > 0 else 0.0
+    fs[FS.BPREV] = bb[0]
+    fs[FS.BPREV + 1] = bb[1]
+    fs[FS.BPREV + 2] = bb[2]
+    fs[FS.BVALID] = 1.0 if fo > 0 else 0.0
     # momentum dumping (cross-product law) beside the wheels
-    kd = fw[mb + MB_DUMP]
+    kd = fw[mb + MB.DUMP]
     b2 = bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2]
     if kd > 0.0 and b2 > 0.0:
         hw0, hw1, hw2 = wheel_momentum_sum(sc, y)
-        r = mb + MB_DUMP_REF
+        r = mb + MB.DUMP_REF
         dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
         c = cross(dh, bb)  # m = k (Δh × B)/|B|²: the torque m × B = −k Δh⊥ unloads the wheels
         m = (m[0] + kd * c[0] / b2, m[1] + kd * c[1] / b2, m[2] + kd * c[2] / b2)
@@ -640,32 +528,32 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     out = cmd
     ideal = (0.0, 0.0, 0.0)
     if external:
-        if fw[FW_IDEAL] != 0.0:
+        if fw[FW.IDEAL] != 0.0:
             L = (cmd[0], cmd[1], cmd[2])
             ideal = L
             for i in range(3):
                 cmd[i] = 0.0
-    elif fw[FW_IDEAL] != 0.0:
+    elif fw[FW.IDEAL] != 0.0:
         ideal = L
     elif nw > 0:
         for i in range(ncmd):
             out[i] = 0.0
-        gp = int(fw[FW_GPINV])
+        gp = int(fw[FW.GPINV])
         for k in range(nw):
             out[k] = -(
                 fw[gp + 3 * k] * L[0] + fw[gp + 3 * k + 1] * L[1] + fw[gp + 3 * k + 2] * L[2]
             )
-        kn = fw[mb + MB_NULL]
+        kn = fw[mb + MB.NULL]
         if kn > 0.0:
-            npj = int(fw[FW_NULLP])
-            so = int(fw[mb + MB_NULL_SPEEDS])
+            npj = int(fw[FW.NULLP])
+            so = int(fw[mb + MB.NULL_SPEEDS])
             for k in range(nw):
                 acc = 0.0
                 for j in range(nw):
-                    b = S_WHEELS + j * WS
+                    b = SC.WHEELS + j * WHEEL.SIZE
                     Om = wheel_speed(sc, b, y[8 + j], om)
                     ref = fw[so + j] if so > 0 else 0.0
-                    acc += fw[npj + nw * k + j] * sc[b + W_J] * (Om - ref)
+                    acc += fw[npj + nw * k + j] * sc[b + WHEEL.J] * (Om - ref)
                 out[k] -= kn * acc
     else:
         for i in range(ncmd):
@@ -675,34 +563,34 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             c = cross(bb, L)
             m = (m[0] + c[0] / b2, m[1] + c[1] / b2, m[2] + c[2] / b2)
     if nm > 0 and not external:
-        ap = int(fw[FW_NAPINV])
+        ap = int(fw[FW.NAPINV])
         for j in range(nm):
             out[nw + j] = (
                 fw[ap + 3 * j] * m[0] + fw[ap + 3 * j + 1] * m[1] + fw[ap + 3 * j + 2] * m[2]
             )
-    sc[S_IDEAL] = ideal[0]
-    sc[S_IDEAL + 1] = ideal[1]
-    sc[S_IDEAL + 2] = ideal[2]
+    sc[SC.IDEAL] = ideal[0]
+    sc[SC.IDEAL + 1] = ideal[1]
+    sc[SC.IDEAL + 2] = ideal[2]
     # record what was computed, then the delay
     if keep:
-        rec_row[R_T] = t
-        rec_row[R_MODE] = mode
+        rec_row[R.T] = t
+        rec_row[R.MODE] = mode
         for i in range(4):
-            rec_row[R_QREF + i] = qR[i]
+            rec_row[R.QREF + i] = qR[i]
         for i in range(3):
-            rec_row[R_SIGMA + i] = sig[i]
-            rec_row[R_DOMEGA + i] = dw[i]
-            rec_row[R_TORQUE + i] = L[i]
-            rec_row[R_DIPOLE + i] = m[i]
+            rec_row[R.SIGMA + i] = sig[i]
+            rec_row[R.DOMEGA + i] = dw[i]
+            rec_row[R.TORQUE + i] = L[i]
+            rec_row[R.DIPOLE + i] = m[i]
         sq = shorter(qBR)
         s2 = sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]
-        rec_row[R_ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
+        rec_row[R.ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
         for i in range(ncmd):
-            rec_row[R_CMD + i] = out[i]
-    delay = int(fw[FW_DELAY])
+            rec_row[R.CMD + i] = out[i]
+    delay = int(fw[FW.DELAY])
     if delay > 0:
-        k = int(fs[FS_TICK])
-        slot = FS_QUEUE + (k % delay) * ncmd
+        k = int(fs[FS.TICK])
+        slot = FS.QUEUE + (k % delay) * ncmd
         for i in range(ncmd):
             v = fs[slot + i]
             fs[slot + i] = out[i]
@@ -717,65 +605,65 @@ def fsw_boundary(P, y, t, t_end, ctl):
     hs, fw, fs, cmd, rec, rc = ctl
     params = P[0]
     sc = P[1]
-    per = fw[FW_PERIOD]
-    if hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # first call: zero commands until the first tick
-        fs[FS_NEXT] = fw[FW_T0]
-        fs[FS_TICK] = 0.0
-        fs[FS_MODE] = 0.0
-        fs[FS_PRIOR] = math.nan
-        if t < fw[FW_T0]:
+    per = fw[FW.PERIOD]
+    if hs[HS.HOLD_END] != hs[HS.HOLD_END]:  # first call: zero commands until the first tick
+        fs[FS.NEXT] = fw[FW.T0]
+        fs[FS.TICK] = 0.0
+        fs[FS.MODE] = 0.0
+        fs[FS.PRIOR] = math.nan
+        if t < fw[FW.T0]:
             for i in range(cmd.shape[0]):
                 cmd[i] = 0.0
-            configure_hold(sc, y, cmd, t, fw[FW_T0])
-            sc[S_IDEAL] = 0.0
-            sc[S_IDEAL + 1] = 0.0
-            sc[S_IDEAL + 2] = 0.0
-            hs[HS_HOLD_END] = fw[FW_T0]
-    if t >= fs[FS_NEXT]:
-        k = int(fs[FS_TICK])
-        every = int(fw[FW_RECORD_EVERY])
+            configure_hold(sc, y, cmd, t, fw[FW.T0])
+            sc[SC.IDEAL] = 0.0
+            sc[SC.IDEAL + 1] = 0.0
+            sc[SC.IDEAL + 2] = 0.0
+            hs[HS.HOLD_END] = fw[FW.T0]
+    if t >= fs[FS.NEXT]:
+        k = int(fs[FS.TICK])
+        every = int(fw[FW.RECORD_EVERY])
         if every > 0:
             keep = k % every == 0
         else:  # the ticks in effect at the output samples
-            p = int(fs[FS_RECORD_NEXT])
-            keep = p < int(fw[FW_RECORD_N]) and fw[int(fw[FW_RECORD_TABLE]) + p] == k
+            p = int(fs[FS.RECORD_NEXT])
+            keep = p < int(fw[FW.RECORD_N]) and fw[int(fw[FW.RECORD_TABLE]) + p] == k
         if keep and rc[0] >= rec.shape[0]:
             return RECORDS_FULL
         row = rec[int(rc[0]) if keep else 0]  # (an unrecorded tick writes nothing there)
-        if fw[FW_EXTERNAL] != 0.0 and hs[HS_READY] == 0.0:
+        if fw[FW.EXTERNAL] != 0.0 and hs[HS.READY] == 0.0:
             # your own step: measure once (recorded in this row), then ask for the commands
-            if fs[FS_SENSED] == 0.0:
+            if fs[FS.SENSED] == 0.0:
                 q, om, bb = _sense(t, y, state_rate(sc, y)[1], sc, fw, fs, row, keep)
                 for i in range(4):
-                    fs[FS_SQ + i] = q[i]
+                    fs[FS.SQ + i] = q[i]
                 for i in range(3):
-                    fs[FS_SW + i] = om[i]
-                    fs[FS_SB + i] = bb[i]
-                fs[FS_SENSED] = 1.0
+                    fs[FS.SW + i] = om[i]
+                    fs[FS.SB + i] = bb[i]
+                fs[FS.SENSED] = 1.0
             return BOUNDARY_NEEDS_COMMANDS
-        hs[HS_READY] = 0.0
+        hs[HS.READY] = 0.0
         _g, omt = state_rate(sc, y)  # the truth's rate, for the sensors and the wheels' limits
         fsw_tick(t, y, omt, params, sc, fw, fs, cmd, row, keep)
-        t_next = fw[FW_T0] + (k + 1) * per
+        t_next = fw[FW.T0] + (k + 1) * per
         configure_hold_rate(sc, y, omt, cmd, t, t_next)
         # the applied commands of the tick (after the wheels' limits)
         if keep:
-            ncmd = int(fw[FW_NCMD])
-            nw = int(sc[S_NW])
+            ncmd = int(fw[FW.NCMD])
+            nw = int(sc[SC.NW])
             for i in range(ncmd):
-                row[R_CMD + ncmd + i] = cmd[i]
+                row[R.CMD + ncmd + i] = cmd[i]
             for j in range(nw):
-                row[R_CMD + ncmd + j] = sc[S_WHEELS + j * WS + W_U]
+                row[R.CMD + ncmd + j] = sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.U]
             rc[0] += 1
-            fs[FS_RECORD_NEXT] += 1.0  # (read only with every = 0)
-        fs[FS_TICK] = k + 1
-        fs[FS_NEXT] = t_next
-        hs[HS_HOLD_END] = t_next
-    if sc[S_NT] > 0.0:
+            fs[FS.RECORD_NEXT] += 1.0  # (read only with every = 0)
+        fs[FS.TICK] = k + 1
+        fs[FS.NEXT] = t_next
+        hs[HS.HOLD_END] = t_next
+    if sc[SC.NT] > 0.0:
         thrusters_off_at(sc, t)
-        hs[HS_SEG_END] = next_thruster_off(sc, t, min(hs[HS_HOLD_END], t_end))
+        hs[HS.SEG_END] = next_thruster_off(sc, t, min(hs[HS.HOLD_END], t_end))
     else:
-        hs[HS_SEG_END] = min(hs[HS_HOLD_END], t_end)
+        hs[HS.SEG_END] = min(hs[HS.HOLD_END], t_end)
     return BOUNDARY_DONE
 
 

@@ -16,38 +16,46 @@ import numpy as np
 from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 
-from .actuators import S_MTQ, S_NW, S_WHEELS, WS, state_rate, wheel_speed
+from .actuators import (
+    SC,
+    WHEEL,
+    state_rate,
+    wheel_speed,
+)
 from .environment import field_body
 from .fsw import (
-    FS_ENTERED,
-    FS_MODE,
-    FS_SENSED,
-    FW_FIELD,
-    FW_MODES,
-    FW_NCMD,
-    FW_ORBIT,
-    FW_SUN,
+    FS,
+    FW,
     _field_offset,
     _sensed,
     fsw_boundary,
     guidance,
 )
-from .holds import BOUNDARY_NEEDS_COMMANDS, HS_FAIL, HS_FAIL_N, HS_READY, STEP_FAILED
+from .holds import (
+    BOUNDARY_NEEDS_COMMANDS,
+    HS,
+    STEP_FAILED,
+)
+from .layout import Field, layout
 from .quat import conj_mul, mrp, rotate_inverse
 
-#: Layout of the measurement vector of :func:`measure` (then n_w wheel speeds, n_w momenta).
-MEAS_T = 0
-MEAS_Q = 1
-MEAS_OMEGA = 5
-MEAS_QREF = 8
-MEAS_OMEGA_REF = 12
-MEAS_SIGMA = 15
-MEAS_DOMEGA = 18
-MEAS_FIELD = 21
-MEAS_SUN = 24
-MEAS_R = 27
-MEAS_V = 30
-MEAS_WHEELS = 33
+#: Layout of the measurement vector of :func:`measure`, whose public face is
+#: :class:`attitude.software.MeasurementIndex` (its members are these offsets).
+MEAS = layout(
+    "measurements of your own step",
+    t=Field(1, "s"),
+    q=Field(4, "", "attitude, body to space"),
+    omega=Field(3, "rad/s", "body rate"),
+    q_ref=Field(4, "", "the guidance's reference attitude"),
+    omega_ref=Field(3, "rad/s", "the reference rate in body axes"),
+    sigma_error=Field(3, "", "attitude error σ_BR (MRP)"),
+    omega_error=Field(3, "rad/s", "rate error ω − ω_r"),
+    field=Field(3, "T", "geomagnetic field"),
+    sun=Field(3, "", "unit vector to the Sun"),
+    r=Field(3, "km", "position, space axes (GCRS)"),
+    v=Field(3, "km/s", "velocity, space axes"),
+    wheel_speeds=Field(0, "rad/s", "n_w wheel speeds, then n_w momenta (N m s)"),
+)
 
 
 @jit
@@ -57,34 +65,34 @@ def measure(t, y, params, sc, fw, fs, out):
     the sensors' and the estimator's, as stored by :func:`fsw_boundary` at this tick); r, v
     and the Sun's direction (in the software's body axes) from the on-board ephemerides. Runs
     the active mode's guidance (a slew starts here)."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     _g, omt = state_rate(sc, y)
-    sensed = fs[FS_SENSED] != 0.0
+    sensed = fs[FS.SENSED] != 0.0
     if sensed:
         q, om, bbs = _sensed(fs)
     else:
         q = (y[0], y[1], y[2], y[3])
         om = omt
-    mb = int(fw[int(fw[FW_MODES]) + int(fs[FS_MODE])])
+    mb = int(fw[int(fw[FW.MODES]) + int(fs[FS.MODE])])
     qR, wR_R, _dwR_R = guidance(fw, fs, mb, t, q)
-    fs[FS_ENTERED] = 1.0
+    fs[FS.ENTERED] = 1.0
     qBR = conj_mul(qR, q)
     sig = mrp(qBR)
     wRN = rotate_inverse(qBR, wR_R)
-    out[MEAS_T] = t
+    out[MEAS.T] = t
     for i in range(4):
-        out[MEAS_Q + i] = q[i]
-        out[MEAS_QREF + i] = qR[i]
+        out[MEAS.Q + i] = q[i]
+        out[MEAS.Q_REF + i] = qR[i]
     for i in range(3):
-        out[MEAS_OMEGA + i] = om[i]
-        out[MEAS_OMEGA_REF + i] = wRN[i]
-        out[MEAS_SIGMA + i] = sig[i]
-        out[MEAS_DOMEGA + i] = om[i] - wRN[i]
-        out[MEAS_FIELD + i] = math.nan
-        out[MEAS_SUN + i] = math.nan
-        out[MEAS_R + i] = math.nan
-        out[MEAS_V + i] = math.nan
-    fo = int(fw[FW_FIELD])
+        out[MEAS.OMEGA + i] = om[i]
+        out[MEAS.OMEGA_REF + i] = wRN[i]
+        out[MEAS.SIGMA_ERROR + i] = sig[i]
+        out[MEAS.OMEGA_ERROR + i] = om[i] - wRN[i]
+        out[MEAS.FIELD + i] = math.nan
+        out[MEAS.SUN + i] = math.nan
+        out[MEAS.R + i] = math.nan
+        out[MEAS.V + i] = math.nan
+    fo = int(fw[FW.FIELD])
     if _field_offset(fw, sc) <= 0:
         bb = (math.nan, math.nan, math.nan)
     elif sensed:
@@ -92,14 +100,14 @@ def measure(t, y, params, sc, fw, fs, out):
     elif fo > 0:
         bb = field_body(q, t, fw, fo)
     else:
-        bb = field_body(q, t, sc, int(sc[S_MTQ]))
-    oo = int(fw[FW_ORBIT])
+        bb = field_body(q, t, sc, int(sc[SC.MTQ]))
+    oo = int(fw[FW.ORBIT])
     if oo > 0:
         st = orbit_state(fw[oo:], t)
         for i in range(3):
-            out[MEAS_R + i] = st[i]
-            out[MEAS_V + i] = st[3 + i]
-        so = int(fw[FW_SUN])
+            out[MEAS.R + i] = st[i]
+            out[MEAS.V + i] = st[3 + i]
+        so = int(fw[FW.SUN])
         if so > 0:
             sun = orbit_state(fw[so:], t)
             dx = sun[0] - st[0]
@@ -108,13 +116,13 @@ def measure(t, y, params, sc, fw, fs, out):
             n = math.sqrt(dx * dx + dy * dy + dz * dz)
             sb = rotate_inverse(q, (dx / n, dy / n, dz / n))
             for i in range(3):
-                out[MEAS_SUN + i] = sb[i]
+                out[MEAS.SUN + i] = sb[i]
     for i in range(3):
-        out[MEAS_FIELD + i] = bb[i]
+        out[MEAS.FIELD + i] = bb[i]
     for k in range(nw):
-        b = S_WHEELS + k * WS
-        out[MEAS_WHEELS + k] = wheel_speed(sc, b, y[8 + k], omt)  # the tachometers
-        out[MEAS_WHEELS + nw + k] = y[8 + k]
+        b = SC.WHEELS + k * WHEEL.SIZE
+        out[MEAS.WHEEL_SPEEDS + k] = wheel_speed(sc, b, y[8 + k], omt)  # the tachometers
+        out[MEAS.WHEEL_SPEEDS + nw + k] = y[8 + k]
 
 
 @jit
@@ -125,7 +133,7 @@ def measure_from_python(t, y, params, sc, fw, fs, out):
     measure(t, y, params, sc, fw, fs, out)
 
 
-#: Why a compiled step's commands were refused (``hs[HS_FAIL]``; ``hs[HS_FAIL_N]``: the length
+#: Why a compiled step's commands were refused (``hs[HS.FAIL]``; ``hs[HS.FAIL_N]``: the length
 #: it returned).
 STEP_WRONG_LENGTH = 1.0
 STEP_NONFINITE = 2.0
@@ -142,22 +150,22 @@ def step_boundary_with(step, P, y, t, t_end, ctl):
         return status
     hs, fw, fs, cmd = ctl[0], ctl[1], ctl[2], ctl[3]
     sc = P[1]
-    nw = int(sc[S_NW])
-    m = np.empty(MEAS_WHEELS + 2 * nw)
+    nw = int(sc[SC.NW])
+    m = np.empty(MEAS.WHEEL_SPEEDS + 2 * nw)
     measure(t, y, P[0], sc, fw, fs, m)
     out = step(t, m)
-    ncmd = int(fw[FW_NCMD])
+    ncmd = int(fw[FW.NCMD])
     want = ncmd if ncmd > 0 else 3
     if out.shape[0] != want:
-        hs[HS_FAIL] = STEP_WRONG_LENGTH
-        hs[HS_FAIL_N] = out.shape[0]
+        hs[HS.FAIL] = STEP_WRONG_LENGTH
+        hs[HS.FAIL_N] = out.shape[0]
         return STEP_FAILED
     for i in range(want):
         v = float(out[i])
         if not math.isfinite(v):
-            hs[HS_FAIL] = STEP_NONFINITE
-            hs[HS_FAIL_N] = i
+            hs[HS.FAIL] = STEP_NONFINITE
+            hs[HS.FAIL_N] = i
             return STEP_FAILED
         cmd[i] = v
-    hs[HS_READY] = 1.0
+    hs[HS.READY] = 1.0
     return fsw_boundary(P, y, t, t_end, ctl)

@@ -31,19 +31,10 @@ import math
 from orbit._shared_jit import jit, jit_generic
 
 from .actuators import (
-    M_AXIS,
-    S_MTQ,
-    S_NM,
-    S_NT,
-    S_NW,
-    S_TAU,
-    S_WHEELS,
-    T_FIRING,
-    W_FRICTION,
-    W_J,
-    W_STRIBECK,
-    W_U,
-    WS,
+    MTQ,
+    SC,
+    THR,
+    WHEEL,
     actuator_torque,
     body_rate,
     magnetorquer_base,
@@ -86,10 +77,10 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
         c = mul_vec(q, tau)
         for i in range(4):
             dydt[4 + i] += 2.0 * c[i]
-    for k in range(int(sc[S_NW])):
-        bk = S_WHEELS + k * WS
-        u = sc[bk + W_U]
-        if sc[bk + W_FRICTION] != 0.0:  # (frictionless wheels: no speed, no call)
+    for k in range(int(sc[SC.NW])):
+        bk = SC.WHEELS + k * WHEEL.SIZE
+        u = sc[bk + WHEEL.U]
+        if sc[bk + WHEEL.FRICTION] != 0.0:  # (frictionless wheels: no speed, no call)
             u += wheel_friction(sc, bk, wheel_speed(sc, bk, y[8 + k], om))
         dydt[8 + k] = u
 
@@ -108,9 +99,9 @@ def spacecraft_diagnostics_row(y, k, U, params, sc, out):
     G3 = 0.5 * (-Q[0] * q[3] - Q[1] * q[2] + Q[2] * q[1] + Q[3] * q[0])
     l0, l1, l2 = wheel_momentum_sum(sc, yk)
     T = 0.5 * ((g[0] - l0) * om[0] + (g[1] - l1) * om[1] + (g[2] - l2) * om[2])
-    for j in range(int(sc[S_NW])):
+    for j in range(int(sc[SC.NW])):
         h = yk[8 + j]
-        T += 0.5 * h * h / sc[S_WHEELS + j * WS + W_J]
+        T += 0.5 * h * h / sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.J]
     nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
     out[k, 0] = om[0]
     out[k, 1] = om[1]
@@ -138,10 +129,10 @@ def actuator_diagnostics(t, y, rec, sc, torque_out, wheel_out):
     row 1 the magnetorquers' m × B_B, row 2 the thrusters' torque. ``wheel_out`` (m, n_w, 2):
     Ω_k and the friction torque f_k(Ω_k).
     """
-    nw = int(sc[S_NW])
-    nm = int(sc[S_NM])
-    nt = int(sc[S_NT])
-    o = int(sc[S_MTQ])
+    nw = int(sc[SC.NW])
+    nm = int(sc[SC.NM])
+    nt = int(sc[SC.NT])
+    o = int(sc[SC.MTQ])
     for i in range(y.shape[0]):
         yi = y[i]
         q = (yi[0], yi[1], yi[2], yi[3])
@@ -149,8 +140,8 @@ def actuator_diagnostics(t, y, rec, sc, torque_out, wheel_out):
         c = 0
         r0 = r1 = r2 = 0.0
         for k in range(nw):
-            b = S_WHEELS + k * WS
-            sc[b + W_STRIBECK] = rec[i, c + 3]
+            b = SC.WHEELS + k * WHEEL.SIZE
+            sc[b + WHEEL.STRIBECK] = rec[i, c + 3]
             u = rec[i, c + 1]
             Om = wheel_speed(sc, b, yi[8 + k], om)
             f = wheel_friction(sc, b, Om)
@@ -167,9 +158,9 @@ def actuator_diagnostics(t, y, rec, sc, torque_out, wheel_out):
         for j in range(nm):
             b = magnetorquer_base(sc, j)
             m = rec[i, c + 1]
-            m0 += m * sc[b + M_AXIS]
-            m1 += m * sc[b + M_AXIS + 1]
-            m2 += m * sc[b + M_AXIS + 2]
+            m0 += m * sc[b + MTQ.AXIS]
+            m1 += m * sc[b + MTQ.AXIS + 1]
+            m2 += m * sc[b + MTQ.AXIS + 2]
             c += 2
         if o >= 0:
             bb = field_body(q, t[i], sc, o)
@@ -183,12 +174,12 @@ def actuator_diagnostics(t, y, rec, sc, torque_out, wheel_out):
             torque_out[i, 1, 2] = 0.0
         for j in range(nt):
             b = thruster_base(sc, j)
-            sc[b + T_FIRING] = rec[i, c + 1]
+            sc[b + THR.FIRING] = rec[i, c + 1]
             c += 2
         thrusters_update(sc)
-        torque_out[i, 2, 0] = sc[S_TAU]
-        torque_out[i, 2, 1] = sc[S_TAU + 1]
-        torque_out[i, 2, 2] = sc[S_TAU + 2]
+        torque_out[i, 2, 0] = sc[SC.TAU]
+        torque_out[i, 2, 1] = sc[SC.TAU + 1]
+        torque_out[i, 2, 2] = sc[SC.TAU + 2]
         torque_out[i, 3, 0] = rec[i, c]
         torque_out[i, 3, 1] = rec[i, c + 1]
         torque_out[i, 3, 2] = rec[i, c + 2]

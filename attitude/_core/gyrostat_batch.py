@@ -40,23 +40,29 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
 
 from . import lanes as V
-from .actuators import S_IDEAL, S_MINV, S_TAU, S_WHEELS, W_AXIS, W_INVJ, W_U, WS
+from .actuators import (
+    SC,
+    WHEEL,
+)
 from .ensemble import NOT_STARTED, RUNNING, member_begin
 from .fsw import fsw_boundary  # noqa: F401 (bound by name)
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_NEXT,
-    HS_PENDING,
-    HS_SEG_END,
+    HS,
     NEEDS_COMMANDS,
     RECORDS_FULL,
     record,
     schedule_boundary,
 )
 from .lanes import LANES
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .layout import Field, layout
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .rk import SUCCESS, TOO_MANY_STEPS
 from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     RECORDS_WAIT,
@@ -65,11 +71,7 @@ from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     schedule_ctl,
 )
 from .taylor import (
-    CA,
-    CG,
-    CV,
-    CW,
-    NCOL,
+    COL,
     RECIPROCALS,
     WORK_ROWS,
     Y,
@@ -82,7 +84,7 @@ from .taylor_gyrostat import (
     PIECE_FREE,
     PMIN,
     ROUNDOFF,
-    TS_SIZE,
+    TS,
     _block3,
     _block4,
     _blockh,
@@ -97,48 +99,62 @@ from .taylor_gyrostat import (
 __all__ = ["LANES", "fsw_parallel", "new_workspaces", "schedule_parallel"]
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
-K_M = 0  # M = Ĩ⁻¹ (9, row-major)
-K_N = 9  # n = |q|²
-K_W = 10  # heavy top: weight
-K_CM = 11  # heavy top: centre of mass (3)
-K_MU = 14  # gravity gradient: μ
-K_D = 15  # gravity gradient: I3 − I2, I1 − I3, I2 − I1
-K_TAU = 18  # the thrusters' held torque (3)
-K_WHEEL = 21  # per wheel: axis (3), 1/J, friction slope c₁, friction offset c₀, motor torque u
-KW = 7
+GCONST = layout(
+    "per-lane constants",
+    m=Field(9, "", "M = Ĩ⁻¹ (row-major)", (3, 3)),
+    n=Field(1, "", "n = |q|²"),
+    w=Field(1, "N", "heavy top: weight"),
+    cm=Field(3, "m", "heavy top: centre of mass"),
+    mu=Field(1, "km3/s2", "gravity gradient: μ"),
+    d=Field(3, "", "gravity gradient: I3 − I2, I1 − I3, I2 − I1"),
+    tau=Field(3, "N m", "the thrusters' held torque"),
+    wheel=Field(0, "", "per wheel: GWHEEL"),
+)
+GWHEEL = layout(
+    "per-lane wheel constants",
+    axis=3,
+    invj=Field(1, "", "1/J"),
+    c1=Field(1, "", "friction slope c₁"),
+    c0=Field(1, "", "friction offset c₀"),
+    u=Field(1, "N m", "motor torque"),
+)
 # Per-lane numbers of the step's order control (columns of ``lf``).
-LF_D = 0  # the longest step d
-LF_TQ = 1  # ORDER_MARGIN rtol S_q
-LF_TG = 2  # ORDER_MARGIN rtol S_g
-LF_TH = 3  # ORDER_MARGIN rtol S_h
-LF_DK = 4  # d^k
-LF_N = 5  # n of the step
-LF_C = 6  # c of the step
-LF_RO = 7  # ROUNDOFF S_b (q, g, h)
-LF_T = 10  # the blocks' terms at the last two orders (q, g, h: t_{k−1}, t_{k−2} each)
-NLF = 16
+LF = layout(
+    "order control",
+    d=Field(1, "", "the longest step d"),
+    tq=Field(1, "", "ORDER_MARGIN rtol S_q"),
+    tg=Field(1, "", "ORDER_MARGIN rtol S_g"),
+    th=Field(1, "", "ORDER_MARGIN rtol S_h"),
+    dk=Field(1, "", "d^k"),
+    n=Field(1, "", "n of the step"),
+    c=Field(1, "", "c of the step"),
+    ro=Field(3, "", "ROUNDOFF S_b (q, g, h)"),
+    t=Field(6, "", "the blocks' terms at the last two orders (q, g, h: t_{k−1}, t_{k−2} each)"),
+)
 # Per-lane integers (columns of ``lint``).
-L_MEMBER = 0  # the member in the lane (−1: none)
-L_K = 1  # its next output sample
-L_LIMIT = 2  # its step limit in this call
-L_STOP = 3  # the order its recurrences stop at (−1: not yet)
-L_STEP = 4  # 1: it takes a step in this round
-NLI = 5
+GLANE = layout(
+    "lane state",
+    member=Field(1, "", "the member in the lane (−1: none)"),
+    k=Field(1, "", "its next output sample"),
+    limit=Field(1, "", "its step limit in this call"),
+    stop=Field(1, "", "the order its recurrences stop at (−1: not yet)"),
+    step=Field(1, "", "1: it takes a step in this round"),
+)
 
 
 def n_constants(nw: int) -> int:
     """Rows of ``cst`` for ``nw`` wheels."""
-    return K_WHEEL + KW * nw
+    return GCONST.WHEEL + GWHEEL.SIZE * nw
 
 
 def new_workspaces(groups: int, nw: int) -> tuple[np.ndarray, ...]:
     """The arrays of ``groups`` batch integrators: ``(cf, cst, lf, lint)``, one row each (made
     by the caller: the parallel loop runs without numba's reference counting)."""
     return (
-        np.zeros((groups, WORK_ROWS, NCOL + 2 * nw, LANES)),
-        np.zeros((groups, K_WHEEL + KW * nw, LANES)),
-        np.zeros((groups, LANES, NLF)),
-        np.zeros((groups, LANES, NLI), dtype=np.int64),
+        np.zeros((groups, WORK_ROWS, COL.SIZE + 2 * nw, LANES)),
+        np.zeros((groups, GCONST.WHEEL + GWHEEL.SIZE * nw, LANES)),
+        np.zeros((groups, LANES, LF.SIZE)),
+        np.zeros((groups, LANES, GLANE.SIZE), dtype=np.int64),
     )
 
 
@@ -176,38 +192,38 @@ def _lane_blockh(cf, k, nw, lane):
 @slp_vectorized
 @jit
 def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
-    """Rows 1.. of the table of every lane taking a step (``lint[:, L_STEP]``) from its row 0:
+    """Rows 1.. of the table of every lane taking a step (``lint[:, GLANE.STEP]``) from its row 0:
     the recurrences of :func:`attitude._core.taylor_gyrostat.gyrostat_coefficients`, statement
     for statement, on lane tuples. Each lane stops at its own order (that function's test, on
-    its own numbers): its order in ``lint[:, L_STOP]``, its rows 0..order (ω and Ω also at
+    its own numbers): its order in ``lint[:, GLANE.STOP]``, its rows 0..order (ω and Ω also at
     that order) as that function fills them; the recurrences run until every lane is done."""
     Z = V.ZERO
-    m00 = V.load_row(cst, K_M)
-    m01 = V.load_row(cst, K_M + 1)
-    m02 = V.load_row(cst, K_M + 2)
-    m10 = V.load_row(cst, K_M + 3)
-    m11 = V.load_row(cst, K_M + 4)
-    m12 = V.load_row(cst, K_M + 5)
-    m20 = V.load_row(cst, K_M + 6)
-    m21 = V.load_row(cst, K_M + 7)
-    m22 = V.load_row(cst, K_M + 8)
-    n = V.load_row(cst, K_N)
-    mW = V.neg(V.load_row(cst, K_W))
-    cx = V.load_row(cst, K_CM)
-    cy = V.load_row(cst, K_CM + 1)
-    cz = V.load_row(cst, K_CM + 2)
-    mu = V.load_row(cst, K_MU)
+    m00 = V.load_row(cst, GCONST.M)
+    m01 = V.load_row(cst, GCONST.M + 1)
+    m02 = V.load_row(cst, GCONST.M + 2)
+    m10 = V.load_row(cst, GCONST.M + 3)
+    m11 = V.load_row(cst, GCONST.M + 4)
+    m12 = V.load_row(cst, GCONST.M + 5)
+    m20 = V.load_row(cst, GCONST.M + 6)
+    m21 = V.load_row(cst, GCONST.M + 7)
+    m22 = V.load_row(cst, GCONST.M + 8)
+    n = V.load_row(cst, GCONST.N)
+    mW = V.neg(V.load_row(cst, GCONST.W))
+    cx = V.load_row(cst, GCONST.CM)
+    cy = V.load_row(cst, GCONST.CM + 1)
+    cz = V.load_row(cst, GCONST.CM + 2)
+    mu = V.load_row(cst, GCONST.MU)
     mu3 = V.smul(3.0, mu)
     mmu = V.neg(mu)
-    D0 = V.load_row(cst, K_D)
-    D1 = V.load_row(cst, K_D + 1)
-    D2 = V.load_row(cst, K_D + 2)
-    tau0 = V.load_row(cst, K_TAU)
-    tau1 = V.load_row(cst, K_TAU + 1)
-    tau2 = V.load_row(cst, K_TAU + 2)
+    D0 = V.load_row(cst, GCONST.D)
+    D1 = V.load_row(cst, GCONST.D + 1)
+    D2 = V.load_row(cst, GCONST.D + 2)
+    tau0 = V.load_row(cst, GCONST.TAU)
+    tau1 = V.load_row(cst, GCONST.TAU + 1)
+    tau2 = V.load_row(cst, GCONST.TAU + 2)
     for lane in range(LANES):
-        lint[lane, L_STOP] = -1 if lint[lane, L_STEP] != 0 else 0
-        lf[lane, LF_DK] = 1.0
+        lint[lane, GLANE.STOP] = -1 if lint[lane, GLANE.STEP] != 0 else 0
+        lf[lane, LF.DK] = 1.0
     CO = CH + nw
     k = 0
     while True:
@@ -215,32 +231,37 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
         l0 = l1 = l2 = Z
         for j in range(nw):
             h = V.load(cf, k, CH + j)
-            r = K_WHEEL + KW * j
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
             l0 = V.fma(h, V.load_row(cst, r), l0)
             l1 = V.fma(h, V.load_row(cst, r + 1), l1)
             l2 = V.fma(h, V.load_row(cst, r + 2), l2)
-        e0 = V.sub(V.load(cf, k, CG), l0)
-        e1 = V.sub(V.load(cf, k, CG + 1), l1)
-        e2 = V.sub(V.load(cf, k, CG + 2), l2)
+        e0 = V.sub(V.load(cf, k, COL.G), l0)
+        e1 = V.sub(V.load(cf, k, COL.G + 1), l1)
+        e2 = V.sub(V.load(cf, k, COL.G + 2), l2)
         w0 = V.fma(m02, e2, V.fma(m01, e1, V.mul(m00, e0)))
         w1 = V.fma(m12, e2, V.fma(m11, e1, V.mul(m10, e0)))
         w2 = V.fma(m22, e2, V.fma(m21, e1, V.mul(m20, e0)))
-        V.store(cf, k, CW, w0)
-        V.store(cf, k, CW + 1, w1)
-        V.store(cf, k, CW + 2, w2)
+        V.store(cf, k, COL.W, w0)
+        V.store(cf, k, COL.W + 1, w1)
+        V.store(cf, k, COL.W + 2, w2)
         for j in range(nw):
-            r = K_WHEEL + KW * j
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
             aw = V.fma(
                 V.load_row(cst, r + 2),
                 w2,
                 V.fma(V.load_row(cst, r + 1), w1, V.mul(V.load_row(cst, r), w0)),
             )
-            V.store(cf, k, CO + j, V.fma(V.load(cf, k, CH + j), V.load_row(cst, r + 3), V.neg(aw)))
+            V.store(
+                cf,
+                k,
+                CO + j,
+                V.fma(V.load(cf, k, CH + j), V.load_row(cst, r + GWHEEL.INVJ), V.neg(aw)),
+            )
         if k == p:
             break
         done = True
         for lane in range(LANES):
-            if lint[lane, L_STOP] < 0:
+            if lint[lane, GLANE.STOP] < 0:
                 done = False
         if done:
             break
@@ -256,12 +277,12 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
             q1 = V.load(cf, j, 1)
             q2 = V.load(cf, j, 2)
             q3 = V.load(cf, j, 3)
-            o0 = V.load(cf, i, CW)
-            o1 = V.load(cf, i, CW + 1)
-            o2 = V.load(cf, i, CW + 2)
-            g0 = V.load(cf, j, CG)
-            g1 = V.load(cf, j, CG + 1)
-            g2 = V.load(cf, j, CG + 2)
+            o0 = V.load(cf, i, COL.W)
+            o1 = V.load(cf, i, COL.W + 1)
+            o2 = V.load(cf, i, COL.W + 2)
+            g0 = V.load(cf, j, COL.G)
+            g1 = V.load(cf, j, COL.G + 1)
+            g2 = V.load(cf, j, COL.G + 2)
             b00 = V.fma(V.neg(q1), o0, b00)
             b10 = V.fma(q0, o0, b10)
             b20 = V.fma(q3, o0, b20)
@@ -294,41 +315,41 @@ def gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint):
             t0 = V.add(t0, tau0)
             t1 = V.add(t1, tau1)
             t2 = V.add(t2, tau2)
-        V.store(cf, k + 1, CG, V.smul(inv, V.fma(n, t0, p0)))
-        V.store(cf, k + 1, CG + 1, V.smul(inv, V.fma(n, t1, p1)))
-        V.store(cf, k + 1, CG + 2, V.smul(inv, V.fma(n, t2, p2)))
+        V.store(cf, k + 1, COL.G, V.smul(inv, V.fma(n, t0, p0)))
+        V.store(cf, k + 1, COL.G + 1, V.smul(inv, V.fma(n, t1, p1)))
+        V.store(cf, k + 1, COL.G + 2, V.smul(inv, V.fma(n, t2, p2)))
         for j in range(nw):
-            r = K_WHEEL + KW * j
-            v = V.mul(V.neg(V.load_row(cst, r + 4)), V.load(cf, k, CO + j))
+            r = GCONST.WHEEL + GWHEEL.SIZE * j
+            v = V.mul(V.neg(V.load_row(cst, r + GWHEEL.C1)), V.load(cf, k, CO + j))
             if k == 0:
-                v = V.add(v, V.sub(V.load_row(cst, r + 6), V.load_row(cst, r + 5)))
+                v = V.add(v, V.sub(V.load_row(cst, r + GWHEEL.U), V.load_row(cst, r + GWHEEL.C0)))
             V.store(cf, k + 1, CH + j, V.smul(inv, v))
         k += 1
         # each lane's own test: the last two terms over its d below its tolerances
         for lane in range(LANES):
-            if lint[lane, L_STOP] >= 0:
+            if lint[lane, GLANE.STOP] >= 0:
                 continue
-            dk = lf[lane, LF_DK] * lf[lane, LF_D]
-            lf[lane, LF_DK] = dk
+            dk = lf[lane, LF.DK] * lf[lane, LF.D]
+            lf[lane, LF.DK] = dk
             tq = _lane_block4(cf, k, 0, lane) * dk
-            tg = _lane_block3(cf, k, CG, lane) * dk
+            tg = _lane_block3(cf, k, COL.G, lane) * dk
             th = _lane_blockh(cf, k, nw, lane) * dk
             ok = (
-                order_enough(tq, lf[lane, LF_T], lf[lane, LF_T + 1], lf[lane, LF_TQ],
-                             lf[lane, LF_RO])
-                and order_enough(tg, lf[lane, LF_T + 2], lf[lane, LF_T + 3], lf[lane, LF_TG],
-                                 lf[lane, LF_RO + 1])
-                and order_enough(th, lf[lane, LF_T + 4], lf[lane, LF_T + 5], lf[lane, LF_TH],
-                                 lf[lane, LF_RO + 2])
+                order_enough(tq, lf[lane, LF.T], lf[lane, LF.T + 1], lf[lane, LF.TQ],
+                             lf[lane, LF.RO])
+                and order_enough(tg, lf[lane, LF.T + 2], lf[lane, LF.T + 3], lf[lane, LF.TG],
+                                 lf[lane, LF.RO + 1])
+                and order_enough(th, lf[lane, LF.T + 4], lf[lane, LF.T + 5], lf[lane, LF.TH],
+                                 lf[lane, LF.RO + 2])
             )  # fmt: skip
             if ok and k >= PMIN:
-                lint[lane, L_STOP] = k
+                lint[lane, GLANE.STOP] = k
             for b, t in enumerate((tq, tg, th)):
-                lf[lane, LF_T + 2 * b + 1] = lf[lane, LF_T + 2 * b]
-                lf[lane, LF_T + 2 * b] = t
+                lf[lane, LF.T + 2 * b + 1] = lf[lane, LF.T + 2 * b]
+                lf[lane, LF.T + 2 * b] = t
     for lane in range(LANES):
-        if lint[lane, L_STOP] < 0:
-            lint[lane, L_STOP] = p
+        if lint[lane, GLANE.STOP] < 0:
+            lint[lane, GLANE.STOP] = p
 
 
 # ------------------------------------------------------------------------------------------------
@@ -343,54 +364,54 @@ def _load_lane(cf, cst, lf, lint, lane, params, sc, work, tstate, n, c, d, rtol,
     for col in range(4):
         cf[0, col, lane] = work[0, col]
     for j in range(3):
-        cf[0, CG + j, lane] = work[0, CG + j]
-        cf[0, CA + j, lane] = work[0, CA + j]
-        cf[0, CV + j, lane] = work[0, CV + j]
+        cf[0, COL.G + j, lane] = work[0, COL.G + j]
+        cf[0, COL.A + j, lane] = work[0, COL.A + j]
+        cf[0, COL.V + j, lane] = work[0, COL.V + j]
     for j in range(nw):
         cf[0, CH + j, lane] = work[0, CH + j]
     for r in range(9):
-        cst[K_M + r, lane] = sc[S_MINV + r]
-    cst[K_N, lane] = n
-    kind = int(params[P_KIND])
+        cst[GCONST.M + r, lane] = sc[SC.MINV + r]
+    cst[GCONST.N, lane] = n
+    kind = int(params[MODEL.KIND])
     if kind == KIND_HEAVY_TOP:
-        cst[K_W, lane] = params[P0]
-        cst[K_CM, lane] = params[P0 + 1]
-        cst[K_CM + 1, lane] = params[P0 + 2]
-        cst[K_CM + 2, lane] = params[P0 + 3]
+        cst[GCONST.W, lane] = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cst[GCONST.CM, lane] = params[MODEL.KIND + HEAVY_TOP.CM]
+        cst[GCONST.CM + 1, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cst[GCONST.CM + 2, lane] = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        cst[K_MU, lane] = params[P0 + _SK.MU]
-        cst[K_D, lane] = params[2] - params[1]
-        cst[K_D + 1, lane] = params[0] - params[2]
-        cst[K_D + 2, lane] = params[1] - params[0]
+        cst[GCONST.MU, lane] = params[MODEL.DATA + _SK.MU]
+        cst[GCONST.D, lane] = params[2] - params[1]
+        cst[GCONST.D + 1, lane] = params[0] - params[2]
+        cst[GCONST.D + 2, lane] = params[1] - params[0]
     for j in range(3):
-        cst[K_TAU + j, lane] = sc[S_TAU + j] + sc[S_IDEAL + j]  # thrusters' + ideal control
+        cst[GCONST.TAU + j, lane] = sc[SC.TAU + j] + sc[SC.IDEAL + j]  # thrusters' + ideal control
     for j in range(nw):
-        b = S_WHEELS + j * WS
-        r = K_WHEEL + KW * j
-        cst[r, lane] = sc[b + W_AXIS]
-        cst[r + 1, lane] = sc[b + W_AXIS + 1]
-        cst[r + 2, lane] = sc[b + W_AXIS + 2]
-        cst[r + 3, lane] = sc[b + W_INVJ]
-        c1, c0 = _piece_coefficients(sc, b, int(tstate[TS_SIZE + j]))
-        cst[r + 4, lane] = c1
-        cst[r + 5, lane] = c0
-        cst[r + 6, lane] = sc[b + W_U]
+        b = SC.WHEELS + j * WHEEL.SIZE
+        r = GCONST.WHEEL + GWHEEL.SIZE * j
+        cst[r, lane] = sc[b + WHEEL.AXIS]
+        cst[r + 1, lane] = sc[b + WHEEL.AXIS + 1]
+        cst[r + 2, lane] = sc[b + WHEEL.AXIS + 2]
+        cst[r + GWHEEL.INVJ, lane] = sc[b + WHEEL.INVJ]
+        c1, c0 = _piece_coefficients(sc, b, int(tstate[TS.SIZE + j]))
+        cst[r + GWHEEL.C1, lane] = c1
+        cst[r + GWHEEL.C0, lane] = c0
+        cst[r + GWHEEL.U, lane] = sc[b + WHEEL.U]
     # the tolerances of gyrostat_coefficients' order test, from row 0
     floor = atol / rtol
     sq = max(_block4(work, 0, 0), floor)
-    sg = max(_block3(work, 0, CG), floor)
+    sg = max(_block3(work, 0, COL.G), floor)
     sh = max(_blockh(work, 0, nw), floor)
-    lf[lane, LF_TQ] = ORDER_MARGIN * rtol * sq
-    lf[lane, LF_TG] = ORDER_MARGIN * rtol * sg
-    lf[lane, LF_TH] = ORDER_MARGIN * rtol * sh
+    lf[lane, LF.TQ] = ORDER_MARGIN * rtol * sq
+    lf[lane, LF.TG] = ORDER_MARGIN * rtol * sg
+    lf[lane, LF.TH] = ORDER_MARGIN * rtol * sh
     for b, sb in enumerate((sq, sg, sh)):
-        lf[lane, LF_RO + b] = ROUNDOFF * sb
-        lf[lane, LF_T + 2 * b] = sb  # the scale S_b before order 1 (as gyrostat_coefficients)
-        lf[lane, LF_T + 2 * b + 1] = sb
-    lf[lane, LF_D] = d
-    lf[lane, LF_N] = n
-    lf[lane, LF_C] = c
-    lint[lane, L_STEP] = 1
+        lf[lane, LF.RO + b] = ROUNDOFF * sb
+        lf[lane, LF.T + 2 * b] = sb  # the scale S_b before order 1 (as gyrostat_coefficients)
+        lf[lane, LF.T + 2 * b + 1] = sb
+    lf[lane, LF.D] = d
+    lf[lane, LF.N] = n
+    lf[lane, LF.C] = c
+    lint[lane, GLANE.STEP] = 1
 
 
 @jit(inline="always")
@@ -402,7 +423,7 @@ def _unload_lane(cf, lane, pu, work, nw):
         for col in range(4):
             work[k, col] = cf[k, col, lane]
         for j in range(3):
-            work[k, CG + j] = cf[k, CG + j, lane]
+            work[k, COL.G + j] = cf[k, COL.G + j, lane]
         for j in range(nw):
             work[k, CH + j] = cf[k, CH + j, lane]
             work[k, CO + j] = cf[k, CO + j, lane]
@@ -439,7 +460,7 @@ def _advance(boundary, k, limit, n, params, sc, t, y_out, work, tstate, counters
             to = t[k]
             tt = tstate[0]
             if to == tt:
-                if hs[HS_PENDING] != 0.0:
+                if hs[HS.PENDING] != 0.0:
                     break
                 for j in range(n):
                     y_out[k, j] = y[j]
@@ -449,13 +470,13 @@ def _advance(boundary, k, limit, n, params, sc, t, y_out, work, tstate, counters
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS_PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0:
             bs = boundary(P, y, tstate[0], t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 return NEEDS_COMMANDS, k
             if bs != BOUNDARY_DONE:
                 return RECORDS_FULL, k
-            hs[HS_PENDING] = 0.0
+            hs[HS.PENDING] = 0.0
             continue
         if k == m:
             return SUCCESS, k
@@ -477,17 +498,17 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
     n = y0.shape[1]
     nw = n - 8
     p = order_from_tolerance(rtol)
-    kind = int(params[start, P_KIND])
+    kind = int(params[start, MODEL.KIND])
     for lane in range(LANES):
-        lint[lane, L_MEMBER] = -1
-        lint[lane, L_STEP] = 0
+        lint[lane, GLANE.MEMBER] = -1
+        lint[lane, GLANE.STEP] = 0
     nxt = start
     while True:
         stepping = 0
         for lane in range(LANES):
-            lint[lane, L_STEP] = 0
+            lint[lane, GLANE.STEP] = 0
             while True:  # until the lane holds a member that takes a step (or none is left)
-                i = lint[lane, L_MEMBER]
+                i = lint[lane, GLANE.MEMBER]
                 if i < 0:
                     if nxt >= stop:
                         break
@@ -512,54 +533,54 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                         ts[2] = t[0]
                         set_order(ts, p)
                         for j in range(nw):
-                            ts[TS_SIZE + j] = PIECE_FREE
-                        hs[HS_NEXT] = 0.0
-                        hs[HS_PENDING] = 1.0
-                        hs[HS_HOLD_END] = math.nan
+                            ts[TS.SIZE + j] = PIECE_FREE
+                        hs[HS.NEXT] = 0.0
+                        hs[HS.PENDING] = 1.0
+                        hs[HS.HOLD_END] = math.nan
                         counters[i, 3] = 1
                         counters[i, 4] = 0
-                    lint[lane, L_MEMBER] = i
-                    lint[lane, L_K] = k0
-                    lint[lane, L_LIMIT] = limit
+                    lint[lane, GLANE.MEMBER] = i
+                    lint[lane, GLANE.K] = k0
+                    lint[lane, GLANE.LIMIT] = limit
                 ctl = CTL(i, src)
                 blk = sc[sc_at[i] : sc_at[i + 1]]
-                st, k = _advance(BOUNDARY, lint[lane, L_K], lint[lane, L_LIMIT], n, params[i],
-                                 blk, t, y_out[i], work[i], tstate[i], counters[i],
+                st, k = _advance(BOUNDARY, lint[lane, GLANE.K], lint[lane, GLANE.LIMIT], n,
+                                 params[i], blk, t, y_out[i], work[i], tstate[i], counters[i],
                                  ctl)  # fmt: skip
-                lint[lane, L_K] = k
+                lint[lane, GLANE.K] = k
                 if st == _NEEDS_STEP:
                     st, nn, cc, d = step_prepare(params[i], blk, work[i], tstate[i],
-                                                 ctl[0][HS_SEG_END], max_step)  # fmt: skip
+                                                 ctl[0][HS.SEG_END], max_step)  # fmt: skip
                     if st == SUCCESS:
                         _load_lane(cf, cst, lf, lint, lane, params[i], blk, work[i], tstate[i],
                                    nn, cc, d, rtol, atol, nw)  # fmt: skip
                         stepping += 1
                         break
-                member_stop(i, st, k, lint[lane, L_LIMIT], max_steps, y_out, status, n_done)
-                lint[lane, L_MEMBER] = -1
+                member_stop(i, st, k, lint[lane, GLANE.LIMIT], max_steps, y_out, status, n_done)
+                lint[lane, GLANE.MEMBER] = -1
         if stepping == 0:
             return
         gyrostat_coefficients_lanes(cf, p, kind, nw, cst, lf, lint)
         for lane in range(LANES):
-            if lint[lane, L_STEP] == 0:
+            if lint[lane, GLANE.STEP] == 0:
                 continue
-            i = lint[lane, L_MEMBER]
-            pu = lint[lane, L_STOP]
+            i = lint[lane, GLANE.MEMBER]
+            pu = lint[lane, GLANE.STOP]
             w = work[i]
             _unload_lane(cf, lane, pu, w, nw)
             counters[i, 1] += pu
             blk = sc[sc_at[i] : sc_at[i + 1]]
             hs = CTL(i, src)[0]
-            seg_end = hs[HS_SEG_END]
+            seg_end = hs[HS.SEG_END]
             st = step_complete(blk, w, tstate[i], counters[i], rtol, atol, seg_end, max_step, pu,
-                               lf[lane, LF_N], lf[lane, LF_C], lf[lane, LF_D])  # fmt: skip
+                               lf[lane, LF.N], lf[lane, LF.C], lf[lane, LF.D])  # fmt: skip
             if st != SUCCESS:
-                member_stop(i, st, lint[lane, L_K], lint[lane, L_LIMIT], max_steps, y_out,
+                member_stop(i, st, lint[lane, GLANE.K], lint[lane, GLANE.LIMIT], max_steps, y_out,
                             status, n_done)  # fmt: skip
-                lint[lane, L_MEMBER] = -1
+                lint[lane, GLANE.MEMBER] = -1
                 continue
             if tstate[i, 0] == seg_end and seg_end < t_end:
-                hs[HS_PENDING] = 1.0
+                hs[HS.PENDING] = 1.0
 
 
 #: The same group driver with the flight software as the members' command source.

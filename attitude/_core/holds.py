@@ -13,7 +13,7 @@ tick (Basilisk integrates one RK4 step per task period).
 
 :func:`holds_run` has the arguments of :func:`attitude._core.rk.dop853_run` with ``P =
 (params, sc)`` (the model's numbers and the spacecraft block) and the command source ``ctl``:
-``ctl``, a tuple whose first item is ``hs`` (HS_SIZE,), the driver's state between calls, and
+``ctl``, a tuple whose first item is ``hs`` (HS.SIZE,), the driver's state between calls, and
 the rest the command source's (:data:`BOUNDARY`); for an open-loop schedule
 ``(hs, hold_t, hold_u, zero)``: the start times (K,) and raw commands (K, n_cmd) (hold j on
 [hold_t[j], hold_t[j + 1]), the last one to the end of the run, zero commands before the
@@ -37,45 +37,37 @@ import math
 from orbit._shared_jit import jit
 
 from .actuators import (
-    M_APPLIED,
-    M_CMD,
-    S_IDEAL,
-    S_NM,
-    S_NT,
-    S_NW,
-    S_WHEELS,
-    T_CMD,
-    T_FIRING,
-    W_FLAGS,
-    W_STRIBECK,
-    W_U,
-    W_UCMD,
-    WS,
+    MTQ,
+    SC,
+    THR,
+    WHEEL,
     configure_hold,
     magnetorquer_base,
     next_thruster_off,
     thruster_base,
     thrusters_off_at,
 )
+from .layout import Field, layout
 from .rk import (
-    F0,
     SUCCESS,
     TOO_MANY_STEPS,
-    Y,
+    WORK,
     _dense_coefficients,
     _initial_step,
     _interpolate,
     dop853_step,
 )
 
-HS_NEXT = 0
-HS_PENDING = 1
-HS_SEG_END = 2
-HS_HOLD_END = 3
-HS_READY = 4  # the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)
-HS_FAIL = 5  # why a command source stopped the run (STEP_FAILED), and a number about it
-HS_FAIL_N = 6
-HS_SIZE = 7
+HS = layout(
+    "hold driver state",
+    next=Field(1, "", "index of the next hold"),
+    pending=Field(1, "", "1: the hold at the next boundary is still to be configured"),
+    seg_end=Field(1, "s", "end of the current segment"),
+    hold_end=Field(1, "s", "end of the current hold (NaN: before the first)"),
+    ready=Field(1, "", "the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)"),
+    fail=Field(1, "", "why a command source stopped the run (STEP_FAILED)"),
+    fail_n=Field(1, "", "a number about it"),
+)
 
 #: Statuses of a command source (:data:`BOUNDARY`).
 BOUNDARY_DONE = 0
@@ -86,22 +78,33 @@ NEEDS_COMMANDS = 6
 #: Status when a record buffer of the command source is full (grow it and call again).
 RECORDS_FULL = 7
 #: Status when your own compiled step function returned commands that cannot be applied
-#: (the reason in ``hs[HS_FAIL]``); the run stops there, its samples kept.
+#: (the reason in ``hs[HS.FAIL]``); the run stops there, its samples kept.
 STEP_FAILED = 8
 
-#: Record columns per wheel, magnetorquer and thruster.
-REC_WHEEL = 4
-REC_MTQ = 2
-REC_THRUSTER = 2
-
-
-#: Record columns of the ideal control torque (after the actuators').
-REC_IDEAL = 3
+#: Record columns per wheel, magnetorquer and thruster, then of the ideal control torque.
+WHEEL_REC = layout(
+    "wheel record columns",
+    cmd=Field(1, "N m", "commanded motor torque"),
+    torque=Field(1, "N m", "applied motor torque (after the wheel's limits)"),
+    flags=Field(1, "", "limit flags (FLAG_* bits)"),
+    stribeck=Field(1, "", "1: the Stribeck friction regime"),
+)
+MTQ_REC = layout(
+    "magnetorquer record columns",
+    cmd=Field(1, "A m2", "commanded dipole"),
+    applied=Field(1, "A m2", "applied dipole"),
+)
+THR_REC = layout(
+    "thruster record columns",
+    cmd=Field(1, "", "commanded on-time fraction of the hold"),
+    firing=Field(1, "", "1 while firing"),
+)
+IDEAL_REC = layout("ideal control torque columns", torque=Field(3, "N m", "body axes"))
 
 
 def record_width(n_w: int, n_m: int, n_t: int) -> int:
     """Number of record columns after the state in an output row."""
-    return REC_WHEEL * n_w + REC_MTQ * n_m + REC_THRUSTER * n_t + REC_IDEAL
+    return WHEEL_REC.SIZE * n_w + MTQ_REC.SIZE * n_m + THR_REC.SIZE * n_t + IDEAL_REC.SIZE
 
 
 @jit
@@ -110,26 +113,25 @@ def record(sc, row, c0):
     Stribeck regime), per magnetorquer (command, applied dipole), per thruster (command,
     firing 0/1), then the ideal control torque (3)."""
     c = c0
-    for k in range(int(sc[S_NW])):
-        b = S_WHEELS + k * WS
-        row[c] = sc[b + W_UCMD]
-        row[c + 1] = sc[b + W_U]
-        row[c + 2] = sc[b + W_FLAGS]
-        row[c + 3] = sc[b + W_STRIBECK]
-        c += 4
-    for j in range(int(sc[S_NM])):
+    for k in range(int(sc[SC.NW])):
+        b = SC.WHEELS + k * WHEEL.SIZE
+        row[c + WHEEL_REC.CMD] = sc[b + WHEEL.UCMD]
+        row[c + WHEEL_REC.TORQUE] = sc[b + WHEEL.U]
+        row[c + WHEEL_REC.FLAGS] = sc[b + WHEEL.FLAGS]
+        row[c + WHEEL_REC.STRIBECK] = sc[b + WHEEL.STRIBECK]
+        c += WHEEL_REC.SIZE
+    for j in range(int(sc[SC.NM])):
         b = magnetorquer_base(sc, j)
-        row[c] = sc[b + M_CMD]
-        row[c + 1] = sc[b + M_APPLIED]
-        c += 2
-    for j in range(int(sc[S_NT])):
+        row[c + MTQ_REC.CMD] = sc[b + MTQ.CMD]
+        row[c + MTQ_REC.APPLIED] = sc[b + MTQ.APPLIED]
+        c += MTQ_REC.SIZE
+    for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
-        row[c] = sc[b + T_CMD]
-        row[c + 1] = sc[b + T_FIRING]
-        c += 2
-    row[c] = sc[S_IDEAL]
-    row[c + 1] = sc[S_IDEAL + 1]
-    row[c + 2] = sc[S_IDEAL + 2]
+        row[c + THR_REC.CMD] = sc[b + THR.CMD]
+        row[c + THR_REC.FIRING] = sc[b + THR.FIRING]
+        c += THR_REC.SIZE
+    for i in range(3):
+        row[c + IDEAL_REC.TORQUE + i] = sc[SC.IDEAL + i]
 
 
 @jit
@@ -140,22 +142,22 @@ def schedule_boundary(P, y, t, t_end, ctl):
     hs, hold_t, hold_u, zero = ctl
     sc = P[1]
     K = hold_t.shape[0]
-    j = int(hs[HS_NEXT])
+    j = int(hs[HS.NEXT])
     if j < K and hold_t[j] <= t:
         # the last hold starting at or before t (several may share a time: the last wins)
         while j + 1 < K and hold_t[j + 1] <= t:
             j += 1
         t_next = hold_t[j + 1] if j + 1 < K else t_end
         configure_hold(sc, y, hold_u[j], t, t_next)
-        hs[HS_NEXT] = j + 1
-        hs[HS_HOLD_END] = t_next
-    elif hs[HS_HOLD_END] != hs[HS_HOLD_END]:  # NaN: before the first hold (zero commands)
+        hs[HS.NEXT] = j + 1
+        hs[HS.HOLD_END] = t_next
+    elif hs[HS.HOLD_END] != hs[HS.HOLD_END]:  # NaN: before the first hold (zero commands)
         t_next = hold_t[j] if j < K else t_end
         configure_hold(sc, y, zero, t, t_next)
-        hs[HS_HOLD_END] = t_next
+        hs[HS.HOLD_END] = t_next
     thrusters_off_at(sc, t)
-    t_hold_end = min(hs[HS_HOLD_END], t_end)
-    hs[HS_SEG_END] = next_thruster_off(sc, t, t_hold_end)
+    t_hold_end = min(hs[HS.HOLD_END], t_end)
+    hs[HS.SEG_END] = next_thruster_off(sc, t, t_hold_end)
     return BOUNDARY_DONE
 
 
@@ -182,8 +184,8 @@ def holds_run(
     sc = P[1]
     n = y0.shape[0]
     m = t_out.shape[0]
-    y = work[Y]
-    f = work[F0]
+    y = work[WORK.Y]
+    f = work[WORK.F0]
     if counters[3] == 0:
         for i in range(n):
             y[i] = y0[i]
@@ -191,9 +193,9 @@ def holds_run(
         tstate[1] = 0.0
         tstate[2] = t0
         tstate[3] = 0.0
-        hs[HS_NEXT] = 0.0
-        hs[HS_PENDING] = 1.0
-        hs[HS_HOLD_END] = math.nan
+        hs[HS.NEXT] = 0.0
+        hs[HS.PENDING] = 1.0
+        hs[HS.HOLD_END] = math.nan
         counters[3] = 1
         counters[4] = 0
     k = 0
@@ -205,7 +207,7 @@ def holds_run(
             to = t_out[k]
             t = tstate[0]
             if to == t:
-                if hs[HS_PENDING] != 0.0:
+                if hs[HS.PENDING] != 0.0:
                     break
                 for i in range(n):
                     y_out[k, i] = y[i]
@@ -217,7 +219,7 @@ def holds_run(
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS_PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0:
             t = tstate[0]
             bs = BOUNDARY(P, y, t, t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
@@ -229,7 +231,7 @@ def holds_run(
             RHS(t, y, P, f)
             counters[1] += 1
             counters[4] = 0
-            hs[HS_PENDING] = 0.0
+            hs[HS.PENDING] = 0.0
             continue
         if k == m:
             tstate[1] = h_abs
@@ -240,11 +242,11 @@ def holds_run(
         if counters[0] >= max_steps:
             tstate[1] = h_abs
             return TOO_MANY_STEPS, k
-        seg_end = hs[HS_SEG_END]
+        seg_end = hs[HS.SEG_END]
         status, h_abs = dop853_step(
             RHS, P, work, tstate, counters, h_abs, 1.0, seg_end, rtol, atol, max_step
         )
         if status != SUCCESS:
             return status, k
         if tstate[0] == seg_end and seg_end < t_end:
-            hs[HS_PENDING] = 1.0
+            hs[HS.PENDING] = 1.0

@@ -46,32 +46,39 @@ import math
 from orbit._shared_jit import inline_copy, jit
 
 from .fma import fma as F
+from .layout import Field, Gap, layout
 from .quat import SERIES_X2, conj_mul, half_angle, mul, rotate_inverse, shorter
 
-E_Q = 0  # q̂ (4)
-E_B = 4  # β̂ (3)
-E_P = 7  # P (36, row-major)
-E_INIT = 43  # 1 once initialised
-E_WSUM = 44  # Σ ω̂ Δt over the ticks P has not been propagated over yet (3)
-E_SPAN = 47  # Σ Δt over those ticks
-E_NSPAN = 48  # their number
-E_PHI = 50  # scratch Φ (36)
-E_TMP = 86  # scratch (36)
-E_K = 122  # gain (6 × 3 = 18)
-E_S = 140  # innovation covariance and its inverse (9 + 9)
-E_SIZE = 160
+E = layout(
+    "filter state",
+    q=Field(4, "", "q̂"),
+    b=Field(3, "rad/s", "β̂"),
+    p=Field(36, "rad, rad/s", "P (row-major)", (6, 6)),
+    init=Field(1, "", "1 once initialised"),
+    wsum=Field(3, "rad", "Σ ω̂ Δt over the ticks P has not been propagated over yet"),
+    span=Field(1, "s", "Σ Δt over those ticks"),
+    nspan=Field(1, "", "their number"),
+    _a=Gap(1),
+    phi=Field(36, "", "scratch Φ"),
+    tmp=Field(36, "", "scratch"),
+    k=Field(18, "", "gain (6 × 3)"),
+    s=Field(18, "", "innovation covariance and its inverse (9 + 9)"),
+    size=160,
+)
 
 # parameters (a record of the flight software's program)
-EP_SV = 0  # σ_v of the gyro model (rad/√s)
-EP_SU = 1  # σ_u (rad/s^1.5)
-EP_P0 = 2  # initial covariance diagonal (6)
-EP_INIT = 8  # 0: from the first valid star tracker measurement; 1: the given q0, b0
-EP_Q0 = 9  # (4)
-EP_B0 = 13  # (3)
-EP_ST_R = 16  # star tracker noise covariance in body axes (9)
-EP_MAG = 25  # magnetometer σ (T; 0: not used)
-EP_SUN = 26  # Sun sensor σ (unit vector; 0: not used)
-EP_SIZE = 27
+EP = layout(
+    "filter parameters",
+    sv=Field(1, "rad/s^0.5", "σ_v of the gyro model"),
+    su=Field(1, "rad/s^1.5", "σ_u"),
+    p0=Field(6, "rad2, rad2/s2", "initial covariance diagonal"),
+    init=Field(1, "", "0: from the first valid star tracker measurement; 1: the given q0, b0"),
+    q0=4,
+    b0=Field(3, "rad/s"),
+    st_r=Field(9, "rad2", "star tracker noise covariance in body axes", (3, 3)),
+    mag=Field(1, "T", "magnetometer σ (0: not used)"),
+    sun=Field(1, "", "Sun sensor σ (unit vector; 0: not used)"),
+)
 
 
 #: The most ticks P's propagation is deferred over (:func:`mekf_covariance`).
@@ -88,25 +95,25 @@ _T4 = 1.0 / 39916800.0
 
 @jit(inline="always")
 def _p(es, i, j):
-    return es[E_P + 6 * i + j]
+    return es[E.P + 6 * i + j]
 
 
 @jit
 def mekf_init(es, ep, q0, b0):
-    """Start the filter at (q0, b0) with the covariance diag(EP_P0)."""
+    """Start the filter at (q0, b0) with the covariance diag(EP.P0)."""
     for i in range(4):
-        es[E_Q + i] = q0[i]
+        es[E.Q + i] = q0[i]
     for i in range(3):
-        es[E_B + i] = b0[i]
+        es[E.B + i] = b0[i]
     for i in range(36):
-        es[E_P + i] = 0.0
+        es[E.P + i] = 0.0
     for i in range(6):
-        es[E_P + 7 * i] = ep[EP_P0 + i]
+        es[E.P + 7 * i] = ep[EP.P0 + i]
     for i in range(3):
-        es[E_WSUM + i] = 0.0
-    es[E_SPAN] = 0.0
-    es[E_NSPAN] = 0.0
-    es[E_INIT] = 1.0
+        es[E.WSUM + i] = 0.0
+    es[E.SPAN] = 0.0
+    es[E.NSPAN] = 0.0
+    es[E.INIT] = 1.0
 
 
 @jit
@@ -114,26 +121,26 @@ def mekf_propagate(es, ep, omega_meas, dt):
     """Propagate q̂ over ``dt`` with ω̂ = ω̃ − β̂ held (ω̃ the gyro rate of the last tick); P's
     propagation over the tick is added to the pending span (:func:`mekf_covariance`, run here
     once the span holds :data:`SPAN_TICKS` ticks)."""
-    w0 = omega_meas[0] - es[E_B]
-    w1 = omega_meas[1] - es[E_B + 1]
-    w2 = omega_meas[2] - es[E_B + 2]
+    w0 = omega_meas[0] - es[E.B]
+    w1 = omega_meas[1] - es[E.B + 1]
+    w2 = omega_meas[2] - es[E.B + 2]
     # q̂ ← q̂∘exp(ω̂ Δt/2)
     k, ca = half_angle(w0 * w0 + w1 * w1 + w2 * w2, dt)
     dq = (ca, k * w0, k * w1, k * w2)
-    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), dq)
+    q = mul((es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3]), dq)
     nq = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]
     # 1/√n: q̂ and dq are unit to round-off, so n = 1 + e with |e| ~ 1e-16 and 1 − e/2 is
     # 1/√n to round-off (the next term, 3e²/8, is below 4e-17 while |e| < 1e-8)
     e = nq - 1.0
     inv_n = 1.0 - 0.5 * e if abs(e) < 1e-8 else 1.0 / math.sqrt(nq)
     for i in range(4):
-        es[E_Q + i] = q[i] * inv_n
-    es[E_WSUM] += w0 * dt
-    es[E_WSUM + 1] += w1 * dt
-    es[E_WSUM + 2] += w2 * dt
-    es[E_SPAN] += dt
-    es[E_NSPAN] += 1.0
-    if es[E_NSPAN] >= SPAN_TICKS:
+        es[E.Q + i] = q[i] * inv_n
+    es[E.WSUM] += w0 * dt
+    es[E.WSUM + 1] += w1 * dt
+    es[E.WSUM + 2] += w2 * dt
+    es[E.SPAN] += dt
+    es[E.NSPAN] += 1.0
+    if es[E.NSPAN] >= SPAN_TICKS:
         mekf_covariance(es, ep)
 
 
@@ -141,16 +148,16 @@ def mekf_propagate(es, ep, omega_meas, dt):
 def _advance(es, ep, src, dst):
     """P at ``src`` propagated over the pending span into ``dst`` (which may be ``src``): one
     step with the span's mean rate ω̄ held (see the module docstring)."""
-    dt = es[E_SPAN]
+    dt = es[E.SPAN]
     if dt == 0.0:
         if dst != src:
             for i in range(36):
                 es[dst + i] = es[src + i]
         return
     inv = 1.0 / dt
-    w0 = es[E_WSUM] * inv
-    w1 = es[E_WSUM + 1] * inv
-    w2 = es[E_WSUM + 2] * inv
+    w0 = es[E.WSUM] * inv
+    w1 = es[E.WSUM + 1] * inv
+    w2 = es[E.WSUM + 2] * inv
     ww = w0 * w0 + w1 * w1 + w2 * w2  # w²
     # the coefficients c1 = sin(wΔt)/w = 2 sin a cos a / w, c2 = (1 − cos(wΔt))/w² =
     # 2 (sin a / w)² from the half angle (no cancellation), c3 = (wΔt − sin(wΔt))/w³ by its
@@ -264,8 +271,8 @@ def _advance(es, ep, src, dst):
         for i in range(3, 6):
             for j in range(3, 6):
                 es[dst + 6 * i + j] = es[src + 6 * i + j]
-    sv2 = ep[EP_SV] * ep[EP_SV]
-    su2 = ep[EP_SU] * ep[EP_SU]
+    sv2 = ep[EP.SV] * ep[EP.SV]
+    su2 = ep[EP.SU] * ep[EP.SU]
     for i in range(3):
         es[dst + 7 * i] += sv2 * dt + su2 * dt * dt * dt / 3.0
         es[dst + 6 * i + i + 3] += -su2 * dt * dt / 2.0
@@ -276,19 +283,19 @@ def _advance(es, ep, src, dst):
 @jit
 def mekf_covariance(es, ep):
     """Bring the filter's P to the time of q̂ (over the pending span; nothing if none)."""
-    if es[E_SPAN] != 0.0:
-        _advance(es, ep, E_P, E_P)
+    if es[E.SPAN] != 0.0:
+        _advance(es, ep, E.P, E.P)
         for i in range(3):
-            es[E_WSUM + i] = 0.0
-        es[E_SPAN] = 0.0
-        es[E_NSPAN] = 0.0
+            es[E.WSUM + i] = 0.0
+        es[E.SPAN] = 0.0
+        es[E.NSPAN] = 0.0
 
 
 @jit
 def mekf_covariance_at(es, ep, dst):
     """P at the time of q̂ into ``es[dst : dst + 36]``, the filter's own P and span unchanged
     (what the record reads: recording a tick or not changes nothing in the filter)."""
-    _advance(es, ep, E_P, dst)
+    _advance(es, ep, E.P, dst)
 
 
 @jit(inline="always")
@@ -309,16 +316,16 @@ def _inv3_sym(s00, s01, s02, s11, s12, s22):
 def _update(es, H, y0, y1, y2, R):
     """The Kalman update with a 3 × 6 measurement matrix H (rows of 6 in a tuple of 18) and
     the residual y, noise R (tuple of 9); then the reset."""
-    # PHᵀ (6 × 3) into E_TMP
-    tmp = E_TMP
+    # PHᵀ (6 × 3) into E.TMP
+    tmp = E.TMP
     for i in range(6):
         for j in range(3):
             s = 0.0
             for k in range(6):
-                s += es[E_P + 6 * i + k] * H[6 * j + k]
+                s += es[E.P + 6 * i + k] * H[6 * j + k]
             es[tmp + 3 * i + j] = s
     # S = H P Hᵀ + R
-    S = E_S
+    S = E.S
     for i in range(3):
         for j in range(3):
             s = R[3 * i + j]
@@ -336,28 +343,28 @@ def _update(es, H, y0, y1, y2, R):
             s = 0.0
             for k in range(3):
                 s += es[tmp + 3 * i + k] * es[S + 9 + 3 * k + j]
-            es[E_K + 3 * i + j] = s
+            es[E.K + 3 * i + j] = s
     # δx = K y
-    x0 = es[E_K] * y0 + es[E_K + 1] * y1 + es[E_K + 2] * y2
-    x1 = es[E_K + 3] * y0 + es[E_K + 4] * y1 + es[E_K + 5] * y2
-    x2 = es[E_K + 6] * y0 + es[E_K + 7] * y1 + es[E_K + 8] * y2
-    x3 = es[E_K + 9] * y0 + es[E_K + 10] * y1 + es[E_K + 11] * y2
-    x4 = es[E_K + 12] * y0 + es[E_K + 13] * y1 + es[E_K + 14] * y2
-    x5 = es[E_K + 15] * y0 + es[E_K + 16] * y1 + es[E_K + 17] * y2
+    x0 = es[E.K] * y0 + es[E.K + 1] * y1 + es[E.K + 2] * y2
+    x1 = es[E.K + 3] * y0 + es[E.K + 4] * y1 + es[E.K + 5] * y2
+    x2 = es[E.K + 6] * y0 + es[E.K + 7] * y1 + es[E.K + 8] * y2
+    x3 = es[E.K + 9] * y0 + es[E.K + 10] * y1 + es[E.K + 11] * y2
+    x4 = es[E.K + 12] * y0 + es[E.K + 13] * y1 + es[E.K + 14] * y2
+    x5 = es[E.K + 15] * y0 + es[E.K + 16] * y1 + es[E.K + 17] * y2
     dx = (x0, x1, x2, x3, x4, x5)
-    # Joseph: A = 1 − K H (into E_PHI), P ← A P Aᵀ + K R Kᵀ
-    ph = E_PHI
+    # Joseph: A = 1 − K H (into E.PHI), P ← A P Aᵀ + K R Kᵀ
+    ph = E.PHI
     for i in range(6):
         for j in range(6):
             s = 1.0 if i == j else 0.0
             for k in range(3):
-                s -= es[E_K + 3 * i + k] * H[6 * k + j]
+                s -= es[E.K + 3 * i + k] * H[6 * k + j]
             es[ph + 6 * i + j] = s
     for i in range(6):
         for j in range(6):
             s = 0.0
             for k in range(6):
-                s += es[ph + 6 * i + k] * es[E_P + 6 * k + j]
+                s += es[ph + 6 * i + k] * es[E.P + 6 * k + j]
             es[tmp + 6 * i + j] = s
     for i in range(6):
         for j in range(i, 6):
@@ -366,24 +373,24 @@ def _update(es, H, y0, y1, y2, R):
                 s += es[tmp + 6 * i + k] * es[ph + 6 * j + k]
             # + K R Kᵀ
             for a in range(3):
-                ka = es[E_K + 3 * i + a]
+                ka = es[E.K + 3 * i + a]
                 for b in range(3):
-                    s += ka * R[3 * a + b] * es[E_K + 3 * j + b]
-            es[E_P + 6 * i + j] = s
-            es[E_P + 6 * j + i] = s
+                    s += ka * R[3 * a + b] * es[E.K + 3 * j + b]
+            es[E.P + 6 * i + j] = s
+            es[E.P + 6 * j + i] = s
     _reset(es, dx[0], dx[1], dx[2], dx[3], dx[4], dx[5])
 
 
 @jit(inline="always")
 def _reset(es, d0, d1, d2, d3, d4, d5):
     """The reset after an update: q̂ ← q̂∘δq(δθ), β̂ ← β̂ + δβ."""
-    q = mul((es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3]), (1.0, 0.5 * d0, 0.5 * d1, 0.5 * d2))
+    q = mul((es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3]), (1.0, 0.5 * d0, 0.5 * d1, 0.5 * d2))
     n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     for i in range(4):
-        es[E_Q + i] = q[i] / n
-    es[E_B] += d3
-    es[E_B + 1] += d4
-    es[E_B + 2] += d5
+        es[E.Q + i] = q[i] / n
+    es[E.B] += d3
+    es[E.B + 1] += d4
+    es[E.B + 2] += d5
 
 
 @jit(inline="always")
@@ -394,12 +401,12 @@ def _dot3(a, b):
 @jit
 def _update_attitude(es, ep, y0, y1, y2):
     """The update of :func:`_update` for H = [1 0] (a measurement of the attitude error, R the
-    star tracker's EP_ST_R), by blocks on scalars: with the columns c_j = P[:3, j], S = P_aa +
+    star tracker's EP.ST_R), by blocks on scalars: with the columns c_j = P[:3, j], S = P_aa +
     R (symmetric: its upper triangle), the gain's rows k_i = c_iᵀ S⁻¹ (S⁻¹ by cofactors), and
     P ← P − K P[:3, :] = P_ij − k_i·c_j (equal to the Joseph form for this optimal gain) on the
     upper triangle, mirrored so P stays exactly symmetric."""
-    P = E_P
-    R = EP_ST_R
+    P = E.P
+    R = EP.ST_R
     cs = (
         (es[P], es[P + 6], es[P + 12]),
         (es[P + 1], es[P + 7], es[P + 13]),
@@ -437,9 +444,9 @@ def _update_attitude(es, ep, y0, y1, y2):
 
 @jit
 def mekf_update_quaternion(es, ep, qm):
-    """Update with a star tracker quaternion ``qm`` (its noise covariance EP_ST_R)."""
+    """Update with a star tracker quaternion ``qm`` (its noise covariance EP.ST_R)."""
     mekf_covariance(es, ep)
-    q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
+    q = (es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3])
     r = conj_mul(q, (qm[0], qm[1], qm[2], qm[3]))
     s = 1.0 if r[0] >= 0.0 else -1.0
     _update_attitude(es, ep, 2.0 * s * r[1], 2.0 * s * r[2], 2.0 * s * r[3])
@@ -449,7 +456,7 @@ def mekf_update_quaternion(es, ep, qm):
 def mekf_update_vector(es, ep, bm0, bm1, bm2, r0, r1, r2, sigma):
     """Update with a body-axes measurement b̃ of the space vector r (noise σ, isotropic)."""
     mekf_covariance(es, ep)
-    q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
+    q = (es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3])
     b = rotate_inverse(q, (r0, r1, r2))  # b̂ = A(q̂) r
     # H = [[b̂×] 0]
     H = (
@@ -467,17 +474,17 @@ def estimation_error(es, po, q_true, beta_true):
     """(δθ (3), δβ (3), NEES) of the estimate against the truth: q_true = q̂∘δq(δθ) (the
     shorter rotation), δβ = β − β̂, NEES = δxᵀ P⁻¹ δx (Cholesky of the P at ``es[po:]``: the
     filter's, or :func:`mekf_covariance_at`'s copy)."""
-    q = (es[E_Q], es[E_Q + 1], es[E_Q + 2], es[E_Q + 3])
+    q = (es[E.Q], es[E.Q + 1], es[E.Q + 2], es[E.Q + 3])
     r = shorter(conj_mul(q, q_true))
     v = math.sqrt(r[1] * r[1] + r[2] * r[2] + r[3] * r[3])
     ang = 2.0 * math.atan2(v, r[0])
     k = ang / v if v > 0.0 else 2.0
-    b0 = beta_true[0] - es[E_B]
-    b1 = beta_true[1] - es[E_B + 1]
-    b2 = beta_true[2] - es[E_B + 2]
+    b0 = beta_true[0] - es[E.B]
+    b1 = beta_true[1] - es[E.B + 1]
+    b2 = beta_true[2] - es[E.B + 2]
     e = (k * r[1], k * r[2], k * r[3], b0, b1, b2)
-    # NEES by a Cholesky factorisation of P (into E_TMP)
-    L = E_TMP
+    # NEES by a Cholesky factorisation of P (into E.TMP)
+    L = E.TMP
     for i in range(36):
         es[L + i] = 0.0
     ok = True

@@ -41,7 +41,7 @@ from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
 
 from .environment import (
-    ENV_SIZE,
+    ENV,
     drag_torque,
     eddy_torque,
     environment_vector,
@@ -49,6 +49,7 @@ from .environment import (
     magnetic_torque,
     solar_torque,
 )
+from .layout import Field, layout
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0
@@ -62,10 +63,27 @@ KIND_SOLAR_RADIATION = 6
 KIND_SUM = 100
 KIND_USER = -1  # no built-in part: the model is the user's terms only (attitude._user_kernels)
 
-P_KIND = 3  # index of the kind code (the block of a single model)
-P0 = 4  # first number of a single model
-P_NTERMS = 4  # KIND_SUM: number of terms
-P_OFFSETS = 5  # KIND_SUM: first term offset
+# The model's parameters: the inertia, then a single model's block (its kind, its numbers),
+# or a sum's number of terms and their blocks' offsets (each block: its kind, its numbers).
+_MODEL_HEAD = dict(
+    inertia=Field(3, "kg m2", "principal moments of inertia"),
+    kind=Field(1, "", "KIND_*: where a single model's block starts"),
+)
+MODEL = layout("model parameters", **_MODEL_HEAD, data=Field(0, "", "a single model's numbers"))
+# Blocks of the built-in models (offsets relative to the block, which starts with its kind).
+HEAVY_TOP = layout(
+    "heavy top block",
+    kind=1,
+    weight=Field(1, "N", "M g"),
+    cm=Field(3, "m", "centre of mass, body axes"),
+)
+GRAVITY = layout("gravity gradient block", kind=1, orbit=Field(0, "", "the orbit's kernel_data()"))
+SUM = layout(
+    "sum of models parameters",
+    **_MODEL_HEAD,
+    nterms=Field(1, "", "number of terms"),
+    offsets=Field(0, "", "the terms' block offsets (n), then the blocks"),
+)
 
 # Heavy top: block [kind, weight M g, centre of mass (3, body axes)].
 # Gravity gradient: block [kind, the orbit's kernel_data()] (orbit._state_kernels layout: a type
@@ -83,27 +101,35 @@ ZERO3 = (0.0, 0.0, 0.0)
 
 
 @jit(_nrt=False)
-def heavy_top_torque(q, w, t, params, base=P_KIND):
+def heavy_top_torque(q, w, t, params, base=MODEL.KIND):
     # Gravity -weight s3 acts at the centre of mass c: τ_B = c × F_B, F_B = q̃∘(−W s3)∘q.
-    w = params[base + 1]
-    c = (params[base + 2], params[base + 3], params[base + 4])
+    w = params[base + HEAVY_TOP.WEIGHT]
+    c = (
+        params[base + HEAVY_TOP.CM],
+        params[base + HEAVY_TOP.CM + 1],
+        params[base + HEAVY_TOP.CM + 2],
+    )
     fb = rotate_inverse(q, (0.0, 0.0, -w))
     return cross(c, fb)
 
 
 @jit(_nrt=False)
-def heavy_top_potential(q, t, params, base=P_KIND):
+def heavy_top_potential(q, t, params, base=MODEL.KIND):
     # V = W (q∘c∘q̃)·s3: the potential energy of the weight (height of the centre of mass).
     # Arribas et al. eq. 18 prints U = x^c·F with F = −Mg s3, which is −V; see docs/potentials.md.
-    w = params[base + 1]
-    c = (params[base + 2], params[base + 3], params[base + 4])
+    w = params[base + HEAVY_TOP.WEIGHT]
+    c = (
+        params[base + HEAVY_TOP.CM],
+        params[base + HEAVY_TOP.CM + 1],
+        params[base + HEAVY_TOP.CM + 2],
+    )
     return w * rotate(q, c)[2]
 
 
 @jit(_nrt=False)
 def gravity_gradient_terms(q, t, params, base):
     """(3μ/r³, x̂_B, I x̂_B) for the gravity gradient at time t."""
-    d = params[base + 1 :]
+    d = params[base + GRAVITY.ORBIT :]
     r, ux, uy, uz = orbit_radial(d, t)
     return gravity_gradient_terms_radial(q, r, ux, uy, uz, d[ORBIT_MU], params)
 
@@ -126,7 +152,7 @@ def gravity_gradient_potential_radial(q, r, ux, uy, uz, mu, params):
 
 
 @jit(_nrt=False)
-def gravity_gradient_torque(q, w, t, params, base=P_KIND):
+def gravity_gradient_torque(q, w, t, params, base=MODEL.KIND):
     # τ_B = 3μ/r³ x̂_B × (I x̂_B): minus the derivative of eq. 20 under body rotations.
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     c = cross(xb, ixb)
@@ -134,7 +160,7 @@ def gravity_gradient_torque(q, w, t, params, base=P_KIND):
 
 
 @jit(_nrt=False)
-def gravity_gradient_potential(q, t, params, base=P_KIND):
+def gravity_gradient_potential(q, t, params, base=MODEL.KIND):
     # Arribas et al. eq. 20: U = 3μ/(2r³) x̂_B·I x̂_B (q-independent terms of eq. 19 dropped).
     k, xb, ixb = gravity_gradient_terms(q, t, params, base)
     return 0.5 * k * (xb[0] * ixb[0] + xb[1] * ixb[1] + xb[2] * ixb[2])
@@ -145,7 +171,7 @@ def gravity_gradient_potential_at(q, t, params, orb):
     """The gravity gradient alone: its potential energy given its orbit's sample ``orb``
     (``orbit._state_kernels.orbit_sample``: r, r̂ first), bit for bit
     :func:`gravity_gradient_potential`."""
-    mu = params[P0 + ORBIT_MU]
+    mu = params[MODEL.DATA + ORBIT_MU]
     return gravity_gradient_potential_radial(q, orb[0], orb[1], orb[2], orb[3], mu, params)
 
 
@@ -153,7 +179,7 @@ def gravity_gradient_potential_at(q, t, params, orb):
 def gravity_gradient_term_torque_at(j, q, w, t, params, orb):
     """The gravity gradient alone: its torque given its orbit's sample ``orb``, bit for bit
     :func:`gravity_gradient_torque`."""
-    mu = params[P0 + ORBIT_MU]
+    mu = params[MODEL.DATA + ORBIT_MU]
     k, xb, ixb = gravity_gradient_terms_radial(q, orb[0], orb[1], orb[2], orb[3], mu, params)
     c = cross(xb, ixb)
     return (k * c[0], k * c[1], k * c[2])
@@ -194,9 +220,9 @@ def term_potential(q, t, params, base):
 @jit(_nrt=False)
 def builtin_n_terms(params):
     """Number of terms of the built-in part of a model (0 for a user-only model)."""
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     if kind == KIND_SUM:
-        return int(params[P_NTERMS])
+        return int(params[SUM.NTERMS])
     if kind == KIND_USER:
         return 0
     return 1
@@ -205,20 +231,20 @@ def builtin_n_terms(params):
 @jit(_nrt=False)
 def term_base(j, params):
     """Offset of the block of term ``j``."""
-    if int(params[P_KIND]) == KIND_SUM:
-        return int(params[P_OFFSETS + j])
-    return P_KIND
+    if int(params[MODEL.KIND]) == KIND_SUM:
+        return int(params[SUM.OFFSETS + j])
+    return MODEL.KIND
 
 
 @jit(_nrt=False)
 def builtin_torque(q, w, t, params):
     """Body-frame torque of the built-in model (or sum) described by ``params``."""
-    if int(params[P_KIND]) != KIND_SUM:
+    if int(params[MODEL.KIND]) != KIND_SUM:
         # int(): an int64 base, as in the sum below (a literal 3 would compile the switch twice)
-        return term_torque(q, w, t, params, int(P_KIND))
-    tau = term_torque(q, w, t, params, int(params[P_OFFSETS]))
-    for j in range(1, int(params[P_NTERMS])):
-        d = term_torque(q, w, t, params, int(params[P_OFFSETS + j]))
+        return term_torque(q, w, t, params, int(MODEL.KIND))
+    tau = term_torque(q, w, t, params, int(params[SUM.OFFSETS]))
+    for j in range(1, int(params[SUM.NTERMS])):
+        d = term_torque(q, w, t, params, int(params[SUM.OFFSETS + j]))
         tau = (tau[0] + d[0], tau[1] + d[1], tau[2] + d[2])
     return tau
 
@@ -226,11 +252,11 @@ def builtin_torque(q, w, t, params):
 @jit(_nrt=False)
 def builtin_potential(q, t, params):
     """Potential energy of the built-in model (or sum) described by ``params``."""
-    if int(params[P_KIND]) != KIND_SUM:
-        return term_potential(q, t, params, int(P_KIND))
-    u = term_potential(q, t, params, int(params[P_OFFSETS]))
-    for j in range(1, int(params[P_NTERMS])):
-        u += term_potential(q, t, params, int(params[P_OFFSETS + j]))
+    if int(params[MODEL.KIND]) != KIND_SUM:
+        return term_potential(q, t, params, int(MODEL.KIND))
+    u = term_potential(q, t, params, int(params[SUM.OFFSETS]))
+    for j in range(1, int(params[SUM.NTERMS])):
+        u += term_potential(q, t, params, int(params[SUM.OFFSETS + j]))
     return u
 
 
@@ -264,9 +290,9 @@ MODEL_TORQUE = torque_free_torque  # bound to the model's torque by attitude._co
 
 
 # The environment models alone: their kernels take the block offset; a single model's block is
-# at P_KIND, passed as int(_BASE) (an int64 like the sums' offsets, so the kernel compiles once
+# at MODEL.KIND, passed as int(_BASE) (an int64 like the sums' offsets, so the kernel compiles once
 # for both: the global itself is typed as the literal 3, which compiled it a second time).
-_BASE = P_KIND
+_BASE = MODEL.KIND
 
 
 @jit(_nrt=False)
@@ -316,18 +342,18 @@ def model_n_terms(params):
 # A CustomTorque with an orbit reads the environment from a block of its own in ``params``
 # (attitude._core.environment.environment_vector), one per user term that reads it. Their
 # offsets, in the order of the terms, then the blocks, sit where the built-in kernels never
-# look: at P0 in a model of user terms only (kind KIND_USER), right after the term offsets in
-# a sum (params[P_OFFSETS + n + e] is the offset of the e-th; the built-in blocks follow them,
-# found through their own offsets). The end of ``params`` stays free for the formulations'
-# scratch (attitude._core.formulations).
+# look: at MODEL.DATA in a model of user terms only (kind KIND_USER), right after the term
+# offsets in a sum (params[SUM.OFFSETS + n + e] is the offset of the e-th; the built-in blocks
+# follow them, found through their own offsets). The end of ``params`` stays free for the
+# formulations' scratch (attitude._core.formulations).
 
 
 @jit(_nrt=False)
 def user_env_base(params, e):
     """Offset of the environment block of the ``e``-th user term that reads the environment."""
-    if int(params[P_KIND]) == KIND_SUM:
-        return int(params[P_OFFSETS + int(params[P_NTERMS]) + e])
-    return int(params[P0 + e])
+    if int(params[MODEL.KIND]) == KIND_SUM:
+        return int(params[SUM.OFFSETS + int(params[SUM.NTERMS]) + e])
+    return int(params[MODEL.DATA + e])
 
 
 #: Complex-step size: derivatives are exact to round-off for any h this small
@@ -352,8 +378,8 @@ def user_torque_rates(tau_fn, q, w, t):
 @jit_generic
 def user_torque_env(tau_fn, q, w, t, params, e):
     """A user's ``tau(q, t, env)``: ``env`` the environment at t (:func:`environment_vector`
-    on the block of the ``e``-th user term reading it), a 1-D array of ENV_SIZE floats."""
-    env = np.empty(ENV_SIZE)
+    on the block of the ``e``-th user term reading it), a 1-D array of ENV.SIZE floats."""
+    env = np.empty(ENV.SIZE)
     environment_vector(q, t, params, user_env_base(params, e), env)
     tau = tau_fn(q, t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))
@@ -362,7 +388,7 @@ def user_torque_env(tau_fn, q, w, t, params, e):
 @jit_generic
 def user_torque_rates_env(tau_fn, q, w, t, params, e):
     """A user's ``tau(q, omega, t, env)`` (:func:`user_torque_rates` with the environment)."""
-    env = np.empty(ENV_SIZE)
+    env = np.empty(ENV.SIZE)
     environment_vector(q, t, params, user_env_base(params, e), env)
     tau = tau_fn(q, np.array((w[0], w[1], w[2])), t, env)
     return (float(tau[0]), float(tau[1]), float(tau[2]))

@@ -15,9 +15,9 @@ had never stopped.
 Layout of the persistent arrays
 -------------------------------
 ``work`` : float64, shape (WORK_ROWS, n)
-    rows Y (current state), F0 (derivative there), YOLD (state at the start of the last step),
-    K0..K0+15 (stages of the last step; K0+12 is the derivative at its end), FD..FD+6 (its
-    dense-output polynomial), YT, YN (scratch).
+    rows (the WORK layout): the current state, the derivative there, the state at the start
+    of the last step, its 16 stages (the 13th is the derivative at its end), its dense-output
+    polynomial (7), two rows of scratch.
 ``tstate`` : float64, shape (4,)
     ``[t, h_next, t_old, h_last]``.
 ``counters`` : int64, shape (5,)
@@ -32,17 +32,21 @@ import numpy as np
 
 from orbit._shared_jit import jit, jit_generic
 
+from .layout import Field, layout
 from .tableaux import DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5
 
 # Rows of the work array.
-Y = 0
-F0 = 1
-YOLD = 2
-K0 = 3
-FD = K0 + 16
-YT = FD + 7
-YN = YT + 1
-WORK_ROWS = YN + 1
+WORK = layout(
+    "DOP853 work rows",
+    y=Field(1, "", "the current state"),
+    f0=Field(1, "", "the derivative there"),
+    yold=Field(1, "", "the state at the start of the last step"),
+    k=Field(16, "", "the stages of the last step (k + 12: the derivative at its end)"),
+    fd=Field(7, "", "the last step's dense-output polynomial"),
+    yt=Field(1, "", "scratch"),
+    yn=Field(1, "", "scratch"),
+)
+WORK_ROWS = WORK.SIZE
 
 # Status codes returned by :func:`dop853_run` (EVENT and EVENT_BUFFER_FULL: by the events
 # driver of attitude._core.events: a terminal event ended the run; the record buffer needs room).
@@ -97,10 +101,10 @@ def _initial_step(rhs, params, t0, y0, f0, direction, rtol, atol, t_span, work, 
     else:
         h0 = 0.01 * d0 / d1
     h0 = min(h0, t_span)
-    yt = work[YT]
+    yt = work[WORK.YT]
     for i in range(n):
         yt[i] = y0[i] + h0 * direction * f0[i]
-    f1 = work[YN]
+    f1 = work[WORK.YN]
     rhs(t0 + h0 * direction, yt, params, f1)
     counters[1] += 1
     for i in range(n):
@@ -119,27 +123,27 @@ def _dense_coefficients(rhs, params, work, tstate, counters):
     n = work.shape[1]
     t_old = tstate[2]
     h = tstate[3]
-    yold = work[YOLD]
-    ynew = work[Y]
-    yt = work[YT]
+    yold = work[WORK.YOLD]
+    ynew = work[WORK.Y]
+    yt = work[WORK.YT]
     for s in range(13, 16):
         for i in range(n):
             acc = 0.0
             for j in range(s):
-                acc += DOP853_A[s, j] * work[K0 + j, i]
+                acc += DOP853_A[s, j] * work[WORK.K + j, i]
             yt[i] = yold[i] + h * acc
-        rhs(t_old + DOP853_C[s] * h, yt, params, work[K0 + s])
+        rhs(t_old + DOP853_C[s] * h, yt, params, work[WORK.K + s])
     counters[1] += 3
     for i in range(n):
         dy = ynew[i] - yold[i]
-        work[FD, i] = dy
-        work[FD + 1, i] = h * work[K0, i] - dy
-        work[FD + 2, i] = 2.0 * dy - h * (work[K0 + 12, i] + work[K0, i])
+        work[WORK.FD, i] = dy
+        work[WORK.FD + 1, i] = h * work[WORK.K, i] - dy
+        work[WORK.FD + 2, i] = 2.0 * dy - h * (work[WORK.K + 12, i] + work[WORK.K, i])
         for r in range(4):
             acc = 0.0
             for j in range(16):
-                acc += DOP853_D[r, j] * work[K0 + j, i]
-            work[FD + 3 + r, i] = h * acc
+                acc += DOP853_D[r, j] * work[WORK.K + j, i]
+            work[WORK.FD + 3 + r, i] = h * acc
     counters[4] = 1
 
 
@@ -150,20 +154,20 @@ def _interpolate(work, tstate, t, out):
     for i in range(n):
         acc = 0.0
         for k in range(7):
-            acc += work[FD + 6 - k, i]
+            acc += work[WORK.FD + 6 - k, i]
             if k % 2 == 0:
                 acc *= x
             else:
                 acc *= 1.0 - x
-        out[i] = acc + work[YOLD, i]
+        out[i] = acc + work[WORK.YOLD, i]
 
 
 @jit_generic
 def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step):
-    """One accepted DOP853 step from ``(tstate[0], work[Y])``, first trying the size ``h_abs``.
+    """One accepted DOP853 step from ``(tstate[0], work[WORK.Y])``, first trying the size ``h_abs``.
 
     On success the work rows and ``tstate`` hold the new state and the data of the step just
-    taken (``YOLD``, the stages, ``t_old``, ``h``; its dense output is computed on demand by
+    taken (``WORK.YOLD``, the stages, ``t_old``, ``h``; its dense output is computed on demand by
     :func:`_dense_coefficients`). Never crosses ``t_end``.
 
     Returns
@@ -174,11 +178,11 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
         The size to try next (also stored in ``tstate[1]``).
     """
     n = work.shape[1]
-    y = work[Y]
-    f = work[F0]
-    yold = work[YOLD]
-    yt = work[YT]
-    yn = work[YN]
+    y = work[WORK.Y]
+    f = work[WORK.F0]
+    yold = work[WORK.YOLD]
+    yt = work[WORK.YT]
+    yn = work[WORK.YN]
     t = tstate[0]
     min_step = 10.0 * abs(np.nextafter(t, direction * np.inf) - t)
     if h_abs > max_step:
@@ -203,20 +207,20 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
         h_abs = abs(h)
         # Stages 1..11 (stage 0 is f, first-same-as-last).
         for i in range(n):
-            work[K0, i] = f[i]
+            work[WORK.K, i] = f[i]
         for s in range(1, 12):
             for i in range(n):
                 acc = 0.0
                 for j in range(s):
-                    acc += DOP853_A[s, j] * work[K0 + j, i]
+                    acc += DOP853_A[s, j] * work[WORK.K + j, i]
                 yt[i] = y[i] + h * acc
-            rhs(t + DOP853_C[s] * h, yt, params, work[K0 + s])
+            rhs(t + DOP853_C[s] * h, yt, params, work[WORK.K + s])
         for i in range(n):
             acc = 0.0
             for j in range(12):
-                acc += DOP853_B[j] * work[K0 + j, i]
+                acc += DOP853_B[j] * work[WORK.K + j, i]
             yn[i] = y[i] + h * acc
-        rhs(t_new, yn, params, work[K0 + 12])
+        rhs(t_new, yn, params, work[WORK.K + 12])
         counters[1] += 12
         # Error estimate: the 5th- and 3rd-order embedded pairs (HNW II.10, eq. 10.17).
         e5 = 0.0
@@ -228,8 +232,8 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
             a5 = 0.0
             a3 = 0.0
             for j in range(13):
-                a5 += DOP853_E5[j] * work[K0 + j, i]
-                a3 += DOP853_E3[j] * work[K0 + j, i]
+                a5 += DOP853_E5[j] * work[WORK.K + j, i]
+                a3 += DOP853_E3[j] * work[WORK.K + j, i]
             e5 += (a5 / sc) ** 2
             e3 += (a3 / sc) ** 2
         if e5 == 0.0 and e3 == 0.0:
@@ -261,7 +265,7 @@ def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rt
     for i in range(n):
         yold[i] = y[i]
         y[i] = yn[i]
-        f[i] = work[K0 + 12, i]
+        f[i] = work[WORK.K + 12, i]
     tstate[2] = t
     tstate[3] = h
     t = t_new
@@ -309,8 +313,8 @@ def dop853_run(
     """
     n = y0.shape[0]
     m = t_out.shape[0]
-    y = work[Y]
-    f = work[F0]
+    y = work[WORK.Y]
+    f = work[WORK.F0]
     if counters[3] == 0:
         for i in range(n):
             y[i] = y0[i]

@@ -37,32 +37,37 @@ from orbit._shared_jit import inline_copy, jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
+from .layout import Field, layout
 from .quat import half_angle, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE, load, normal, normal_held, store
 
 # --- program header ----------------------------------------------------------------------------
-SN_GYRO = 0  # offset of the gyro record (0: none)
-SN_ST = 1  # offset of the star tracker record (0: none)
-SN_MAG = 2  # offset of the magnetometer record (0: none)
-SN_SUN = 3  # offset of the Sun sensor record (0: none)
-SN_ORBIT = 4  # offset of the orbit's kernel data (0: none)
-SN_SUNTAB = 5  # offset of the Sun's table (0: none)
-SN_FIELD = 6  # offset of a field block (MagneticDipole layout; 0: the spacecraft's)
-SN_HEADER = 8
+SN = layout(
+    "sensor program header",
+    gyro=Field(1, "", "offset of the gyro record (0: none)"),
+    st=Field(1, "", "offset of the star tracker record (0: none)"),
+    mag=Field(1, "", "offset of the magnetometer record (0: none)"),
+    sun=Field(1, "", "offset of the Sun sensor record (0: none)"),
+    orbit=Field(1, "", "offset of the orbit's kernel data (0: none)"),
+    suntab=Field(1, "", "offset of the Sun's table (0: none)"),
+    field=Field(1, "", "offset of a field block (MagneticDipole layout; 0: the spacecraft's)"),
+    size=8,
+)
 
-# gyro record
-G_SV = 0  # σ_v (rad/√s)
-G_SU = 1  # σ_u (rad/s^1.5)
-G_B0 = 2  # constant bias (3)
-G_C = 5  # sensor matrix C (9)
-G_QUANT = 14  # quantisation step (rad/s; 0: none)
-G_SAT = 15  # saturation (rad/s; inf: none)
-G_STATE = 16  # offset of its state in ss: stream, β (3), the true rate at the last tick (3),
-# and a flag saying it is set
-G_SD = 17  # σ of the rate noise over a tick, (σ_v²/Δt + σ_u² Δt/12)^½ (rad/s)
-G_SQ = 18  # σ of the drift's step over a tick, σ_u √Δt (rad/s)
-G_IDENTITY = 19  # 1: C is the identity (no scale factor, no misalignment: C ω̄ not computed)
-G_SIZE = 20
+GYRO = layout(
+    "gyro record",
+    sv=Field(1, "rad/s^0.5", "σ_v, angle random walk"),
+    su=Field(1, "rad/s^1.5", "σ_u, rate random walk"),
+    b0=Field(3, "rad/s", "constant bias"),
+    c=Field(9, "", "sensor matrix C", (3, 3)),
+    quant=Field(1, "rad/s", "quantisation step (0: none)"),
+    sat=Field(1, "rad/s", "saturation (inf: none)"),
+    # its state in ss: stream, β (3), the true rate at the last tick (3), a flag saying it is set
+    state=Field(1, "", "offset of its state in ss"),
+    sd=Field(1, "rad/s", "σ of the rate noise over a tick, (σ_v²/Δt + σ_u² Δt/12)^½"),
+    sq=Field(1, "rad/s", "σ of the drift's step over a tick, σ_u √Δt"),
+    identity=Field(1, "", "1: C is the identity (C ω̄ not computed)"),
+)
 
 
 def gyro_tick_sigmas(sv: float, su: float, dt: float) -> tuple[float, float]:
@@ -71,40 +76,46 @@ def gyro_tick_sigmas(sv: float, su: float, dt: float) -> tuple[float, float]:
     return math.sqrt(sv * sv / dt + su * su * dt / 12.0), su * math.sqrt(dt)
 
 
-# star tracker record
-T_SC = 0  # σ cross-boresight (rad)
-T_SB = 1  # σ about the boresight (rad)
-T_CBS = 2  # rows of the sensor frame in body axes (9: x, y, z = boresight)
-T_EVERY = 11  # update every k-th tick
-T_SUN_EXCL = 12  # Sun exclusion half-angle (rad; 0: none)
-T_EARTH_EXCL = 13  # Earth-limb exclusion angle (rad; < 0: none)
-T_STATE = 14  # offset of its state in ss: stream
-T_SIZE = 15
+ST = layout(
+    "star tracker record",
+    sc=Field(1, "rad", "σ cross-boresight"),
+    sb=Field(1, "rad", "σ about the boresight"),
+    cbs=Field(9, "", "rows of the sensor frame in body axes (x, y, z = boresight)", (3, 3)),
+    every=Field(1, "", "update every k-th tick"),
+    sun_excl=Field(1, "rad", "Sun exclusion half-angle (0: none)"),
+    earth_excl=Field(1, "rad", "Earth-limb exclusion angle (< 0: none)"),
+    state=Field(1, "", "offset of its state in ss: stream"),
+)
 
-# magnetometer record
-M_SIGMA = 0  # σ (T)
-M_BIAS = 1  # bias (3, T)
-M_STATE = 4  # offset of its stream in ss
-M_SIZE = 5
+MAG = layout(
+    "magnetometer record",
+    sigma=Field(1, "T", "σ"),
+    bias=Field(3, "T"),
+    state=Field(1, "", "offset of its stream in ss"),
+)
 
-# Sun sensor record
-S_NHEADS = 0
-S_SIGMA = 1  # σ of each head's current (fraction of the full-Sun current)
-S_STATE = 2  # offset of its stream
-S_NORMALS = 3  # n normals (3 each)
+SUNS = layout(
+    "Sun sensor record",
+    nheads=1,
+    sigma=Field(1, "", "σ of each head's current (fraction of the full-Sun current)"),
+    state=Field(1, "", "offset of its stream"),
+    normals=Field(0, "", "n normals (3 each)"),
+)
 
 # --- the measurement vector (written at each tick) -----------------------------------------------
-Z_OMEGA = 0  # gyro rate (3)
-Z_GYRO_OK = 3
-Z_Q = 4  # star tracker quaternion (4)
-Z_ST_OK = 8  # 1: a new valid measurement at this tick
-Z_ST_FLAG = 9  # 0 valid, 1 no update this tick, 2 Sun in exclusion, 3 Earth in exclusion
-Z_B = 10  # magnetometer (3)
-Z_MAG_OK = 13
-Z_SUN = 14  # Sun direction estimate (3)
-Z_SUN_OK = 17
-Z_ECLIPSE = 18  # fraction of the Sun visible
-Z_SIZE = 19
+Z = layout(
+    "sensor measurements",
+    omega=Field(3, "rad/s", "gyro rate"),
+    gyro_ok=1,
+    q=Field(4, "", "star tracker quaternion"),
+    st_ok=Field(1, "", "1: a new valid measurement at this tick"),
+    st_flag=Field(1, "", "0 valid, 1 no update this tick, 2 Sun, 3 Earth in exclusion"),
+    b=Field(3, "T", "magnetometer"),
+    mag_ok=1,
+    sun=Field(3, "", "Sun direction estimate"),
+    sun_ok=1,
+    eclipse=Field(1, "", "fraction of the Sun visible"),
+)
 
 
 @jit(inline="always")
@@ -118,14 +129,14 @@ def _mv3(a, o, v0, v1, v2):
 
 @jit
 def gyro_measure(sn, g, ss, om, z):
-    """The gyro's rate at this tick into z[Z_OMEGA:]: the mean rate over the last interval
+    """The gyro's rate at this tick into z[Z.OMEGA:]: the mean rate over the last interval
     (trapezoidal from the true rates at its ends), its drift advanced over the tick (the
     noise deviations of the tick in the record: :func:`gyro_tick_sigmas`)."""
-    so = int(sn[g + G_STATE])
+    so = int(sn[g + GYRO.STATE])
     b = so + RNG_SIZE
     w_prev = b + 3
-    sd = sn[g + G_SD]
-    sq = sn[g + G_SQ]
+    sd = sn[g + GYRO.SD]
+    sq = sn[g + GYRO.SQ]
     # the interval's mean rate (an integrating gyro), from the true rate at both ends
     if ss[w_prev + 3] == 0.0:
         a0, a1, a2 = om[0], om[1], om[2]
@@ -137,9 +148,9 @@ def gyro_measure(sn, g, ss, om, z):
     ss[w_prev + 1] = om[1]
     ss[w_prev + 2] = om[2]
     ss[w_prev + 3] = 1.0
-    c = (a0, a1, a2) if sn[g + G_IDENTITY] != 0.0 else _mv3(sn, g + G_C, a0, a1, a2)
-    quant = sn[g + G_QUANT]
-    sat = sn[g + G_SAT]
+    c = (a0, a1, a2) if sn[g + GYRO.IDENTITY] != 0.0 else _mv3(sn, g + GYRO.C, a0, a1, a2)
+    quant = sn[g + GYRO.QUANT]
+    sat = sn[g + GYRO.SAT]
     r0, r1, r2, r3 = load(ss, so)  # the six deviates drawn in registers
     for i in range(3):
         b_old = ss[b + i]
@@ -147,24 +158,24 @@ def gyro_measure(sn, g, ss, om, z):
         nv, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
         b_new = b_old + sq * nu
         ss[b + i] = b_new
-        w = c[i] + sn[g + G_B0 + i] + 0.5 * (b_old + b_new) + sd * nv
+        w = c[i] + sn[g + GYRO.B0 + i] + 0.5 * (b_old + b_new) + sd * nv
         if quant > 0.0:
             w = quant * math.floor(w / quant + 0.5)
         if w > sat:
             w = sat
         elif w < -sat:
             w = -sat
-        z[Z_OMEGA + i] = w
+        z[Z.OMEGA + i] = w
     store(ss, so, r0, r1, r2, r3)
-    z[Z_GYRO_OK] = 1.0
+    z[Z.GYRO_OK] = 1.0
 
 
 @jit
 def sun_and_earth(sn, t):
     """(satellite position (3), unit Sun direction (3), ν) in space axes, from the orbit and
     the Sun's table of the program (ν = 1 and zero vectors when absent)."""
-    oo = int(sn[SN_ORBIT])
-    so = int(sn[SN_SUNTAB])
+    oo = int(sn[SN.ORBIT])
+    so = int(sn[SN.SUNTAB])
     r = (0.0, 0.0, 0.0)
     s = (0.0, 0.0, 0.0)
     nu = 1.0
@@ -186,16 +197,16 @@ def sun_and_earth(sn, t):
 def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     """The star tracker's quaternion at an update tick (and its validity) into z (the noise
     is drawn at every update, valid or not: the stream does not depend on the geometry)."""
-    so = int(sn[o + T_STATE])
+    so = int(sn[o + ST.STATE])
     r0, r1, r2, r3 = load(ss, so)
     x0, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
     x1, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
     x2, r0, r1, r2, r3 = normal_held(ss, so, r0, r1, r2, r3)
     store(ss, so, r0, r1, r2, r3)
-    n0 = sn[o + T_SC] * x0
-    n1 = sn[o + T_SC] * x1
-    n2 = sn[o + T_SB] * x2
-    c = T_CBS
+    n0 = sn[o + ST.SC] * x0
+    n1 = sn[o + ST.SC] * x1
+    n2 = sn[o + ST.SB] * x2
+    c = ST.CBS
     # δθ in body axes = C_bsᵀ (n0, n1, n2): the rows of C_bs are the sensor axes
     d0 = sn[o + c] * n0 + sn[o + c + 3] * n1 + sn[o + c + 6] * n2
     d1 = sn[o + c + 1] * n0 + sn[o + c + 4] * n1 + sn[o + c + 7] * n2
@@ -205,10 +216,10 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
     dq = (ch, k * d0, k * d1, k * d2)
     qm = shorter(mul(q, dq))
     for i in range(4):
-        z[Z_Q + i] = qm[i]
+        z[Z.Q + i] = qm[i]
     flag = 0.0
-    ex = sn[o + T_SUN_EXCL]
-    ee = sn[o + T_EARTH_EXCL]
+    ex = sn[o + ST.SUN_EXCL]
+    ee = sn[o + ST.EARTH_EXCL]
     if ex > 0.0 or ee >= 0.0:  # exclusion angles (else no geometry)
         bs = rotate(q, (sn[o + c + 6], sn[o + c + 7], sn[o + c + 8]))  # boresight in space
         if ex > 0.0 and nu > 0.0 and (s[0] != 0.0 or s[1] != 0.0 or s[2] != 0.0):
@@ -222,18 +233,18 @@ def star_tracker_measure(sn, o, ss, q, r, s, nu, z):
             ang = math.acos(min(1.0, max(-1.0, ce)))
             if ang - math.asin(min(1.0, R_EARTH / rn)) < ee:
                 flag = 3.0
-    z[Z_ST_FLAG] = flag
-    z[Z_ST_OK] = 1.0 if flag == 0.0 else 0.0
+    z[Z.ST_FLAG] = flag
+    z[Z.ST_OK] = 1.0 if flag == 0.0 else 0.0
 
 
 @jit
 def magnetometer_measure(sn, o, ss, bb, z):
     """The magnetometer's field (T, body axes) into z."""
-    so = int(sn[o + M_STATE])
-    sg = sn[o + M_SIGMA]
+    so = int(sn[o + MAG.STATE])
+    sg = sn[o + MAG.SIGMA]
     for i in range(3):
-        z[Z_B + i] = bb[i] + sn[o + M_BIAS + i] + sg * normal(ss, so)
-    z[Z_MAG_OK] = 1.0 if (bb[0] == bb[0]) else 0.0
+        z[Z.B + i] = bb[i] + sn[o + MAG.BIAS + i] + sg * normal(ss, so)
+    z[Z.MAG_OK] = 1.0 if (bb[0] == bb[0]) else 0.0
 
 
 @jit
@@ -244,7 +255,7 @@ def _css_fit(sn, o, cur, n, thr, check, d0, d1, d2):
     r0 = r1 = r2 = 0.0
     used = 0
     for i in range(n):
-        b = o + S_NORMALS + 3 * i
+        b = o + SUNS.NORMALS + 3 * i
         c = cur[i]
         n0, n1, n2 = sn[b], sn[b + 1], sn[b + 2]
         if not (c > thr and c > 0.0):
@@ -288,15 +299,15 @@ def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
     head whose noise reads above 3σ, 0.13 % of its draws: it would pull the solution's
     component along its normal to half; the cosine law gives it no current from a Sun behind
     it); invalid with fewer than three heads left."""
-    n = int(sn[o + S_NHEADS])
-    so = int(sn[o + S_STATE])
-    sg = sn[o + S_SIGMA]
+    n = int(sn[o + SUNS.NHEADS])
+    so = int(sn[o + SUNS.STATE])
+    sg = sn[o + SUNS.SIGMA]
     sb = rotate_inverse(q, s)
     for i in range(n):
-        b = o + S_NORMALS + 3 * i
+        b = o + SUNS.NORMALS + 3 * i
         c = sn[b] * sb[0] + sn[b + 1] * sb[1] + sn[b + 2] * sb[2]
         scratch[i] = nu * max(0.0, c) + sg * normal(ss, so)
-    z[Z_ECLIPSE] = nu
+    z[Z.ECLIPSE] = nu
     thr = 3.0 * sg
     used, x0, x1, x2, ok = _css_fit(sn, o, scratch, n, thr, False, 0.0, 0.0, 0.0)
     if ok:
@@ -306,15 +317,15 @@ def sun_sensor_measure(sn, o, ss, q, s, nu, z, scratch):
     if ok:
         m = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
         if m > 0.0:
-            z[Z_SUN] = x0 / m
-            z[Z_SUN + 1] = x1 / m
-            z[Z_SUN + 2] = x2 / m
-            z[Z_SUN_OK] = 1.0
+            z[Z.SUN] = x0 / m
+            z[Z.SUN + 1] = x1 / m
+            z[Z.SUN + 2] = x2 / m
+            z[Z.SUN_OK] = 1.0
             return
-    z[Z_SUN] = math.nan
-    z[Z_SUN + 1] = math.nan
-    z[Z_SUN + 2] = math.nan
-    z[Z_SUN_OK] = 0.0
+    z[Z.SUN] = math.nan
+    z[Z.SUN + 1] = math.nan
+    z[Z.SUN + 2] = math.nan
+    z[Z.SUN_OK] = 0.0
 
 
 @jit
@@ -322,34 +333,34 @@ def measure_sensors(sn, ss, t, tick, q, om, bb, z, scratch, keep):
     """All the sensors of the program at tick ``tick`` (time t) from the true attitude q, rate
     ω and body field bb, into the measurement vector z (the star tracker's model only at its
     update ticks)."""
-    for i in range(Z_SIZE):
+    for i in range(Z.SIZE):
         z[i] = 0.0
-    g = int(sn[SN_GYRO])
+    g = int(sn[SN.GYRO])
     if g > 0:
         gyro_measure(sn, g, ss, om, z)
-    ot = int(sn[SN_ST])
-    os_ = int(sn[SN_SUN])
-    st_update = ot > 0 and tick % int(sn[ot + T_EVERY]) == 0
+    ot = int(sn[SN.ST])
+    os_ = int(sn[SN.SUN])
+    st_update = ot > 0 and tick % int(sn[ot + ST.EVERY]) == 0
     # the Sun and the Earth only for a model that looks at them (a star tracker's exclusion
     # angles at its update, a Sun sensor) or for the record's eclipse fraction (``keep``: a
     # recorded tick), not at every tick
     r = s = (0.0, 0.0, 0.0)
     nu = 1.0
-    excl = st_update and (sn[ot + T_SUN_EXCL] > 0.0 or sn[ot + T_EARTH_EXCL] >= 0.0)
+    excl = st_update and (sn[ot + ST.SUN_EXCL] > 0.0 or sn[ot + ST.EARTH_EXCL] >= 0.0)
     if excl or os_ > 0 or keep:
         r, s, nu = sun_and_earth(sn, t)
     if st_update:
         star_tracker_measure(sn, ot, ss, q, r, s, nu, z)
     elif ot > 0:
-        z[Z_ST_OK] = 0.0
-        z[Z_ST_FLAG] = 1.0
-    o = int(sn[SN_MAG])
+        z[Z.ST_OK] = 0.0
+        z[Z.ST_FLAG] = 1.0
+    o = int(sn[SN.MAG])
     if o > 0:
         magnetometer_measure(sn, o, ss, bb, z)
     if os_ > 0:
         sun_sensor_measure(sn, os_, ss, q, s, nu, z, scratch)
     else:
-        z[Z_ECLIPSE] = nu
+        z[Z.ECLIPSE] = nu
 
 
 # the copy the tick's sensing inlines (fsw.sense_and_estimate), with the gyro's measurement

@@ -26,7 +26,7 @@ single run's layouts) · ``status``, ``n_done`` (C,) int64 as in :mod:`attitude.
 The command source of a member is a tuple of arrays, ``src``; :func:`schedule_ctl` and
 :func:`fsw_ctl` cut member i's ``ctl`` tuple of the single run out of it:
 
-* open loop: ``(hs (C, HS_SIZE), hold_t (K,), hold_u (K, n_cmd), hold_at (C + 1,), zero
+* open loop: ``(hs (C, HS.SIZE), hold_t (K,), hold_u (K, n_cmd), hold_at (C + 1,), zero
   (n_cmd,))``: member i's schedule is ``hold_t[hold_at[i]:hold_at[i + 1]]``;
 * flight software: ``(hs, fw (F,), fw_at (C, 2), fs (S',), fs_at (C + 1,), cmd (C, c), rec
   (C, R, w), rc (C, 1))``: member i's program ``fw[fw_at[i, 0]:fw_at[i, 1]]`` (read only:

@@ -46,7 +46,7 @@ There is no rejected step.
 
 Layout of the persistent arrays
 -------------------------------
-``work`` : float64, shape (WORK_ROWS, NCOL)
+``work`` : float64, shape (WORK_ROWS, COL.SIZE)
     rows 0..PMAX: Taylor coefficients of the last step (row k = order k; columns below);
     row Y: the current state (8 values, columns 0..7).
 ``tstate`` : float64, shape (5,)
@@ -69,24 +69,32 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import jit
 
 from .fma import fma as F
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .layout import Field, layout
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .quat import rotate_inverse
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 
 PMAX = 40  # highest order (rtol = 1e-34; double precision needs p ≤ 20)
 
 # Columns of the coefficient table.
-CQ = 0  # q (4)
-CP = 4  # Q (4)
-CG = 8  # g = ½ vec(q̃∘Q) (3)
-CW = 11  # ω = I⁻¹ g (3)
-CA = 14  # heavy top: s; gravity gradient: r in body axes (3)
-CV = 17  # gravity gradient: v in body axes (3)
-CR2 = 20  # |r|² (1)
-CU3 = 21  # |r|⁻³ (1)
-CU5 = 22  # |r|⁻⁵ (1)
-CX = 23  # r × I r (3)
-NCOL = 26
+COL = layout(
+    "Taylor coefficient columns",
+    q=4,
+    p=Field(4, "", "Q"),
+    g=Field(3, "", "g = ½ vec(q̃∘Q)"),
+    w=Field(3, "", "ω = I⁻¹ g"),
+    a=Field(3, "", "heavy top: s; gravity gradient: r in body axes"),
+    v=Field(3, "", "gravity gradient: v in body axes"),
+    r2=Field(1, "", "|r|²"),
+    u3=Field(1, "", "|r|⁻³"),
+    u5=Field(1, "", "|r|⁻⁵"),
+    x=Field(3, "", "r × I r"),
+)
 Y = PMAX + 1
 #: 1/(k + 1) for the orders of the table: a load instead of a division in the recurrences
 #: (the same numbers; a division sat on their chain of dependent operations).
@@ -99,7 +107,7 @@ _SAFETY_EXP = 0.7  # Jorba & Zou's safety factor exp(−0.7/(p − 1))
 
 def new_state():
     """Fresh persistent arrays ``(work, tstate, counters)``."""
-    return np.zeros((WORK_ROWS, NCOL)), np.zeros(5), np.zeros(5, dtype=np.int64)
+    return np.zeros((WORK_ROWS, COL.SIZE)), np.zeros(5), np.zeros(5, dtype=np.int64)
 
 
 @jit
@@ -127,26 +135,26 @@ def _initial_row(work, t, params):
         cf[0, i] = y[i]
     # q̃∘Q = (c, 2g)
     c = q0 * Q0 + q1 * Q1 + q2 * Q2 + q3 * Q3
-    cf[0, CG] = 0.5 * (q0 * Q1 - q1 * Q0 - q2 * Q3 + q3 * Q2)
-    cf[0, CG + 1] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
-    cf[0, CG + 2] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
+    cf[0, COL.G] = 0.5 * (q0 * Q1 - q1 * Q0 - q2 * Q3 + q3 * Q2)
+    cf[0, COL.G + 1] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
+    cf[0, COL.G + 2] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
     n = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     q = (q0, q1, q2, q3)
     if kind == KIND_HEAVY_TOP:
         s = rotate_inverse(q, (0.0, 0.0, 1.0))
-        cf[0, CA] = s[0]
-        cf[0, CA + 1] = s[1]
-        cf[0, CA + 2] = s[2]
+        cf[0, COL.A] = s[0]
+        cf[0, COL.A + 1] = s[1]
+        cf[0, COL.A + 2] = s[2]
     elif kind == KIND_GRAVITY_GRADIENT:
         # Exact Kepler restart: the orbit's state at t, in body axes (the trig of the constant
         # angles precomputed in the orbit's kernel data: bit for bit orbit._kernels.state).
-        x, yy, z, vx, vy, vz = _SK.orbit_state(params[P0:], t)
+        x, yy, z, vx, vy, vz = _SK.orbit_state(params[MODEL.DATA :], t)
         r = rotate_inverse(q, (x, yy, z))
         v = rotate_inverse(q, (vx, vy, vz))
         for i in range(3):
-            cf[0, CA + i] = r[i]
-            cf[0, CV + i] = v[i]
+            cf[0, COL.A + i] = r[i]
+            cf[0, COL.V + i] = v[i]
     return n, c
 
 
@@ -159,7 +167,7 @@ def taylor_coefficients(cf, p, params, n, c):
     (:func:`attitude._core.taylor_batch.taylor_coefficients_lanes`) repeats these operations
     lane by lane and reproduces this table bit for bit.
     """
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     iI0 = 1.0 / params[0]
     iI1 = 1.0 / params[1]
     iI2 = 1.0 / params[2]
@@ -173,20 +181,20 @@ def taylor_coefficients(cf, p, params, n, c):
     mu = 0.0
     D0 = D1 = D2 = 0.0
     if kind == KIND_HEAVY_TOP:
-        W = params[P0]
-        cx = params[P0 + 1]
-        cy = params[P0 + 2]
-        cz = params[P0 + 3]
+        W = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cx = params[MODEL.KIND + HEAVY_TOP.CM]
+        cy = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cz = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        mu = params[P0 + _SK.MU]
+        mu = params[MODEL.DATA + _SK.MU]
         # r × I r = ((I2 − I1) r1 r2, (I0 − I2) r2 r0, (I1 − I0) r0 r1)
         D0 = params[2] - params[1]
         D1 = params[0] - params[2]
         D2 = params[1] - params[0]
     for k in range(p + 1):
-        cf[k, CW] = iI0 * cf[k, CG]
-        cf[k, CW + 1] = iI1 * cf[k, CG + 1]
-        cf[k, CW + 2] = iI2 * cf[k, CG + 2]
+        cf[k, COL.W] = iI0 * cf[k, COL.G]
+        cf[k, COL.W + 1] = iI1 * cf[k, COL.G + 1]
+        cf[k, COL.W + 2] = iI2 * cf[k, COL.G + 2]
         # A[l][m] = Σ_j (q[j]∘e_m)_l g_m[k−j]:
         # q∘e_0 = (−q1, q0, q3, −q2), q∘e_1 = (−q2, −q3, q0, q1), q∘e_2 = (−q3, q2, −q1, q0).
         a00 = a10 = a20 = a30 = 0.0
@@ -199,12 +207,12 @@ def taylor_coefficients(cf, p, params, n, c):
             q1 = cf[j, 1]
             q2 = cf[j, 2]
             q3 = cf[j, 3]
-            g0 = cf[k - j, CG]
-            g1 = cf[k - j, CG + 1]
-            g2 = cf[k - j, CG + 2]
-            p12 = F(cf[j, CG + 1], g2, p12)
-            p20 = F(cf[j, CG + 2], g0, p20)
-            p01 = F(cf[j, CG], g1, p01)
+            g0 = cf[k - j, COL.G]
+            g1 = cf[k - j, COL.G + 1]
+            g2 = cf[k - j, COL.G + 2]
+            p12 = F(cf[j, COL.G + 1], g2, p12)
+            p20 = F(cf[j, COL.G + 2], g0, p20)
+            p01 = F(cf[j, COL.G], g1, p01)
             a00 = F(-q1, g0, a00)
             a10 = F(q0, g0, a10)
             a20 = F(q3, g0, a20)
@@ -235,15 +243,15 @@ def taylor_coefficients(cf, p, params, n, c):
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
         inv = RECIPROCALS[k]
         # Euler's equations: ġ = g × ω + n τ
-        cf[k + 1, CG] = F(e0, p12, n * t0) * inv
-        cf[k + 1, CG + 1] = F(e1, p20, n * t1) * inv
-        cf[k + 1, CG + 2] = F(e2, p01, n * t2) * inv
+        cf[k + 1, COL.G] = F(e0, p12, n * t0) * inv
+        cf[k + 1, COL.G + 1] = F(e1, p20, n * t1) * inv
+        cf[k + 1, COL.G + 2] = F(e2, p01, n * t2) * inv
 
 
 @jit(inline="always")
 def torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2):
     """The built-in torque's series τ[k] (heavy top, gravity gradient; 0 otherwise), and its
-    auxiliary series to order k + 1, from the rows 0..k of ``cf`` (ω in the CW columns).
+    auxiliary series to order k + 1, from the rows 0..k of ``cf`` (ω in the COL.W columns).
 
     Shared by the rigid body (:func:`taylor_coefficients`) and the gyrostat
     (:mod:`attitude._core.taylor_gyrostat`): the same operations in the same order.
@@ -251,97 +259,97 @@ def torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2):
     t0 = t1 = t2 = 0.0
     inv = RECIPROCALS[k]
     if kind == KIND_HEAVY_TOP:
-        s0 = cf[k, CA]
-        s1 = cf[k, CA + 1]
-        s2 = cf[k, CA + 2]
+        s0 = cf[k, COL.A]
+        s1 = cf[k, COL.A + 1]
+        s2 = cf[k, COL.A + 2]
         # τ = c × F_B, F_B = −W s
         t0 = -W * F(cy, s2, -cz * s1)
         t1 = -W * F(cz, s0, -cx * s2)
         t2 = -W * F(cx, s1, -cy * s0)
         b0 = b1 = b2 = 0.0
         for j in range(k + 1):
-            s0 = cf[j, CA]
-            s1 = cf[j, CA + 1]
-            s2 = cf[j, CA + 2]
-            w0 = cf[k - j, CW]
-            w1 = cf[k - j, CW + 1]
-            w2 = cf[k - j, CW + 2]
+            s0 = cf[j, COL.A]
+            s1 = cf[j, COL.A + 1]
+            s2 = cf[j, COL.A + 2]
+            w0 = cf[k - j, COL.W]
+            w1 = cf[k - j, COL.W + 1]
+            w2 = cf[k - j, COL.W + 2]
             b0 = F(s1, w2, F(-s2, w1, b0))
             b1 = F(s2, w0, F(-s0, w2, b1))
             b2 = F(s0, w1, F(-s1, w0, b2))
-        cf[k + 1, CA] = b0 * inv
-        cf[k + 1, CA + 1] = b1 * inv
-        cf[k + 1, CA + 2] = b2 * inv
+        cf[k + 1, COL.A] = b0 * inv
+        cf[k + 1, COL.A + 1] = b1 * inv
+        cf[k + 1, COL.A + 2] = b2 * inv
     elif kind == KIND_GRAVITY_GRADIENT:
         # |r|², r × I r at order k
         s = 0.0
         x0 = x1 = x2 = 0.0
         for j in range(k + 1):
-            r0 = cf[j, CA]
-            r1 = cf[j, CA + 1]
-            r2 = cf[j, CA + 2]
-            u0 = cf[k - j, CA]
-            u1 = cf[k - j, CA + 1]
-            u2 = cf[k - j, CA + 2]
+            r0 = cf[j, COL.A]
+            r1 = cf[j, COL.A + 1]
+            r2 = cf[j, COL.A + 2]
+            u0 = cf[k - j, COL.A]
+            u1 = cf[k - j, COL.A + 1]
+            u2 = cf[k - j, COL.A + 2]
             s = F(r2, u2, F(r1, u1, F(r0, u0, s)))
             x0 = F(r1, u2, x0)
             x1 = F(r2, u0, x1)
             x2 = F(r0, u1, x2)
-        cf[k, CR2] = s
-        cf[k, CX] = D0 * x0
-        cf[k, CX + 1] = D1 * x1
-        cf[k, CX + 2] = D2 * x2
-        s00 = cf[0, CR2]
+        cf[k, COL.R2] = s
+        cf[k, COL.X] = D0 * x0
+        cf[k, COL.X + 1] = D1 * x1
+        cf[k, COL.X + 2] = D2 * x2
+        s00 = cf[0, COL.R2]
         if k == 0:
-            cf[0, CU3] = 1.0 / (s00 * math.sqrt(s00))
-            cf[0, CU5] = cf[0, CU3] / s00
+            cf[0, COL.U3] = 1.0 / (s00 * math.sqrt(s00))
+            cf[0, COL.U5] = cf[0, COL.U3] / s00
         else:
             # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
             acc = 0.0
             for j in range(k):
-                acc = F((-1.5 * (k - j) - j) * cf[k - j, CR2], cf[j, CU3], acc)
-            cf[k, CU3] = acc / (k * s00)
-            acc = cf[k, CU3]
+                acc = F((-1.5 * (k - j) - j) * cf[k - j, COL.R2], cf[j, COL.U3], acc)
+            cf[k, COL.U3] = acc / (k * s00)
+            acc = cf[k, COL.U3]
             for j in range(1, k + 1):
-                acc = F(-cf[j, CR2], cf[k - j, CU5], acc)
-            cf[k, CU5] = acc / s00
+                acc = F(-cf[j, COL.R2], cf[k - j, COL.U5], acc)
+            cf[k, COL.U5] = acc / s00
         # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
         b0 = b1 = b2 = 0.0
         d0 = d1 = d2 = 0.0
         f0 = f1 = f2 = 0.0
         for j in range(k + 1):
-            u5 = cf[j, CU5]
-            u3 = cf[j, CU3]
-            w0 = cf[k - j, CW]
-            w1 = cf[k - j, CW + 1]
-            w2 = cf[k - j, CW + 2]
-            r0 = cf[j, CA]
-            r1 = cf[j, CA + 1]
-            r2 = cf[j, CA + 2]
-            v0 = cf[j, CV]
-            v1 = cf[j, CV + 1]
-            v2 = cf[j, CV + 2]
-            t0 = F(u5, cf[k - j, CX], t0)
-            t1 = F(u5, cf[k - j, CX + 1], t1)
-            t2 = F(u5, cf[k - j, CX + 2], t2)
+            u5 = cf[j, COL.U5]
+            u3 = cf[j, COL.U3]
+            w0 = cf[k - j, COL.W]
+            w1 = cf[k - j, COL.W + 1]
+            w2 = cf[k - j, COL.W + 2]
+            r0 = cf[j, COL.A]
+            r1 = cf[j, COL.A + 1]
+            r2 = cf[j, COL.A + 2]
+            v0 = cf[j, COL.V]
+            v1 = cf[j, COL.V + 1]
+            v2 = cf[j, COL.V + 2]
+            t0 = F(u5, cf[k - j, COL.X], t0)
+            t1 = F(u5, cf[k - j, COL.X + 1], t1)
+            t2 = F(u5, cf[k - j, COL.X + 2], t2)
             b0 = F(r1, w2, F(-r2, w1, b0))
             b1 = F(r2, w0, F(-r0, w2, b1))
             b2 = F(r0, w1, F(-r1, w0, b2))
             d0 = F(v1, w2, F(-v2, w1, d0))
             d1 = F(v2, w0, F(-v0, w2, d1))
             d2 = F(v0, w1, F(-v1, w0, d2))
-            f0 = F(u3, cf[k - j, CA], f0)
-            f1 = F(u3, cf[k - j, CA + 1], f1)
-            f2 = F(u3, cf[k - j, CA + 2], f2)
+            f0 = F(u3, cf[k - j, COL.A], f0)
+            f1 = F(u3, cf[k - j, COL.A + 1], f1)
+            f2 = F(u3, cf[k - j, COL.A + 2], f2)
         t0 *= 3.0 * mu
         t1 *= 3.0 * mu
         t2 *= 3.0 * mu
-        cf[k + 1, CA] = (cf[k, CV] + b0) * inv
-        cf[k + 1, CA + 1] = (cf[k, CV + 1] + b1) * inv
-        cf[k + 1, CA + 2] = (cf[k, CV + 2] + b2) * inv
-        cf[k + 1, CV] = F(-mu, f0, d0) * inv
-        cf[k + 1, CV + 1] = F(-mu, f1, d1) * inv
-        cf[k + 1, CV + 2] = F(-mu, f2, d2) * inv
+        cf[k + 1, COL.A] = (cf[k, COL.V] + b0) * inv
+        cf[k + 1, COL.A + 1] = (cf[k, COL.V + 1] + b1) * inv
+        cf[k + 1, COL.A + 2] = (cf[k, COL.V + 2] + b2) * inv
+        cf[k + 1, COL.V] = F(-mu, f0, d0) * inv
+        cf[k + 1, COL.V + 1] = F(-mu, f1, d1) * inv
+        cf[k + 1, COL.V + 2] = F(-mu, f2, d2) * inv
     return t0, t1, t2
 
 

@@ -51,26 +51,19 @@ from . import lanes as V
 from .dynamics import diagnostics_row, diagnostics_with
 from .fma import fma as F
 from .lanes import LANES, simd_lanes
+from .layout import Field, layout
 from .potentials import (
+    HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
     KIND_HEAVY_TOP,
-    P0,
-    P_KIND,
+    MODEL,
     builtin_potential,
     gravity_gradient_potential_radial,
 )
 from .quat import rotate_inverse
 from .rk import NONFINITE, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
-    CA,
-    CG,
-    CR2,
-    CU3,
-    CU5,
-    CV,
-    CW,
-    CX,
-    NCOL,
+    COL,
     RECIPROCALS,
     WORK_ROWS,
     Y,
@@ -109,16 +102,18 @@ def batch(width: int | None = None):
 
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
-K_II = 0  # 1/I1, 1/I2, 1/I3
-K_E = 3  # Euler: 1/I3 − 1/I2, 1/I1 − 1/I3, 1/I2 − 1/I1
-K_N = 6  # n = |q|²
-K_INVN = 7  # 1/n
-K_C = 8  # c = q·Q
-K_W = 9  # heavy top: weight
-K_CM = 10  # heavy top: centre of mass (3)
-K_MU = 13  # gravity gradient: μ
-K_D = 14  # gravity gradient: I3 − I2, I1 − I3, I2 − I1
-NCONST = 17
+CONST = layout(
+    "per-lane constants",
+    ii=Field(3, "", "1/I1, 1/I2, 1/I3"),
+    e=Field(3, "", "Euler: 1/I3 − 1/I2, 1/I1 − 1/I3, 1/I2 − 1/I1"),
+    n=Field(1, "", "n = |q|²"),
+    invn=Field(1, "", "1/n"),
+    c=Field(1, "", "c = q·Q"),
+    w=Field(1, "N", "heavy top: weight"),
+    cm=Field(3, "m", "heavy top: centre of mass"),
+    mu=Field(1, "km3/s2", "gravity gradient: μ"),
+    d=Field(3, "", "gravity gradient: I3 − I2, I1 − I3, I2 − I1"),
+)
 
 
 @jit(inline="always")
@@ -129,31 +124,31 @@ def _lane_constants(params, i, cst, lane):
     iI0 = 1.0 / params[i, 0]
     iI1 = 1.0 / params[i, 1]
     iI2 = 1.0 / params[i, 2]
-    cst[K_II, lane] = iI0
-    cst[K_II + 1, lane] = iI1
-    cst[K_II + 2, lane] = iI2
-    cst[K_E, lane] = iI2 - iI1
-    cst[K_E + 1, lane] = iI0 - iI2
-    cst[K_E + 2, lane] = iI1 - iI0
-    kind = int(params[i, P_KIND])
+    cst[CONST.II, lane] = iI0
+    cst[CONST.II + 1, lane] = iI1
+    cst[CONST.II + 2, lane] = iI2
+    cst[CONST.E, lane] = iI2 - iI1
+    cst[CONST.E + 1, lane] = iI0 - iI2
+    cst[CONST.E + 2, lane] = iI1 - iI0
+    kind = int(params[i, MODEL.KIND])
     if kind == KIND_HEAVY_TOP:
-        cst[K_W, lane] = params[i, P0]
-        cst[K_CM, lane] = params[i, P0 + 1]
-        cst[K_CM + 1, lane] = params[i, P0 + 2]
-        cst[K_CM + 2, lane] = params[i, P0 + 3]
+        cst[CONST.W, lane] = params[i, MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cst[CONST.CM, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM]
+        cst[CONST.CM + 1, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM + 1]
+        cst[CONST.CM + 2, lane] = params[i, MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        cst[K_MU, lane] = params[i, P0 + _SK.MU]
-        cst[K_D, lane] = params[i, 2] - params[i, 1]
-        cst[K_D + 1, lane] = params[i, 0] - params[i, 2]
-        cst[K_D + 2, lane] = params[i, 1] - params[i, 0]
+        cst[CONST.MU, lane] = params[i, MODEL.DATA + _SK.MU]
+        cst[CONST.D, lane] = params[i, 2] - params[i, 1]
+        cst[CONST.D + 1, lane] = params[i, 0] - params[i, 2]
+        cst[CONST.D + 2, lane] = params[i, 1] - params[i, 0]
 
 
 @jit(inline="always")
 def _lane_state_constants(n, c, cst, lane):
     """n = |q|², c = q·Q and 1/n of the lane's current state."""
-    cst[K_N, lane] = n
-    cst[K_INVN, lane] = 1.0 / n
-    cst[K_C, lane] = c
+    cst[CONST.N, lane] = n
+    cst[CONST.INVN, lane] = 1.0 / n
+    cst[CONST.C, lane] = c
 
 
 @jit(inline="always")
@@ -178,97 +173,97 @@ def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
     t0 = t1 = t2 = Z
     inv = RECIPROCALS[k]
     if kind == KIND_HEAVY_TOP:
-        s0 = V.load(cf, k, CA)
-        s1 = V.load(cf, k, CA + 1)
-        s2 = V.load(cf, k, CA + 2)
+        s0 = V.load(cf, k, COL.A)
+        s1 = V.load(cf, k, COL.A + 1)
+        s2 = V.load(cf, k, COL.A + 2)
         t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
         t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
         t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
         b0 = b1 = b2 = Z
         for j in range(k + 1):
-            s0 = V.load(cf, j, CA)
-            s1 = V.load(cf, j, CA + 1)
-            s2 = V.load(cf, j, CA + 2)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
+            s0 = V.load(cf, j, COL.A)
+            s1 = V.load(cf, j, COL.A + 1)
+            s2 = V.load(cf, j, COL.A + 2)
+            w0 = V.load(cf, k - j, COL.W)
+            w1 = V.load(cf, k - j, COL.W + 1)
+            w2 = V.load(cf, k - j, COL.W + 2)
             b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
             b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
             b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
-        V.store(cf, k + 1, CA, V.smul(inv, b0))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
+        V.store(cf, k + 1, COL.A, V.smul(inv, b0))
+        V.store(cf, k + 1, COL.A + 1, V.smul(inv, b1))
+        V.store(cf, k + 1, COL.A + 2, V.smul(inv, b2))
     elif kind == KIND_GRAVITY_GRADIENT:
         s = x0 = x1 = x2 = Z
         for j in range(k + 1):
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            u0 = V.load(cf, k - j, CA)
-            u1 = V.load(cf, k - j, CA + 1)
-            u2 = V.load(cf, k - j, CA + 2)
+            r0 = V.load(cf, j, COL.A)
+            r1 = V.load(cf, j, COL.A + 1)
+            r2 = V.load(cf, j, COL.A + 2)
+            u0 = V.load(cf, k - j, COL.A)
+            u1 = V.load(cf, k - j, COL.A + 1)
+            u2 = V.load(cf, k - j, COL.A + 2)
             s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
             x0 = V.fma(r1, u2, x0)
             x1 = V.fma(r2, u0, x1)
             x2 = V.fma(r0, u1, x2)
-        V.store(cf, k, CR2, s)
-        V.store(cf, k, CX, V.mul(D0, x0))
-        V.store(cf, k, CX + 1, V.mul(D1, x1))
-        V.store(cf, k, CX + 2, V.mul(D2, x2))
-        s00 = V.load(cf, 0, CR2)
+        V.store(cf, k, COL.R2, s)
+        V.store(cf, k, COL.X, V.mul(D0, x0))
+        V.store(cf, k, COL.X + 1, V.mul(D1, x1))
+        V.store(cf, k, COL.X + 2, V.mul(D2, x2))
+        s00 = V.load(cf, 0, COL.R2)
         if k == 0:
             for ln in range(LANES):
-                r2s = cf[0, CR2, ln]
-                cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
-                cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
+                r2s = cf[0, COL.R2, ln]
+                cf[0, COL.U3, ln] = 1.0 / (r2s * math.sqrt(r2s))
+                cf[0, COL.U5, ln] = cf[0, COL.U3, ln] / r2s
         else:
             # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
             acc = Z
             for j in range(k):
                 coef = -1.5 * (k - j) - j
-                acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
-            V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
-            acc = V.load(cf, k, CU3)
+                acc = V.fma(V.smul(coef, V.load(cf, k - j, COL.R2)), V.load(cf, j, COL.U3), acc)
+            V.store(cf, k, COL.U3, V.div(acc, V.smul(k, s00)))
+            acc = V.load(cf, k, COL.U3)
             for j in range(1, k + 1):
-                acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
-            V.store(cf, k, CU5, V.div(acc, s00))
+                acc = V.fma(V.neg(V.load(cf, j, COL.R2)), V.load(cf, k - j, COL.U5), acc)
+            V.store(cf, k, COL.U5, V.div(acc, s00))
         # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
         b0 = b1 = b2 = Z
         d0 = d1 = d2 = Z
         f0 = f1 = f2 = Z
         for j in range(k + 1):
-            u5 = V.load(cf, j, CU5)
-            u3 = V.load(cf, j, CU3)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            v0 = V.load(cf, j, CV)
-            v1 = V.load(cf, j, CV + 1)
-            v2 = V.load(cf, j, CV + 2)
-            t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
-            t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
-            t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
+            u5 = V.load(cf, j, COL.U5)
+            u3 = V.load(cf, j, COL.U3)
+            w0 = V.load(cf, k - j, COL.W)
+            w1 = V.load(cf, k - j, COL.W + 1)
+            w2 = V.load(cf, k - j, COL.W + 2)
+            r0 = V.load(cf, j, COL.A)
+            r1 = V.load(cf, j, COL.A + 1)
+            r2 = V.load(cf, j, COL.A + 2)
+            v0 = V.load(cf, j, COL.V)
+            v1 = V.load(cf, j, COL.V + 1)
+            v2 = V.load(cf, j, COL.V + 2)
+            t0 = V.fma(u5, V.load(cf, k - j, COL.X), t0)
+            t1 = V.fma(u5, V.load(cf, k - j, COL.X + 1), t1)
+            t2 = V.fma(u5, V.load(cf, k - j, COL.X + 2), t2)
             b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
             b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
             b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
             d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
             d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
             d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
-            f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
-            f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
-            f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
+            f0 = V.fma(u3, V.load(cf, k - j, COL.A), f0)
+            f1 = V.fma(u3, V.load(cf, k - j, COL.A + 1), f1)
+            f2 = V.fma(u3, V.load(cf, k - j, COL.A + 2), f2)
         t0 = V.mul(t0, mu3)
         t1 = V.mul(t1, mu3)
         t2 = V.mul(t2, mu3)
-        V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
-        V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
-        V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
-        V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
+        V.store(cf, k + 1, COL.A, V.smul(inv, V.add(V.load(cf, k, COL.V), b0)))
+        V.store(cf, k + 1, COL.A + 1, V.smul(inv, V.add(V.load(cf, k, COL.V + 1), b1)))
+        V.store(cf, k + 1, COL.A + 2, V.smul(inv, V.add(V.load(cf, k, COL.V + 2), b2)))
+        V.store(cf, k + 1, COL.V, V.smul(inv, V.fma(mmu, f0, d0)))
+        V.store(cf, k + 1, COL.V + 1, V.smul(inv, V.fma(mmu, f1, d1)))
+        V.store(cf, k + 1, COL.V + 2, V.smul(inv, V.fma(mmu, f2, d2)))
     return t0, t1, t2
 
 
@@ -278,30 +273,30 @@ def taylor_coefficients_lanes(cf, p, kind, cst):
     """Rows 1..p of the coefficient table of every lane from its row 0: the recurrences of
     :func:`attitude._core.taylor.taylor_coefficients`, statement for statement, on lane tuples.
     """
-    iI0 = V.load_row(cst, K_II)
-    iI1 = V.load_row(cst, K_II + 1)
-    iI2 = V.load_row(cst, K_II + 2)
-    e0 = V.load_row(cst, K_E)
-    e1 = V.load_row(cst, K_E + 1)
-    e2 = V.load_row(cst, K_E + 2)
-    n = V.load_row(cst, K_N)
-    inv_n = V.load_row(cst, K_INVN)
-    c = V.load_row(cst, K_C)
-    mW = V.neg(V.load_row(cst, K_W))
-    cx = V.load_row(cst, K_CM)
-    cy = V.load_row(cst, K_CM + 1)
-    cz = V.load_row(cst, K_CM + 2)
-    mu = V.load_row(cst, K_MU)
+    iI0 = V.load_row(cst, CONST.II)
+    iI1 = V.load_row(cst, CONST.II + 1)
+    iI2 = V.load_row(cst, CONST.II + 2)
+    e0 = V.load_row(cst, CONST.E)
+    e1 = V.load_row(cst, CONST.E + 1)
+    e2 = V.load_row(cst, CONST.E + 2)
+    n = V.load_row(cst, CONST.N)
+    inv_n = V.load_row(cst, CONST.INVN)
+    c = V.load_row(cst, CONST.C)
+    mW = V.neg(V.load_row(cst, CONST.W))
+    cx = V.load_row(cst, CONST.CM)
+    cy = V.load_row(cst, CONST.CM + 1)
+    cz = V.load_row(cst, CONST.CM + 2)
+    mu = V.load_row(cst, CONST.MU)
     mu3 = V.smul(3.0, mu)
     mmu = V.neg(mu)
-    D0 = V.load_row(cst, K_D)
-    D1 = V.load_row(cst, K_D + 1)
-    D2 = V.load_row(cst, K_D + 2)
+    D0 = V.load_row(cst, CONST.D)
+    D1 = V.load_row(cst, CONST.D + 1)
+    D2 = V.load_row(cst, CONST.D + 2)
     Z = V.ZERO
     for k in range(p + 1):
-        V.store(cf, k, CW, V.mul(iI0, V.load(cf, k, CG)))
-        V.store(cf, k, CW + 1, V.mul(iI1, V.load(cf, k, CG + 1)))
-        V.store(cf, k, CW + 2, V.mul(iI2, V.load(cf, k, CG + 2)))
+        V.store(cf, k, COL.W, V.mul(iI0, V.load(cf, k, COL.G)))
+        V.store(cf, k, COL.W + 1, V.mul(iI1, V.load(cf, k, COL.G + 1)))
+        V.store(cf, k, COL.W + 2, V.mul(iI2, V.load(cf, k, COL.G + 2)))
         a00 = a10 = a20 = a30 = Z
         a01 = a11 = a21 = a31 = Z
         a02 = a12 = a22 = a32 = Z
@@ -311,12 +306,12 @@ def taylor_coefficients_lanes(cf, p, kind, cst):
             q1 = V.load(cf, j, 1)
             q2 = V.load(cf, j, 2)
             q3 = V.load(cf, j, 3)
-            g0 = V.load(cf, k - j, CG)
-            g1 = V.load(cf, k - j, CG + 1)
-            g2 = V.load(cf, k - j, CG + 2)
-            p12 = V.fma(V.load(cf, j, CG + 1), g2, p12)
-            p20 = V.fma(V.load(cf, j, CG + 2), g0, p20)
-            p01 = V.fma(V.load(cf, j, CG), g1, p01)
+            g0 = V.load(cf, k - j, COL.G)
+            g1 = V.load(cf, k - j, COL.G + 1)
+            g2 = V.load(cf, k - j, COL.G + 2)
+            p12 = V.fma(V.load(cf, j, COL.G + 1), g2, p12)
+            p20 = V.fma(V.load(cf, j, COL.G + 2), g0, p20)
+            p01 = V.fma(V.load(cf, j, COL.G), g1, p01)
             a00 = V.fma(V.neg(q1), g0, a00)
             a10 = V.fma(q0, g0, a10)
             a20 = V.fma(q3, g0, a20)
@@ -346,9 +341,9 @@ def taylor_coefficients_lanes(cf, p, kind, cst):
         inv = RECIPROCALS[k]
         t0, t1, t2 = _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2)
         # Euler's equations: ġ = g × ω + n τ
-        V.store(cf, k + 1, CG, V.smul(inv, V.fma(e0, p12, V.mul(n, t0))))
-        V.store(cf, k + 1, CG + 1, V.smul(inv, V.fma(e1, p20, V.mul(n, t1))))
-        V.store(cf, k + 1, CG + 2, V.smul(inv, V.fma(e2, p01, V.mul(n, t2))))
+        V.store(cf, k + 1, COL.G, V.smul(inv, V.fma(e0, p12, V.mul(n, t0))))
+        V.store(cf, k + 1, COL.G + 1, V.smul(inv, V.fma(e1, p20, V.mul(n, t1))))
+        V.store(cf, k + 1, COL.G + 2, V.smul(inv, V.fma(e2, p01, V.mul(n, t2))))
 
 
 # ------------------------------------------------------------------------------------------------
@@ -372,24 +367,24 @@ def _lane_initial_row(cf, lane, t, params, i):
     for j in range(8):
         cf[0, j, lane] = cf[Y, j, lane]
     c = q0 * Q0 + q1 * Q1 + q2 * Q2 + q3 * Q3
-    cf[0, CG, lane] = 0.5 * (q0 * Q1 - q1 * Q0 - q2 * Q3 + q3 * Q2)
-    cf[0, CG + 1, lane] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
-    cf[0, CG + 2, lane] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
+    cf[0, COL.G, lane] = 0.5 * (q0 * Q1 - q1 * Q0 - q2 * Q3 + q3 * Q2)
+    cf[0, COL.G + 1, lane] = 0.5 * (q0 * Q2 + q1 * Q3 - q2 * Q0 - q3 * Q1)
+    cf[0, COL.G + 2, lane] = 0.5 * (q0 * Q3 - q1 * Q2 + q2 * Q1 - q3 * Q0)
     n = q0 * q0 + q1 * q1 + q2 * q2 + q3 * q3
-    kind = int(params[i, P_KIND])
+    kind = int(params[i, MODEL.KIND])
     q = (q0, q1, q2, q3)
     if kind == KIND_HEAVY_TOP:
         s = rotate_inverse(q, (0.0, 0.0, 1.0))
-        cf[0, CA, lane] = s[0]
-        cf[0, CA + 1, lane] = s[1]
-        cf[0, CA + 2, lane] = s[2]
+        cf[0, COL.A, lane] = s[0]
+        cf[0, COL.A + 1, lane] = s[1]
+        cf[0, COL.A + 2, lane] = s[2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        x, yy, z, vx, vy, vz = _SK.orbit_state(params[i, P0:], t)
+        x, yy, z, vx, vy, vz = _SK.orbit_state(params[i, MODEL.DATA :], t)
         r = rotate_inverse(q, (x, yy, z))
         v = rotate_inverse(q, (vx, vy, vz))
         for j in range(3):
-            cf[0, CA + j, lane] = r[j]
-            cf[0, CV + j, lane] = v[j]
+            cf[0, COL.A + j, lane] = r[j]
+            cf[0, COL.V + j, lane] = v[j]
     return n, c
 
 
@@ -509,7 +504,7 @@ def diagnostics_orbit_table(y, params, tab, out):
     """:func:`attitude._core.dynamics.diagnostics_with` for the gravity gradient with the
     orbit looked up in ``tab`` (:func:`orbit_radial_table`): the same operations on the same
     numbers, without a Kepler solve per sample."""
-    mu = params[P0 + _SK.MU]
+    mu = params[MODEL.DATA + _SK.MU]
     for k in range(y.shape[0]):
         q = (y[k, 0], y[k, 1], y[k, 2], y[k, 3])
         U = gravity_gradient_potential_radial(
@@ -540,28 +535,29 @@ def _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate, counters,
             diag[i, r, j] = math.nan
 
 
-#: Columns of the per-lane integer state ``lint`` (LANES, LINT).
-L_MEMBER = 5  # the member in the lane (−1: idle); columns 0..4 are its counters
-L_K = 6  # its next output sample
-LINT = 7
+#: Columns of the per-lane integer state ``lint`` (LANES, LANE.SIZE).
+LANE = layout(
+    "lane state",
+    counters=Field(5, "", "the member's counters"),
+    member=Field(1, "", "the member in the lane (−1: idle)"),
+    k=Field(1, "", "its next output sample"),
+)
 #: Columns of a group's state ``gst`` (int64): the next member to take (start: not begun),
 #: and 1 once every member of the group has ended.
-G_NEXT = 0
-G_DONE = 1
-GST = 2
+GROUP = layout("group state", next=1, done=1)
 
 
 def new_workspaces(n_groups, lanes=LANES):
     """The arrays of ``n_groups`` batch integrators of ``lanes`` lanes (the ``LANES`` of the
     :func:`batch` that runs them), ``(cf, cst, lts, lint, gst)``, each with a leading group
-    axis; ``gst[:, G_NEXT] = -1``: not begun. They persist between the calls of a run that is
+    axis; ``gst[:, GROUP.NEXT] = -1``: not begun. They persist between the calls of a run that is
     paused at its step budget."""
-    gst = np.zeros((n_groups, GST), dtype=np.int64)
+    gst = np.zeros((n_groups, GROUP.SIZE), dtype=np.int64)
     for g in range(n_groups):
-        gst[g, G_NEXT] = -1
-    return (np.zeros((n_groups, WORK_ROWS, NCOL, lanes)), np.zeros((n_groups, NCONST, lanes)),
-            np.zeros((n_groups, lanes, 5)), np.zeros((n_groups, lanes, LINT), dtype=np.int64),
-            gst)  # fmt: skip
+        gst[g, GROUP.NEXT] = -1
+    return (np.zeros((n_groups, WORK_ROWS, COL.SIZE, lanes)),
+            np.zeros((n_groups, CONST.SIZE, lanes)), np.zeros((n_groups, lanes, 5)),
+            np.zeros((n_groups, lanes, LANE.SIZE), dtype=np.int64), gst)  # fmt: skip
 
 
 # No reference counting in the step loop (numba's _nrt=False): every array it touches is
@@ -581,10 +577,10 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
     t_end = t[m - 1]
     direction = 1.0 if t_end >= t[0] else -1.0
     p = order_from_tolerance(rtol)
-    kind = int(params[start, P_KIND])
-    if gst[G_DONE] != 0:
+    kind = int(params[start, MODEL.KIND])
+    if gst[GROUP.DONE] != 0:
         return 0
-    if gst[G_NEXT] < 0:
+    if gst[GROUP.NEXT] < 0:
         # Every lane starts from a valid state (a lane without a member repeats the first one).
         for lane in range(LANES):
             for j in range(8):
@@ -592,16 +588,16 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
             n, c = _lane_initial_row(cf, lane, t[0], params, start)
             _lane_constants(params, start, cst, lane)
             _lane_state_constants(n, c, cst, lane)
-            lint[lane, L_MEMBER] = -1
-        gst[G_NEXT] = start
-    nxt = gst[G_NEXT]
+            lint[lane, LANE.MEMBER] = -1
+        gst[GROUP.NEXT] = start
+    nxt = gst[GROUP.NEXT]
     refill = True
     taken = 0
     while True:
         if refill:  # idle lanes take the next members (those that need no step finish here)
             refill = False
             for lane in range(LANES):
-                while lint[lane, L_MEMBER] < 0 and nxt < stop:
+                while lint[lane, LANE.MEMBER] < 0 and nxt < stop:
                     i = nxt
                     nxt += 1
                     for j in range(8):
@@ -615,47 +611,47 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
                     lint[lane, 3] = 1
                     k = _lane_emit(cf, lane, lts, lint, t, y_out, i, 0, direction)
                     if k < m and lint[lane, 0] < max_steps:
-                        lint[lane, L_MEMBER] = i
-                        lint[lane, L_K] = k
+                        lint[lane, LANE.MEMBER] = i
+                        lint[lane, LANE.K] = k
                         _lane_constants(params, i, cst, lane)
                     else:
                         st = SUCCESS if k >= m else TOO_MANY_STEPS
                         _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate,
                                 counters, status, n_done, orbit_tab)  # fmt: skip
-            gst[G_NEXT] = nxt
+            gst[GROUP.NEXT] = nxt
         active = 0
         for lane in range(LANES):
-            if lint[lane, L_MEMBER] >= 0:
+            if lint[lane, LANE.MEMBER] >= 0:
                 active += 1
         if active == 0:
-            gst[G_DONE] = 1
+            gst[GROUP.DONE] = 1
             return taken
         if budget > 0 and taken >= budget:
             return taken  # paused: the lanes hold their members
         taken += 1
         for lane in range(LANES):
-            i = lint[lane, L_MEMBER]
+            i = lint[lane, LANE.MEMBER]
             if i >= 0:
                 n, c = _lane_initial_row(cf, lane, lts[lane, 0], params, i)
                 _lane_state_constants(n, c, cst, lane)
         taylor_coefficients_lanes(cf, p, kind, cst)
         for lane in range(LANES):
-            i = lint[lane, L_MEMBER]
+            i = lint[lane, LANE.MEMBER]
             if i < 0:
                 continue
             lint[lane, 1] += p
             st = _lane_step(cf, lane, lts, lint, rtol, atol, t_end, max_step)
-            k = lint[lane, L_K]
+            k = lint[lane, LANE.K]
             if st == SUCCESS:
                 k = _lane_emit(cf, lane, lts, lint, t, y_out, i, k, direction)
-                lint[lane, L_K] = k
+                lint[lane, LANE.K] = k
                 if k < m and lint[lane, 0] < max_steps:
                     continue
                 if k < m:
                     st = TOO_MANY_STEPS
             _finish(i, lane, st, k, params, t, y_out, diag, lts, lint, tstate, counters, status,
                     n_done, orbit_tab)  # fmt: skip
-            lint[lane, L_MEMBER] = -1
+            lint[lane, LANE.MEMBER] = -1
             refill = True
 
 
@@ -685,7 +681,7 @@ def taylor_ensemble_serial(params, y0, t, y_out, diag, tstate, counters, status,
     left = budget
     g = 0
     for start in range(0, n, group):
-        if gst[g, G_DONE] == 0:
+        if gst[g, GROUP.DONE] == 0:
             if budget > 0 and left <= 0:
                 return
             taken = taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done,

@@ -34,11 +34,11 @@ Two additions to Jorba & Zou's scheme:
   (bisection on the step's polynomial of Ω) and the next step starts in the next piece. So a
   kink is resolved to round-off, not smoothed by a step that straddles it.
 
-Layout: ``work`` (WORK_ROWS, NCOL + 2 n_w): rows 0..p the coefficients (columns of
+Layout: ``work`` (WORK_ROWS, COL.SIZE + 2 n_w): rows 0..p the coefficients (columns of
 :mod:`attitude._core.taylor`, then h_k at CH + k and Ω_k at CH + n_w + k), row Y the state
-(q, Q, h). ``tstate`` (TS_SIZE + n_w,): ``[t, h_last, t_old, p, step factor, p_used, n, c, g (3),
+(q, Q, h). ``tstate`` (TS.SIZE + n_w,): ``[t, h_last, t_old, p, step factor, p_used, n, c, g (3),
 has g]`` then each wheel's friction piece for the next step (−1: from Ω at its start). The
-steps carry g from one to the next (TS_G) instead of recomputing it from the rebuilt Q.
+steps carry g from one to the next (TS.G) instead of recomputing it from the rebuilt Q.
 """
 
 from __future__ import annotations
@@ -49,38 +49,28 @@ from orbit import _state_kernels as _SK
 from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
-    S_IDEAL,
-    S_NW,
-    S_TAU,
-    S_WHEELS,
-    W_AXIS,
-    W_CV,
-    W_FC,
-    W_FRICTION,
-    W_INVJ,
-    W_LC,
-    W_SLOPE_C,
-    W_U,
-    WS,
+    SC,
+    WHEEL,
 )
 from .fma import fma as F
 from .holds import (
     BOUNDARY_DONE,
     BOUNDARY_NEEDS_COMMANDS,
-    HS_HOLD_END,
-    HS_NEXT,
-    HS_PENDING,
-    HS_SEG_END,
+    HS,
     NEEDS_COMMANDS,
     record,
     schedule_boundary,
 )
-from .potentials import KIND_GRAVITY_GRADIENT, KIND_HEAVY_TOP, P0, P_KIND
+from .layout import Field, layout
+from .potentials import (
+    HEAVY_TOP,
+    KIND_GRAVITY_GRADIENT,
+    KIND_HEAVY_TOP,
+    MODEL,
+)
 from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
-    CG,
-    CW,
-    NCOL,
+    COL,
     RECIPROCALS,
     Y,
     _initial_row,
@@ -90,14 +80,22 @@ from .taylor import (
     torque_series,
 )
 
-CH = NCOL  # first wheel momentum column
-TS_P_USED = 5
-TS_N = 6
-TS_C = 7
-TS_G = 8  # g at the end of the last step (3): the next step starts from it
-TS_HAS_G = 11  # 1 once TS_G holds it
-TS_HLIN = 12  # 1: no wheel has friction, the wheels' h are linear in the step (h[k] = 0, k >= 2)
-TS_SIZE = 13  # then one friction piece per wheel
+CH = COL.SIZE  # first wheel momentum column
+TS = layout(
+    "gyrostat Taylor state",
+    t=Field(1, "s"),
+    h_last=Field(1, "s"),
+    t_old=Field(1, "s"),
+    p=Field(1, "", "order"),
+    factor=Field(1, "", "step factor"),
+    p_used=1,
+    n=1,
+    c=1,
+    g=Field(3, "", "g at the end of the last step: the next step starts from it"),
+    has_g=Field(1, "", "1 once G holds it"),
+    hlin=Field(1, "", "1: no wheel has friction, the wheels' h are linear in the step"),
+    pieces=Field(0, "", "then one friction piece per wheel"),
+)
 
 PIECE_FREE = -1  # decide from Ω at the step's start
 PIECE_INSIDE = 0  # |Ω| < ω_lc: f = slope Ω
@@ -116,7 +114,7 @@ PMIN = 2
 
 def work_columns(n_w: int) -> int:
     """Columns of the work array for ``n_w`` wheels."""
-    return max(NCOL + 2 * n_w, 8 + n_w)
+    return max(COL.SIZE + 2 * n_w, 8 + n_w)
 
 
 @jit(inline="always")
@@ -132,20 +130,20 @@ def _piece_of(om, lc):
 def _piece_coefficients(sc, b, piece):
     """(c₁, c₀) of the friction force c₁ Ω + c₀ in a piece (the torque on the wheel is minus
     it)."""
-    if sc[b + W_FRICTION] == 0.0:
+    if sc[b + WHEEL.FRICTION] == 0.0:
         return 0.0, 0.0
     if piece == PIECE_INSIDE:
-        return sc[b + W_SLOPE_C], 0.0
+        return sc[b + WHEEL.SLOPE_C], 0.0
     if piece == PIECE_POS:
-        return sc[b + W_CV], sc[b + W_FC]
-    return sc[b + W_CV], -sc[b + W_FC]
+        return sc[b + WHEEL.CV], sc[b + WHEEL.FC]
+    return sc[b + WHEEL.CV], -sc[b + WHEEL.FC]
 
 
 @jit(inline="always")
 def has_friction(sc, nw):
-    """True if a wheel has friction (else the wheels' h are linear in a step: TS_HLIN)."""
+    """True if a wheel has friction (else the wheels' h are linear in a step: TS.HLIN)."""
     for j in range(nw):
-        if sc[S_WHEELS + j * WS + W_FRICTION] != 0.0:
+        if sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.FRICTION] != 0.0:
             return True
     return False
 
@@ -206,19 +204,19 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     chains, 1/(k+1) is a table entry, not a division. Without friction the wheels' Ω enters
     nothing (h[k+1] = u/(k+1) at k = 0, else 0) and is not computed, nor ℓ[k] = 0 for k >= 2
     (the same numbers as computing them, but for the sign of a zero), nor are the rows
-    h[k >= 2] = 0 written (:data:`TS_HLIN`: the table's readers take h as linear). Together
+    h[k >= 2] = 0 written (:data:`TS.HLIN`: the table's readers take h as linear). Together
     with the register-held wheel chains of :func:`dense_state`: 372 → 294 ns a hold on the
     open-loop run of a sensor day's 72 000 noisy holds (order 5), measured."""
-    kind = int(params[P_KIND])
+    kind = int(params[MODEL.KIND])
     W = cx = cy = cz = 0.0
     mu = D0 = D1 = D2 = 0.0
     if kind == KIND_HEAVY_TOP:
-        W = params[P0]
-        cx = params[P0 + 1]
-        cy = params[P0 + 2]
-        cz = params[P0 + 3]
+        W = params[MODEL.KIND + HEAVY_TOP.WEIGHT]
+        cx = params[MODEL.KIND + HEAVY_TOP.CM]
+        cy = params[MODEL.KIND + HEAVY_TOP.CM + 1]
+        cz = params[MODEL.KIND + HEAVY_TOP.CM + 2]
     elif kind == KIND_GRAVITY_GRADIENT:
-        mu = params[P0 + _SK.MU]
+        mu = params[MODEL.DATA + _SK.MU]
         D0 = params[2] - params[1]
         D1 = params[0] - params[2]
         D2 = params[1] - params[0]
@@ -233,7 +231,7 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     m22 = sc[11]
     floor = atol / rtol
     sq = max(_block4(cf, 0, 0), floor)
-    sg = max(_block3(cf, 0, CG), floor)
+    sg = max(_block3(cf, 0, COL.G), floor)
     sh = max(_blockh(cf, 0, nw), floor)
     tol_q = ORDER_MARGIN * rtol * sq
     tol_g = ORDER_MARGIN * rtol * sg
@@ -254,31 +252,35 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
     while True:
         # ℓ[k], ω[k] = M (g[k] − ℓ[k]), Ω_j[k]
         if k >= 2 and not friction:
-            e0 = cf[k, CG]
-            e1 = cf[k, CG + 1]
-            e2 = cf[k, CG + 2]
+            e0 = cf[k, COL.G]
+            e1 = cf[k, COL.G + 1]
+            e2 = cf[k, COL.G + 2]
         else:
             l0 = l1 = l2 = 0.0
             for j in range(nw):
-                b = S_WHEELS + j * WS
+                b = SC.WHEELS + j * WHEEL.SIZE
                 h = cf[k, CH + j]
-                l0 = F(h, sc[b + W_AXIS], l0)
-                l1 = F(h, sc[b + W_AXIS + 1], l1)
-                l2 = F(h, sc[b + W_AXIS + 2], l2)
-            e0 = cf[k, CG] - l0
-            e1 = cf[k, CG + 1] - l1
-            e2 = cf[k, CG + 2] - l2
+                l0 = F(h, sc[b + WHEEL.AXIS], l0)
+                l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
+                l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
+            e0 = cf[k, COL.G] - l0
+            e1 = cf[k, COL.G + 1] - l1
+            e2 = cf[k, COL.G + 2] - l2
         w0 = F(m02, e2, F(m01, e1, m00 * e0))
         w1 = F(m12, e2, F(m11, e1, m10 * e0))
         w2 = F(m22, e2, F(m21, e1, m20 * e0))
-        cf[k, CW] = w0
-        cf[k, CW + 1] = w1
-        cf[k, CW + 2] = w2
+        cf[k, COL.W] = w0
+        cf[k, COL.W + 1] = w1
+        cf[k, COL.W + 2] = w2
         if friction and k > 0:
             for j in range(nw):
-                b = S_WHEELS + j * WS
-                aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
-                cf[k, CO + j] = F(cf[k, CH + j], sc[b + W_INVJ], -aw)
+                b = SC.WHEELS + j * WHEEL.SIZE
+                aw = F(
+                    sc[b + WHEEL.AXIS + 2],
+                    w2,
+                    F(sc[b + WHEEL.AXIS + 1], w1, sc[b + WHEEL.AXIS] * w0),
+                )
+                cf[k, CO + j] = F(cf[k, CH + j], sc[b + WHEEL.INVJ], -aw)
         if k == p:
             return k
         # Cauchy products over j = k..0: B_lm = Σ (q[j]∘e_m)_l ω_m[k−j], P = Σ g[j] × ω[k−j]
@@ -295,12 +297,12 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
             q1 = cf[j, 1]
             q2 = cf[j, 2]
             q3 = cf[j, 3]
-            o0 = cf[i, CW]
-            o1 = cf[i, CW + 1]
-            o2 = cf[i, CW + 2]
-            g0 = cf[j, CG]
-            g1 = cf[j, CG + 1]
-            g2 = cf[j, CG + 2]
+            o0 = cf[i, COL.W]
+            o1 = cf[i, COL.W + 1]
+            o2 = cf[i, COL.W + 2]
+            g0 = cf[j, COL.G]
+            g1 = cf[j, COL.G + 1]
+            g2 = cf[j, COL.G + 2]
             b00 = F(-q1, o0, b00)
             b10 = F(q0, o0, b10)
             b20 = F(q3, o0, b20)
@@ -330,27 +332,27 @@ def gyrostat_coefficients(cf, p, params, sc, n, pieces, d, rtol, atol, nw):
         cf[k + 1, 3] = hh * (b30 + b31 + b32)
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
         if k == 0:  # the held torques: thrusters' and the ideal control torque (as in
-            t0 += sc[S_TAU] + sc[S_IDEAL]  # actuators.actuator_torque)
-            t1 += sc[S_TAU + 1] + sc[S_IDEAL + 1]
-            t2 += sc[S_TAU + 2] + sc[S_IDEAL + 2]
-        cf[k + 1, CG] = F(n, t0, p0) * inv
-        cf[k + 1, CG + 1] = F(n, t1, p1) * inv
-        cf[k + 1, CG + 2] = F(n, t2, p2) * inv
+            t0 += sc[SC.TAU] + sc[SC.IDEAL]  # actuators.actuator_torque)
+            t1 += sc[SC.TAU + 1] + sc[SC.IDEAL + 1]
+            t2 += sc[SC.TAU + 2] + sc[SC.IDEAL + 2]
+        cf[k + 1, COL.G] = F(n, t0, p0) * inv
+        cf[k + 1, COL.G + 1] = F(n, t1, p1) * inv
+        cf[k + 1, COL.G + 2] = F(n, t2, p2) * inv
         if friction:
             for j in range(nw):
-                b = S_WHEELS + j * WS
+                b = SC.WHEELS + j * WHEEL.SIZE
                 c1, c0 = _piece_coefficients(sc, b, int(pieces[j]))
                 r = -c1 * cf[k, CO + j]
                 if k == 0:
-                    r += sc[b + W_U] - c0
+                    r += sc[b + WHEEL.U] - c0
                 cf[k + 1, CH + j] = r * inv
-        elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS_HLIN)
+        elif k == 0:  # h[1] = u; the rows h[k >= 2] = 0 are not written (TS.HLIN)
             for j in range(nw):
-                cf[1, CH + j] = sc[S_WHEELS + j * WS + W_U] * inv
+                cf[1, CH + j] = sc[SC.WHEELS + j * WHEEL.SIZE + WHEEL.U] * inv
         k += 1
         dk *= d
         tq = _block4(cf, k, 0) * dk
-        tg = _block3(cf, k, CG) * dk
+        tg = _block3(cf, k, COL.G) * dk
         th = 0.0 if k >= 2 and not friction else _blockh(cf, k, nw) * dk  # (h linear)
         ok = (
             order_enough(tq, tq1, tq0, tol_q, ro_q)
@@ -373,12 +375,12 @@ def _jz_radius(cf, p, rtol, atol, nw):
     """Jorba & Zou's ρ over the blocks q, g, h from the orders p − 1 and p."""
     floor = atol / rtol
     sq = max(_block4(cf, 0, 0), floor)
-    sg = max(_block3(cf, 0, CG), floor)
+    sg = max(_block3(cf, 0, COL.G), floor)
     sh = max(_blockh(cf, 0, nw), floor)
     rho = math.inf
     for j in (p - 1, p):
         rho = min(rho, _ratio(sq, _block4(cf, j, 0), j))
-        rho = min(rho, _ratio(sg, _block3(cf, j, CG), j))
+        rho = min(rho, _ratio(sg, _block3(cf, j, COL.G), j))
         if nw > 0:
             rho = min(rho, _ratio(sh, _blockh(cf, j, nw), j))
     return rho
@@ -402,27 +404,27 @@ def dense_state(work, tstate, tau, out, nw):
     dependent multiply–adds then overlap instead of running one after the other. Returning g
     spares the step's end evaluating it again: 68 → 20 ns at order 5 with three wheels
     (measured, the two together)."""
-    p = int(tstate[TS_P_USED])
-    c = tstate[TS_C]
+    p = int(tstate[TS.P_USED])
+    c = tstate[TS.C]
     q0 = work[p, 0]
     q1 = work[p, 1]
     q2 = work[p, 2]
     q3 = work[p, 3]
-    h0 = work[p, CG]
-    h1 = work[p, CG + 1]
-    h2 = work[p, CG + 2]
+    h0 = work[p, COL.G]
+    h1 = work[p, COL.G + 1]
+    h2 = work[p, COL.G + 2]
     for i in range(p):
         k = p - 1 - i
         q0 = F(q0, tau, work[k, 0])
         q1 = F(q1, tau, work[k, 1])
         q2 = F(q2, tau, work[k, 2])
         q3 = F(q3, tau, work[k, 3])
-        h0 = F(h0, tau, work[k, CG])
-        h1 = F(h1, tau, work[k, CG + 1])
-        h2 = F(h2, tau, work[k, CG + 2])
+        h0 = F(h0, tau, work[k, COL.G])
+        h1 = F(h1, tau, work[k, COL.G + 1])
+        h2 = F(h2, tau, work[k, COL.G + 2])
     # the wheels one at a time, each chain in a register (the wheels' chains still overlap:
     # no dependence between them; through ``out`` each order waited on the last one's store)
-    if tstate[TS_HLIN] != 0.0:  # h = h[0] + h[1] τ: Horner's rule on the zero rows, the same bits
+    if tstate[TS.HLIN] != 0.0:  # h = h[0] + h[1] τ: Horner's rule on the zero rows, the same bits
         for j in range(nw):
             out[8 + j] = F(work[1, CH + j], tau, work[0, CH + j])
     else:
@@ -457,9 +459,9 @@ def _kink(work, p, sc, pieces, nw, h):
     best = h
     which = -1
     for j in range(nw):
-        b = S_WHEELS + j * WS
-        lc = sc[b + W_LC]
-        if sc[b + W_FRICTION] == 0.0 or lc <= 0.0:
+        b = SC.WHEELS + j * WHEEL.SIZE
+        lc = sc[b + WHEEL.LC]
+        if sc[b + WHEEL.FRICTION] == 0.0 or lc <= 0.0:
             continue
         piece = int(pieces[j])
         end = _horner(work, p, CO + j, best)
@@ -496,33 +498,33 @@ def step_prepare(params, sc, work, tstate, seg_end, max_step):
     auxiliary series, ω[0] and Ω[0]) from the state in ``work[Y]``, and the friction pieces
     of the step. Returns ``(status, n, c, d)``: n = |q|², c = q·Q, d the longest step (to
     ``seg_end``, at most ``max_step``)."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     t = tstate[0]
     y = work[Y]
     n, c = _initial_row(work, t, params)
-    if tstate[TS_HAS_G] != 0.0:
+    if tstate[TS.HAS_G] != 0.0:
         # g as the last step ended, not ½ vec(q̃∘Q) of the rebuilt Q: that round trip is
         # biased by 3e-17 relative (measured), a drift of |g| over 1e5 steps
-        work[0, CG] = tstate[TS_G]
-        work[0, CG + 1] = tstate[TS_G + 1]
-        work[0, CG + 2] = tstate[TS_G + 2]
+        work[0, COL.G] = tstate[TS.G]
+        work[0, COL.G + 1] = tstate[TS.G + 1]
+        work[0, COL.G + 2] = tstate[TS.G + 2]
     for j in range(nw):
         work[0, CH + j] = y[8 + j]
     # order 0 of ω and Ω, for the friction pieces
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
     d = min(seg_end - t, max_step)
     if not d > 0.0:
         return STEP_TOO_SMALL, n, c, d
     friction = has_friction(sc, nw)
-    tstate[TS_HLIN] = 0.0 if friction else 1.0
+    tstate[TS.HLIN] = 0.0 if friction else 1.0
     if friction:
         # ω[0], Ω[0] first (the pieces depend on Ω[0]; without friction the recurrences
         # compute ω[0] and nothing reads Ω or a piece)
         gyrostat_order0(work, sc, nw)
         for j in range(nw):
             if pieces[j] < 0.0:
-                b = S_WHEELS + j * WS
-                pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + W_LC])
+                b = SC.WHEELS + j * WHEEL.SIZE
+                pieces[j] = _piece_of(work[0, CH + nw + j], sc[b + WHEEL.LC])
     return SUCCESS, n, c, d
 
 
@@ -531,12 +533,12 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     """The second half of :func:`gyrostat_step`, once the table holds the orders 0..``pu``
     (:func:`gyrostat_coefficients`): the step size, a friction kink inside the step, the new
     state. Returns a status."""
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     t = tstate[0]
     p = int(tstate[3])
     y = work[Y]
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
-    hlin = tstate[TS_HLIN] != 0.0
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
+    hlin = tstate[TS.HLIN] != 0.0
     if pu >= p:
         if hlin:  # the rows of h Jorba & Zou's radius reads, unwritten by the recurrences
             for k in range(2, p + 1):
@@ -550,9 +552,9 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
     if status != SUCCESS:
         return status
     h = t_new - t
-    tstate[TS_P_USED] = pu
-    tstate[TS_N] = n
-    tstate[TS_C] = c
+    tstate[TS.P_USED] = pu
+    tstate[TS.N] = n
+    tstate[TS.C] = c
     hk = h
     which = -1
     if not hlin:
@@ -571,10 +573,10 @@ def step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu,
             for j in range(nw):
                 y[8 + j] = work[0, CH + j]
             return NONFINITE
-    tstate[TS_G] = gh[0]
-    tstate[TS_G + 1] = gh[1]
-    tstate[TS_G + 2] = gh[2]
-    tstate[TS_HAS_G] = 1.0
+    tstate[TS.G] = gh[0]
+    tstate[TS.G + 1] = gh[1]
+    tstate[TS.G + 2] = gh[2]
+    tstate[TS.HAS_G] = 1.0
     # the next step's pieces: the crossed wheel enters the next piece, the others re-decide
     if not hlin:
         for j in range(nw):
@@ -602,8 +604,8 @@ def gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_s
     status, n, c, d = step_prepare(params, sc, work, tstate, seg_end, max_step)
     if status != SUCCESS:
         return status
-    nw = int(sc[S_NW])
-    pieces = tstate[TS_SIZE : TS_SIZE + nw]
+    nw = int(sc[SC.NW])
+    pieces = tstate[TS.SIZE : TS.SIZE + nw]
     pu = gyrostat_coefficients(work, int(tstate[3]), params, sc, n, pieces, d, rtol, atol, nw)
     counters[1] += pu
     return step_complete(sc, work, tstate, counters, rtol, atol, seg_end, max_step, pu, n, c, d)
@@ -614,21 +616,21 @@ def gyrostat_order0(cf, sc, nw):
     """ω[0] = M (g[0] − ℓ[0]) and Ω_j[0] into row 0 (as the recurrences compute them)."""
     l0 = l1 = l2 = 0.0
     for j in range(nw):
-        b = S_WHEELS + j * WS
+        b = SC.WHEELS + j * WHEEL.SIZE
         h = cf[0, CH + j]
-        l0 = F(h, sc[b + W_AXIS], l0)
-        l1 = F(h, sc[b + W_AXIS + 1], l1)
-        l2 = F(h, sc[b + W_AXIS + 2], l2)
-    e0 = cf[0, CG] - l0
-    e1 = cf[0, CG + 1] - l1
-    e2 = cf[0, CG + 2] - l2
+        l0 = F(h, sc[b + WHEEL.AXIS], l0)
+        l1 = F(h, sc[b + WHEEL.AXIS + 1], l1)
+        l2 = F(h, sc[b + WHEEL.AXIS + 2], l2)
+    e0 = cf[0, COL.G] - l0
+    e1 = cf[0, COL.G + 1] - l1
+    e2 = cf[0, COL.G + 2] - l2
     w0 = F(sc[5], e2, F(sc[4], e1, sc[3] * e0))
     w1 = F(sc[8], e2, F(sc[7], e1, sc[6] * e0))
     w2 = F(sc[11], e2, F(sc[10], e1, sc[9] * e0))
     for j in range(nw):
-        b = S_WHEELS + j * WS
-        aw = F(sc[b + W_AXIS + 2], w2, F(sc[b + W_AXIS + 1], w1, sc[b + W_AXIS] * w0))
-        cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + W_INVJ], -aw)
+        b = SC.WHEELS + j * WHEEL.SIZE
+        aw = F(sc[b + WHEEL.AXIS + 2], w2, F(sc[b + WHEEL.AXIS + 1], w1, sc[b + WHEEL.AXIS] * w0))
+        cf[0, CH + nw + j] = F(cf[0, CH + j], sc[b + WHEEL.INVJ], -aw)
 
 
 # One step inlined whole into the single-run driver (entry_points binds it; the SIMD batch
@@ -666,7 +668,7 @@ def taylor_holds_run(
     hs = ctl[0]
     params = P[0]
     sc = P[1]
-    nw = int(sc[S_NW])
+    nw = int(sc[SC.NW])
     n = y0.shape[0]
     m = t_out.shape[0]
     y = work[Y]
@@ -678,10 +680,10 @@ def taylor_holds_run(
         tstate[2] = t0
         set_order(tstate, order_from_tolerance(rtol))
         for j in range(nw):
-            tstate[TS_SIZE + j] = PIECE_FREE
-        hs[HS_NEXT] = 0.0
-        hs[HS_PENDING] = 1.0
-        hs[HS_HOLD_END] = math.nan
+            tstate[TS.SIZE + j] = PIECE_FREE
+        hs[HS.NEXT] = 0.0
+        hs[HS.PENDING] = 1.0
+        hs[HS.HOLD_END] = math.nan
         counters[3] = 1
         counters[4] = 0
     k = 0
@@ -690,7 +692,7 @@ def taylor_holds_run(
             to = t_out[k]
             t = tstate[0]
             if to == t:
-                if hs[HS_PENDING] != 0.0:
+                if hs[HS.PENDING] != 0.0:
                     break
                 for i in range(n):
                     y_out[k, i] = y[i]
@@ -700,21 +702,21 @@ def taylor_holds_run(
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS_PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0:
             bs = BOUNDARY(P, y, tstate[0], t_end, ctl)
             if bs == BOUNDARY_NEEDS_COMMANDS:
                 return NEEDS_COMMANDS, k
             if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
                 return bs, k
-            hs[HS_PENDING] = 0.0
+            hs[HS.PENDING] = 0.0
             continue
         if k == m:
             return SUCCESS, k
         if counters[0] >= max_steps:
             return TOO_MANY_STEPS, k
-        seg_end = hs[HS_SEG_END]
+        seg_end = hs[HS.SEG_END]
         status = gyrostat_step(params, sc, work, tstate, counters, rtol, atol, seg_end, max_step)
         if status != SUCCESS:
             return status, k
         if tstate[0] == seg_end and seg_end < t_end:
-            hs[HS_PENDING] = 1.0
+            hs[HS.PENDING] = 1.0

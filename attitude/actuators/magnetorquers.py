@@ -54,7 +54,4 @@ def magnetorquer_record(m: Magnetorquer) -> np.ndarray:
     """The magnetorquer's record of the spacecraft block (held slots zero)."""
     from .._core import actuators as _ka
 
-    r = np.zeros(_ka.MS)
-    r[_ka.M_AXIS : _ka.M_AXIS + 3] = m.axis
-    r[_ka.M_MAX] = m.max_dipole
-    return r
+    return _ka.MTQ.pack(axis=m.axis, max=m.max_dipole)

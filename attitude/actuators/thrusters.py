@@ -93,9 +93,5 @@ def thruster_record(th: Thruster, center_of_mass: np.ndarray) -> np.ndarray:
     """The thruster's record of the spacecraft block (held slots zero)."""
     from .._core import actuators as _ka
 
-    r = np.zeros(_ka.TS)
-    r[_ka.T_ARM : _ka.T_ARM + 3] = np.cross(th.position - center_of_mass, th.direction)
-    r[_ka.T_DIR : _ka.T_DIR + 3] = th.direction
-    r[_ka.T_FMAX] = th.max_thrust
-    r[_ka.T_MIN_ON] = th.min_on_time
-    return r
+    arm = np.cross(th.position - center_of_mass, th.direction)
+    return _ka.THR.pack(arm=arm, dir=th.direction, fmax=th.max_thrust, min_on=th.min_on_time)

@@ -170,11 +170,11 @@ class ReactionWheel:
 
         om = as_float_array(speeds_value(speed, "speed"), "speed")
         rec = wheel_record(self)
-        rec[_ka.W_STRIBECK] = 1.0 if (stribeck and self.stribeck_speed is not None) else 0.0
-        sc = np.zeros(_ka.S_WHEELS + _ka.WS)
-        sc[_ka.S_WHEELS :] = rec
+        rec[_ka.WHEEL.STRIBECK] = 1.0 if (stribeck and self.stribeck_speed is not None) else 0.0
+        sc = np.zeros(_ka.SC.WHEELS + _ka.WHEEL.SIZE)
+        sc[_ka.SC.WHEELS :] = rec
         flat = om.reshape(-1)
-        out = np.array([_ka.wheel_friction(sc, _ka.S_WHEELS, float(w)) for w in flat])
+        out = np.array([_ka.wheel_friction(sc, _ka.SC.WHEELS, float(w)) for w in flat])
         return out.reshape(om.shape)
 
     def __repr__(self) -> str:
@@ -285,20 +285,12 @@ def wheel_record(w: ReactionWheel) -> np.ndarray:
     held slots zero."""
     from .._core import actuators as _ka
 
-    r = np.zeros(_ka.WS)
-    r[_ka.W_AXIS : _ka.W_AXIS + 3] = w.axis
-    r[_ka.W_J] = w.inertia
-    r[_ka.W_INVJ] = 1.0 / w.inertia
-    r[_ka.W_FC] = w.coulomb_friction
-    r[_ka.W_FS] = w.static_friction
     beta = w.stribeck_speed
-    r[_ka.W_BETA] = -1.0 if beta is None else beta
-    r[_ka.W_CV] = w.viscous_friction
     lc = w.limit_cycle_speed
-    r[_ka.W_LC] = lc
+    slope_c = slope_s = 0.0
     if lc > 0.0:
         # Basilisk's frictionForceAtLimitCycle / omegaLimitCycle in each regime
-        r[_ka.W_SLOPE_C] = (w.coulomb_friction + w.viscous_friction * lc) / lc
+        slope_c = (w.coulomb_friction + w.viscous_friction * lc) / lc
         if beta is not None:
             x = lc / beta
             f = (
@@ -310,16 +302,27 @@ def wheel_record(w: ReactionWheel) -> np.ndarray:
                 + w.coulomb_friction * math.tanh(10.0 * x)
                 + w.viscous_friction * lc
             )
-            r[_ka.W_SLOPE_S] = f / lc
-    r[_ka.W_UMAX] = w.max_torque
-    r[_ka.W_OMAX] = w.max_speed
-    r[_ka.W_UMIN] = w.min_torque
-    r[_ka.W_PMAX] = w.max_power
-    r[_ka.W_OMEGA_BEFORE] = w.speed
+            slope_s = f / lc
     has = (
         w.coulomb_friction > 0
         or w.viscous_friction > 0
         or (beta is not None and w.static_friction > 0)
     )
-    r[_ka.W_FRICTION] = 1.0 if has else 0.0
-    return r
+    return _ka.WHEEL.pack(
+        axis=w.axis,
+        j=w.inertia,
+        invj=1.0 / w.inertia,
+        fc=w.coulomb_friction,
+        fs=w.static_friction,
+        beta=-1.0 if beta is None else beta,
+        cv=w.viscous_friction,
+        lc=lc,
+        slope_c=slope_c,
+        slope_s=slope_s,
+        umax=w.max_torque,
+        omax=w.max_speed,
+        umin=w.min_torque,
+        pmax=w.max_power,
+        omega_before=w.speed,
+        friction=1.0 if has else 0.0,
+    )

@@ -149,18 +149,21 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
     """:func:`_compute_chunk` with ``method="taylor"``: members in SIMD batches
     (:mod:`attitude._core.taylor_batch`), in groups run in parallel."""
     from .._core import taylor_batch as _tb0
-    from .._core.potentials import KIND_GRAVITY_GRADIENT, P0, P_KIND
+    from .._core.potentials import (
+        KIND_GRAVITY_GRADIENT,
+        MODEL,
+    )
 
     _tb = _tb0.batch()  # lanes sized to the CPU (same results at any width)
 
     c = y0.shape[0]
     tstate = np.empty((c, 5))
     orbit_tab = np.empty((0, 4))
-    shared = (params[:, P_KIND:] == params[0, P_KIND:]).all()
-    if int(params[0, P_KIND]) == KIND_GRAVITY_GRADIENT and shared:
+    shared = (params[:, MODEL.KIND :] == params[0, MODEL.KIND :]).all()
+    if int(params[0, MODEL.KIND]) == KIND_GRAVITY_GRADIENT and shared:
         # one orbit for all: looked up once per output time for the diagnostics
         orbit_tab = np.empty((setup.t.shape[0], 4))
-        _tb.orbit_radial_table(params[0, P0:], setup.t, orbit_tab)
+        _tb.orbit_radial_table(params[0, MODEL.DATA :], setup.t, orbit_tab)
     args = (
         params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
         out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
@@ -213,7 +216,7 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel,
     from .._core import events as _kev
 
     ev = setup.events
-    evs = np.zeros((y0.shape[0], ev.n, _kev.EVS_COLS))
+    evs = np.zeros((y0.shape[0], ev.n, _kev.EVS.SIZE))
     fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
     while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
         fn(
@@ -225,8 +228,8 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel,
         if not np.any(out["status"] == _ke.RUNNING):
             break
     out["t_stop"] = tstate[:, 0].copy()
-    out["event_count"] = evs[:, :, _kev.EVS_COUNT].astype(np.int64)
-    out["event_first"] = evs[:, :, _kev.EVS_FIRST].copy()
+    out["event_count"] = evs[:, :, _kev.EVS.COUNT].astype(np.int64)
+    out["event_first"] = evs[:, :, _kev.EVS.FIRST].copy()
     return out
 
 

@@ -24,7 +24,7 @@ def _state_arrays(method: str, c: int, n: int) -> tuple[np.ndarray, np.ndarray, 
         nw = n - 8
         return (
             np.zeros((c, _kt.WORK_ROWS, _ktg.work_columns(nw))),
-            np.zeros((c, _ktg.TS_SIZE + nw)),
+            np.zeros((c, _ktg.TS.SIZE + nw)),
             np.zeros((c, 5), dtype=np.int64),
         )
     return np.zeros((c, _rk.WORK_ROWS, n)), np.zeros((c, 4)), np.zeros((c, 5), dtype=np.int64)
@@ -142,5 +142,5 @@ def compute_chunk(
         fs, fs_at = src[3], src[4]
         out["records"] = src[6]
         out["n_records"] = src[7][:, 0].copy()
-        out["n_ticks"] = fs[fs_at[:-1] + _kf.FS_TICK].astype(np.int64)
+        out["n_ticks"] = fs[fs_at[:-1] + _kf.FS.TICK].astype(np.int64)
     return out

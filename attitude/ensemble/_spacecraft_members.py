@@ -330,7 +330,7 @@ class CraftMembers:
             "projection": corr,
             "potential": pot,
         }
-        hs = np.zeros((c, _kh.HS_SIZE))
+        hs = np.zeros((c, _kh.HS.SIZE))
         prog = self.program
         if prog is None:
             scheds = [(run.hold_t, run.hold_u) for run in runs]
@@ -363,7 +363,7 @@ class CraftMembers:
                     [stream_state(x.with_seed(int(s))) for x, s in zip(p.sensors, seeds[r],
                                                                        strict=True)]
                 )  # fmt: skip
-                at = int(p.fw[_kf.FW_SS])
+                at = int(p.fw[_kf.FW.SS])
                 fs[at : at + ss.size] = ss
             states.append(fs)
         fs_at = np.zeros(c + 1, dtype=np.int64)

@@ -101,7 +101,7 @@ class MEKF:
             s(self, k, bool(v))
 
     def record(self, sensors: tuple) -> np.ndarray:
-        """The filter's record of the program (EP_* layout) for these sensors."""
+        """The filter's record of the program (the EP layout) for these sensors."""
         from ..sensors import Gyro, Magnetometer, StarTracker, SunSensor
 
         by = {type(x): x for x in sensors}
@@ -125,9 +125,7 @@ class MEKF:
             raise AttitudeValueError("estimator: use_magnetometer without a Magnetometer")
         if self.use_sun_sensor and SunSensor not in by:
             raise AttitudeValueError("estimator: use_sun_sensor without a SunSensor")
-        r = np.zeros(_km.EP_SIZE)
-        r[_km.EP_SV] = max(g.arw, 1e-12)
-        r[_km.EP_SU] = max(g.rrw, 1e-15)
+        p: dict[str, Any] = dict(sv=max(g.arw, 1e-12), su=max(g.rrw, 1e-15))
         if self.attitude_sigma is not None:
             sa = self.attitude_sigma
         elif self.initial_attitude is not None:
@@ -136,16 +134,14 @@ class MEKF:
             sa = 3.0 * max(st.noise)
         sb = self.bias_sigma if self.bias_sigma is not None else max(
             float(np.linalg.norm(g.bias)), 1e-5)  # fmt: skip
-        r[_km.EP_P0 : _km.EP_P0 + 3] = sa * sa
-        r[_km.EP_P0 + 3 : _km.EP_P0 + 6] = sb * sb
+        p["p0"] = [sa * sa] * 3 + [sb * sb] * 3
         if self.initial_attitude is not None:
-            r[_km.EP_INIT] = 1.0
-            r[_km.EP_Q0 : _km.EP_Q0 + 4] = self.initial_attitude
-        r[_km.EP_B0 : _km.EP_B0 + 3] = self.initial_bias
+            p.update(init=1.0, q0=self.initial_attitude)
+        p["b0"] = self.initial_bias
         if st is not None:
-            r[_km.EP_ST_R : _km.EP_ST_R + 9] = st.covariance.reshape(-1)
+            p["st_r"] = st.covariance
         if self.use_magnetometer:
-            r[_km.EP_MAG] = max(by[Magnetometer].noise, 1e-12)
+            p["mag"] = max(by[Magnetometer].noise, 1e-12)
         if self.use_sun_sensor:
-            r[_km.EP_SUN] = max(by[SunSensor].noise, 1e-6)
-        return r
+            p["sun"] = max(by[SunSensor].noise, 1e-6)
+        return _km.EP.pack(**p)

@@ -57,13 +57,15 @@ class Potential:
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         """Parameter vector for the compiled kernels (inertia first, see _core.potentials)."""
         kind = _kp.KIND_USER if self._kind is None else self._kind
-        head = np.array([*inertia, kind, *self._potential_params()], dtype=np.float64)
+        head = np.concatenate(
+            [_kp.MODEL.pack(inertia=inertia, kind=kind), np.asarray(self._potential_params())]
+        )
         env = self._user_env_blocks()
         if not env:
             return head
-        # a user model alone: the environment's directory at P0 (_core.potentials)
-        assert kind == _kp.KIND_USER and head.shape[0] == _kp.P0
-        return np.concatenate([head, _user_environment(_kp.P0, env)])
+        # a user model alone: the environment's directory at MODEL.DATA (_core.potentials)
+        assert kind == _kp.KIND_USER and head.shape[0] == _kp.MODEL.DATA
+        return np.concatenate([head, _user_environment(_kp.MODEL.DATA, env)])
 
     def _user_terms(self) -> tuple:
         """The user terms (kind, torque, potential) compiled into a user module; () if none."""
@@ -318,16 +320,20 @@ class Sum(Potential):
         # [I1, I2, I3, KIND_SUM, n, offsets (n), blocks]: _core.potentials
         # the environment blocks of user terms (if any) between the offsets and the blocks
         n = len(self._builtin)
-        env = _user_environment(_kp.P_OFFSETS + n if n else _kp.P0, self._user_env_blocks())
+        env = _user_environment(
+            _kp.SUM.OFFSETS + n if n else _kp.MODEL.DATA, self._user_env_blocks()
+        )
         if n == 0:
-            return np.concatenate([np.array([*inertia, _kp.KIND_USER], dtype=np.float64), env])
+            return np.concatenate([_kp.MODEL.pack(inertia=inertia, kind=_kp.KIND_USER), env])
         blocks = [[t._kind, *t._potential_params()] for t in self._builtin]
-        offsets, at = [], _kp.P_OFFSETS + n + env.shape[0]
+        offsets, at = [], _kp.SUM.OFFSETS + n + env.shape[0]
         for b in blocks:
             offsets.append(at)
             at += len(b)
         flat = [x for b in blocks for x in b]
-        head = np.array([*inertia, _kp.KIND_SUM, n, *offsets], dtype=np.float64)
+        head = np.concatenate(
+            [_kp.SUM.pack(inertia=inertia, kind=_kp.KIND_SUM, nterms=n), np.asarray(offsets)]
+        )
         return np.concatenate([head, env, np.array(flat, dtype=np.float64)])
 
     def _user_terms(self) -> tuple:

@@ -95,7 +95,11 @@ class _EnvironmentModel(Potential):
         self._covers: tuple[float, float] | None = None
 
     # subclass hooks
-    def _head(self) -> list[float]:
+    #: The block's declaration (attitude._core.environment).
+    _layout: Any = _ke.BLOCK
+
+    def _head(self) -> tuple[dict[str, Any], np.ndarray]:
+        """(the block's fields by name, what follows them before the table)."""
         raise NotImplementedError
 
     def _table(self, g: Any) -> np.ndarray:
@@ -124,9 +128,11 @@ class _EnvironmentModel(Potential):
         return self
 
     def _assemble(self, table: np.ndarray) -> np.ndarray:
-        head = self._head()
-        # block = [kind, tab, *head[1:], table]: head[0] is the placeholder of tab
-        return np.concatenate([[1 + len(head)], head[1:], table]).astype(np.float64)
+        fields, tail = self._head()
+        head = np.concatenate([self._layout.pack(**fields), tail])
+        head[self._layout.TAB] = head.size  # the table follows the fields
+        # the block without its kind (_kernel_params puts it in front)
+        return np.concatenate([head[1:], table]).astype(np.float64)
 
     def _potential_params(self) -> Any:
         if self._block is None:
@@ -161,9 +167,9 @@ class _EnvironmentModel(Potential):
         flat = tt.reshape(-1)
         self.check_times(flat, "t")
         params = self._kernel_params(flat)
-        o = int(params[_ke.B_TAB])
+        o = int(params[_ke.BLOCK.TAB])
         s0 = o + int(params[o + 1])  # first segment: ncomp is the same in all
-        out = np.empty((flat.size, int(params[s0 + _ke.T_NCOMP])))
+        out = np.empty((flat.size, int(params[s0 + _ke.SEG.NCOMP])))
         _ke.table_loop(flat, params, o, out)
         return params, out.reshape((*tt.shape, out.shape[-1]))
 
@@ -241,8 +247,10 @@ class MagneticDipole(_EnvironmentModel):
         self.dipole = m
         self._setup(self.orbit, step, span)
 
-    def _head(self) -> list[float]:
-        return [0.0, *self.dipole]
+    _layout = _ke.DIPOLE
+
+    def _head(self) -> tuple[dict[str, Any], np.ndarray]:
+        return {"vec": self.dipole}, np.zeros(0)
 
     def _constant_table(self) -> np.ndarray | None:
         return None if self._const is None else _env.constant_table(self._const)
@@ -341,8 +349,10 @@ class EddyCurrentDamping(_EnvironmentModel):
                 raise AttitudeValueError(f"{name}: must be > 0, got {v!r}")
         return (2.0 * math.pi / 3.0) * s * e * r**4 * np.eye(3)
 
-    def _head(self) -> list[float]:
-        return [0.0, *self.tensor.ravel()]
+    _layout = _ke.EDDY
+
+    def _head(self) -> tuple[dict[str, Any], np.ndarray]:
+        return {"tensor": self.tensor}, np.zeros(0)
 
     def _constant_table(self) -> np.ndarray | None:
         if self._const is None:
@@ -447,12 +457,14 @@ class AerodynamicDrag(_EnvironmentModel):
         )
         self._setup(self.orbit, step, span)
 
-    def _head(self) -> list[float]:
+    _layout = _ke.DRAG
+
+    def _head(self) -> tuple[dict[str, Any], np.ndarray]:
         bands = _env.VALLADO_EXPONENTIAL
-        code = self._density_code
-        groups = drag_groups(self.facets)
-        bands_at = _ke.D_FACETS + _ke.D_STRIDE * len(groups)
-        return [0.0, len(groups), code, bands_at, len(bands), *groups.ravel(), *bands.ravel()]
+        groups = drag_groups(self.facets).reshape(-1, _ke.DRAG_GROUP.SIZE)
+        bands_at = _ke.DRAG.FACETS + groups.size
+        fields = dict(nf=len(groups), density=self._density_code, bands=bands_at, nb=len(bands))
+        return fields, np.concatenate([groups.ravel(), np.ravel(bands)])
 
     def _rows(self, g: Any) -> np.ndarray:
         key = ("drag_rows", self.density, self.f107, self.f107a, self.ap)
@@ -561,21 +573,22 @@ class SolarRadiation(_EnvironmentModel):
         self._umbra = False
         self._setup(self.orbit, step, span)
 
-    def _head(self) -> list[float]:
+    _layout = _ke.SRP
+
+    def _head(self) -> tuple[dict[str, Any], np.ndarray]:
         from orbit.sun import R_EARTH, R_SUN
 
-        groups = optical_groups(self.facets)
-        return [
-            0.0,
-            len(groups),
-            self._ECLIPSE[self.eclipse],
-            _env.P_SUN_1AU,
-            _env.AU_KM,
-            R_SUN,
-            R_EARTH,
-            float(self._umbra),  # the shadow margins may decide the umbra (set by _table)
-            *groups.ravel(),
-        ]
+        groups = optical_groups(self.facets).reshape(-1, _ke.SRP_GROUP.SIZE)
+        fields = dict(
+            nf=len(groups),
+            eclipse=self._ECLIPSE[self.eclipse],
+            p=_env.P_SUN_1AU,
+            au=_env.AU_KM,
+            rsun=R_SUN,
+            rearth=R_EARTH,
+            umbra=float(self._umbra),  # the shadow margins may decide the umbra (set by _table)
+        )
+        return fields, groups.ravel()
 
     def _table(self, g: Any) -> np.ndarray:
         rows = _env.sun_shadow(g)

@@ -58,7 +58,8 @@ class HeavyTop(Potential):
         self.center_of_mass = c
 
     def _potential_params(self) -> list[float]:
-        return [self.weight, *self.center_of_mass]
+        # the block after its kind (attitude._core.potentials HEAVY_TOP)
+        return list(_kp.HEAVY_TOP.pack(weight=self.weight, cm=self.center_of_mass)[1:])
 
     def __repr__(self) -> str:
         return f"HeavyTop(weight={self.weight!r}, center_of_mass={self.center_of_mass.tolist()})"

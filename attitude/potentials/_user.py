@@ -17,6 +17,7 @@ from orbit._shared_jit import JIT_DISABLED
 
 from .. import _user_kernels
 from .._core import environment as _ke
+from .._core.layout import Appender
 from .._validation import as_float_array, as_quaternion
 from ..errors import AttitudeTypeError, AttitudeValueError
 from ._base import Potential
@@ -112,30 +113,30 @@ class EnvironmentIndex(IntEnum):
     V), computed from the same tables.
     """
 
-    FIELD = _ke.ENV_FIELD
-    SUN = _ke.ENV_SUN
-    R = _ke.ENV_R
-    V = _ke.ENV_V
-    Q_RSW = _ke.ENV_Q_RSW  # 4
-    SUN_DISTANCE = _ke.ENV_SUN_DISTANCE  # 1
-    SHADOW = _ke.ENV_SHADOW  # 1
+    FIELD = _ke.ENV.FIELD
+    SUN = _ke.ENV.SUN
+    R = _ke.ENV.R
+    V = _ke.ENV.V
+    Q_RSW = _ke.ENV.Q_RSW  # 4
+    SUN_DISTANCE = _ke.ENV.SUN_DISTANCE  # 1
+    SHADOW = _ke.ENV.SHADOW  # 1
 
 
 #: Length of the environment vector ``env`` of a :class:`CustomTorque` with an orbit.
-ENVIRONMENT_SIZE = _ke.ENV_SIZE
+ENVIRONMENT_SIZE = _ke.ENV.SIZE
 
 
 def _probe_environment() -> np.ndarray:
     """A plausible environment (LEO, lit) to compile and check a user's torque with."""
-    env = np.zeros(_ke.ENV_SIZE)
-    env[_ke.ENV_FIELD : _ke.ENV_FIELD + 3] = (1.0e-5, -2.0e-5, 3.0e-5)
-    env[_ke.ENV_SUN : _ke.ENV_SUN + 3] = (0.6, 0.0, 0.8)
-    env[_ke.ENV_R : _ke.ENV_R + 3] = (7000.0, 0.0, 0.0)
-    env[_ke.ENV_V : _ke.ENV_V + 3] = (0.0, 7.5, 0.0)
-    env[_ke.ENV_Q_RSW] = 1.0
-    env[_ke.ENV_SUN_DISTANCE] = 1.496e8
-    env[_ke.ENV_SHADOW] = 1.0
-    return env
+    return _ke.ENV.pack(
+        field=(1.0e-5, -2.0e-5, 3.0e-5),
+        sun=(0.6, 0.0, 0.8),
+        r=(7000.0, 0.0, 0.0),
+        v=(0.0, 7.5, 0.0),
+        q_rsw=(1.0, 0.0, 0.0, 0.0),
+        sun_distance=1.496e8,
+        shadow=1.0,
+    )
 
 
 class _TorqueEnvironment:
@@ -168,26 +169,18 @@ class _TorqueEnvironment:
             return
         self.orbit.check_times(arr, "t")
         span = np.array([lo, hi])
-        parts: list[np.ndarray] = []
-        head = np.zeros(_ke.E_HEAD)
-        at = _ke.E_HEAD
+        out = Appender(np.zeros(_ke.ENVB.SIZE))
+        h = {}
         if self._field is not None:
             self._field.prepare(span)
-            fb = self._field._kernel_params(span)
-            head[_ke.E_FIELD] = at
-            parts.append(fb)
-            at += fb.shape[0]
-        head[_ke.E_ORBIT] = at
-        parts.append(self._orbit_data)
-        at += self._orbit_data.shape[0]
+            h["field"] = out.append(self._field._kernel_params(span))
+        h["orbit"] = out.append(self._orbit_data)
         epoch = getattr(self.orbit, "epoch", None)
         if epoch is not None:
             from orbit import sun as _sun
 
-            sun = np.asarray(_sun.SunTable(epoch, lo - 60.0, hi + 60.0).kernel_data(), np.float64)
-            head[_ke.E_SUN] = at
-            parts.append(sun)
-        self._block = np.concatenate([head, *parts])
+            h["sun"] = out.append(_sun.SunTable(epoch, lo - 60.0, hi + 60.0).kernel_data())
+        self._block = _ke.ENVB.pack_into(out.array(), 0, **h)
         self._covers = (lo, hi)
 
     def block(self, what: str) -> np.ndarray:
@@ -373,9 +366,9 @@ class CustomTorque(Potential):
         self.check_times(tf, "t")
         self._env.prepare(tf)
         block = self._env.block(self.name)
-        out = np.empty((tf.shape[0], _ke.ENV_SIZE))
+        out = np.empty((tf.shape[0], _ke.ENV.SIZE))
         _ke.environment_loop(qf, tf, block, 0, out)
-        return out.reshape((*shape, _ke.ENV_SIZE))
+        return out.reshape((*shape, _ke.ENV.SIZE))
 
     def __repr__(self) -> str:
         head = f"CustomTorque({getattr(self._tau, '__name__', 'tau')}, name={self.name!r}"

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._core import rng as _rng
 from .._core import sensors as _ks
+from .._core.layout import Appender
 from .._validation import as_float_array, as_scalar, refuse_class
 from ..errors import AttitudeTypeError, AttitudeValueError
 
@@ -423,18 +424,12 @@ def as_sensor_set(x: Any) -> tuple:
 
 
 def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: float) -> tuple:
-    """(the sensor program ``sn``, the initial sensor state ``ss``) of a sensor set."""
-    head = np.zeros(_ks.SN_HEADER)
-    parts = [head]
-    size = [head.size]
+    """(the sensor program ``sn``, the initial sensor state ``ss``) of a sensor set: a header
+    and a record per sensor, each packed through its declaration (:mod:`attitude._core.sensors`)."""
+    out = Appender(np.zeros(_ks.SN.SIZE))
+    h: dict[str, Any] = {}
     states: list[np.ndarray] = []
     ss_size = [0]
-
-    def append(a):
-        at = size[0]
-        parts.append(np.asarray(a, dtype=np.float64).reshape(-1))
-        size[0] += parts[-1].size
-        return at
 
     def stream(sensor):
         at = ss_size[0]
@@ -446,21 +441,23 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
     needs_sky = False
     for s in sensors:
         if isinstance(s, Gyro):
-            r = np.zeros(_ks.G_SIZE)
-            r[_ks.G_SV] = s.arw
-            r[_ks.G_SU] = s.rrw
-            r[_ks.G_SD], r[_ks.G_SQ] = _ks.gyro_tick_sigmas(s.arw, s.rrw, period)
-            r[_ks.G_B0 : _ks.G_B0 + 3] = s.bias
-            r[_ks.G_C : _ks.G_C + 9] = s.matrix.reshape(-1)
-            r[_ks.G_IDENTITY] = float(np.array_equal(s.matrix, np.eye(3)))
-            r[_ks.G_QUANT] = s.quantization
-            r[_ks.G_SAT] = s.saturation
-            r[_ks.G_STATE] = stream(s)
-            head[_ks.SN_GYRO] = append(r)
+            sd, sq = _ks.gyro_tick_sigmas(s.arw, s.rrw, period)
+            identity = float(np.array_equal(s.matrix, np.eye(3)))
+            h["gyro"] = out.append(
+                _ks.GYRO.pack(
+                    sv=s.arw,
+                    su=s.rrw,
+                    sd=sd,
+                    sq=sq,
+                    b0=s.bias,
+                    c=s.matrix,
+                    identity=identity,
+                    quant=s.quantization,
+                    sat=s.saturation,
+                    state=stream(s),
+                )
+            )
         elif isinstance(s, StarTracker):
-            r = np.zeros(_ks.T_SIZE)
-            r[_ks.T_SC], r[_ks.T_SB] = s.noise
-            r[_ks.T_CBS : _ks.T_CBS + 9] = s.frame.reshape(-1)
             every = 1
             if s.rate is not None:
                 k = 1.0 / (s.rate * period)
@@ -470,11 +467,17 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
                         f"sensors: the star tracker's rate {s.rate:g} Hz is not the software's "
                         f"{1 / period:g} Hz divided by a whole number"
                     )
-            r[_ks.T_EVERY] = every
-            r[_ks.T_SUN_EXCL] = s.sun_exclusion
-            r[_ks.T_EARTH_EXCL] = s.earth_exclusion
-            r[_ks.T_STATE] = stream(s)
-            head[_ks.SN_ST] = append(r)
+            h["st"] = out.append(
+                _ks.ST.pack(
+                    sc=s.noise[0],
+                    sb=s.noise[1],
+                    cbs=s.frame,
+                    every=every,
+                    sun_excl=s.sun_exclusion,
+                    earth_excl=s.earth_exclusion,
+                    state=stream(s),
+                )
+            )
             needs_sky = needs_sky or s.sun_exclusion > 0 or s.earth_exclusion >= 0
         elif isinstance(s, Magnetometer):
             if craft.orbit is None:
@@ -482,26 +485,18 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
                     "sensors: a magnetometer measures the field along the orbit; give "
                     "Spacecraft(..., orbit=...)"
                 )
-            r = np.zeros(_ks.M_SIZE)
-            r[_ks.M_SIGMA] = s.noise
-            r[_ks.M_BIAS : _ks.M_BIAS + 3] = s.bias
-            r[_ks.M_STATE] = stream(s)
-            head[_ks.SN_MAG] = append(r)
+            h["mag"] = out.append(_ks.MAG.pack(sigma=s.noise, bias=s.bias, state=stream(s)))
         elif isinstance(s, SunSensor):
-            r = np.zeros(_ks.S_NORMALS + 3 * s.normals.shape[0])
-            r[_ks.S_NHEADS] = s.normals.shape[0]
-            r[_ks.S_SIGMA] = s.noise
-            r[_ks.S_STATE] = stream(s)
-            r[_ks.S_NORMALS :] = s.normals.reshape(-1)
-            head[_ks.SN_SUN] = append(r)
+            r = _ks.SUNS.pack(nheads=s.normals.shape[0], sigma=s.noise, state=stream(s))
+            h["sun"] = out.append(np.concatenate([r, s.normals.reshape(-1)]))  # the normals' tail
             needs_sky = True
-    if needs_sky or head[_ks.SN_MAG]:
+    if needs_sky or "mag" in h:
         if craft.orbit is None:
             raise AttitudeValueError(
                 "sensors: Sun and Earth exclusions and Sun sensors need the spacecraft's orbit "
                 "(Spacecraft(..., orbit=...), dated)"
             )
-        head[_ks.SN_ORBIT] = append(craft.orbit.kernel_data())
+        h["orbit"] = out.append(craft.orbit.kernel_data())
         if needs_sky:
             if getattr(craft.orbit, "epoch", None) is None:
                 raise AttitudeValueError(
@@ -509,9 +504,9 @@ def sensor_program(sensors: tuple, period: float, craft: Any, t0: float, t_end: 
                 )
             from orbit import sun as _sun
 
-            head[_ks.SN_SUNTAB] = append(
+            h["suntab"] = out.append(
                 _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
             )
-    sn = np.concatenate(parts)
+    sn = _ks.SN.pack_into(out.array(), 0, **h)
     ss = np.concatenate(states) if states else np.zeros(0)
     return sn, ss

@@ -14,6 +14,8 @@ import numpy as np
 from .._core import fsw as _kf
 from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
+from .._core.fsw_layout import ES, FW, MB
+from .._core.layout import Appender
 from .._validation import as_float_array, as_int, as_scalar, refuse_class
 from ..body import RigidBody
 from ..control import ControlLaw, MomentumDumping, WheelAllocation
@@ -242,18 +244,18 @@ class MeasurementIndex(IntEnum):
     orbit: field, Sun, r, v). numba reads the members as constants.
     """
 
-    T = _kstep.MEAS_T
-    Q = _kstep.MEAS_Q  # 4
-    OMEGA = _kstep.MEAS_OMEGA
-    Q_REF = _kstep.MEAS_QREF  # 4
-    OMEGA_REF = _kstep.MEAS_OMEGA_REF
-    SIGMA_ERROR = _kstep.MEAS_SIGMA
-    OMEGA_ERROR = _kstep.MEAS_DOMEGA
-    FIELD = _kstep.MEAS_FIELD
-    SUN = _kstep.MEAS_SUN
-    R = _kstep.MEAS_R
-    V = _kstep.MEAS_V
-    WHEEL_SPEEDS = _kstep.MEAS_WHEELS
+    T = _kstep.MEAS.T
+    Q = _kstep.MEAS.Q  # 4
+    OMEGA = _kstep.MEAS.OMEGA
+    Q_REF = _kstep.MEAS.Q_REF  # 4
+    OMEGA_REF = _kstep.MEAS.OMEGA_REF
+    SIGMA_ERROR = _kstep.MEAS.SIGMA_ERROR
+    OMEGA_ERROR = _kstep.MEAS.OMEGA_ERROR
+    FIELD = _kstep.MEAS.FIELD
+    SUN = _kstep.MEAS.SUN
+    R = _kstep.MEAS.R
+    V = _kstep.MEAS.V
+    WHEEL_SPEEDS = _kstep.MEAS.WHEEL_SPEEDS
 
 
 class FlightSoftware:
@@ -458,7 +460,7 @@ class Program:
     @property
     def record_every(self) -> int | None:
         """Every k-th tick recorded, or None: the ticks at the output samples."""
-        k = int(self.fw[_kf.FW_RECORD_EVERY])
+        k = int(self.fw[FW.RECORD_EVERY])
         return k if self.recorded is None and k > 0 else None
 
     @property
@@ -466,23 +468,23 @@ class Program:
         """The number of tick records the run makes."""
         if self.recorded is not None:
             return int(self.recorded.shape[0])
-        return -(-self.n_ticks // int(self.fw[_kf.FW_RECORD_EVERY]))
+        return -(-self.n_ticks // int(self.fw[FW.RECORD_EVERY]))
 
     def tick_times(self) -> np.ndarray:
         """The times of the recorded ticks, t_k = t0 + k·period (the compiled loop's own
         arithmetic)."""
-        t0, per = float(self.fw[_kf.FW_T0]), float(self.fw[_kf.FW_PERIOD])
+        t0, per = float(self.fw[FW.T0]), float(self.fw[FW.PERIOD])
         if self.recorded is not None:
             k = self.recorded
         else:
-            k = np.arange(0, self.n_ticks, int(self.fw[_kf.FW_RECORD_EVERY]), dtype=np.int64)
+            k = np.arange(0, self.n_ticks, int(self.fw[FW.RECORD_EVERY]), dtype=np.int64)
         return t0 + k * per
 
     def fresh_state(self) -> np.ndarray:
         """The software state ``fs`` at the start of a run (the sensors' streams seeded)."""
         fs = np.zeros(self.fs_size)
         if self.ss0.size:
-            at = int(self.fw[_kf.FW_SS])
+            at = int(self.fw[FW.SS])
             fs[at : at + self.ss0.size] = self.ss0
         return fs
 
@@ -490,6 +492,70 @@ class Program:
 def _frame_data(frame: Any, start: float, stop: float) -> np.ndarray:
     h = _kf.DOMEGA_STEP
     return np.asarray(frame.kernel_data(start - 2 * h, stop + 2 * h), dtype=np.float64)
+
+
+def _law_checks(where: str, law: Any, dump: Any, al: Any, counts: tuple, gpinv: Any) -> None:
+    """Refuse a mode's law, dumping or allocation the spacecraft's actuators cannot serve."""
+    nw, nm, nt = counts
+    ideal = nw + nm + nt == 0
+    if law is not None:
+        if law.needs == "dipole" and not nm:
+            raise AttitudeValueError(
+                f"{where}: {type(law).__name__} commands magnetorquers; the spacecraft has "
+                "none (Spacecraft(..., magnetorquers=[Magnetorquer(axis, max_dipole), ...]))"
+            )
+        if law.needs == "torque" and not ideal and not nw and not nm:
+            raise AttitudeValueError(
+                f"{where}: {type(law).__name__} requests a body torque; thrusters alone are "
+                "commanded by a CommandSchedule or your own step function"
+            )
+        if law.needs == "torque" and nw and gpinv is None:
+            raise AttitudeValueError(
+                f"{where}: the wheels' axes do not span the three body axes: no wheel "
+                "allocation can produce every torque"
+            )
+    if dump is not None and (not nm or not nw):
+        raise AttitudeValueError(
+            f"{where}: MomentumDumping unloads wheels with magnetorquers; the spacecraft "
+            f"has {nw} wheels and {nm} magnetorquers"
+        )
+    if al is not None:
+        if not nw:
+            raise AttitudeValueError(f"{where}: a WheelAllocation needs wheels")
+        if al.null_speeds is not None and al.null_speeds.shape != (nw,):
+            raise AttitudeValueError(
+                f"{where}: null_speeds has {al.null_speeds.size} entries for {nw} wheels"
+            )
+
+
+def _mode_block(cond: Any, mode: Mode, out: Appender, span: tuple[float, float]) -> np.ndarray:
+    """The mode's block (:data:`attitude._core.fsw_layout.MB`); its frames and tables
+    appended to ``out``."""
+    m: dict[str, Any] = {}
+    if cond is not None:
+        m.update(cond=cond._kind, cond_x=cond.threshold)
+        if cond.frame is not None:
+            m["cond_frame"] = out.append(_frame_data(cond.frame, *span))
+            if cond.axis is not None:
+                m["cond_axis"] = cond.axis
+    g = mode.guidance
+    if isinstance(g, Slew):
+        m.update(guid=_kf.GUID_SLEW, guid_frame=out.append(_frame_data(g.target, *span)))
+        m.update(slew_rate=g.max_rate, slew_acc=g.max_accel)
+    elif g is not None:
+        m.update(guid=_kf.GUID_FRAME, guid_frame=out.append(_frame_data(g, *span)))
+    law, dump, _step = _control(mode.control)
+    if law is not None:
+        K, P, Ki, lim, lt = law._gains()
+        m.update(ctrl=law._kind, k=K, p=P, ki=Ki, ilim=lim, lawtype=lt)
+    if dump is not None:
+        m.update(dump=dump.gain, dump_ref=dump.reference)
+    al = mode.allocation
+    if al is not None:
+        m["null"] = al.null_gain
+        if al.null_speeds is not None:
+            m["null_speeds"] = out.append(al.null_speeds)
+    return MB.pack(**m)
 
 
 def program(
@@ -500,13 +566,6 @@ def program(
     nw, nm, nt = craft.counts
     ncmd = nw + nm + nt
     ideal = ncmd == 0
-    head = np.zeros(_kf.FW_HEADER)
-    head[_kf.FW_PERIOD] = software.period
-    head[_kf.FW_T0] = t0 + software.phase
-    head[_kf.FW_DELAY] = software.delay
-    head[_kf.FW_NMODES] = len(software.modes)
-    head[_kf.FW_NCMD] = ncmd
-    head[_kf.FW_IDEAL] = 1.0 if ideal else 0.0
     n_ticks = tick_count(t0 + software.phase, software.period, t_end)
     recorded = None
     if software.record_every is None:
@@ -514,112 +573,50 @@ def program(
                             np.array([t0, t_end]) if samples is None else samples)  # fmt: skip
         if recorded.shape[0] == n_ticks:  # every tick is in effect at a sample
             recorded = None
-    head[_kf.FW_RECORD_EVERY] = 1 if recorded is None else 0
-    if software.record_every is not None:
-        head[_kf.FW_RECORD_EVERY] = software.record_every
-    external = software.python_step is not None or software.compiled_step is not None
-    head[_kf.FW_EXTERNAL] = 1.0 if external else 0.0
     inertia = software.inertia if software.inertia is not None else np.diag(craft.body.inertia)
-    head[_kf.FW_INERTIA : _kf.FW_INERTIA + 9] = inertia.reshape(-1)
-    parts: list[np.ndarray] = [head]
-    size = [head.size]
-
+    h: dict[str, Any] = dict(
+        period=software.period,
+        t0=t0 + software.phase,
+        delay=software.delay,
+        nmodes=len(software.modes),
+        ncmd=ncmd,
+        ideal=1.0 if ideal else 0.0,
+        record_every=(
+            software.record_every
+            if software.record_every is not None
+            else (1 if recorded is None else 0)
+        ),
+        external=software.python_step is not None or software.compiled_step is not None,
+        inertia=inertia,
+    )
+    out = Appender(np.zeros(FW.SIZE))
     gpinv = None
-
-    def append(a: np.ndarray) -> int:
-        at = size[0]
-        parts.append(np.asarray(a, dtype=np.float64).reshape(-1))
-        size[0] += parts[-1].size
-        return at
-
     if nw:
         G = craft.wheel_axes.T  # 3 × n
         if np.linalg.matrix_rank(G) == 3:
             gpinv = G.T @ np.linalg.inv(G @ G.T)  # n × 3
-            head[_kf.FW_GPINV] = append(gpinv)
-            head[_kf.FW_NULLP] = append(np.eye(nw) - gpinv @ G)
+            h["gpinv"] = out.append(gpinv)
+            h["nullp"] = out.append(np.eye(nw) - gpinv @ G)
     if nm:
         A = np.array([m.axis for m in craft.magnetorquers]).T  # 3 × n_m
-        head[_kf.FW_NAPINV] = append(np.linalg.pinv(A))
+        h["napinv"] = out.append(np.linalg.pinv(A))
     if recorded is not None:
-        head[_kf.FW_RECORD_TABLE] = append(recorded.astype(np.float64))
-        head[_kf.FW_RECORD_N] = recorded.shape[0]
-    modes_at = append(np.zeros(len(software.modes)))
-    head[_kf.FW_MODES] = modes_at
+        h.update(record_table=out.append(recorded), record_n=recorded.shape[0])
+    modes_at = h["modes"] = out.append(np.zeros(len(software.modes)))
     offsets = []
     for i, (cond, mode) in enumerate(software.modes):
         where = f"modes[{i}]" if len(software.modes) > 1 else "software"
-        law, dump, step = _control(mode.control)
-        mb = np.zeros(_kf.MB_SIZE)
-        if cond is not None:
-            mb[_kf.MB_COND] = cond._kind
-            mb[_kf.MB_COND_X] = cond.threshold
-            if cond.frame is not None:
-                mb[_kf.MB_COND_FRAME] = append(_frame_data(cond.frame, t0, t_end))
-                if cond.axis is not None:
-                    mb[_kf.MB_COND_AXIS : _kf.MB_COND_AXIS + 3] = cond.axis
-        g = mode.guidance
-        if isinstance(g, Slew):
-            mb[_kf.MB_GUID] = _kf.GUID_SLEW
-            mb[_kf.MB_GUID_FRAME] = append(_frame_data(g.target, t0, t_end))
-            mb[_kf.MB_SLEW_RATE] = g.max_rate
-            mb[_kf.MB_SLEW_ACC] = g.max_accel
-        elif g is not None:
-            mb[_kf.MB_GUID] = _kf.GUID_FRAME
-            mb[_kf.MB_GUID_FRAME] = append(_frame_data(g, t0, t_end))
-        if law is not None:
-            if law.needs == "dipole" and not nm:
-                raise AttitudeValueError(
-                    f"{where}: {type(law).__name__} commands magnetorquers; the spacecraft has "
-                    "none (Spacecraft(..., magnetorquers=[Magnetorquer(axis, max_dipole), ...]))"
-                )
-            if law.needs == "torque" and not ideal and not nw and not nm:
-                raise AttitudeValueError(
-                    f"{where}: {type(law).__name__} requests a body torque; thrusters alone are "
-                    "commanded by a CommandSchedule or your own step function"
-                )
-            if law.needs == "torque" and nw and gpinv is None:
-                raise AttitudeValueError(
-                    f"{where}: the wheels' axes do not span the three body axes: no wheel "
-                    "allocation can produce every torque"
-                )
-            K, P, Ki, lim, lt = law._gains()
-            mb[_kf.MB_CTRL] = law._kind
-            mb[_kf.MB_K] = K
-            mb[_kf.MB_P : _kf.MB_P + 9] = P.reshape(-1)
-            mb[_kf.MB_KI] = Ki
-            mb[_kf.MB_ILIM] = lim
-            mb[_kf.MB_LAWTYPE] = lt
-        if dump is not None:
-            if not nm or not nw:
-                raise AttitudeValueError(
-                    f"{where}: MomentumDumping unloads wheels with magnetorquers; the spacecraft "
-                    f"has {nw} wheels and {nm} magnetorquers"
-                )
-            mb[_kf.MB_DUMP] = dump.gain
-            mb[_kf.MB_DUMP_REF : _kf.MB_DUMP_REF + 3] = dump.reference
-        al = mode.allocation
-        if al is not None:
-            if not nw:
-                raise AttitudeValueError(f"{where}: a WheelAllocation needs wheels")
-            mb[_kf.MB_NULL] = al.null_gain
-            if al.null_speeds is not None:
-                if al.null_speeds.shape != (nw,):
-                    raise AttitudeValueError(
-                        f"{where}: null_speeds has {al.null_speeds.size} entries for {nw} wheels"
-                    )
-                mb[_kf.MB_NULL_SPEEDS] = append(al.null_speeds)
-        _ = step
-        offsets.append(append(mb))
-    fw = np.concatenate(parts)
-    fw[modes_at : modes_at + len(offsets)] = offsets
-    if any((_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
-           or _control(m.control)[1] is not None for _, m in software.modes):  # fmt: skip
-        if craft.orbit is None and isinstance(craft.field, str):
-            raise AttitudeValueError(
-                "software: the magnetic laws read the geomagnetic field along the orbit; give "
-                "Spacecraft(..., orbit=...)"
-            )
+        law, dump, _step = _control(mode.control)
+        block = _mode_block(cond, mode, out, (t0, t_end))
+        _law_checks(where, law, dump, mode.allocation, (nw, nm, nt), gpinv)
+        offsets.append(out.append(block))
+    magnetic = any((_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
+                   or _control(m.control)[1] is not None for _, m in software.modes)  # fmt: skip
+    if magnetic and craft.orbit is None and isinstance(craft.field, str):
+        raise AttitudeValueError(
+            "software: the magnetic laws read the geomagnetic field along the orbit; give "
+            "Spacecraft(..., orbit=...)"
+        )
     fs_size = _kf.state_size(software.delay, ncmd)
     ss0 = np.zeros(0)
     sensors = software.sensors or ()
@@ -627,16 +624,11 @@ def program(
         from ..sensors._models import SunSensor, sensor_program
 
         sn, ss0 = sensor_program(sensors, software.period, craft, t0, t_end)
-        at = fw.size
-        fw = np.concatenate([fw, sn])
-        fw[_kf.FW_SENSORS] = at
-        fw[_kf.FW_SS] = fs_size
-        fs_size += ss0.size
-        fw[_kf.FW_ES] = fs_size
-        fs_size += _kf.ES_SIZE
-        fw[_kf.FW_Z] = fs_size
+        h.update(sensors=out.append(sn), ss=fs_size, es=fs_size + ss0.size)
+        fs_size += ss0.size + ES.SIZE
+        h["z"] = fs_size
         heads = max((x.normals.shape[0] for x in sensors if isinstance(x, SunSensor)), default=0)
-        fs_size += _ks.Z_SIZE + heads
+        fs_size += _ks.Z.SIZE + heads
         if software.estimator is not None:
             from ..estimation import MEKF
 
@@ -645,32 +637,25 @@ def program(
                     f"estimator: expected an attitude.estimation.MEKF, got "
                     f"{type(software.estimator).__name__}"
                 )
-            ep = software.estimator.record(sensors)
-            fw[_kf.FW_EST] = fw.size
-            fw = np.concatenate([fw, ep])
-    needs_field = any(
-        (_control(m.control)[0] is not None and _control(m.control)[0].needs == "dipole")
-        or _control(m.control)[1] is not None
-        for _, m in software.modes
-    ) or any(getattr(x, "kind", "") == "magnetometer" for x in sensors)
+            h["est"] = out.append(software.estimator.record(sensors))
+    needs_field = magnetic or any(getattr(x, "kind", "") == "magnetometer" for x in sensors)
     if needs_field and not nm and craft.orbit is not None:
         from ..potentials import MagneticDipole
 
         fm = MagneticDipole(craft.orbit, [0.0, 0.0, 0.0], craft.field)
         span = np.array([t0, t_end])
         fm.prepare(span)
-        fw[_kf.FW_FIELD] = fw.size
-        fw = np.concatenate([fw, fm._kernel_params(span)])
+        h["field"] = out.append(fm._kernel_params(span))
     if craft.orbit is not None:
-        fw[_kf.FW_ORBIT] = fw.size
-        fw = np.concatenate([fw, np.asarray(craft.orbit.kernel_data(), dtype=np.float64)])
+        h["orbit"] = out.append(craft.orbit.kernel_data())
         if getattr(craft.orbit, "epoch", None) is not None:
             from orbit import sun as _sun
 
-            fw[_kf.FW_SUN] = fw.size
-            table = _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
-            fw = np.concatenate([fw, table])
-    fw = np.ascontiguousarray(fw)
+            h["sun"] = out.append(
+                _sun.SunTable(craft.orbit.epoch, t0 - 60.0, t_end + 60.0).kernel_data()
+            )
+    fw = FW.pack_into(out.array(), 0, **h)
+    fw[modes_at : modes_at + len(offsets)] = offsets
     return Program(
         fw=fw,
         fs_size=fs_size,
