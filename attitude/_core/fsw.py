@@ -58,6 +58,7 @@ from .frames import (
     frame_eval,
     inertial_frame,
 )
+from .fsw_laws import CODES, control_law
 from .fsw_layout import ES, FS, FW, MB, RS, R
 from .holds import (
     BOUNDARY_DONE,
@@ -96,11 +97,11 @@ GUID_NONE = 0  # no reference: the inertial identity with zero rate
 GUID_FRAME = 1
 GUID_SLEW = 2
 
-CTRL_NONE = 0
-CTRL_MRP = 1
-CTRL_QUATERNION = 2
-CTRL_RATE_DAMPING = 3
-CTRL_BDOT = 4
+CTRL_NONE = 0  # no law; the others are the registry's (attitude._core.fsw_laws.LAWS)
+CTRL_MRP = CODES["mrp_feedback"]
+CTRL_QUATERNION = CODES["quaternion_feedback"]
+CTRL_RATE_DAMPING = CODES["rate_damping"]
+CTRL_BDOT = CODES["bdot"]
 
 
 #: Finite-difference half-step for ω̇ of a frame (s): the frames give q_R and ω_R exactly.
@@ -115,25 +116,6 @@ def record_width(n_cmd: int, sensors: bool = False) -> int:
 def state_size(delay: int, n_cmd: int) -> int:
     """Length of the software state ``fs`` before the sensors' and the filter's."""
     return FS.SIZE + max(delay, 0) * n_cmd
-
-
-@jit(inline="always")
-def _momentum(fw, sc, y, om):
-    """The body's angular momentum in body axes as the software models it: I ω + Σ h a (the
-    wheels' h from the state: Σ J (a·ω + Ω) a)."""
-    hw = wheel_momentum_sum(sc, y)
-    Iw = _mv(fw, FW.INERTIA, om[0], om[1], om[2])
-    return (Iw[0] + hw[0], Iw[1] + hw[1], Iw[2] + hw[2])
-
-
-@jit(inline="always")
-def _mv(fw, o, v0, v1, v2):
-    """The 3 × 3 matrix at fw[o:o+9] (row-major) times v."""
-    return (
-        fw[o] * v0 + fw[o + 1] * v1 + fw[o + 2] * v2,
-        fw[o + 3] * v0 + fw[o + 4] * v1 + fw[o + 5] * v2,
-        fw[o + 6] * v0 + fw[o + 7] * v1 + fw[o + 8] * v2,
-    )
 
 
 @jit
@@ -437,80 +419,10 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         wRN = rotate_inverse(qBR, wR_R)
         dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
-    I = FW.INERTIA
     external = fw[FW.EXTERNAL] != 0.0
-    # control law
+    # control law (attitude._core.fsw_laws: one kernel per law)
     ctrl = CTRL_NONE if external else int(fw[mb + MB.CTRL])
-    L = (0.0, 0.0, 0.0)
-    m = (0.0, 0.0, 0.0)
-    K = fw[mb + MB.K]
-    P = mb + MB.P
-    if ctrl == CTRL_MRP:
-        Ki = fw[mb + MB.KI]
-        z = (0.0, 0.0, 0.0)
-        prior = fs[FS.PRIOR]
-        dt = 0.0 if prior != prior else t - prior
-        fs[FS.PRIOR] = t
-        if Ki > 0.0:
-            lim = fw[mb + MB.ILIM]
-            for i in range(3):
-                v = fs[FS.INT + i] + K * dt * sig[i]
-                if abs(v) > lim:
-                    v *= lim / abs(v)
-                fs[FS.INT + i] = v
-            Idw = _mv(fw, I, dw[0], dw[1], dw[2])
-            z = (fs[FS.INT] + Idw[0], fs[FS.INT + 1] + Idw[1], fs[FS.INT + 2] + Idw[2])
-        Pd = _mv(fw, P, dw[0], dw[1], dw[2])
-        lr = (K * sig[0] + Pd[0], K * sig[1] + Pd[1], K * sig[2] + Pd[2])
-        law0 = fw[mb + MB.LAWTYPE] == 0.0
-        # K_I z and v = ω_r + K_I z (law type 0) are zeros for a fixed reference without an
-        # integral term: not computed then (tested against the full law at a fixed attitude).
-        if Ki > 0.0 or not still or not law0:
-            Kz = (Ki * z[0], Ki * z[1], Ki * z[2])
-            PKz = _mv(fw, P, Kz[0], Kz[1], Kz[2])
-            lr = (lr[0] + PKz[0], lr[1] + PKz[1], lr[2] + PKz[2])
-            if law0:
-                v8 = (wRN[0] + Kz[0], wRN[1] + Kz[1], wRN[2] + Kz[2])
-            else:
-                v8 = om
-            c9 = cross(v8, _momentum(fw, sc, y, om))
-            lr = (lr[0] - c9[0], lr[1] - c9[1], lr[2] - c9[2])
-        if still:
-            L = (-lr[0], -lr[1], -lr[2])
-        else:
-            c10 = cross(om, wRN)
-            ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
-            L = (-(lr[0] + ff[0]), -(lr[1] + ff[1]), -(lr[2] + ff[2]))
-    elif ctrl == CTRL_QUATERNION:
-        sgn = 1.0 if qBR[0] >= 0.0 else -1.0
-        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
-        gy = cross(om, _momentum(fw, sc, y, om))
-        c10 = cross(om, wRN)
-        ff = _mv(fw, I, c10[0] - dwRN[0], c10[1] - dwRN[1], c10[2] - dwRN[2])
-        L = (
-            -K * sgn * qBR[1] - Cd[0] + gy[0] - ff[0],
-            -K * sgn * qBR[2] - Cd[1] + gy[1] - ff[1],
-            -K * sgn * qBR[3] - Cd[2] + gy[2] - ff[2],
-        )
-    elif ctrl == CTRL_RATE_DAMPING:
-        Cd = _mv(fw, P, dw[0], dw[1], dw[2])
-        L = (-Cd[0], -Cd[1], -Cd[2])
-    elif ctrl == CTRL_BDOT:
-        if fs[FS.BVALID] != 0.0:
-            per = fw[FW.PERIOD]
-            p0, p1, p2 = fs[FS.BPREV], fs[FS.BPREV + 1], fs[FS.BPREV + 2]
-            if fw[mb + MB.LAWTYPE] == 0.0:  # m = −k Ḃ
-                m = (-K * (bb[0] - p0) / per, -K * (bb[1] - p1) / per, -K * (bb[2] - p2) / per)
-            else:  # m = −(k/|B|) ḃ, b = B/|B|
-                nb = math.sqrt(bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2])
-                npv = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2)
-                if nb > 0.0 and npv > 0.0:
-                    c = -K / (nb * per)
-                    m = (
-                        c * (bb[0] / nb - p0 / npv),
-                        c * (bb[1] / nb - p1 / npv),
-                        c * (bb[2] / nb - p2 / npv),
-                    )
+    L, m = control_law(ctrl, fw, fs, sc, y, mb, t, om, bb, qBR, sig, dw, wRN, dwRN, still)
     fs[FS.BPREV] = bb[0]
     fs[FS.BPREV + 1] = bb[1]
     fs[FS.BPREV + 2] = bb[2]

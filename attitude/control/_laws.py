@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from .._core.fsw_laws import CODES as LAW_CODES
 from .._validation import as_float_array, as_scalar
 from ..body import RigidBody
 from ..errors import AttitudeTypeError, AttitudeValueError
@@ -71,7 +72,7 @@ def _matrix_gain(x: Any, name: str, unit: str = "N m s") -> np.ndarray:
 class ControlLaw:
     """Base class of the built-in laws."""
 
-    #: Kind code of the compiled kernel (attitude._core.fsw CTRL_*).
+    #: Code of the law's compiled kernel (its line in attitude._core.fsw_laws.LAWS; 0: none).
     _kind: int = 0
     #: Actuators the law needs: "torque" (wheels, magnetorquers or an ideal torque), "dipole".
     needs: str = "torque"
@@ -113,7 +114,7 @@ class MRPFeedback(ControlLaw):
     Ki: float
     integral_limit: float
     law_type: int
-    _kind = 1
+    _kind = LAW_CODES["mrp_feedback"]
 
     def __init__(self, K: Any, P: Any, Ki: Any = None, integral_limit: Any = None,
                  law_type: int = 0):  # fmt: skip
@@ -161,7 +162,7 @@ class QuaternionFeedback(ControlLaw):
 
     K: float
     C: np.ndarray
-    _kind = 2
+    _kind = LAW_CODES["quaternion_feedback"]
 
     def __init__(self, K: Any, C: Any):
         object.__setattr__(self, "K", positive_gain(K, "K", "N m"))
@@ -185,7 +186,7 @@ class RateDamping(ControlLaw):
     """
 
     K: np.ndarray
-    _kind = 3
+    _kind = LAW_CODES["rate_damping"]
 
     def __init__(self, K: Any):
         object.__setattr__(self, "K", _matrix_gain(K, "K"))
@@ -232,7 +233,7 @@ class BDot(ControlLaw):
 
     gain: float
     normalized: bool
-    _kind = 4
+    _kind = LAW_CODES["bdot"]
     needs = "dipole"
 
     def __init__(self, gain: Any, normalized: bool = False):
