@@ -366,3 +366,27 @@ def test_boresight_and_exclusion_cones_turn_with_the_body(browser, tracker_run, 
         page.check_clean()
     finally:
         page.close()
+
+
+def test_cli_view(tmp_path, capsys, monkeypatch):
+    from attitude import cli
+
+    sc = scenario.load(ROOT / "scenarios/paper_torque_free.toml")
+    sc.t = sc.t[:51]
+    nc = tmp_path / "free.nc"
+    sc.run_to_file(nc)
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["view", str(nc)]) == 0  # default: RUN.html beside it
+    assert "page        " in capsys.readouterr().out
+    html = (tmp_path / "free.html").read_text()
+    assert html.startswith("<!DOCTYPE html>") and "http://" not in html.split("<script")[0]
+    assert cli.main(["view", str(nc), "-o", f"{tmp_path}/out/"]) == 0
+    assert (tmp_path / "out" / "free.html").exists()
+    assert cli.main(["view", str(nc), "--member", "2"]) == 2
+    assert "not an ensemble" in capsys.readouterr().err
+    (tmp_path / "notes.txt").write_text("not a run")
+    assert cli.main(["view", str(tmp_path / "notes.txt"), "-o", str(tmp_path / "n.html")]) == 2
+    assert "not a netCDF4 file" in capsys.readouterr().err
+    assert not (tmp_path / "n.html").exists()
+    assert cli.main(["view", str(nc), "-o", str(tmp_path / "free.html" / "x.html")]) == 2
+    assert "not a directory" in capsys.readouterr().err
