@@ -363,6 +363,11 @@ def test_boresight_and_exclusion_cones_turn_with_the_body(browser, tracker_run, 
             for c in cones.values():
                 np.testing.assert_allclose(c["axis"], rotate(q[i], b), atol=TOL)
             assert st["referenceAxes"] is not None  # the guidance (LVLH) is drawn
+            # the Sun's angle from the boresight, as the page reports it against its cone
+            sun = _sun_direction(tracker_run, tracker_run.time.values[i : i + 1])[0]
+            angle = np.degrees(np.arccos(np.dot(rotate(q[i], b), sun)))
+            shown = float(re.search(r"Sun ([0-9.]+)° \(excl\. 30°\)", st["hud"]).group(1))
+            assert abs(shown - angle) <= 0.05 + 1e-9, (shown, angle)
         page.check_clean()
     finally:
         page.close()

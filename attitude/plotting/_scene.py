@@ -16,7 +16,6 @@ has them, else a box with the proportions of a homogeneous box of the run's iner
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,20 +95,37 @@ def frame_indices(
     if n <= limit:
         return np.arange(n)
     series = [np.asarray(s, dtype=np.float64) for s in (extremes or []) if np.size(s) == n]
-    per = 1 + 2 * len(series)
-    bins = max(1, (limit - 1) // per)
-    edges = np.linspace(0, n, bins + 1).astype(np.int64)
-    picked = [edges[:-1], np.array([n - 1])]
-    for s in series:
-        for b0, b1 in itertools.pairwise(edges):
-            seg = s[b0:b1]
-            good = np.isfinite(seg)
-            if not good.any():
-                continue
-            w = np.where(good, seg, np.nan)
-            picked.append(np.array([b0 + np.nanargmin(w), b0 + np.nanargmax(w)]))
     k = np.asarray(list(keep), dtype=np.int64).ravel()
-    picked.append(k[(k >= 0) & (k < n)])
+    k = k[(k >= 0) & (k < n)]
+    bins = max(1, (limit - 1) // (1 + 2 * len(series)))
+    best = None
+    for _ in range(4):  # extremes often coincide: more stretches while the budget allows
+        idx = _pick(n, bins, series, k)
+        if idx.size - k.size > limit:
+            break
+        best = idx
+        if idx.size - k.size > 0.9 * limit or bins >= limit - 1:
+            break
+        bins = min(limit - 1, int(bins * 0.97 * limit / max(1, idx.size - k.size)))
+    return best if best is not None else _pick(n, max(1, (limit - 1) // 2), [], k)
+
+
+def _pick(n: int, bins: int, series: list[np.ndarray], keep: np.ndarray) -> np.ndarray:
+    """Each stretch's first sample and its series' argmin and argmax, ``keep``, the last.
+
+    The stretches are ``m = ceil(n / bins)`` samples long (the last one shorter).
+    """
+    m = -(-n // bins)
+    starts = np.arange(0, n, m)
+    picked = [starts, np.array([n - 1]), keep]
+    for s in series:
+        pad = np.full(starts.size * m, np.nan)
+        pad[:n] = s
+        w = pad.reshape(starts.size, m)
+        ok = np.isfinite(w).any(axis=1)
+        lo = np.argmin(np.where(np.isnan(w), np.inf, w), axis=1)
+        hi = np.argmax(np.where(np.isnan(w), -np.inf, w), axis=1)
+        picked += [(starts + lo)[ok], (starts + hi)[ok]]
     return np.unique(np.concatenate(picked))
 
 
@@ -354,6 +370,8 @@ def scene(
     sc = scenario_of(full_ds)
     o = orbit if orbit is not None else orbit_of(sc)
     ref_all = _guidance(ds, t_all)
+    if ref_all is not None and not np.isfinite(ref_all).any():  # no guided mode (B-dot...)
+        ref_all = None
     full, ext, keep = _series_and_extremes(ds, t_all, ref_all)
     # the shadow's edges, on the run's own orbit variables (cheap: r and p at every sample)
     idx = frame_indices(n, max_frames, extremes=ext, keep=keep)
@@ -371,7 +389,7 @@ def scene(
     )
     if ref_all is not None:
         s.ref_name, s.ref_q = "guidance reference", ref_all[idx]
-    else:
+    elif "reference_q" not in ds:  # (flight software without a guided mode: no reference)
         try:
             r = reference(ds.isel(time=idx), t, None, o)
         except AttitudeValueError:

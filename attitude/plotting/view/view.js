@@ -29,6 +29,7 @@ const errors = [];
 
 // ---------------------------------------------------------------------------------- helpers
 const V = (x, y, z) => new THREE.Vector3(x, y, z);
+const DEG = 180 / Math.PI;
 const quatAt = (arr, i, out) => out.set(arr[4 * i + 1], arr[4 * i + 2], arr[4 * i + 3], arr[4 * i]);
 const finiteQ = (arr, i) => arr && Number.isFinite(arr[4 * i]);
 function fmtTime(s) {
@@ -62,13 +63,13 @@ const proxy = new THREE.PerspectiveCamera(40, 1, L / 100, L * 1e5); // the camer
 // default: from behind and above in LVLH (x along-track, z nadir) with a run on an orbit,
 // else from +x, -y, +z of the inertial axes
 const startLvlh = !!(D.lvlhQ);
-if (startLvlh) { proxy.up.set(0, 0, -1); proxy.position.set(-4.6 * L, -3.0 * L, -2.2 * L); }
-else { proxy.up.set(0, 0, 1); proxy.position.set(3.2 * L, -4.2 * L, 2.4 * L); }
+if (startLvlh) { proxy.up.set(0, 0, -1); proxy.position.set(-6.0 * L, -3.9 * L, -2.9 * L); }
+else { proxy.up.set(0, 0, 1); proxy.position.set(4.3 * L, -5.7 * L, 3.2 * L); }
 const controls = new OrbitControls(proxy, renderer ? renderer.domElement : document.createElement("div"));
 controls.target.set(0, 0, 0);
 controls.update();
 
-const ambient = new THREE.AmbientLight(0xffffff, 0.35);
+const ambient = new THREE.AmbientLight(0xffffff, 0.5);
 scene.add(ambient);
 const sunLight = new THREE.DirectionalLight(0xffffff, 2.2);
 scene.add(sunLight);
@@ -92,7 +93,7 @@ function triad(len, colors, opts = {}) {
 const body = new THREE.Group();
 scene.add(body);
 const hull = new THREE.MeshStandardMaterial({ color: 0xb8bcc8, metalness: 0.3, roughness: 0.55, side: THREE.DoubleSide });
-const panel = new THREE.MeshStandardMaterial({ color: 0x2b4d9c, metalness: 0.2, roughness: 0.4, side: THREE.DoubleSide });
+const panel = new THREE.MeshStandardMaterial({ color: 0x3f6fd8, emissive: 0x0c1a3a, metalness: 0.1, roughness: 0.5, side: THREE.DoubleSide });
 if (D.facets.length) {
   for (const f of D.facets) {
     const [area, nx, ny, nz, cx, cy, cz] = f;
@@ -105,8 +106,10 @@ if (D.facets.length) {
     body.add(m);
   }
 } else {
-  const [a, b, c] = D.box;
-  body.add(new THREE.Mesh(new THREE.BoxGeometry(a, b, c), hull));
+  const [a, b, c] = D.box; // see-through: the axes start inside it
+  const boxMat = hull.clone();
+  boxMat.transparent = true; boxMat.opacity = 0.72; boxMat.depthWrite = false;
+  body.add(new THREE.Mesh(new THREE.BoxGeometry(a, b, c), boxMat));
 }
 const bodyAxes = triad(1.7 * L, [0xff4040, 0x40e040, 0x4080ff]);
 body.add(bodyAxes);
@@ -128,8 +131,9 @@ for (const s of D.sensors) {
     boresights.push(arrow);
     body.add(arrow);
     // the Sun must stay outside the first cone; the Earth's limb outside the second
-    if (s.sunExclusion > 0) cones.push({ kind: "sun", half: s.sunExclusion, mesh: cone(b, s.sunExclusion, 1.8 * L, 0xffdd33) });
-    if (s.earthExclusion > 0) cones.push({ kind: "earth", half: s.earthExclusion, mesh: cone(b, s.earthExclusion, 1.5 * L, 0x33ddff) });
+    const k = D.sensors.indexOf(s);
+    if (s.sunExclusion > 0) cones.push({ kind: "sun", sensor: k, half: s.sunExclusion, mesh: cone(b, s.sunExclusion, 1.8 * L, 0xffdd33) });
+    if (s.earthExclusion > 0) cones.push({ kind: "earth", sensor: k, half: s.earthExclusion, mesh: cone(b, s.earthExclusion, 1.5 * L, 0x33ddff) });
     cones.forEach((c) => c.mesh.parent || body.add(c.mesh));
   } else if (s.normals) {
     for (const n of s.normals) body.add(new THREE.ArrowHelper(V(...n).normalize(), V(0, 0, 0), 0.9 * L, 0xffaa44, 0.08 * L, 0.04 * L));
@@ -165,12 +169,27 @@ const nadirArrow = new THREE.ArrowHelper(V(0, 0, -1), V(0, 0, 0), 2.4 * L, 0x33d
 scene.add(nadirArrow);
 const EARTH_DIST = 200 * L; // the Earth's near side ~12 L below the body in LEO
 const earth = new THREE.Group();
-const earthMesh = new THREE.Mesh(new THREE.SphereGeometry(1, 96, 48), new THREE.MeshStandardMaterial({ color: 0x1f5fa8, roughness: 0.9 }));
+const earthMesh = new THREE.Mesh(new THREE.SphereGeometry(1, 64, 32), new THREE.MeshLambertMaterial({ color: 0x1f5fa8 }));
 earthMesh.rotation.x = Math.PI / 2; // poles along the inertial z axis
 earth.add(earthMesh);
-const grat = new THREE.LineSegments(new THREE.WireframeGeometry(new THREE.SphereGeometry(1.001, 24, 12)), new THREE.LineBasicMaterial({ color: 0x6f9fd8, transparent: true, opacity: 0.25 }));
-grat.rotation.x = Math.PI / 2;
-earth.add(grat);
+// parallels every 30 deg and meridians every 30 deg (in the inertial axes: no Earth rotation)
+const gratPts = [];
+const R1 = 1.002, SEG = 96;
+for (let lat = -60; lat <= 60; lat += 30) {
+  const c = Math.cos(lat / DEG), z = Math.sin(lat / DEG);
+  for (let k = 0; k < SEG; k++) {
+    const a0 = 2 * Math.PI * k / SEG, a1 = 2 * Math.PI * (k + 1) / SEG;
+    gratPts.push(V(R1 * c * Math.cos(a0), R1 * c * Math.sin(a0), R1 * z), V(R1 * c * Math.cos(a1), R1 * c * Math.sin(a1), R1 * z));
+  }
+}
+for (let lon = 0; lon < 360; lon += 30) {
+  const cl = Math.cos(lon / DEG), sl = Math.sin(lon / DEG);
+  for (let k = 0; k < SEG / 2; k++) {
+    const b0 = -Math.PI / 2 + Math.PI * k / (SEG / 2), b1 = -Math.PI / 2 + Math.PI * (k + 1) / (SEG / 2);
+    gratPts.push(V(R1 * Math.cos(b0) * cl, R1 * Math.cos(b0) * sl, R1 * Math.sin(b0)), V(R1 * Math.cos(b1) * cl, R1 * Math.cos(b1) * sl, R1 * Math.sin(b1)));
+  }
+}
+earth.add(new THREE.LineSegments(new THREE.BufferGeometry().setFromPoints(gratPts), new THREE.LineBasicMaterial({ color: 0x7fb0e8, transparent: true, opacity: 0.3 })));
 scene.add(earth);
 const limb = new THREE.LineLoop(new THREE.BufferGeometry().setFromPoints(
   Array.from({ length: 129 }, (_, k) => V(Math.cos(2 * Math.PI * k / 128), Math.sin(2 * Math.PI * k / 128), 0))),
@@ -187,7 +206,7 @@ let cloud = null;
 if (M) {
   const g = new THREE.BufferGeometry();
   g.setAttribute("position", new THREE.BufferAttribute(new Float32Array(3 * M), 3));
-  cloud = new THREE.Points(g, new THREE.PointsMaterial({ color: 0xff66ff, size: 0.06 * L }));
+  cloud = new THREE.Points(g, new THREE.PointsMaterial({ color: 0xff66ff, size: 0.12 * L }));
   scene.add(cloud);
 }
 
@@ -254,13 +273,39 @@ function setFrame(i) {
 function hud(lit) {
   const rows = [];
   for (const s of D.series) {
-    const y = s.decoded[0][frame];
-    rows.push(`${s.short}: ${Number.isFinite(y) ? y.toPrecision(4) : "-"} ${s.unit}`);
+    const ys = s.decoded.map((y) => (Number.isFinite(y[frame]) ? y[frame].toPrecision(4) : "-"));
+    rows.push(`${s.short}: ${ys.join(", ")} ${s.unit}`);
   }
-  if (A.mode) rows.push(`mode: ${D.modeNames[A.mode[frame]] ?? A.mode[frame]}`);
+  if (A.mode && D.modeNames.length > 1) rows.push(`mode: ${D.modeNames[A.mode[frame]] ?? A.mode[frame]}`);
   if (hasSun) rows.push(lit >= 0.999 ? "sunlit" : lit <= 0.001 ? "umbra" : `penumbra ${(100 * lit).toFixed(0)} %`);
+  rows.push(...exclusionRows());
   if (member !== null) rows.push(`member ${member}`);
   document.getElementById("hud").innerHTML = rows.join("<br>");
+}
+
+// each boresight's angle from the Sun and from the Earth's limb against its exclusion cones;
+// a cone the Sun or the Earth is inside is drawn opaque
+function exclusionRows() {
+  const rows = [];
+  D.sensors.forEach((s, k) => {
+    if (!s.boresight || !(s.sunExclusion > 0 || s.earthExclusion > 0)) return;
+    const b = V(...s.boresight).normalize().applyQuaternion(body.quaternion);
+    const parts = [];
+    for (const c of cones.filter((c) => c.sensor === k)) {
+      let ang = null;
+      if (c.kind === "sun" && hasSun) ang = b.angleTo(V(A.sun[3 * frame], A.sun[3 * frame + 1], A.sun[3 * frame + 2]));
+      if (c.kind === "earth" && hasOrbit) {
+        const r = V(A.pos[3 * frame], A.pos[3 * frame + 1], A.pos[3 * frame + 2]);
+        ang = b.angleTo(r.clone().negate()) - Math.asin(Math.min(1, D.earthRadiusKm / r.length()));
+      }
+      if (ang === null) continue;
+      const inside = ang < c.half;
+      c.mesh.material.opacity = inside ? 0.55 : 0.18;
+      parts.push(`${c.kind === "sun" ? "Sun" : "Earth limb"} ${(ang * DEG).toFixed(1)}° (excl. ${(c.half * DEG).toFixed(0)}°)${inside ? " BLINDED" : ""}`);
+    }
+    if (parts.length) rows.push(`${s.name}: ${parts.join(", ")}`);
+  });
+  return rows;
 }
 
 function axesOf(obj) {
@@ -321,7 +366,7 @@ function makePlot(s) {
     if (A.shadow) { // the Earth's shadow
       for (let i = 0; i < N - 1; i++) {
         const v = A.shadow[i];
-        if (v < 0.999) { c.fillStyle = v < 0.001 ? "rgba(150,150,170,0.20)" : "rgba(150,150,170,0.10)"; c.fillRect(X(t[i]), pad.t, Math.max(1, X(t[i + 1]) - X(t[i])), H - pad.t - pad.b); }
+        if (v < 0.999) { c.fillStyle = v < 0.001 ? "rgba(150,150,170,0.14)" : "rgba(150,150,170,0.07)"; c.fillRect(X(t[i]), pad.t, Math.max(1, X(t[i + 1]) - X(t[i])), H - pad.t - pad.b); }
       }
     }
     if (A.mode && D.modeNames.length > 1) {
@@ -337,7 +382,8 @@ function makePlot(s) {
     c.textAlign = "center";
     for (let k = 0; k <= 5; k++) {
       const tt = t0 + (t1 - t0) * k / 5;
-      c.fillText(((tt - t0) / TS).toPrecision(3) + (k === 5 ? " " + TU : ""), X(tt), H - 3);
+      if (k === 5) c.textAlign = "right";
+      c.fillText(((tt - t0) / TS).toPrecision(3) + (k === 5 ? " " + TU : ""), k === 5 ? W - 2 : X(tt), H - 3);
     }
     c.textAlign = "left";
     c.setLineDash([2, 3]);
@@ -373,7 +419,7 @@ function makePlot(s) {
   return { draw, cursor };
 }
 D.series.forEach((s) => plots.push(makePlot(s)));
-if (A.mode) {
+if (A.mode && D.modeNames.length > 1) {
   const h = document.createElement("div");
   h.className = "note";
   h.innerHTML = "modes (bands along the plots' tops): " + D.modeNames.map((n, k) => `<span style="color:${MODE_COLORS[k % MODE_COLORS.length]}">${n}</span>`).join(", ");
@@ -510,6 +556,7 @@ window.attitudeView = {
       cones: cones.map((c) => { const v = V(0, -1, 0).applyQuaternion(c.mesh.getWorldQuaternion(new THREE.Quaternion())); return { kind: c.kind, halfAngle: c.half, axis: [v.x, v.y, v.z] }; }),
       cloud: cloud && cloud.visible ? Array.from(cloud.geometry.attributes.position.array, (x) => x / (2.1 * L)) : null,
       warning: document.getElementById("warn").textContent,
+      hud: document.getElementById("hud").innerText,
       errors: [...errors],
     };
   },
