@@ -215,8 +215,14 @@ def _shape(scene_: Scene, ds: xr.Dataset, sc: Any) -> None:
     if inertia is None and "inertia" in ds:
         inertia = np.asarray(ds["inertia"].values)
     if not facets:
-        scene_.box = box_from_inertia(inertia if inertia is not None else [1.0, 1.0, 1.0])
-        scene_.notes.append("shape: a box with the proportions of the run's inertia")
+        box = np.asarray(box_from_inertia(inertia if inertia is not None else [1.0, 1.0, 1.0]))
+        size = "its largest side 1 m"
+        if "thruster_position" in ds:  # large enough to hold the thrusters
+            reach = float(np.abs(np.asarray(ds["thruster_position"].values)).max())
+            if reach > 0:
+                box, size = box * 2.0 * reach, "as wide as the thrusters' positions"
+        scene_.box = [float(x) for x in box]
+        scene_.notes.append(f"shape: a box with the proportions of the run's inertia ({size})")
 
 
 def _sensors(scene_: Scene, sc: Any) -> None:
@@ -354,6 +360,8 @@ def scene(
     from ._common import run_title
     from ._reference import orbit_of, reference, scenario_of
 
+    if isinstance(ds, xr.Dataset) and "member" in ds.dims and "q" not in ds:
+        _member(ds, member)  # an ensemble's statistics: says so
     if not isinstance(ds, xr.Dataset) or "q" not in ds or "time" not in ds.dims:
         raise AttitudeValueError(
             "ds: not an attitude result (expected a Dataset with q(time, component), as "

@@ -169,7 +169,7 @@ const nadirArrow = new THREE.ArrowHelper(V(0, 0, -1), V(0, 0, 0), 2.4 * L, 0x33d
 scene.add(nadirArrow);
 const EARTH_DIST = 200 * L; // the Earth's near side ~12 L below the body in LEO
 const earth = new THREE.Group();
-const earthMesh = new THREE.Mesh(new THREE.SphereGeometry(1, 64, 32), new THREE.MeshLambertMaterial({ color: 0x1f5fa8 }));
+const earthMesh = new THREE.Mesh(new THREE.SphereGeometry(1, 160, 80), new THREE.MeshLambertMaterial({ color: 0x1f5fa8 }));
 earthMesh.rotation.x = Math.PI / 2; // poles along the inertial z axis
 earth.add(earthMesh);
 // parallels every 30 deg and meridians every 30 deg (in the inertial axes: no Earth rotation)
