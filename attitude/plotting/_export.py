@@ -96,7 +96,19 @@ def _mesh(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 def gltf_document(ds: xr.Dataset, *, member: int | None = None) -> Any:
-    """The :class:`pygltflib.GLTF2` of :func:`write_gltf` (binary blob set)."""
+    """The glTF document of :func:`write_gltf`, its binary blob set.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A propagation result.
+    member : int, optional
+        An ensemble's member (default: its first).
+
+    Returns
+    -------
+    pygltflib.GLTF2
+    """
     import pygltflib as G
 
     run, t, q = _run(ds, member)
@@ -268,7 +280,20 @@ def _itrs(run: xr.Dataset, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np
 
 
 def czml_document(ds: xr.Dataset, *, member: int | None = None) -> list[dict[str, Any]]:
-    """The packets of :func:`write_czml` (JSON-ready dicts, validated by czml3)."""
+    """The packets of :func:`write_czml`, built and validated by czml3.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A propagation result with an epoch and an orbit.
+    member : int, optional
+        An ensemble's member (default: its first).
+
+    Returns
+    -------
+    list of dict
+        The document packet and the spacecraft's, as JSON objects.
+    """
     from czml3 import Document, Packet
     from czml3.properties import Box, BoxDimensions, Clock, Orientation, Path, Position
 

@@ -71,6 +71,16 @@ def box_from_inertia(inertia: Any) -> list[float]:
     I₁ = m (b² + c²)/12 and cyclically, so a² ∝ I₂ + I₃ − I₁; the sides are scaled so the
     largest is 1 (the mass is not in the run). Moments that violate the triangle inequality
     (a thin rod, a plate at the limit) get a side of 5 % of the largest.
+
+    Parameters
+    ----------
+    inertia : array_like, shape (3,)
+        Principal moments I₁, I₂, I₃ (any unit).
+
+    Returns
+    -------
+    list of float
+        The sides along body x, y, z, the largest 1.
     """
     i = np.asarray(inertia, dtype=np.float64).reshape(3)
     sq = np.array([i[1] + i[2] - i[0], i[0] + i[2] - i[1], i[0] + i[1] - i[2]])
@@ -87,10 +97,28 @@ def frame_indices(
     extremes: list[np.ndarray] | None = None,
     keep: Any = (),
 ) -> np.ndarray:
-    """The sample indices a page plays: all of them up to ``limit``, else evenly spaced ones
-    plus, in each of as many stretches, the argmin and argmax of every series of
-    ``extremes`` (each of length ``n``, NaN ignored), plus the indices ``keep`` (events, mode
-    switches, shadow edges) and the last sample. At most ``limit + len(keep)`` indices.
+    """The sample indices a page plays.
+
+    All of them up to ``limit``; else the first sample of each of equal stretches of the run
+    and, in each stretch, the argmin and argmax of every series of ``extremes`` (NaN
+    ignored), plus the indices ``keep`` and the last sample. The stretches are as many as
+    keep the count at most ``limit`` (and, when the extremes coincide, above 90 % of it).
+
+    Parameters
+    ----------
+    n : int
+        Samples in the run.
+    limit : int
+        Frames at most, besides ``keep``.
+    extremes : list of ndarray, optional
+        Series of length ``n`` whose extremes are kept (others are ignored).
+    keep : sequence of int
+        Sample indices always kept (events, mode switches); those outside 0..n-1 ignored.
+
+    Returns
+    -------
+    ndarray of int
+        Sorted unique sample indices, the first and the last included.
     """
     if n <= limit:
         return np.arange(n)
@@ -439,7 +467,9 @@ def scene(
     return s
 
 
-def _add_series(s: Scene, ds: xr.Dataset, full: list[tuple[str, np.ndarray]], idx: np.ndarray):
+def _add_series(
+    s: Scene, ds: xr.Dataset, full: list[tuple[str, np.ndarray]], idx: np.ndarray
+) -> None:
     named = dict(full)
     if "error" in named:
         s.series.append({
