@@ -221,3 +221,75 @@ def test_cli_export_gltf_and_czml(orbit_file, tmp_path, capsys):
     assert cli.main(["export", str(free), "--czml", str(tmp_path / "free.czml")]) == 2
     assert "needs a dated orbit" in capsys.readouterr().err
     assert not (tmp_path / "free.czml").exists()
+
+
+THREE = ROOT / "tests/data/three"  # three.js r170's GLTFLoader: an independent reader
+
+
+def test_three_js_gltf_loader_reads_the_keyframes(free_run, tmp_path):
+    """three.js's own GLTFLoader, in Chromium, parses the .glb: one quaternion track on the
+    spacecraft node whose values are the run's x, y, z, w (float32), and the animated node
+    at the keyframes' times holds those quaternions."""
+    import base64
+    import shutil
+
+    sync = pytest.importorskip("playwright.sync_api", reason="playwright is not installed")
+    exe = shutil.which("chromium") or shutil.which("chromium-browser")
+    if exe is None:
+        pytest.skip("no Chromium on this machine (.ci/run installs it: apt-get install chromium)")
+    from importlib import resources
+
+    def data_url(text: str) -> str:
+        return "data:text/javascript;base64," + base64.b64encode(text.encode()).decode()
+
+    view_files = resources.files("attitude.plotting").joinpath("view")
+    loader = (
+        (THREE / "GLTFLoader.js")
+        .read_text()
+        .replace("'../utils/BufferGeometryUtils.js'", "'three/addons/utils/BufferGeometryUtils.js'")
+    )
+    imports = {
+        "three": data_url(view_files.joinpath("three.module.min.js").read_text()),
+        "three/addons/utils/BufferGeometryUtils.js": data_url(
+            (THREE / "BufferGeometryUtils.js").read_text()
+        ),
+        "three/addons/loaders/GLTFLoader.js": data_url(loader),
+    }
+    glb = base64.b64encode(write_gltf(free_run, tmp_path / "f.glb").read_bytes()).decode()
+    page_text = f"""<!DOCTYPE html><html><head><script type="importmap">
+{json.dumps({"imports": imports})}</script></head><body><script type="module">
+import * as THREE from "three";
+import {{ GLTFLoader }} from "three/addons/loaders/GLTFLoader.js";
+const bytes = Uint8Array.from(atob("{glb}"), (c) => c.charCodeAt(0));
+new GLTFLoader().parse(bytes.buffer, "", (gltf) => {{
+  const clip = gltf.animations[0];
+  const track = clip.tracks[0];
+  const mixer = new THREE.AnimationMixer(gltf.scene);
+  mixer.clipAction(clip).play();
+  const node = gltf.scene.getObjectByName("spacecraft");
+  const atKeys = [0, 7, 200].map((k) => {{
+    mixer.setTime(track.times[k]);
+    return [node.quaternion.x, node.quaternion.y, node.quaternion.z, node.quaternion.w];
+  }});
+  window.result = {{ name: track.name, times: Array.from(track.times),
+                    values: Array.from(track.values), atKeys }};
+}}, (e) => {{ window.result = {{ error: String(e) }}; }});
+</script></body></html>"""
+    html = tmp_path / "load.html"
+    html.write_text(page_text)
+    with sync.sync_playwright() as p:
+        b = p.chromium.launch(executable_path=exe, args=["--headless", "--no-sandbox",
+                              "--disable-gpu", "--no-first-run"])  # fmt: skip
+        page = b.new_page()
+        page.goto(html.as_uri())
+        page.wait_for_function("window.result !== undefined")
+        r = page.evaluate("window.result")
+        b.close()
+    assert "error" not in r, r
+    assert r["name"] == "spacecraft.quaternion"
+    xyzw = free_run.q.values[:, [1, 2, 3, 0]].astype(np.float32)
+    assert np.array_equal(np.asarray(r["values"], np.float32).reshape(-1, 4), xyzw)
+    t = free_run.time.values
+    assert np.array_equal(np.asarray(r["times"], np.float32), (t - t[0]).astype(np.float32))
+    for k, q in zip([0, 7, 200], r["atKeys"], strict=True):
+        np.testing.assert_allclose(q, xyzw[k], rtol=0, atol=2e-7)  # the keyframe, float32
