@@ -1112,6 +1112,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pl.set_defaults(func=cmd_plot)
 
+    v = sub.add_parser(
+        "view",
+        help="an offline 3D view of a run in the browser (one HTML file)",
+        description=(
+            "Write one self-contained HTML page (no network needed) that animates the run: the "
+            "spacecraft, its body axes, the reference and LVLH frames, the Earth and the Sun "
+            "(dimmed in the shadow), sensor boresights with their exclusion cones, thruster "
+            "plumes, and the pointing error, rates, wheel speeds and modes beside it. "
+            "Ensembles: choose a member, or see the members' boresights as a cloud."
+        ),
+    )
+    v.add_argument("file", metavar="RUN.nc")
+    v.add_argument("-o", "--output", metavar="RUN.html", help="page to write (default RUN.html)")
+    v.add_argument(
+        "--member", type=int, metavar="K", help="ensembles: the member drawn first (default: the "
+        "first; the page can switch among up to 200)"
+    )  # fmt: skip
+    v.add_argument(
+        "--max-frames",
+        type=_positive_int,
+        metavar="N",
+        help="frames at most (default 20000: evenly spaced, plus each stretch's extremes, the "
+        "events and the mode switches)",
+    )
+    v.set_defaults(func=cmd_view)
+
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")
     i.add_argument("file", metavar="OUT.nc")
     i.add_argument(
@@ -1192,32 +1218,6 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--ref-frame-b", default="SC_BODY_1", help="body frame (default SC_BODY_1)")
     e.add_argument("--originator", default="attitude")
     e.set_defaults(func=cmd_export)
-
-    v = sub.add_parser(
-        "view",
-        help="an offline 3D view of a run in the browser (one HTML file)",
-        description=(
-            "Write one self-contained HTML page (no network needed) that animates the run: the "
-            "spacecraft, its body axes, the reference and LVLH frames, the Earth and the Sun "
-            "(dimmed in the shadow), sensor boresights with their exclusion cones, thruster "
-            "plumes, and the pointing error, rates, wheel speeds and modes beside it. "
-            "Ensembles: choose a member, or see the members' boresights as a cloud."
-        ),
-    )
-    v.add_argument("file", metavar="RUN.nc")
-    v.add_argument("-o", "--output", metavar="RUN.html", help="page to write (default RUN.html)")
-    v.add_argument(
-        "--member", type=int, metavar="K", help="ensembles: the member drawn first (default: the "
-        "first; the page can switch among up to 200)"
-    )  # fmt: skip
-    v.add_argument(
-        "--max-frames",
-        type=_positive_int,
-        metavar="N",
-        help="frames at most (default 20000: evenly spaced, plus each stretch's extremes, the "
-        "events and the mode switches)",
-    )
-    v.set_defaults(func=cmd_view)
     return p
 
 
