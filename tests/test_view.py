@@ -22,7 +22,7 @@ import xarray as xr
 import attitude
 from attitude import io, scenario
 from attitude.errors import AttitudeFileError, AttitudeValueError
-from attitude.plotting import view
+from attitude.plotting import view, view_html
 from attitude.plotting._reference import orbit_of, scenario_of
 from attitude.plotting._scene import MAX_FRAMES
 from attitude.quaternion import rotate, rotate_inverse, to_matrix
@@ -435,3 +435,29 @@ def test_a_closed_loop_day_at_10_hz(tmp_path):
     size = path.stat().st_size
     nf = int(re.search(r'"t":\{"dtype":"f64","shape":\[(\d+)\]', path.read_text()).group(1))
     assert size < 20e6 and 0.9 * MAX_FRAMES < nf <= MAX_FRAMES + 2, (size, nf)
+
+
+def test_facets_and_sensors_of_a_run_made_in_python(browser, free_run, tmp_path):
+    """A run made in Python stores neither its surface nor its sensors: given to view()."""
+    from astropy import units as u
+
+    from attitude.sensors import StarTracker
+
+    facets = attitude.box_wing([0.1, 0.1, 0.34], wings=[(0.06, [1, 0, 0], [0, 0.25, 0])])
+    tracker = StarTracker(10 * u.arcsec, boresight=[0.0, 0.6, 0.8], sun_exclusion=30 * u.deg)
+    html = view_html(free_run, facets=facets, sensors=[tracker])
+    assert len(re.findall(r"\[0\.06,1\.0,0\.0,0\.0,0\.0,0\.25,0\.0\]", html)) == 1  # the wing
+    path = tmp_path / "py.html"
+    path.write_text(html)
+    page = Page(browser, path)
+    try:
+        st = page.state(50)
+        q = free_run.q.values[50]
+        np.testing.assert_allclose(st["boresights"][0], rotate(q, [0.0, 0.6, 0.8]), atol=TOL)
+        (cone,) = st["cones"]
+        assert cone["kind"] == "sun" and cone["halfAngle"] == pytest.approx(np.pi / 6, abs=1e-15)
+        page.check_clean()
+    finally:
+        page.close()
+    with pytest.raises(AttitudeValueError, match=r"facets: expected attitude\.Facet"):
+        view_html(free_run, facets=[[1.0, 0, 0, 1, 0, 0, 0]])

@@ -54,13 +54,13 @@ def _run(ds: xr.Dataset, member: Any) -> tuple[xr.Dataset, np.ndarray, np.ndarra
     return run, t, q
 
 
-def _mesh(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
+def _mesh(ds: xr.Dataset, facets: Any = None) -> tuple[np.ndarray, np.ndarray, float]:
     """Triangles of the spacecraft (vertices (n, 3), normals (n, 3)) in body axes [m], size."""
     from ._reference import scenario_of
     from ._scene import Scene, _shape
 
     s = Scene(title="", index=np.zeros(0, int), t=np.zeros(0), q=np.zeros((0, 4)))
-    _shape(s, ds, scenario_of(ds))
+    _shape(s, ds, scenario_of(ds), facets)
     verts, norms = [], []
     if s.facets:
         for area, nx, ny, nz, cx, cy, cz in s.facets:
@@ -95,7 +95,7 @@ def _mesh(ds: xr.Dataset) -> tuple[np.ndarray, np.ndarray, float]:
     return np.asarray(verts), np.asarray(norms), size
 
 
-def gltf_document(ds: xr.Dataset, *, member: int | None = None) -> Any:
+def gltf_document(ds: xr.Dataset, *, member: int | None = None, facets: Any = None) -> Any:
     """The glTF document of :func:`write_gltf`, its binary blob set.
 
     Parameters
@@ -104,6 +104,8 @@ def gltf_document(ds: xr.Dataset, *, member: int | None = None) -> Any:
         A propagation result.
     member : int, optional
         An ensemble's member (default: its first).
+    facets : sequence of attitude.Facet, optional
+        The spacecraft's surface (default: the scenario's, else the box of the inertia).
 
     Returns
     -------
@@ -112,7 +114,7 @@ def gltf_document(ds: xr.Dataset, *, member: int | None = None) -> Any:
     import pygltflib as G
 
     run, t, q = _run(ds, member)
-    verts, norms, size = _mesh(run)
+    verts, norms, size = _mesh(run, facets)
     axes = np.zeros((6, 3))
     for k in range(3):
         axes[2 * k + 1, k] = 1.6 * size
@@ -208,7 +210,9 @@ def gltf_document(ds: xr.Dataset, *, member: int | None = None) -> Any:
     return gltf
 
 
-def write_gltf(ds: xr.Dataset, path: str | os.PathLike, *, member: int | None = None) -> Path:
+def write_gltf(
+    ds: xr.Dataset, path: str | os.PathLike, *, member: int | None = None, facets: Any = None
+) -> Path:
     """The spacecraft and its attitude as a binary glTF 2.0 file (``.glb``).
 
     Parameters
@@ -219,6 +223,8 @@ def write_gltf(ds: xr.Dataset, path: str | os.PathLike, *, member: int | None = 
         The ``.glb`` to write (atomically: nothing is left under the name on failure).
     member : int, optional
         An ensemble's member (default: its first).
+    facets : sequence of attitude.Facet, optional
+        The spacecraft's surface (default: the scenario's, else the box of the inertia).
 
     Returns
     -------
@@ -241,7 +247,7 @@ def write_gltf(ds: xr.Dataset, path: str | os.PathLike, *, member: int | None = 
     from .._files import OutputFile
 
     target = OutputFile(path, "path")
-    gltf = gltf_document(ds, member=member)
+    gltf = gltf_document(ds, member=member, facets=facets)
     with target.writing() as tmp:
         gltf.save_binary(str(tmp))
         return Path(target.commit())

@@ -230,14 +230,24 @@ def _guidance(ds: xr.Dataset, t: np.ndarray) -> np.ndarray | None:
     return ref
 
 
-def _shape(scene_: Scene, ds: xr.Dataset, sc: Any) -> None:
+def _shape(scene_: Scene, ds: xr.Dataset, sc: Any, given: Any = None) -> None:
+    """The facets given, else the scenario's surface models', else the box of the inertia."""
     facets = []
     pot = getattr(sc, "potential", None) if sc is not None else None
-    for term in [pot, *getattr(pot, "terms", ())] if pot is not None else []:
-        for f in getattr(term, "facets", None) or ():
-            row = [float(f.area), *map(float, f.normal), *map(float, f.center)]
-            if row not in facets:
-                facets.append(row)
+    terms = [pot, *getattr(pot, "terms", ())] if pot is not None else []
+    found = (
+        list(given)
+        if given is not None
+        else [f for t in terms for f in getattr(t, "facets", None) or ()]
+    )
+    for f in found:
+        if not all(hasattr(f, a) for a in ("area", "normal", "center")):
+            raise AttitudeValueError(
+                f"facets: expected attitude.Facet objects (area, normal, center), got {f!r}"
+            )
+        row = [float(f.area), *map(float, f.normal), *map(float, f.center)]
+        if row not in facets:
+            facets.append(row)
     scene_.facets = facets
     inertia = ds.attrs.get("inertia")
     if inertia is None and "inertia" in ds:
@@ -253,9 +263,10 @@ def _shape(scene_: Scene, ds: xr.Dataset, sc: Any) -> None:
         scene_.notes.append(f"shape: a box with the proportions of the run's inertia ({size})")
 
 
-def _sensors(scene_: Scene, sc: Any) -> None:
+def _sensors(scene_: Scene, sc: Any, given: Any = None) -> None:
+    """The sensors given, else the scenario's flight software's."""
     sw = getattr(sc, "software", None) if sc is not None else None
-    for s in getattr(sw, "sensors", None) or ():
+    for s in given if given is not None else getattr(sw, "sensors", None) or ():
         kind = getattr(s, "kind", type(s).__name__)
         if hasattr(s, "boresight"):
             scene_.sensors.append({
@@ -358,6 +369,8 @@ def scene(
     *,
     member: Any = None,
     orbit: Any = None,
+    facets: Any = None,
+    sensors: Any = None,
     max_frames: int = MAX_FRAMES,
 ) -> Scene:
     """The frames of a run's view (see the module's docstring).
@@ -371,6 +384,12 @@ def scene(
     orbit : orbit.Orbit, optional
         The run's orbit; default the one of the scenario the file holds, else the orbital
         frame and radius the run stored.
+    facets : sequence of attitude.Facet, optional
+        The spacecraft's surface; default the facets of the scenario's surface models (a run
+        made in Python stores none: give them here), else a box of the inertia.
+    sensors : sequence of sensors, optional
+        Sensors to draw (boresights and exclusion cones, Sun-sensor heads); default the
+        scenario's flight software's (a run made in Python stores none).
     max_frames : int
         At most this many frames (plus the events' and mode switches' samples).
 
@@ -433,8 +452,8 @@ def scene(
         if r is not None:
             s.ref_name, s.ref_q = r.name, np.asarray(r.q, dtype=np.float64)
     _orbit(s, ds, idx, t, o)
-    _shape(s, ds, sc)
-    _sensors(s, sc)
+    _shape(s, ds, sc, facets)
+    _sensors(s, sc, sensors)
     if "thruster_force" in ds:
         s.thrusters = {
             "position": _values(ds, "thruster_position").tolist(),

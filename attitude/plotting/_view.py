@@ -119,13 +119,19 @@ def _clean(obj: Any) -> Any:
 
 
 def view_html(
-    ds: xr.Dataset, *, member: int | None = None, orbit: Any = None, max_frames: int = MAX_FRAMES
+    ds: xr.Dataset,
+    *,
+    member: int | None = None,
+    orbit: Any = None,
+    facets: Any = None,
+    sensors: Any = None,
+    max_frames: int = MAX_FRAMES,
 ) -> str:
     """The page of :func:`view`, as a string.
 
     Parameters
     ----------
-    ds, member, orbit, max_frames
+    ds, member, orbit, facets, sensors, max_frames
         As :func:`view`.
 
     Returns
@@ -135,7 +141,7 @@ def view_html(
     """
     from .._version import __version__
 
-    s = scene(ds, member=member, orbit=orbit, max_frames=max_frames)
+    s = scene(ds, member=member, orbit=orbit, facets=facets, sensors=sensors, max_frames=max_frames)
     imports = {
         "imports": {
             "three": _data_url(_asset("three.module.min.js")),
@@ -163,6 +169,8 @@ def view(
     *,
     member: int | None = None,
     orbit: Any = None,
+    facets: Any = None,
+    sensors: Any = None,
     max_frames: int = MAX_FRAMES,
 ) -> str | Path:
     """A self-contained HTML page that animates the run in 3D (see the module's docstring).
@@ -180,6 +188,11 @@ def view(
         members (the member chooser and the boresight cloud).
     orbit : orbit.Orbit, optional
         The run's orbit, if the file cannot rebuild it (default: the scenario's).
+    facets : sequence of attitude.Facet, optional
+        The spacecraft's surface, for a run made in Python (a scenario's file has them).
+    sensors : sequence of sensors, optional
+        Sensors to draw (star trackers' boresights and exclusion cones, Sun-sensor heads), for
+        a run made in Python (default: the scenario's flight software's).
     max_frames : int
         Frames at most (default :data:`MAX_FRAMES` = 20 000, which a browser loads in about
         a second and plays smoothly): evenly spaced, plus each stretch's extremes, the events
@@ -200,7 +213,9 @@ def view(
     from .._files import OutputFile
 
     target = OutputFile(path, "path") if path is not None else None  # checked before the work
-    html = view_html(ds, member=member, orbit=orbit, max_frames=max_frames)
+    html = view_html(
+        ds, member=member, orbit=orbit, facets=facets, sensors=sensors, max_frames=max_frames
+    )
     if target is None:
         return html
     with target.writing() as tmp:
