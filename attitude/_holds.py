@@ -570,7 +570,7 @@ def _diagnostics_entry(problem: Problem) -> Any:
     program = problem.spacecraft.program
     if program is not None and program.compiled_step is not None:
         if not problem.potential._user_terms():
-            return problem.potential._entry_points()
+            return problem.potential._entry_points(closed_loop=True)
     return problem.entry
 
 

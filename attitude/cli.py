@@ -1218,7 +1218,51 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--ref-frame-b", default="SC_BODY_1", help="body frame (default SC_BODY_1)")
     e.add_argument("--originator", default="attitude")
     e.set_defaults(func=cmd_export)
+
+    w = sub.add_parser(
+        "warmup",
+        help="compile the kernels the scenarios need, ahead of their first run",
+        description="Run each scenario for its first samples in parallel worker processes, so "
+        "that numba compiles (and caches) every kernel they need; later runs load them. "
+        "Idempotent: a second warmup compiles nothing. Default: the shipped scenarios/*.toml.",
+    )
+    w.add_argument("scenarios", nargs="*", metavar="SCENARIO", help="scenario files (TOML)")
+    w.add_argument("-j", "--jobs", type=int, help="worker processes (default: the CPUs)")
+    w.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    w.set_defaults(func=cmd_warmup)
     return p
+
+
+def cmd_warmup(args: argparse.Namespace) -> int:
+    from ._warmup import warmup
+
+    bar: Any = None
+
+    def progress(done: int, total: int, name: str) -> None:
+        nonlocal bar
+        if args.quiet:
+            return
+        if bar is None:
+            from tqdm import auto
+
+            bar = auto.tqdm(total=total, desc="warmup", unit="scenario", file=sys.stderr)
+        bar.set_postfix_str(name, refresh=False)
+        bar.update(done - bar.n)
+
+    try:
+        report = warmup(args.scenarios or None, jobs=args.jobs, progress=progress)
+    except ValueError as exc:
+        raise BadInput(str(exc)) from None
+    finally:
+        if bar is not None:
+            bar.close()
+    for name, err in report.failed.items():
+        _warn(f"warmup: {name} did not run: {err}")
+    n = report.n_compiled
+    what = "nothing to compile (all cached)" if n == 0 else f"compiled {n} functions"
+    failed = f" ({len(report.failed)} did not run)" if report.failed else ""
+    print(f"warmup: {what} for {len(report.compiled)} scenarios{failed} in {report.seconds:.1f} s")
+    return EXIT_FAILURE if report.failed else EXIT_OK
 
 
 def _reset_unhandled_interrupt() -> None:

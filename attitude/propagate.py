@@ -605,7 +605,7 @@ def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
     user_events = () if evset is None else tuple(evset.user_functions)
     step = None if sc_run is None or sc_run.program is None else sc_run.program.compiled_step
     if not user_events and step is None:
-        return pot._entry_points()
+        return pot._entry_points(closed_loop=sc_run is not None and sc_run.program is not None)
     from . import _user_kernels
 
     return _user_kernels.entry_points(pot._user_terms(), user_events, step=step, potential=pot)

@@ -18,6 +18,7 @@ from __future__ import annotations
 from .base import Orbit
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitError, OrbitTypeError, OrbitValueError
+from .gravity_field import SphericalHarmonics
 from .j2 import SecularJ2Orbit
 from .kepler import (
     eccentric_from_true,
@@ -34,6 +35,7 @@ from .kepler import (
     true_from_mean_hyperbolic,
 )
 from .keplerorbit import KeplerOrbit, earth_mu
+from .third_body import ThirdBody
 from .timescales import IERSRangeWarning
 
 __all__ = [
@@ -45,6 +47,8 @@ __all__ = [
     "OrbitTypeError",
     "OrbitValueError",
     "SecularJ2Orbit",
+    "SphericalHarmonics",
+    "ThirdBody",
     "earth_mu",
     "eccentric_from_true",
     "hyperbolic_from_true",

@@ -7,9 +7,14 @@ it), so the shared module lives here, and its name says that it is shared.
 
 * Kernels are compiled lazily, on first call, and cached on disk (``cache=True``); nothing is
   compiled at import time.
-* The on-disk cache is keyed on a fingerprint of *all* the Python sources of both packages,
-  not only of the function's own file (numba's default): the cached integrators inline kernels
-  from several modules, and a change to any of them must invalidate the cached machine code.
+* The on-disk cache is keyed per module on the sources of the module and of every package
+  module it imports (:func:`source_stamp`), not only on the function's own file (numba's
+  default): the cached integrators inline kernels and read constants from the modules they
+  import, and a change to any of them must invalidate the cached machine code; an edit of a
+  module no kernel imports (``cli.py``) recompiles nothing.
+* While one of the package's kernels compiles, three faster stand-ins for numba's passes are
+  in place (:mod:`orbit._numba_standins`: the same IR); numba's own are put back when it ends, so
+  anyone else's numba code compiles as it would without the package.
 * ``ATTITUDE_CACHE_DIR=/path`` moves the package's cache out of the source tree.
 * Kernels that take another compiled function as an *argument* (the generic integrator loops)
   are :func:`jit_generic`: inlined into their callers and never cached on their own. A cached
@@ -31,6 +36,8 @@ it), so the shared module lives here, and its name says that it is shared.
 
 from __future__ import annotations
 
+import ast
+import functools
 import hashlib
 import os
 import sys
@@ -40,6 +47,8 @@ from pathlib import Path
 import numba
 from numba.core import types as nbtypes
 from numba.core.registry import CPUDispatcher
+
+from . import _numba_standins
 
 __all__ = [
     "JIT_DISABLED",
@@ -61,9 +70,8 @@ JIT_DISABLED: bool = os.environ.get("ATTITUDE_DISABLE_JIT", "0") not in ("", "0"
 )
 
 
-_PACKAGE_DIRS = tuple(
-    str(Path(__file__).resolve().parent.parent / name) + os.sep for name in ("orbit", "attitude")
-)
+_ROOT = Path(__file__).resolve().parent.parent
+_PACKAGE_DIRS = tuple(str(_ROOT / name) + os.sep for name in ("orbit", "attitude"))
 
 
 _FINGERPRINT: list[bytes] = []
@@ -79,6 +87,68 @@ def sources_fingerprint() -> bytes:
                 h.update(path.read_bytes())
         _FINGERPRINT.append(h.digest())
     return _FINGERPRINT[0]
+
+
+def _module_file(name: str) -> Path | None:
+    """The source file of the package module ``name`` (``attitude._core.quat``), or None."""
+    if name.split(".", 1)[0] not in ("orbit", "attitude"):
+        return None
+    base = _ROOT.joinpath(*name.split("."))
+    for path in (base.with_suffix(".py"), base / "__init__.py"):
+        if path.is_file():
+            return path
+    return None
+
+
+@functools.cache
+def _imports(name: str) -> frozenset[str]:
+    """The package modules that module ``name``'s source imports by name (``import`` and
+    ``from ... import`` statements, relative ones resolved; a name that is a submodule counts
+    as that submodule, not its package)."""
+    path = _module_file(name)
+    if path is None:
+        return frozenset()
+    base = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_bytes())):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            parts = base.split(".")[: len(base.split(".")) - node.level + 1] if node.level else []
+            mod = ".".join(parts + ([node.module] if node.module else []))
+            for a in node.names:
+                sub = f"{mod}.{a.name}"
+                out.add(sub if _module_file(sub) is not None else mod)
+    return frozenset(m for m in out if _module_file(m) is not None)
+
+
+@functools.cache
+def source_stamp(*roots: str) -> bytes:
+    """SHA-256 over the sources of the package modules ``roots`` and every package module they
+    import, directly or not: what a kernel of those modules can read when it compiles.
+
+    The kernel cache is keyed on it, per module: editing a module recompiles the kernels of
+    the modules that import it (their compiled code may inline its kernels or read its
+    constants), and nothing else (editing ``cli.py`` recompiles nothing).
+    """
+    seen: set[str] = set()
+    stack = [r.partition("[")[0] for r in roots]  # (a specialise() copy: "module[tag]")
+    while stack:
+        m = stack.pop()
+        if m not in seen and _module_file(m) is not None:
+            seen.add(m)
+            stack.extend(_imports(m))
+    h = hashlib.sha256()
+    for m in sorted(seen):
+        h.update(m.encode())
+        h.update(_module_file(m).read_bytes())
+    return h.digest()
+
+
+def _stamp_of(py_func, py_file: str) -> bytes:
+    rel = Path(os.path.abspath(py_file)).relative_to(_ROOT).with_suffix("")
+    name = ".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts)
+    return source_stamp(name, *getattr(py_func, "_attitude_stamp_roots", ()))
 
 
 def user_cache_dir() -> Path:
@@ -106,43 +176,44 @@ def _install_cache_locators() -> None:
     def cls(name):  # numba < 0.61 spells these with a leading underscore
         return getattr(caching, name, None) or getattr(caching, "_" + name)
 
-    def stamp() -> bytes:
-        return sources_fingerprint()
-
     def ours(py_file: str) -> bool:
         return os.path.abspath(py_file).startswith(_PACKAGE_DIRS)
 
-    class _InTree(cls("InTreeCacheLocator")):
-        def get_source_stamp(self):
-            return stamp()
+    def stamped(locator, py_func, py_file):
+        if locator is not None:
+            locator._attitude_stamp = _stamp_of(py_func, py_file)
+        return locator
 
+    class _Stamped:
+        def get_source_stamp(self):
+            return self._attitude_stamp
+
+    class _InTree(_Stamped, cls("InTreeCacheLocator")):
         @classmethod
         def from_function(cls, py_func, py_file):
-            return super().from_function(py_func, py_file) if ours(py_file) else None
+            if not ours(py_file):
+                return None
+            return stamped(super().from_function(py_func, py_file), py_func, py_file)
 
-    class _UserWide(cls("UserWideCacheLocator")):
-        def get_source_stamp(self):
-            return stamp()
-
+    class _UserWide(_Stamped, cls("UserWideCacheLocator")):
         @classmethod
         def from_function(cls, py_func, py_file):
-            return super().from_function(py_func, py_file) if ours(py_file) else None
+            if not ours(py_file):
+                return None
+            return stamped(super().from_function(py_func, py_file), py_func, py_file)
 
-    class _EnvDir(cls("UserProvidedCacheLocator")):
+    class _EnvDir(_Stamped, cls("UserProvidedCacheLocator")):
         # ATTITUDE_CACHE_DIR=/some/dir puts the cache there (benchmarks use it for cold starts).
         def __init__(self, py_func, py_file):
             super().__init__(py_func, py_file)
             root = os.path.abspath(os.environ["ATTITUDE_CACHE_DIR"])
             self._cache_path = os.path.join(root, self.get_suitable_cache_subpath(py_file))
 
-        def get_source_stamp(self):
-            return stamp()
-
         @classmethod
         def from_function(cls, py_func, py_file):
             if not os.environ.get("ATTITUDE_CACHE_DIR") or not ours(py_file):
                 return None
-            return cls(py_func, py_file)
+            return stamped(cls(py_func, py_file), py_func, py_file)
 
     class _Redirect:
         # A copy of a package kernel bound to a user module's functions (rebind): cached as if
@@ -177,237 +248,9 @@ if not JIT_DISABLED:
         )
 
 
-class _InlinerCopy:
-    """numba's IR inliner (``inline="always"``) copies the callee's IR block by block, a fresh
-    ``copy.deepcopy`` memo per block: every block copies the function's whole scope (all its
-    variables) again, O(blocks x variables). The inlined flight-software tick (hundreds of
-    blocks, thousands of variables) took 18 s of a closed-loop driver's 30 s compile in that
-    copy (numba issue #8989). This stands for the ``copy`` module in
-    :mod:`numba.core.inline_closurecall`: the blocks of one copy share one memo, so each object
-    is copied once, as one ``deepcopy`` of the function would; every other call goes to
-    ``copy`` itself. And when the inliner inlines a function (``InlineWorker.inline_function``)
-    the IR it copies was built for that call site alone, by the untyped pipeline a moment before,
-    and its second copy (an untouched one, returned) is thrown away by numba's only caller: both
-    copies are skipped there. The inlined IR is the same, so the same machine code (checked: the
-    LLVM IR of every function of a closed-loop run, and of runs of every method, is byte for
-    byte the same with and without this).
-    """
-
-    def __init__(self, copy_module, copy_ir_code, fresh_code):
-        self._copy = copy_module
-        self._code = copy_ir_code
-        self._fresh = fresh_code  # InlineWorker.inline_function: a fresh IR, used once
-        self._frame = None  # the copy in progress (its frame), its memo, its blocks to go
-        self._memo: dict = {}
-        self._left = 0
-
-    def __getattr__(self, name):
-        return getattr(self._copy, name)
-
-    def deepcopy(self, x, memo=None):
-        if memo is None:
-            f = sys._getframe(1)
-            if f.f_code is self._code:  # a block of copy_ir's loop
-                caller = f.f_back.f_back  # (copy_ir <- inline_ir <- its caller)
-                if caller is not None and caller.f_code is self._fresh:
-                    return x
-                if self._frame is not f:
-                    self._frame, self._memo = f, {}
-                    self._left = len(f.f_locals["the_ir"].blocks)
-                out = self._copy.deepcopy(x, self._memo)
-                self._left -= 1
-                if self._left <= 0:  # the copy is complete: nothing kept alive
-                    self._frame, self._memo = None, {}
-                return out
-        return self._copy.deepcopy(x, memo)
-
-
-def _ssa_in_touched_blocks(ssa, ir, errors):
-    """numba's SSA reconstruction (``numba.core.ssa._run_ssa``), rewriting for each variable
-    only the blocks that name it.
-
-    numba fixes one variable assigned more than once at a time, and rebuilds every block of the
-    function for each (twice: fresh names for its definitions, then its uses and phi nodes): in
-    the inlined closed-loop drivers, thousands of blocks for each of thousands of such variables,
-    a tenth of a driver's compile time. The blocks that do not name the variable come out of
-    numba's passes unchanged (its handlers return their statements as they are), so here they
-    are skipped: numba's own handlers run on the same statements in the same order, and the
-    result is the same IR (the same names, phi nodes and statements; checked: the LLVM IR of
-    every function of the closed-loop, ensemble and single runs byte for byte the same).
-    """
-
-    def rewrite(blocks, labels, states, handler):
-        for label in labels:
-            blk = blocks[label]
-            new = ir.Block(scope=blk.scope, loc=blk.loc)
-            states["label"] = label
-            states["block"] = blk
-            body = []
-            for stmt in ssa._run_ssa_block_pass(states, blk, handler):
-                assert stmt is not None
-                body.append(stmt)
-            new.body = body
-            blocks[label] = new
-
-    def run_ssa(blocks):
-        if not blocks:
-            return {}
-        cfg = ssa.compute_cfg_from_blocks(blocks)
-        df_plus = ssa._iterated_domfronts(cfg)
-        violators = ssa._find_defs_violators(blocks, cfg)
-        if violators:
-            named: dict = {}  # variable name -> labels of the blocks whose statements name it
-            for label, blk in blocks.items():
-                for stmt in blk.body:
-                    for var in stmt.list_vars():
-                        named.setdefault(var.name, set()).add(label)
-            copies = {}
-            for label, blk in blocks.items():  # (numba returns new blocks: so does this)
-                copies[label] = new = ir.Block(scope=blk.scope, loc=blk.loc)
-                new.body = list(blk.body)
-            blocks = copies
-            cache_list_vars = ssa._CacheListVars()
-            for varname in violators:
-                where = named.get(varname, ())
-                labels = [label for label in blocks if label in where]
-                states = ssa._make_states(blocks)
-                states["varname"] = varname
-                states["defmap"] = defmap = ssa.defaultdict(list)
-                rewrite(blocks, labels, states, ssa._FreshVarHandler())
-                states = ssa._make_states(blocks)
-                states["varname"] = varname
-                states["defmap"] = defmap
-                states["phimap"] = phimap = ssa.defaultdict(list)
-                states["cfg"] = cfg
-                states["phi_locations"] = ssa._compute_phi_locations(df_plus, defmap)
-                rewrite(blocks, labels, states, ssa._FixSSAVars(cache_list_vars))
-                for label, philist in phimap.items():
-                    blk = blocks[label]
-                    blk.body = philist + blk.body
-        if ssa.compute_cfg_from_blocks(blocks) != cfg:
-            raise errors.CompilerError("CFG mutated in SSA pass")
-        return blocks
-
-    return run_ssa
-
-
-def _flags_comparison(tc):
-    """``__hash__`` and ``__eq__`` for numba's ``TargetConfig`` (the compile flags), or None if
-    numba's are not the ones these stand for.
-
-    Typing looks every overloaded operation up in a cache keyed on the flags, about 10^5 times
-    for a closed-loop driver; each lookup hashes them and compares them with
-    ``values()``, a dictionary of every option (about 40, each read through a property):
-    ~5 % of a cold compile. The hash is the same number (numba's hashes the sorted option
-    names: ``sorted`` of a dictionary is its keys); the comparison looks only at the options
-    set on either side (the others are their defaults on both), with the same equality, so
-    every lookup finds what it found before.
-    """
-    base = tc.TargetConfig
-    if (
-        "_values" not in base.__slots__
-        or not {"sorted", "values"} <= set(base.__hash__.__code__.co_names)
-        or "values" not in base.__eq__.__code__.co_names
-    ):
-        return None
-    numba_eq, numba_hash = base.__eq__, base.__hash__
-
-    def __hash__(self):
-        return hash(tuple(sorted(self.options)))
-
-    def __eq__(self, other):
-        if not isinstance(other, base):
-            return NotImplemented
-        opts = self.options
-        if type(other).options is not opts:
-            return numba_eq(self, other)
-        a, b = self._values, other._values
-        for k in a.keys() | b.keys():
-            d = opts[k].default
-            x, y = a.get(k, d), b.get(k, d)
-            if not (x is y or x == y):
-                return False
-        return True
-
-    # the same answers as numba's on flags differing in set, unset and default-valued options
-    from numba.core.compiler import Flags
-
-    f = [Flags() for _ in range(4)]
-    f[1].nrt = True
-    f[2].nrt = True
-    f[2].fastmath = True
-    f[3].nrt = Flags.options["nrt"].default
-    for x in f:
-        for y in f:
-            if __eq__(x, y) != numba_eq(x, y) or __hash__(x) != numba_hash(x):
-                return None
-    return __hash__, __eq__
-
-
-def _install_compile_speedups() -> None:
-    """Put :class:`_InlinerCopy` in numba's inliner, :func:`_ssa_in_touched_blocks` in its
-    SSA pass and :func:`_flags_comparison` in its compile flags, on the first compilation
-    (numba imports them only to compile; importing them here would slow every
-    ``import attitude``). Each is left out if numba's internals are not the ones it was written
-    for."""
-    import copy
-
-    from numba.core import event
-
-    class _OnFirstCompile(event.Listener):
-        done = False
-
-        def on_start(self, ev):
-            if self.done:
-                return
-            self.done = True
-            from numba.core import errors, ir, ssa
-            from numba.core import inline_closurecall as ic
-
-            code = next(
-                (
-                    c
-                    for c in ic.InlineWorker.inline_ir.__code__.co_consts
-                    if getattr(c, "co_name", None) == "copy_ir"
-                ),
-                None,
-            )
-            fresh = ic.InlineWorker.inline_function.__code__
-            if (
-                code is not None
-                and ic.copy is copy
-                and fresh.co_names[:1] == ("run_untyped_passes",)
-            ):  # (else numba changed: leave it)
-                ic.copy = _InlinerCopy(copy, code, fresh)
-            names = (
-                "_iterated_domfronts _find_defs_violators _CacheListVars _make_states "
-                "_FreshVarHandler _FixSSAVars _compute_phi_locations _run_ssa_block_pass "
-                "compute_cfg_from_blocks defaultdict"
-            ).split()
-            steps = ("_fresh_vars", "_fix_ssa_vars", "_CacheListVars", "_find_defs_violators")
-            if all(hasattr(ssa, n) for n in names) and all(
-                n in ssa._run_ssa.__code__.co_names for n in steps
-            ):  # (else numba changed: leave it)
-                ssa._run_ssa = _ssa_in_touched_blocks(ssa, ir, errors)
-            from numba.core import targetconfig
-
-            methods = _flags_comparison(targetconfig)
-            if methods is not None:
-                targetconfig.TargetConfig.__hash__, targetconfig.TargetConfig.__eq__ = methods
-
-        def on_end(self, ev):
-            pass
-
-    event.register("numba:compile", _OnFirstCompile())
-
-
-#: ``ATTITUDE_NUMBA_STANDINS=0``: numba's own inliner copy, SSA pass and flags comparison (the
-#: stand-ins replace them for the whole process, every numba function it compiles).
-NUMBA_STANDINS: bool = os.environ.get("ATTITUDE_NUMBA_STANDINS", "1") not in ("", "0")
-
-if not JIT_DISABLED and NUMBA_STANDINS:
+if not JIT_DISABLED and _numba_standins.NUMBA_STANDINS:
     try:
-        _install_compile_speedups()
+        _numba_standins.install(_PACKAGE_DIRS)
     except (ImportError, AttributeError):  # pragma: no cover - numba internals moved
         pass
 
@@ -459,13 +302,7 @@ class Kernel(CPUDispatcher):
         d = self.__dict__.get("_kernel_dispatcher")
         if d is None:
             f = self.py_func
-            g = types.FunctionType(
-                f.__code__, f.__globals__, f.__name__, f.__defaults__, f.__closure__
-            )
-            g.__kwdefaults__ = f.__kwdefaults__
-            g.__doc__ = f.__doc__
-            g.__module__ = f.__module__
-            g.__qualname__ = f"{f.__qualname__}__kernel"  # its own cache files
+            g = _copy(f, f.__globals__, "kernel")  # its own cache files
             opts = getattr(self, "_attitude_jit_options", {"nopython": True})
             d = numba.jit(**{**opts, "no_cpython_wrapper": True})(g)
             self._kernel_dispatcher = d
@@ -480,8 +317,8 @@ def will_compile(dispatcher) -> bool:
     """Whether a call of ``dispatcher`` from Python would compile it (not load it).
 
     False when it was compiled (or loaded) in this process, or when its on-disk cache index
-    holds an entry for this machine under the current sources' fingerprint (numba's index
-    reader returns nothing for a stale fingerprint); True otherwise, and for a dispatcher
+    holds an entry for this machine under its module's current source stamp (numba's index
+    reader returns nothing for a stale stamp); True otherwise, and for a dispatcher
     without a disk cache that has not been compiled yet. It does not look at the argument
     types: the package's entry points are compiled for one signature each.
     """
@@ -573,6 +410,7 @@ def specialise(module, tag: str, names=None, **bindings):
     Returns a module object (``types.ModuleType``) whose attributes are the copy's namespace.
     """
     name = f"{module.__name__}[{tag}]"
+    roots = (sys._getframe(1).f_globals.get("__name__", ""),)  # who chose the bindings
     copy = types.ModuleType(name, module.__doc__)
     ns = copy.__dict__
     ns.update({k: v for k, v in vars(module).items() if k not in ("__name__", "__doc__")})
@@ -591,17 +429,26 @@ def specialise(module, tag: str, names=None, **bindings):
             continue
         if not JIT_DISABLED and not hasattr(obj, "_attitude_jit_options"):
             continue  # a plain Python helper of the module: shared as it is
-        g = types.FunctionType(f.__code__, ns, f.__name__, f.__defaults__, f.__closure__)
-        g.__kwdefaults__ = f.__kwdefaults__
-        g.__doc__ = f.__doc__
-        g.__module__ = f.__module__
-        g.__qualname__ = f"{f.__qualname__}__{tag}"  # numba names the cache files after it
+        g = _copy(f, ns, tag, roots)  # numba names the cache files after its qualname
         ns[key] = g if JIT_DISABLED else jit(g, **obj._attitude_jit_options)
         if getattr(obj, "_attitude_slp", False):
             ns[key] = slp_vectorized(ns[key])
     for key, (template, rtag, rnames, cache, options) in rebound:
-        ns[key] = rebind(template, ns, rtag, cache=cache, options=options, **rnames)
+        ns[key] = rebind(template, ns, rtag, cache=cache, options=options, _roots=roots, **rnames)
     return copy
+
+
+def _copy(f, namespace: dict, tag: str, roots: tuple = ()) -> types.FunctionType:
+    """``f`` with the globals ``namespace``, named ``<qualname>__<tag>`` (numba names its cache
+    files after it); its cache is also keyed on the sources of the modules ``roots`` (where the
+    bindings come from) and of what they import."""
+    g = types.FunctionType(f.__code__, namespace, f.__name__, f.__defaults__, f.__closure__)
+    g.__kwdefaults__ = f.__kwdefaults__
+    g.__doc__ = f.__doc__
+    g.__module__ = f.__module__
+    g.__qualname__ = f"{f.__qualname__}__{tag}"
+    g._attitude_stamp_roots = (*getattr(f, "_attitude_stamp_roots", ()), *roots)
+    return g
 
 
 def rebind(
@@ -611,6 +458,7 @@ def rebind(
     *,
     cache: bool | None = None,
     options: dict | None = None,
+    _roots: tuple = (),
     **names: str,
 ):
     """A copy of the kernel ``template`` (of another module) with some of its globals bound to
@@ -640,11 +488,7 @@ def rebind(
             cache = False
     glob = dict(f.__globals__)
     glob.update({g: namespace[n] for g, n in names.items()})
-    g = types.FunctionType(f.__code__, glob, f.__name__, f.__defaults__, f.__closure__)
-    g.__kwdefaults__ = f.__kwdefaults__
-    g.__doc__ = f.__doc__
-    g.__module__ = f.__module__
-    g.__qualname__ = "__".join([f.__qualname__, *filter(None, tags)])  # its cache files
+    g = _copy(f, glob, "__".join(filter(None, tags)), (*_roots, str(namespace["__name__"])))
     if outside and cache is not False:
         g._attitude_cache_source = os.path.abspath(file)
     if JIT_DISABLED:

@@ -188,6 +188,16 @@ def _apply(loop, x: np.ndarray, e: np.ndarray) -> Any:
 
 # ---------------------------------------------------------------------------------------------
 # Kepler's equation.
+def _elliptic(loop: Any, x: Any, name: str, e: Any, func: str) -> Any:
+    """``loop`` over the anomaly ``x`` (``name``, rad) and elliptic eccentricities ``e`` after
+    the checks of ``func``'s input."""
+    xa = _as_array(x, name, "rad")
+    ea = _as_array(e, "e")
+    _check_elliptic_e(ea, func)
+    _check_reducible(xa, name)
+    return _apply(loop, xa, ea)
+
+
 def solve_kepler(M: Any, e: Any) -> Any:
     """Eccentric anomaly E from the mean anomaly M of an elliptic orbit: M = E − e sin E.
 
@@ -217,11 +227,7 @@ def solve_kepler(M: Any, e: Any) -> Any:
     E = 0; error-free sum and product elsewhere). Error at most ~1.4 ulp(E) for |M| <= π,
     including e -> 1 with M -> 0.
     """
-    Ma = _as_array(M, "M", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "solve_kepler")
-    _check_reducible(Ma, "M")
-    return _apply(_k.kepler_E_loop, Ma, ea)
+    return _elliptic(_k.kepler_E_loop, M, "M", e, "solve_kepler")
 
 
 def solve_kepler_hyperbolic(M: Any, e: Any) -> Any:
@@ -274,11 +280,7 @@ def true_from_eccentric(E: Any, e: Any) -> Any:
     f : float or ndarray [rad]
         tan(f/2) = sqrt((1 + e)/(1 − e)) tan(E/2), with f = E at E = kπ.
     """
-    Ea = _as_array(E, "E", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "true_from_eccentric")
-    _check_reducible(Ea, "E")
-    return _apply(_k.true_from_eccentric_loop, Ea, ea)
+    return _elliptic(_k.true_from_eccentric_loop, E, "E", e, "true_from_eccentric")
 
 
 def eccentric_from_true(f: Any, e: Any) -> Any:
@@ -295,11 +297,7 @@ def eccentric_from_true(f: Any, e: Any) -> Any:
     -------
     E : float or ndarray [rad]
     """
-    fa = _as_array(f, "f", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "eccentric_from_true")
-    _check_reducible(fa, "f")
-    return _apply(_k.eccentric_from_true_loop, fa, ea)
+    return _elliptic(_k.eccentric_from_true_loop, f, "f", e, "eccentric_from_true")
 
 
 def mean_from_eccentric(E: Any, e: Any) -> Any:
@@ -315,11 +313,7 @@ def mean_from_eccentric(E: Any, e: Any) -> Any:
     -------
     M : float or ndarray [rad]
     """
-    Ea = _as_array(E, "E", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "mean_from_eccentric")
-    _check_reducible(Ea, "E")
-    return _apply(_k.mean_from_eccentric_loop, Ea, ea)
+    return _elliptic(_k.mean_from_eccentric_loop, E, "E", e, "mean_from_eccentric")
 
 
 def true_from_mean(M: Any, e: Any) -> Any:
@@ -335,11 +329,7 @@ def true_from_mean(M: Any, e: Any) -> Any:
     -------
     f : float or ndarray [rad]
     """
-    Ma = _as_array(M, "M", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "true_from_mean")
-    _check_reducible(Ma, "M")
-    return _apply(_k.true_from_mean_loop, Ma, ea)
+    return _elliptic(_k.true_from_mean_loop, M, "M", e, "true_from_mean")
 
 
 def mean_from_true(f: Any, e: Any) -> Any:
@@ -355,11 +345,7 @@ def mean_from_true(f: Any, e: Any) -> Any:
     -------
     M : float or ndarray [rad]
     """
-    fa = _as_array(f, "f", "rad")
-    ea = _as_array(e, "e")
-    _check_elliptic_e(ea, "mean_from_true")
-    _check_reducible(fa, "f")
-    return _apply(_k.mean_from_true_loop, fa, ea)
+    return _elliptic(_k.mean_from_true_loop, f, "f", e, "mean_from_true")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -376,6 +362,20 @@ def _check_true_hyperbolic(f: np.ndarray, e: np.ndarray, func: str) -> None:
         )
 
 
+def _hyperbolic(loop: Any, x: Any, name: str, e: Any, func: str, true: bool = False) -> Any:
+    """``loop`` over the anomaly ``x`` (``name``, rad) and hyperbolic eccentricities ``e`` after
+    the checks of ``func``'s input (``true``: ``x`` is a true anomaly, inside the asymptotes;
+    e sinh H for the mean anomaly: |H| at most 709)."""
+    xa = _as_array(x, name, "rad")
+    ea = _as_array(e, "e")
+    _check_hyperbolic_e(ea, func)
+    if true:
+        _check_true_hyperbolic(xa, ea, func)
+    if func == "mean_from_hyperbolic" and np.any(np.abs(xa) > 709.0):
+        raise OrbitValueError("H: |H| must be at most 709 (e sinh H overflows a float beyond)")
+    return _apply(loop, xa, ea)
+
+
 def true_from_hyperbolic(H: Any, e: Any) -> Any:
     """True anomaly f from the hyperbolic anomaly H: tan(f/2) = sqrt((e+1)/(e−1)) tanh(H/2).
 
@@ -389,10 +389,7 @@ def true_from_hyperbolic(H: Any, e: Any) -> Any:
     -------
     f : float or ndarray [rad], |f| < acos(−1/e)
     """
-    Ha = _as_array(H, "H", "rad")
-    ea = _as_array(e, "e")
-    _check_hyperbolic_e(ea, "true_from_hyperbolic")
-    return _apply(_k.true_from_hyperbolic_loop, Ha, ea)
+    return _hyperbolic(_k.true_from_hyperbolic_loop, H, "H", e, "true_from_hyperbolic")
 
 
 def hyperbolic_from_true(f: Any, e: Any) -> Any:
@@ -408,11 +405,7 @@ def hyperbolic_from_true(f: Any, e: Any) -> Any:
     -------
     H : float or ndarray
     """
-    fa = _as_array(f, "f", "rad")
-    ea = _as_array(e, "e")
-    _check_hyperbolic_e(ea, "hyperbolic_from_true")
-    _check_true_hyperbolic(fa, ea, "hyperbolic_from_true")
-    return _apply(_k.hyperbolic_from_true_loop, fa, ea)
+    return _hyperbolic(_k.hyperbolic_from_true_loop, f, "f", e, "hyperbolic_from_true", True)
 
 
 def mean_from_hyperbolic(H: Any, e: Any) -> Any:
@@ -428,12 +421,7 @@ def mean_from_hyperbolic(H: Any, e: Any) -> Any:
     -------
     M : float or ndarray
     """
-    Ha = _as_array(H, "H", "rad")
-    ea = _as_array(e, "e")
-    _check_hyperbolic_e(ea, "mean_from_hyperbolic")
-    if np.any(np.abs(Ha) > 709.0):
-        raise OrbitValueError("H: |H| must be at most 709 (e sinh H overflows a float beyond)")
-    return _apply(_k.mean_from_hyperbolic_loop, Ha, ea)
+    return _hyperbolic(_k.mean_from_hyperbolic_loop, H, "H", e, "mean_from_hyperbolic")
 
 
 def true_from_mean_hyperbolic(M: Any, e: Any) -> Any:
@@ -449,10 +437,7 @@ def true_from_mean_hyperbolic(M: Any, e: Any) -> Any:
     -------
     f : float or ndarray [rad], |f| < acos(−1/e)
     """
-    Ma = _as_array(M, "M", "rad")
-    ea = _as_array(e, "e")
-    _check_hyperbolic_e(ea, "true_from_mean_hyperbolic")
-    return _apply(_k.true_from_mean_hyperbolic_loop, Ma, ea)
+    return _hyperbolic(_k.true_from_mean_hyperbolic_loop, M, "M", e, "true_from_mean_hyperbolic")
 
 
 def mean_from_true_hyperbolic(f: Any, e: Any) -> Any:
@@ -468,11 +453,9 @@ def mean_from_true_hyperbolic(f: Any, e: Any) -> Any:
     -------
     M : float or ndarray
     """
-    fa = _as_array(f, "f", "rad")
-    ea = _as_array(e, "e")
-    _check_hyperbolic_e(ea, "mean_from_true_hyperbolic")
-    _check_true_hyperbolic(fa, ea, "mean_from_true_hyperbolic")
-    return _apply(_k.mean_from_true_hyperbolic_loop, fa, ea)
+    return _hyperbolic(
+        _k.mean_from_true_hyperbolic_loop, f, "f", e, "mean_from_true_hyperbolic", True
+    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -107,7 +107,7 @@ def test_members_are_single_taylor_runs_bit_for_bit(gg_case):
 
 # Both widths in the default suite, whatever the CPU: the batch integrator at the CPU's own width
 # runs in every Taylor ensemble test, but the other width's lane helpers (attitude._core.lanes
-# or attitude._core.lanes8, written apart) run nowhere else (~30 s of a fresh cache).
+# or attitude._core.lanes.module(8)) run nowhere else (~30 s of a fresh cache).
 @pytest.mark.parametrize("lanes", [4, 8])
 def test_members_are_single_runs_at_every_simd_width(gg_case, lanes, monkeypatch):
     """The batch width follows the CPU (attitude._core.lanes.simd_lanes); whatever it is, each

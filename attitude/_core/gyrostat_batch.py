@@ -67,18 +67,15 @@ from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
 from .taylor import (
     CA,
     CG,
-    CR2,
-    CU3,
-    CU5,
     CV,
     CW,
-    CX,
     NCOL,
     RECIPROCALS,
     WORK_ROWS,
     Y,
     set_order,
 )
+from .taylor_batch import _torque_series_lanes
 from .taylor_gyrostat import (
     CH,
     ORDER_MARGIN,
@@ -148,105 +145,6 @@ def new_workspaces(groups: int, nw: int) -> tuple[np.ndarray, ...]:
 # ------------------------------------------------------------------------------------------------
 # the recurrences on lane tuples
 # ------------------------------------------------------------------------------------------------
-
-
-@jit(inline="always")
-def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
-    """:func:`attitude._core.taylor.torque_series` on lane tuples, statement for statement."""
-    Z = V.ZERO
-    t0 = t1 = t2 = Z
-    inv = RECIPROCALS[k]
-    if kind == KIND_HEAVY_TOP:
-        s0 = V.load(cf, k, CA)
-        s1 = V.load(cf, k, CA + 1)
-        s2 = V.load(cf, k, CA + 2)
-        t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
-        t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
-        t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
-        b0 = b1 = b2 = Z
-        for j in range(k + 1):
-            s0 = V.load(cf, j, CA)
-            s1 = V.load(cf, j, CA + 1)
-            s2 = V.load(cf, j, CA + 2)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
-            b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
-            b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
-            b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
-        V.store(cf, k + 1, CA, V.smul(inv, b0))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
-    elif kind == KIND_GRAVITY_GRADIENT:
-        s = x0 = x1 = x2 = Z
-        for j in range(k + 1):
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            u0 = V.load(cf, k - j, CA)
-            u1 = V.load(cf, k - j, CA + 1)
-            u2 = V.load(cf, k - j, CA + 2)
-            s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
-            x0 = V.fma(r1, u2, x0)
-            x1 = V.fma(r2, u0, x1)
-            x2 = V.fma(r0, u1, x2)
-        V.store(cf, k, CR2, s)
-        V.store(cf, k, CX, V.mul(D0, x0))
-        V.store(cf, k, CX + 1, V.mul(D1, x1))
-        V.store(cf, k, CX + 2, V.mul(D2, x2))
-        s00 = V.load(cf, 0, CR2)
-        if k == 0:
-            for ln in range(LANES):
-                r2s = cf[0, CR2, ln]
-                cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
-                cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
-        else:
-            acc = Z
-            for j in range(k):
-                coef = -1.5 * (k - j) - j
-                acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
-            V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
-            acc = V.load(cf, k, CU3)
-            for j in range(1, k + 1):
-                acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
-            V.store(cf, k, CU5, V.div(acc, s00))
-        b0 = b1 = b2 = Z
-        d0 = d1 = d2 = Z
-        f0 = f1 = f2 = Z
-        for j in range(k + 1):
-            u5 = V.load(cf, j, CU5)
-            u3 = V.load(cf, j, CU3)
-            w0 = V.load(cf, k - j, CW)
-            w1 = V.load(cf, k - j, CW + 1)
-            w2 = V.load(cf, k - j, CW + 2)
-            r0 = V.load(cf, j, CA)
-            r1 = V.load(cf, j, CA + 1)
-            r2 = V.load(cf, j, CA + 2)
-            v0 = V.load(cf, j, CV)
-            v1 = V.load(cf, j, CV + 1)
-            v2 = V.load(cf, j, CV + 2)
-            t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
-            t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
-            t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
-            b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
-            b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
-            b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
-            d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
-            d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
-            d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
-            f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
-            f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
-            f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
-        t0 = V.mul(t0, mu3)
-        t1 = V.mul(t1, mu3)
-        t2 = V.mul(t2, mu3)
-        V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
-        V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
-        V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
-        V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
-        V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
-        V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
-    return t0, t1, t2
 
 
 @jit(inline="always")

@@ -10,13 +10,19 @@ mirrors. LLVM's SLP vectoriser (on for the kernels that use these helpers:
 (LANES = 4 doubles: one AVX2 register) and keeps the tuples of a loop's accumulators in
 registers. Lanes never mix: no helper reduces across lanes.
 
-:mod:`attitude._core.lanes8` is the same at 8 doubles (one AVX-512 register);
-:func:`simd_lanes` says which width this CPU takes (chosen at run time, never at import).
+The helpers are written once, for any width: :func:`helpers` generates each one's source for
+``width`` lanes (the statements a hand-written version would have, so the same IR), compiled as
+inline kernels of this file. This module holds the width-4 helpers; :func:`module` gives the
+same at 8 doubles (one AVX-512 register), which :func:`attitude._core.taylor_batch.batch` binds
+its integrator to; :func:`simd_lanes` says which width this CPU takes (chosen at run time,
+never at import).
 """
 
 from __future__ import annotations
 
 import os
+import sys
+import types
 
 from orbit._shared_jit import jit
 
@@ -25,9 +31,8 @@ from .fma import fma as _fma
 #: Members per batch (one 256-bit SIMD register of float64).
 LANES = 4
 
-ZERO = (0.0, 0.0, 0.0, 0.0)
 
-#: Lane widths with a module of helpers (this one and :mod:`attitude._core.lanes8`).
+#: Lane widths the batch integrators take (4: this module; 8: ``module(8)``).
 WIDTHS = (4, 8)
 
 _HOST: list[int] = []
@@ -56,60 +61,60 @@ def simd_lanes() -> int:
     return _HOST[0]
 
 
-@jit(inline="always")
-def load(a, k, c):
-    """``a[k, c, :]`` as a lane tuple."""
-    return (a[k, c, 0], a[k, c, 1], a[k, c, 2], a[k, c, 3])
+#: The helpers: (arguments, what lane i of the result is, docstring). ``store`` writes instead.
+_ELEMENTWISE = {
+    "load": ("a, k, c", "a[k, c, {i}]", "``a[k, c, :]`` as a lane tuple."),
+    "load_row": ("a, c", "a[c, {i}]", "``a[c, :]`` (per-lane constants) as a lane tuple."),
+    "add": ("a, b", "a[{i}] + b[{i}]", "a + b, lane by lane."),
+    "sub": ("a, b", "a[{i}] - b[{i}]", "a − b, lane by lane."),
+    "mul": ("a, b", "a[{i}] * b[{i}]", "a·b, lane by lane."),
+    "div": ("a, b", "a[{i}] / b[{i}]", "a / b, lane by lane."),
+    "smul": ("s, a", "s * a[{i}]",
+             "The scalar ``s`` times every lane (a product commutes exactly: also ``a * s``)."),
+    "fma": ("a, b, c", "_fma(a[{i}], b[{i}], c[{i}])",
+            "a·b + c rounded once, lane by lane (:func:`attitude._core.fma.fma`)."),
+    "neg": ("a", "-a[{i}]", "−a, lane by lane."),
+}  # fmt: skip
 
 
-@jit(inline="always")
-def store(a, k, c, v):
-    """``a[k, c, :] = v``."""
-    a[k, c, 0] = v[0]
-    a[k, c, 1] = v[1]
-    a[k, c, 2] = v[2]
-    a[k, c, 3] = v[3]
+def helpers(width: int) -> dict:
+    """The lane helpers for ``width`` lanes: ``ZERO``, ``LANES`` and the inline kernels
+    ``load``, ``store``, ``load_row``, ``add``, ``sub``, ``mul``, ``div``, ``smul``, ``fma``,
+    ``neg``."""
+    src = []
+    for name, (args, lane, doc) in _ELEMENTWISE.items():
+        items = ", ".join(lane.format(i=i) for i in range(width))
+        src.append(f'def {name}({args}):\n    """{doc}"""\n    return ({items},)\n')
+    writes = "".join(f"    a[k, c, {i}] = v[{i}]\n" for i in range(width))
+    src.append(f'def store(a, k, c, v):\n    """``a[k, c, :] = v``."""\n{writes}')
+    ns: dict = {"_fma": _fma}
+    exec(compile("\n".join(src), __file__, "exec"), ns)  # (this file: numba's source location)
+    out = {}
+    for name in (*_ELEMENTWISE, "store"):
+        if width != LANES:  # (its own cache files, should it be called from Python)
+            ns[name].__qualname__ = f"{name}__lanes{width}"
+        out[name] = jit(ns[name], inline="always")
+    out.update(LANES=width, ZERO=(0.0,) * width)
+    return out
 
 
-@jit(inline="always")
-def load_row(a, c):
-    """``a[c, :]`` (a 2-D array of per-lane constants) as a lane tuple."""
-    return (a[c, 0], a[c, 1], a[c, 2], a[c, 3])
+_MODULES: dict[int, types.ModuleType] = {}
 
 
-@jit(inline="always")
-def add(a, b):
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3])
+def module(width: int) -> types.ModuleType:
+    """The helpers for ``width`` lanes as a module object (this module for 4)."""
+    if width == LANES:
+        return sys.modules[__name__]
+    if width not in _MODULES:
+        m = types.ModuleType(f"{__name__}{width}", f"Lanes of {width} doubles (see {__name__}).")
+        m.__dict__.update(helpers(width))
+        _MODULES[width] = m
+    return _MODULES[width]
 
 
-@jit(inline="always")
-def sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3])
-
-
-@jit(inline="always")
-def mul(a, b):
-    return (a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3])
-
-
-@jit(inline="always")
-def div(a, b):
-    return (a[0] / b[0], a[1] / b[1], a[2] / b[2], a[3] / b[3])
-
-
-@jit(inline="always")
-def smul(s, a):
-    """The scalar ``s`` times every lane (a product commutes exactly: also ``a * s``)."""
-    return (s * a[0], s * a[1], s * a[2], s * a[3])
-
-
-@jit(inline="always")
-def fma(a, b, c):
-    """a·b + c rounded once, lane by lane (:func:`attitude._core.fma.fma`)."""
-    return (_fma(a[0], b[0], c[0]), _fma(a[1], b[1], c[1]), _fma(a[2], b[2], c[2]),
-            _fma(a[3], b[3], c[3]))  # fmt: skip
-
-
-@jit(inline="always")
-def neg(a):
-    return (-a[0], -a[1], -a[2], -a[3])
+_H = helpers(LANES)
+ZERO = _H["ZERO"]
+load, store, load_row = _H["load"], _H["store"], _H["load_row"]
+add, sub, mul, div, smul, fma, neg = (
+    _H[n] for n in ("add", "sub", "mul", "div", "smul", "fma", "neg")
+)

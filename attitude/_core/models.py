@@ -17,6 +17,11 @@ solver).
 The arithmetic is the same code, so the results are bit-identical to the generic entry points.
 Sums of models run on the generic entry points; user models on their copies in the user
 cache (:mod:`attitude._user_kernels`).
+
+Under flight software every built-in model runs on the generic entry points: the closed-loop
+drivers (the tick, sensors, estimator, integrator and diagnostics inlined: the largest compiled
+functions of the package) are compiled once for every combination of models, laws, sensors and
+actuators, not once per model (issue 40).
 """
 
 from __future__ import annotations
@@ -81,12 +86,14 @@ def _model(tag: str, torque: Any, potential: Any, orbit_sample: Any, **more: Any
     return _CACHE[tag]
 
 
-def entry_points(kind: int | None, orbit_data: Any = None) -> Any:
+def entry_points(kind: int | None, orbit_data: Any = None, closed_loop: bool = False) -> Any:
     """The compiled entry points of a built-in model of kind ``kind`` (``KIND_*`` of
     :mod:`attitude._core.potentials`; a model with an orbit also gives the orbit's
     ``kernel_data()``): specialised to that model alone where there is a specialisation, else
-    the generic module.
+    (and for a ``closed_loop`` run) the generic module.
     """
+    if closed_loop:
+        return _generic
     if kind == _kp.KIND_TORQUE_FREE:
         return _model(
             "torque_free",

@@ -94,7 +94,7 @@ _BATCHES: dict[int, object] = {}
 def batch(width: int | None = None):
     """The batch integrator at ``width`` lanes (default: :func:`attitude._core.lanes.simd_lanes`,
     the CPU's, chosen at run time): this module for 4, else its copy bound to
-    :mod:`attitude._core.lanes8` (:func:`orbit._shared_jit.specialise`, compiled and cached on
+    ``lanes.module(8)`` (:func:`orbit._shared_jit.specialise`, compiled and cached on
     first use under its own name). Every width gives the same results, bit for bit: lanes never
     mix, and each computes the scalar kernel's operations in its order."""
     width = simd_lanes() if width is None else int(width)
@@ -104,11 +104,7 @@ def batch(width: int | None = None):
     if mod is None:
         if width != 8:
             raise ValueError(f"batch width {width}: 4 or 8 lanes")
-        from . import lanes8
-
-        mod = _BATCHES[width] = specialise(
-            sys.modules[__name__], "lanes8", V=lanes8, LANES=lanes8.LANES
-        )
+        mod = _BATCHES[width] = specialise(sys.modules[__name__], "lanes8", V=V.module(8), LANES=8)
     return mod
 
 
@@ -172,6 +168,108 @@ def _q_dot(cf, k1, col, h, iI0, iI1, iI2, s0, s1, s2):
     # q[k + 1] = ½ Σ_m ω_m ⋆ (q∘e_m) / (k + 1), component col
     s = V.fma(iI2, s2, V.fma(iI1, s1, V.mul(iI0, s0)))
     V.store(cf, k1, col, V.smul(h, s))
+
+
+@jit(inline="always")
+def _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2):
+    """:func:`attitude._core.taylor.torque_series` on lane tuples, statement for statement: the
+    torque series of the batch integrators (this module's and attitude._core.gyrostat_batch's)."""
+    Z = V.ZERO
+    t0 = t1 = t2 = Z
+    inv = RECIPROCALS[k]
+    if kind == KIND_HEAVY_TOP:
+        s0 = V.load(cf, k, CA)
+        s1 = V.load(cf, k, CA + 1)
+        s2 = V.load(cf, k, CA + 2)
+        t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
+        t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
+        t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
+        b0 = b1 = b2 = Z
+        for j in range(k + 1):
+            s0 = V.load(cf, j, CA)
+            s1 = V.load(cf, j, CA + 1)
+            s2 = V.load(cf, j, CA + 2)
+            w0 = V.load(cf, k - j, CW)
+            w1 = V.load(cf, k - j, CW + 1)
+            w2 = V.load(cf, k - j, CW + 2)
+            b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
+            b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
+            b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
+        V.store(cf, k + 1, CA, V.smul(inv, b0))
+        V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
+        V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
+    elif kind == KIND_GRAVITY_GRADIENT:
+        s = x0 = x1 = x2 = Z
+        for j in range(k + 1):
+            r0 = V.load(cf, j, CA)
+            r1 = V.load(cf, j, CA + 1)
+            r2 = V.load(cf, j, CA + 2)
+            u0 = V.load(cf, k - j, CA)
+            u1 = V.load(cf, k - j, CA + 1)
+            u2 = V.load(cf, k - j, CA + 2)
+            s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
+            x0 = V.fma(r1, u2, x0)
+            x1 = V.fma(r2, u0, x1)
+            x2 = V.fma(r0, u1, x2)
+        V.store(cf, k, CR2, s)
+        V.store(cf, k, CX, V.mul(D0, x0))
+        V.store(cf, k, CX + 1, V.mul(D1, x1))
+        V.store(cf, k, CX + 2, V.mul(D2, x2))
+        s00 = V.load(cf, 0, CR2)
+        if k == 0:
+            for ln in range(LANES):
+                r2s = cf[0, CR2, ln]
+                cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
+                cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
+        else:
+            # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
+            acc = Z
+            for j in range(k):
+                coef = -1.5 * (k - j) - j
+                acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
+            V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
+            acc = V.load(cf, k, CU3)
+            for j in range(1, k + 1):
+                acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
+            V.store(cf, k, CU5, V.div(acc, s00))
+        # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
+        b0 = b1 = b2 = Z
+        d0 = d1 = d2 = Z
+        f0 = f1 = f2 = Z
+        for j in range(k + 1):
+            u5 = V.load(cf, j, CU5)
+            u3 = V.load(cf, j, CU3)
+            w0 = V.load(cf, k - j, CW)
+            w1 = V.load(cf, k - j, CW + 1)
+            w2 = V.load(cf, k - j, CW + 2)
+            r0 = V.load(cf, j, CA)
+            r1 = V.load(cf, j, CA + 1)
+            r2 = V.load(cf, j, CA + 2)
+            v0 = V.load(cf, j, CV)
+            v1 = V.load(cf, j, CV + 1)
+            v2 = V.load(cf, j, CV + 2)
+            t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
+            t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
+            t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
+            b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
+            b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
+            b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
+            d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
+            d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
+            d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
+            f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
+            f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
+            f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
+        t0 = V.mul(t0, mu3)
+        t1 = V.mul(t1, mu3)
+        t2 = V.mul(t2, mu3)
+        V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
+        V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
+        V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
+        V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
+        V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
+        V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
+    return t0, t1, t2
 
 
 @slp_vectorized
@@ -245,100 +343,8 @@ def taylor_coefficients_lanes(cf, p, kind, cst):
         _q_dot(cf, k + 1, 1, h, iI0, iI1, iI2, a10, a11, a12)
         _q_dot(cf, k + 1, 2, h, iI0, iI1, iI2, a20, a21, a22)
         _q_dot(cf, k + 1, 3, h, iI0, iI1, iI2, a30, a31, a32)
-        t0 = t1 = t2 = Z
         inv = RECIPROCALS[k]
-        if kind == KIND_HEAVY_TOP:
-            s0 = V.load(cf, k, CA)
-            s1 = V.load(cf, k, CA + 1)
-            s2 = V.load(cf, k, CA + 2)
-            t0 = V.mul(mW, V.fma(cy, s2, V.mul(V.neg(cz), s1)))
-            t1 = V.mul(mW, V.fma(cz, s0, V.mul(V.neg(cx), s2)))
-            t2 = V.mul(mW, V.fma(cx, s1, V.mul(V.neg(cy), s0)))
-            b0 = b1 = b2 = Z
-            for j in range(k + 1):
-                s0 = V.load(cf, j, CA)
-                s1 = V.load(cf, j, CA + 1)
-                s2 = V.load(cf, j, CA + 2)
-                w0 = V.load(cf, k - j, CW)
-                w1 = V.load(cf, k - j, CW + 1)
-                w2 = V.load(cf, k - j, CW + 2)
-                b0 = V.fma(s1, w2, V.fma(V.neg(s2), w1, b0))
-                b1 = V.fma(s2, w0, V.fma(V.neg(s0), w2, b1))
-                b2 = V.fma(s0, w1, V.fma(V.neg(s1), w0, b2))
-            V.store(cf, k + 1, CA, V.smul(inv, b0))
-            V.store(cf, k + 1, CA + 1, V.smul(inv, b1))
-            V.store(cf, k + 1, CA + 2, V.smul(inv, b2))
-        elif kind == KIND_GRAVITY_GRADIENT:
-            s = x0 = x1 = x2 = Z
-            for j in range(k + 1):
-                r0 = V.load(cf, j, CA)
-                r1 = V.load(cf, j, CA + 1)
-                r2 = V.load(cf, j, CA + 2)
-                u0 = V.load(cf, k - j, CA)
-                u1 = V.load(cf, k - j, CA + 1)
-                u2 = V.load(cf, k - j, CA + 2)
-                s = V.fma(r2, u2, V.fma(r1, u1, V.fma(r0, u0, s)))
-                x0 = V.fma(r1, u2, x0)
-                x1 = V.fma(r2, u0, x1)
-                x2 = V.fma(r0, u1, x2)
-            V.store(cf, k, CR2, s)
-            V.store(cf, k, CX, V.mul(D0, x0))
-            V.store(cf, k, CX + 1, V.mul(D1, x1))
-            V.store(cf, k, CX + 2, V.mul(D2, x2))
-            s00 = V.load(cf, 0, CR2)
-            if k == 0:
-                for ln in range(LANES):
-                    r2s = cf[0, CR2, ln]
-                    cf[0, CU3, ln] = 1.0 / (r2s * math.sqrt(r2s))
-                    cf[0, CU5, ln] = cf[0, CU3, ln] / r2s
-            else:
-                # u = s^(−3/2): power recurrence; |r|⁻⁵ = u / s: division.
-                acc = Z
-                for j in range(k):
-                    coef = -1.5 * (k - j) - j
-                    acc = V.fma(V.smul(coef, V.load(cf, k - j, CR2)), V.load(cf, j, CU3), acc)
-                V.store(cf, k, CU3, V.div(acc, V.smul(k, s00)))
-                acc = V.load(cf, k, CU3)
-                for j in range(1, k + 1):
-                    acc = V.fma(V.neg(V.load(cf, j, CR2)), V.load(cf, k - j, CU5), acc)
-                V.store(cf, k, CU5, V.div(acc, s00))
-            # τ[k] = 3μ (|r|⁻⁵ ⋆ r × I r)[k];  ṙ = v + r × ω;  v̇ = −μ |r|⁻³ r + v × ω
-            b0 = b1 = b2 = Z
-            d0 = d1 = d2 = Z
-            f0 = f1 = f2 = Z
-            for j in range(k + 1):
-                u5 = V.load(cf, j, CU5)
-                u3 = V.load(cf, j, CU3)
-                w0 = V.load(cf, k - j, CW)
-                w1 = V.load(cf, k - j, CW + 1)
-                w2 = V.load(cf, k - j, CW + 2)
-                r0 = V.load(cf, j, CA)
-                r1 = V.load(cf, j, CA + 1)
-                r2 = V.load(cf, j, CA + 2)
-                v0 = V.load(cf, j, CV)
-                v1 = V.load(cf, j, CV + 1)
-                v2 = V.load(cf, j, CV + 2)
-                t0 = V.fma(u5, V.load(cf, k - j, CX), t0)
-                t1 = V.fma(u5, V.load(cf, k - j, CX + 1), t1)
-                t2 = V.fma(u5, V.load(cf, k - j, CX + 2), t2)
-                b0 = V.fma(r1, w2, V.fma(V.neg(r2), w1, b0))
-                b1 = V.fma(r2, w0, V.fma(V.neg(r0), w2, b1))
-                b2 = V.fma(r0, w1, V.fma(V.neg(r1), w0, b2))
-                d0 = V.fma(v1, w2, V.fma(V.neg(v2), w1, d0))
-                d1 = V.fma(v2, w0, V.fma(V.neg(v0), w2, d1))
-                d2 = V.fma(v0, w1, V.fma(V.neg(v1), w0, d2))
-                f0 = V.fma(u3, V.load(cf, k - j, CA), f0)
-                f1 = V.fma(u3, V.load(cf, k - j, CA + 1), f1)
-                f2 = V.fma(u3, V.load(cf, k - j, CA + 2), f2)
-            t0 = V.mul(t0, mu3)
-            t1 = V.mul(t1, mu3)
-            t2 = V.mul(t2, mu3)
-            V.store(cf, k + 1, CA, V.smul(inv, V.add(V.load(cf, k, CV), b0)))
-            V.store(cf, k + 1, CA + 1, V.smul(inv, V.add(V.load(cf, k, CV + 1), b1)))
-            V.store(cf, k + 1, CA + 2, V.smul(inv, V.add(V.load(cf, k, CV + 2), b2)))
-            V.store(cf, k + 1, CV, V.smul(inv, V.fma(mmu, f0, d0)))
-            V.store(cf, k + 1, CV + 1, V.smul(inv, V.fma(mmu, f1, d1)))
-            V.store(cf, k + 1, CV + 2, V.smul(inv, V.fma(mmu, f2, d2)))
+        t0, t1, t2 = _torque_series_lanes(cf, k, kind, mW, cx, cy, cz, mu3, mmu, D0, D1, D2)
         # Euler's equations: ġ = g × ω + n τ
         V.store(cf, k + 1, CG, V.smul(inv, V.fma(e0, p12, V.mul(n, t0))))
         V.store(cf, k + 1, CG + 1, V.smul(inv, V.fma(e1, p20, V.mul(n, t1))))

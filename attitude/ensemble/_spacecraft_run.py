@@ -126,8 +126,8 @@ def propagate_spacecraft(
         run_attrs.update(attrs)
     out_path = None if path is None else Path(path)
     t_kernel = plan.kernel_t
-    entry = pot._entry_points()
     fsw = members.program is not None
+    entry = pot._entry_points(closed_loop=fsw)
     n_terms = len(pot.terms)
 
     def chunk(start: int, stop: int) -> tuple[dict, dict]:

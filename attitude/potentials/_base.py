@@ -73,13 +73,14 @@ class Potential:
         """The environment blocks of the user terms that read it, in order; () if none."""
         return ()
 
-    def _entry_points(self):
+    def _entry_points(self, closed_loop: bool = False):
         """The compiled entry points of this model (:mod:`attitude._core.entry_points`, or their
-        copy for this kind of model alone: :mod:`attitude._core.models`)."""
+        copy for this kind of model alone: :mod:`attitude._core.models`; ``closed_loop``: the
+        ones every built-in model shares under flight software)."""
         terms = self._user_terms()
         if terms:
             return _user_kernels.entry_points(terms, potential=self)
-        return _models.entry_points(self._kind)
+        return _models.entry_points(self._kind, closed_loop=closed_loop)
 
     def _inertia_for_eval(self) -> np.ndarray:
         return np.ones(3)

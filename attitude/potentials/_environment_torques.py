@@ -82,11 +82,11 @@ class _EnvironmentModel(Potential):
     time_dependent = True
     orbit: Any = None
 
-    def _entry_points(self):
+    def _entry_points(self, closed_loop: bool = False):
         """The entry points of this model alone, specialised to its orbit's type too (the
         Dataset's orbit variables: :mod:`attitude._core.models`)."""
         data = None if self.orbit is None else self.orbit.kernel_data()
-        return _models.entry_points(self._kind, data)
+        return _models.entry_points(self._kind, data, closed_loop=closed_loop)
 
     def _setup(self, orbit: Any, step: Any, span: Any) -> None:
         self.step = _env.DEFAULT_STEP if step is None else _seconds(step, "step")

@@ -118,8 +118,8 @@ class GravityGradient(Potential):
         """Raise if the orbit is not defined at some of the times (an ephemeris table's span)."""
         self.orbit.check_times(t, name)
 
-    def _entry_points(self):
-        return _models.entry_points(self._kind, self._orbit_data)
+    def _entry_points(self, closed_loop: bool = False):
+        return _models.entry_points(self._kind, self._orbit_data, closed_loop=closed_loop)
 
     def _inertia_for_eval(self) -> np.ndarray:
         if self.inertia is None:

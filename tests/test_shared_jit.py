@@ -1,0 +1,97 @@
+"""orbit/_shared_jit.py: the package's numba layer.
+
+The kernel cache is keyed per module on the sources of the module and of every package module
+it imports (``source_stamp``): in a copy of the source tree, a kernel compiled once is loaded,
+not compiled, after an edit of a module it does not import (``cli.py``, or a module that
+imports *it*), and compiled again after an edit of a module it does import. Truth: numba's own
+cache index (``will_compile`` reads it) and its compile events in fresh processes. The
+stand-ins for numba's passes have their own test file (test_numba_standins.py).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import orbit._shared_jit as sj
+
+pytestmark = pytest.mark.skipif(sj.JIT_DISABLED, reason="kernels not compiled")
+
+_ROOT = Path(sj.__file__).resolve().parent.parent
+
+# orbit._kernels imports orbit._kepler_equation, not the reverse: mean_anomaly (of the first)
+# is keyed on both sources, reduce_angle (of the second) on its own.
+_PROBE = textwrap.dedent(
+    """
+    import json, sys
+    import numpy as np
+    from numba.core import event
+    from orbit._shared_jit import will_compile
+    from orbit import _kepler_equation as ke, _kernels as k
+    compiled = []
+    class L(event.Listener):
+        def on_start(self, ev):
+            compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+        def on_end(self, ev):
+            pass
+    event.register("numba:compile", L())
+    out = {"ke": will_compile(ke.reduce_angle), "k": will_compile(k.mean_anomaly)}
+    ke.reduce_angle(7.0)
+    k.mean_anomaly(np.array([7e6, 0.1, 0.5, 0.2, 0.3, 0.4, 1.0, 0.0, 1e-3, 0.0]), 10.0)
+    out["compiled"] = sorted(set(compiled))
+    print(json.dumps(out))
+    """
+)
+
+
+def _probe(tree: Path, cache: Path) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(tree), ATTITUDE_CACHE_DIR=str(cache))
+    r = subprocess.run(
+        [sys.executable, "-c", _PROBE], cwd=tree, env=env, capture_output=True, text=True,
+        timeout=600,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr[-3000:]
+    return json.loads(r.stdout.strip().splitlines()[-1])
+
+
+def _touch(path: Path) -> None:
+    path.write_text(path.read_text() + "\n# edited\n")
+
+
+def test_source_stamp_follows_imports():
+    stamp = sj.source_stamp("orbit._kernels")
+    assert stamp == sj.source_stamp("orbit._kernels[some_tag]")  # a specialise() copy
+    assert stamp != sj.source_stamp("orbit._kepler_equation")
+    assert sj._imports("orbit._kernels") >= {"orbit._kepler_equation", "orbit._shared_jit"}
+    assert "attitude.cli" not in sj._imports("attitude._core.entry_points")
+
+
+def test_editing_a_module_recompiles_only_its_importers(tmp_path):
+    tree = tmp_path / "src"
+    for pkg in ("orbit", "attitude"):
+        shutil.copytree(_ROOT / pkg, tree / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    cache = tmp_path / "cache"
+    first = _probe(tree, cache)
+    assert first["ke"] and first["k"]
+    assert {"reduce_angle", "mean_anomaly"} <= set(first["compiled"])
+
+    _touch(tree / "attitude" / "cli.py")
+    again = _probe(tree, cache)
+    assert not again["ke"] and not again["k"]
+    assert again["compiled"] == []
+
+    _touch(tree / "orbit" / "_kernels.py")  # imports _kepler_equation, not the reverse
+    edited = _probe(tree, cache)
+    assert not edited["ke"] and edited["k"]
+    assert "reduce_angle" not in edited["compiled"] and "mean_anomaly" in edited["compiled"]
+
+    _touch(tree / "orbit" / "_kepler_equation.py")  # imported by _kernels: both again
+    both = _probe(tree, cache)
+    assert both["ke"] and both["k"]
