@@ -842,17 +842,75 @@ def _one_member(ds: Any, args: argparse.Namespace) -> Any:
     return ds.sel(member=args.member)
 
 
+def cmd_view(args: argparse.Namespace) -> int:
+    """``attitude view RUN.nc -o RUN.html``: the offline 3D page (attitude.plotting.view)."""
+    from ._files import OutputFile
+    from .errors import AttitudeError
+    from .plotting import view
+
+    default = Path(args.file).with_suffix(".html")
+    out = _output_path(args.output, Path(default.name)) if args.output else default
+    OutputFile(out, "-o")  # checked before reading the run
+    ds = _open(args.file)
+    try:
+        try:
+            opts = {} if args.max_frames is None else {"max_frames": args.max_frames}
+            view(ds, out, member=args.member, **opts)
+        except AttitudeError as exc:
+            raise BadInput(f"view: {exc}") from None
+        except _READ_ERRORS as exc:
+            raise _unreadable(args.file, exc) from None
+    finally:
+        ds.close()
+    args._written = out
+    print(f"page        {out} ({os.path.getsize(out) / 1e6:.2f} MB): open it in a browser")
+    return EXIT_OK
+
+
+def _export_3d(ds: Any, args: argparse.Namespace) -> list[str]:
+    """``export --gltf/--czml`` of one run (attitude.plotting.write_gltf, write_czml)."""
+    from .errors import AttitudeError
+    from .plotting import write_czml, write_gltf
+
+    out = []
+    try:
+        if args.gltf:
+            out.append(f"glTF        {write_gltf(ds, args.gltf)}")
+        if args.czml:
+            out.append(f"CZML        {write_czml(ds, args.czml)}")
+    except AttitudeError as exc:
+        raise BadInput(f"export: {exc}") from None
+    return out
+
+
 def cmd_export(args: argparse.Namespace) -> int:
+    from ._files import OutputFile
     from .acm import write_acm
     from .aem import write_aem
 
-    if not args.ccsds_aem and not args.ccsds_acm:
-        raise BadInput("export: give a format, e.g. --ccsds-aem FILE.aem or --ccsds-acm FILE.acm")
+    three_d = bool(args.gltf or args.czml)
+    if not args.ccsds_aem and not args.ccsds_acm and not three_d:
+        raise BadInput(
+            "export: give a format, e.g. --ccsds-aem FILE.aem, --ccsds-acm FILE.acm, --gltf "
+            "FILE.glb or --czml FILE.czml"
+        )
+    for given, opt in ((args.gltf, "--gltf"), (args.czml, "--czml")):
+        if given:
+            OutputFile(given, opt)  # checked before reading the run
     ds = _open(args.file)
     written = []
     try:
-        if "member" in ds.dims or args.member is not None:
+        if three_d and not (args.ccsds_aem or args.ccsds_acm) and args.member is None:
+            if "member" in ds.dims:
+                n = ds.sizes["member"]
+                raise BadInput(
+                    f"export: {args.file} is an ensemble of {n} members; a glTF or CZML file "
+                    f"holds one attitude history: choose a member with --member K (0..{n - 1})"
+                )
+        elif "member" in ds.dims or args.member is not None:
             ds = _one_member(ds, args)
+        if three_d:
+            written += _export_3d(ds, args)
         common = dict(
             epoch=args.epoch,
             object_name=args.object_name,
@@ -1054,6 +1112,32 @@ def build_parser() -> argparse.ArgumentParser:
     )
     pl.set_defaults(func=cmd_plot)
 
+    v = sub.add_parser(
+        "view",
+        help="an offline 3D view of a run in the browser (one HTML file)",
+        description=(
+            "Write one self-contained HTML page (no network needed) that animates the run: the "
+            "spacecraft, its body axes, the reference and LVLH frames, the Earth and the Sun "
+            "(dimmed in the shadow), sensor boresights with their exclusion cones, thruster "
+            "plumes, and the pointing error, rates, wheel speeds and modes beside it. "
+            "Ensembles: choose a member, or see the members' boresights as a cloud."
+        ),
+    )
+    v.add_argument("file", metavar="RUN.nc")
+    v.add_argument("-o", "--output", metavar="RUN.html", help="page to write (default RUN.html)")
+    v.add_argument(
+        "--member", type=int, metavar="K", help="ensembles: the member drawn first (default: the "
+        "first; the page can switch among up to 200)"
+    )  # fmt: skip
+    v.add_argument(
+        "--max-frames",
+        type=_positive_int,
+        metavar="N",
+        help="frames at most (default 20000: evenly spaced, plus each stretch's extremes, the "
+        "events and the mode switches)",
+    )
+    v.set_defaults(func=cmd_view)
+
     i = sub.add_parser("info", help="what was run and the invariant diagnostics")
     i.add_argument("file", metavar="OUT.nc")
     i.add_argument(
@@ -1077,6 +1161,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     e.add_argument("file", metavar="OUT.nc")
     e.add_argument("--ccsds-aem", metavar="FILE.aem", help="AEM file to write")
+    e.add_argument(
+        "--gltf",
+        metavar="FILE.glb",
+        help="binary glTF 2.0: the spacecraft with its attitude as rotation keyframes (x, y, z, "
+        "w; Blender, three.js viewers); needs pip install 'attitude[view]'",
+    )
+    e.add_argument(
+        "--czml",
+        metavar="FILE.czml",
+        help="CZML for Cesium: the orbit (Earth-fixed) and the orientation (body to Earth-fixed "
+        "axes); a run with a dated orbit; needs pip install 'attitude[view]'",
+    )
     e.add_argument(
         "--ccsds-acm",
         metavar="FILE.acm",

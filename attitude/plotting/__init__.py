@@ -1,4 +1,5 @@
-"""Figures of propagation results (matplotlib, imported only here): ``attitude plot``.
+"""Figures of propagation results (matplotlib, imported only here): ``attitude plot``; the 3D
+view in the browser (``attitude view``) and the glTF and CZML exports (``attitude export``).
 
 ==============================  ==============================================================
 :func:`plot_result`             a single run: the engineer's figure (pointing error and
@@ -8,13 +9,18 @@
 :func:`plot_torque_budget`      |τ| of every model term against time, max and RMS
 :func:`plot_ensemble`           percentile bands over the members of an ensemble
 :func:`register_panel`          add a panel to the engineer's figure
+:func:`view`                    a self-contained HTML page animating the run in 3D (three.js)
+:func:`write_gltf`              the spacecraft with its attitude keyframes as binary glTF 2.0
+:func:`write_czml`              the orbit and the orientation as CZML for Cesium
 ==============================  ==============================================================
 
 Modules: ``_common`` (time axis in s/min/h/days, decimation, events, eclipses), ``_reference``
 (the reference frame of a run: by name on its orbit, rebuilt from the file's scenario, or the
 stored orbital frame), ``_panels`` (the panel functions and their registry), ``_paper``,
 ``_torques``, ``_ensemble``, ``_closed_loop`` (the attitude error of the flight
-software, the actuators with their limits, the estimator in its 3σ bounds).
+software, the actuators with their limits, the estimator in its 3σ bounds), ``_scene`` (what
+the 3D view and exports draw, at decimated frames), ``_view`` (the page; its files in
+``view/``), ``_export`` (glTF and CZML).
 """
 
 from __future__ import annotations
@@ -39,10 +45,12 @@ from ._common import (
     shadow_along,
 )
 from ._ensemble import MAX_ENSEMBLE_TIMES, plot_ensemble
+from ._export import write_czml, write_gltf
 from ._panels import DEFAULT_PANELS, PANELS, PlotContext, available, default_panels, register_panel
 from ._paper import draw_paper
 from ._reference import FRAME_NAMES, default_frame, reference
 from ._torques import plot_torque_budget
+from ._view import view, view_html
 
 __all__ = [
     "CLOSED_LOOP_PANELS",
@@ -58,6 +66,10 @@ __all__ = [
     "plot_result",
     "plot_torque_budget",
     "register_panel",
+    "view",
+    "view_html",
+    "write_czml",
+    "write_gltf",
 ]
 
 #: Layouts of :func:`plot_result`.
