@@ -11,7 +11,7 @@ it), so the shared module lives here, and its name says that it is shared.
   module it imports (:func:`source_stamp`), not only on the function's own file (numba's
   default): the cached integrators inline kernels and read constants from the modules they
   import, and a change to any of them must invalidate the cached machine code; an edit of a
-  module no kernel imports (``cli.py``) recompiles nothing.
+  module no kernel imports (the CLI) recompiles nothing.
 * While one of the package's kernels compiles, three faster stand-ins for numba's passes are
   in place (:mod:`orbit._numba_standins`: the same IR); numba's own are put back when it ends, so
   anyone else's numba code compiles as it would without the package.
@@ -129,7 +129,7 @@ def source_stamp(*roots: str) -> bytes:
 
     The kernel cache is keyed on it, per module: editing a module recompiles the kernels of
     the modules that import it (their compiled code may inline its kernels or read its
-    constants), and nothing else (editing ``cli.py`` recompiles nothing).
+    constants), and nothing else (editing the CLI recompiles nothing).
     """
     seen: set[str] = set()
     stack = [r.partition("[")[0] for r in roots]  # (a specialise() copy: "module[tag]")

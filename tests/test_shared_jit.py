@@ -2,7 +2,7 @@
 
 The kernel cache is keyed per module on the sources of the module and of every package module
 it imports (``source_stamp``): in a copy of the source tree, a kernel compiled once is loaded,
-not compiled, after an edit of a module it does not import (``cli.py``, or a module that
+not compiled, after an edit of a module it does not import (the CLI, or a module that
 imports *it*), and compiled again after an edit of a module it does import. Truth: numba's own
 cache index (``will_compile`` reads it) and its compile events in fresh processes. The
 stand-ins for numba's passes have their own test file (test_numba_standins.py).
@@ -82,7 +82,7 @@ def test_editing_a_module_recompiles_only_its_importers(tmp_path):
     assert first["ke"] and first["k"]
     assert {"reduce_angle", "mean_anomaly"} <= set(first["compiled"])
 
-    _touch(tree / "attitude" / "cli.py")
+    _touch(tree / "attitude" / "cli" / "_run.py")
     again = _probe(tree, cache)
     assert not again["ke"] and not again["k"]
     assert again["compiled"] == []
