@@ -192,7 +192,7 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
             finally:
                 numba.set_parallel_chunksize(old)
         _interrupt.check()
-        if ws[4][:, _tb.G_DONE].all():
+        if ws[4][:, _tb.GROUP.DONE].all():
             break
     out["counters"][:, 1] = 0  # no right-hand side is evaluated (Taylor terms instead)
     out["t_stop"] = tstate[:, 0].copy()
