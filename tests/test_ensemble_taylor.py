@@ -281,7 +281,7 @@ def test_batch_kernel_is_simd_code():
     def caller(cf, p, kind, cst):  # a compiled caller, as the batch integrator
         fresh(cf, p, kind, cst)
 
-    cf = np.ones((tb.WORK_ROWS, tb.NCOL, tb.LANES))
+    cf = np.ones((tb.WORK_ROWS, tb.COL.SIZE, tb.LANES))
     caller(cf, 10, 2, np.ones((tb.CONST.SIZE, tb.LANES)))
     fresh(cf, 10, 2, np.ones((tb.CONST.SIZE, tb.LANES)))
     import re
