@@ -25,7 +25,7 @@ from attitude.ensemble import (
     rerun_member,
     settling_times,
 )
-from attitude.ensemble._spacecraft_members import member_seeds
+from attitude.ensemble._members import member_seeds
 from attitude.errors import AttitudeTypeError, AttitudeValueError
 from attitude.estimation import MEKF
 from attitude.sensors import Gyro, StarTracker
@@ -297,7 +297,7 @@ def test_closed_loop_ensemble_records_are_allocated_in_interruptible_blocks(monk
     every tick (and copied by one np.ascontiguousarray after the run), C calls in which no
     signal is handled. They are now filled FILL_BLOCK elements at a time, and copied a member
     at a time (measured after: 0.01-0.26 s). Asserted: the size of each fill."""
-    from attitude.ensemble import _spacecraft_members as sm
+    from attitude.ensemble import _members as sm
 
     sizes: list[int] = []
 

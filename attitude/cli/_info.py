@@ -96,7 +96,7 @@ def _invariants(ds: Any, potential_name: str) -> dict[str, Any]:
 
     counts = tuple(ds.sizes.get(d, 0) for d in ("wheel", "magnetorquer", "thruster"))
     if "member" in ds["q"].dims:
-        from ..ensemble._spacecraft_output import member_invariant_attrs
+        from ..ensemble._output import member_invariant_attrs
 
         n = ds.sizes["member"]
         step = max(1, 2**24 // (8 * 16 * max(1, ds.sizes["time"])))

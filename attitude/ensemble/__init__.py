@@ -14,17 +14,23 @@ integrator state (tests/test_ensemble.py checks all three bit for bit).
 Modules, one concern each:
 
 ========================  ===================================================================
-``_members``              validated member inputs (states, bodies, potentials), chunk by chunk
-``_chunks``               one chunk in compiled code (also the body of a Dask task)
-``_output``               assembling chunks into Datasets, streaming them to netCDF
+``_run``                  :func:`propagate_ensemble`, :func:`run_scenario` (front ends)
+``_spec``                 :class:`EnsembleSpec`: every argument validated once (with the single
+                          run's shared checks, :mod:`attitude._run`)
+``_members``              validated member inputs: rows of rigid bodies, or spacecraft with
+                          actuators or flight software, each prepared as its single run
+``_chunks``               one chunk in compiled code (also the body of a Dask task), rigid
+                          bodies and spacecraft
+``_runner``               the one chunk loop (failures, totals, output), a strategy each for
+                          rigid bodies and spacecraft
+``_output``               assembling chunks into Datasets, the result opened from its file
 ``_dask``                 Dask scheduling: connecting, task submission, lazy graphs
-``_run``                  :func:`propagate_ensemble`, :func:`run_scenario`
 ``_plan``                 what is stored (output choices), the time grid, the size estimate
 ``_percentile_store``     statistics-only output: per-member scalars, exact percentiles
+``_spacecraft_scenario``  the ``[ensemble]`` table of a scenario with actuators or software
 ``replay``                :func:`member_initial_state`, :func:`rerun_member`
 ``dispersions``           :func:`disperse`, :class:`Dispersions` (Monte Carlo draws of the
                           ``[ensemble]`` table, from Python too), :func:`disperse_spacecraft`
-``_spacecraft_*``         ensembles of spacecraft with actuators and flight software
 ``statistics``            :func:`pointing_error_percentiles`, :func:`rate_percentiles`,
                           :func:`event_time_percentiles`,
                           :func:`error_angle_percentiles`, :func:`settling_times`

@@ -1,4 +1,10 @@
-"""One chunk of members in compiled code (also the body of a Dask task)."""
+"""One chunk of members in compiled code: rigid bodies (:func:`_compute_chunk`, also the body of
+a Dask task) and spacecraft with actuators or flight software (:func:`compute_craft_chunk`: the
+single run's drivers in a parallel loop over members, :mod:`attitude._core.spacecraft_ensemble`,
+or SIMD batches for ``method="taylor"``, :mod:`attitude._core.gyrostat_batch`, then each
+member's diagnostics by the single run's own); the chunks computed here one after the other
+(:func:`local_results`), a failing chunk's members marked (:data:`CHUNK_FAILED`), and the
+failures named (:class:`_Failures`)."""
 
 from __future__ import annotations
 
@@ -11,7 +17,12 @@ import numpy as np
 from .. import _interrupt
 from .._core import ensemble as _ke
 from .._core import entry_points as _builtin_entry_points
+from .._core import fsw as _kf
 from .._core import rk as _rk
+from .._core import spacecraft_ensemble as _kse
+from .._core import taylor as _kt
+from .._core import taylor_gyrostat as _ktg
+from ..errors import AttitudeTypeError, AttitudeValueError
 
 _N_DIAG = 13
 
@@ -122,21 +133,38 @@ def _compute_chunk(
     return out
 
 
-def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, np.ndarray]:
-    """The arrays of a chunk whose task failed as a whole: NaN rows, status CHUNK_FAILED."""
-    m = setup.t.shape[0]
+def rigid_arrays(c: int, m: int, n_events: int, fill: float) -> dict[str, Any]:
+    """Arrays shaped like a rigid-body chunk's results, states and diagnostics filled with
+    ``fill`` (zeros: the size estimate's member; NaN: a chunk whose task failed)."""
     out = {
-        "y": np.full((c, m, 8), np.nan),
-        "diag": np.full((c, m, _N_DIAG), np.nan),
+        "y": np.full((c, m, 8), fill),
+        "diag": np.full((c, m, _N_DIAG), fill),
         "counters": np.zeros((c, 5), dtype=np.int64),
-        "status": np.full(c, CHUNK_FAILED, dtype=np.int64),
-        "n_done": np.zeros(c, dtype=np.int64),
-        "t_stop": np.full(c, float(setup.t[0])),
-        "error": f"{type(exc).__name__}: {exc}",
+        "status": np.zeros(c, dtype=np.int64),
+        "n_done": np.full(c, m, dtype=np.int64),
+        "t_stop": np.zeros(c),
     }
-    if setup.events is not None:
-        out["event_count"] = np.zeros((c, setup.events.n), dtype=np.int64)
-        out["event_first"] = np.full((c, setup.events.n), np.nan)
+    if n_events:  # the per-member event statistics of _compute_chunk_events
+        out["event_count"] = np.zeros((c, n_events), dtype=np.int64)
+        out["event_first"] = np.full((c, n_events), np.nan)
+    return out
+
+
+def _failed_chunk(setup: _Setup, c: int, exc: BaseException) -> dict[str, Any]:
+    """The arrays of a chunk whose task failed as a whole: NaN rows, status CHUNK_FAILED."""
+    n_events = 0 if setup.events is None else setup.events.n
+    return _failed(rigid_arrays(c, setup.t.shape[0], n_events, np.nan), setup.t, exc)
+
+
+def _failed(out: dict[str, Any], t: np.ndarray, exc: BaseException) -> dict[str, Any]:
+    """``out`` (NaN arrays) marked as a chunk that raised: CHUNK_FAILED, nothing done."""
+    out["status"][:] = CHUNK_FAILED
+    out["n_done"][:] = 0
+    out["t_stop"][:] = float(t[0])
+    out["error"] = f"{type(exc).__name__}: {exc}"
+    for key in ("n_records", "n_ticks"):  # (a spacecraft's flight software)
+        if key in out:
+            out[key][:] = 0
     return out
 
 
@@ -342,3 +370,219 @@ def _failure_message(out, bad, start, t) -> tuple[str, float]:
     f.add(out, start)
     first = f.first
     return f.message(out["status"].shape[0]), (first[1] if first else float("nan"))
+
+
+# ------------------------------------------------------------------------------------------------
+# chunks computed here, one after the other
+# ------------------------------------------------------------------------------------------------
+
+
+def _each(bounds: list[tuple[int, int]], compute: Any):
+    """``compute(start, stop)`` of each chunk in turn (a generator); a chunk that raises (not
+    a member's integration: that is in its status) yields the exception and the next chunks
+    go on (an invalid input raises)."""
+    for start, stop in bounds:
+        try:
+            got = compute(start, stop)
+        except (AttitudeValueError, AttitudeTypeError):
+            raise
+        except Exception as exc:
+            got = exc
+        yield got
+
+
+def local_results(setup, members, bounds, threads, direct=None):
+    """Rigid-body chunks computed here with the parallel driver, one after the other: (out,
+    inertia, projection) each (:func:`_each`)."""
+    from orbit._shared_jit import JIT_DISABLED
+
+    def compute(start: int, stop: int) -> tuple:
+        params, y0, inertia, corr = members.block(start, stop)
+        buf = {} if direct is None else direct.buffers(start, stop)
+        with _numba_threads(threads):
+            if JIT_DISABLED:
+                out = _compute_chunk(setup, params, y0, parallel=False, **buf)
+            else:
+                import numba
+
+                threads_n = numba.get_num_threads()
+                out = _compute_chunk(setup, params, y0, parallel=True, threads=threads_n, **buf)
+        return out, inertia, corr
+
+    return _each(bounds, compute)
+
+
+def craft_results(members, bounds, t, entry, rtol, atol, max_step, max_steps, threads):
+    """Spacecraft chunks computed here, one after the other: (out, block, projection) each
+    (:func:`_each`)."""
+    fsw = members.program is not None
+    n_terms = len(members.potential.terms)
+
+    def compute(start: int, stop: int) -> tuple:
+        blk = members.block(start, stop)
+        out = compute_craft_chunk(blk, t, entry, members.method, fsw, rtol, atol, max_step,
+                                  max_steps, threads, n_terms)  # fmt: skip
+        return out, blk, float(blk["projection"])
+
+    return _each(bounds, compute)
+
+
+def craft_arrays(members: Any, c: int, m: int, fill: float) -> dict[str, Any]:
+    """Arrays shaped like a spacecraft chunk's results, filled with ``fill`` (zeros: the
+    size estimate's member; NaN: a chunk whose computation raised)."""
+    n = members.n_state
+    out = {
+        "rows": np.full((c, m, n + members.n_rec), fill),
+        "diag": np.full((c, m, _N_DIAG), fill),
+        "torques": np.full((c, m, len(members.potential.terms) + 1, 3), fill),
+        "actuators": np.full((c, m, 4, 3), fill),
+        "wheels": np.full((c, m, n - 8, 2), fill),
+        "counters": np.zeros((c, 5), dtype=np.int64),
+        "status": np.zeros(c, dtype=np.int64),
+        "n_done": np.full(c, m, dtype=np.int64),
+        "t_stop": np.zeros(c),
+    }
+    if members.program is not None:
+        k = members.tick_times().shape[0]
+        out["records"] = np.full((c, k + 1, members.program.rec_width), fill)
+        out["n_records"] = np.full(c, k, dtype=np.int64)
+        out["n_ticks"] = np.full(c, k, dtype=np.int64)
+    return out
+
+
+def failed_craft_chunk(members, c: int, t: np.ndarray, exc: BaseException) -> dict[str, Any]:
+    """The arrays of a spacecraft chunk whose computation raised: NaN rows, CHUNK_FAILED."""
+    return _failed(craft_arrays(members, c, t.shape[0], np.nan), t, exc)
+
+
+# ------------------------------------------------------------------------------------------------
+# one chunk of spacecraft in compiled code
+# ------------------------------------------------------------------------------------------------
+
+
+def _state_arrays(method: str, c: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each member's integrator state (the single run's arrays, one row per member)."""
+    if method == "taylor":
+        nw = n - 8
+        return (
+            np.zeros((c, _kt.WORK_ROWS, _ktg.work_columns(nw))),
+            np.zeros((c, _ktg.TS.SIZE + nw)),
+            np.zeros((c, 5), dtype=np.int64),
+        )
+    return np.zeros((c, _rk.WORK_ROWS, n)), np.zeros((c, 4)), np.zeros((c, 5), dtype=np.int64)
+
+
+def _grow_records(src: tuple, waiting: np.ndarray) -> tuple:
+    """The flight software's source with twice the tick-record rows (members paused at full
+    records go on with the next call)."""
+    rec = src[6]
+    more = np.full((rec.shape[0], rec.shape[1], rec.shape[2]), np.nan)
+    return (*src[:6], np.ascontiguousarray(np.concatenate([rec, more], axis=1)), src[7])
+
+
+def _diagnostics(blk, t, y_out, n_done, entry, n_terms):
+    """Each member's diagnostics by the single run's own (:func:`attitude._holds.diagnostics`
+    with the member's block and parameters), NaN after its last sample."""
+    from types import SimpleNamespace
+
+    from .. import _holds
+
+    c, m = y_out.shape[:2]
+    n = blk["y0"].shape[1]
+    diag = np.full((c, m, 13), np.nan)
+    torques = np.full((c, m, n_terms + 1, 3), np.nan)
+    act = np.full((c, m, 4, 3), np.nan)
+    wheels = np.full((c, m, n - 8, 2), np.nan)
+    for r, run in enumerate(blk["runs"]):
+        k = int(n_done[r])
+        if not k:
+            continue
+        problem = SimpleNamespace(
+            spacecraft=run, params=blk["params"][r], potential=blk["potential"], entry=entry
+        )
+        d = _holds.diagnostics(problem, t[:k], y_out[r, :k])
+        diag[r, :k] = d["diag"]
+        torques[r, :k] = d["torques"]
+        act[r, :k] = d["actuators"]
+        wheels[r, :k] = d["wheels"]
+    return diag, torques, act, wheels
+
+
+def compute_craft_chunk(
+    blk: dict[str, Any],
+    t: np.ndarray,
+    entry: Any,
+    method: str,
+    fsw: bool,
+    rtol: float,
+    atol: float,
+    max_step: float,
+    max_steps: int,
+    threads: int | None,
+    n_terms: int,
+) -> dict[str, Any]:
+    """Integrate the members of a chunk (:meth:`CraftMembers.block` arrays) through ``t`` and
+    compute their diagnostics; the chunk's results.
+
+    Every member is run to its end, failed or not (``status``, ``n_done`` say how it ended; a
+    failed member's rows after its last sample are NaN)."""
+    from orbit._shared_jit import JIT_DISABLED
+
+    c, n = blk["y0"].shape
+    m = t.shape[0]
+    n_rec = blk["runs"][0].n_rec
+    y_out = np.full((c, m, n + n_rec), np.nan)
+    work, tstate, counters = _state_arrays(method, c, n)
+    status = np.full(c, _ke.NOT_STARTED, dtype=np.int64)
+    n_done = np.zeros(c, dtype=np.int64)
+    sc = blk["sc0"].copy()
+    src = blk["src"]
+    with _numba_threads(threads):
+        n_threads = 1
+        if not JIT_DISABLED:
+            import numba
+
+            n_threads = numba.get_num_threads()
+        budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * n_threads // max(1, c))
+        if method == "taylor":
+            from .._core import gyrostat_batch as _kgb
+
+            fn = _kgb.fsw_parallel if fsw else _kgb.schedule_parallel
+            n_groups = max(1, min(4 * n_threads, c // TAYLOR_MIN_GROUP))
+            group = -(-c // n_groups)
+            extra: tuple = (group, *_kgb.new_workspaces(-(-c // group), n - 8))
+            if not JIT_DISABLED:
+                numba.set_parallel_chunksize(1)  # a group at a time (few and long)
+        else:
+            fn = entry.spacecraft_fsw_parallel if fsw else entry.spacecraft_schedule_parallel
+            extra = ()
+        while True:
+            fn(
+                blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate, counters,
+                src, status, n_done, rtol, atol, max_step, max_steps, budget, *extra,
+            )  # fmt: skip
+            _interrupt.check()
+            waiting = status == _kse.RECORDS_WAIT
+            if waiting.any():
+                src = _grow_records(src, waiting)
+                continue
+            if not np.any(status == _ke.RUNNING):
+                break
+    diag, torques, act, wheels = _diagnostics(blk, t, y_out, n_done, entry, n_terms)
+    out = {
+        "rows": y_out,
+        "diag": diag,
+        "torques": torques,
+        "actuators": act,
+        "wheels": wheels,
+        "counters": counters,
+        "status": status,
+        "n_done": n_done,
+        "t_stop": tstate[:, 0].copy(),
+    }
+    if fsw:
+        fs, fs_at = src[3], src[4]
+        out["records"] = src[6]
+        out["n_records"] = src[7][:, 0].copy()
+        out["n_ticks"] = fs[fs_at[:-1] + _kf.FS.TICK].astype(np.int64)
+    return out

@@ -291,22 +291,3 @@ def nominal_reference(setup: Any, params: np.ndarray, nominal: Any, plan: _Plan)
         )
     y = out["y"][0] if plan.keep is None else out["y"][0, plan.keep]
     return np.ascontiguousarray(y[:, :4])
-
-
-def dummy_chunk(m: int, n_members: int = 1, n_events: int = 0) -> dict[str, np.ndarray]:
-    """Arrays shaped like a chunk's results (zeros): for the size estimate."""
-    from ._chunks import _N_DIAG
-
-    c = n_members
-    out = {
-        "y": np.zeros((c, m, 8)),
-        "diag": np.zeros((c, m, _N_DIAG)),
-        "counters": np.zeros((c, 5), dtype=np.int64),
-        "status": np.zeros(c, dtype=np.int64),
-        "n_done": np.full(c, m, dtype=np.int64),
-        "t_stop": np.zeros(c),
-    }
-    if n_events:  # the per-member event statistics of _chunks._compute_chunk_events
-        out["event_count"] = np.zeros((c, n_events), dtype=np.int64)
-        out["event_first"] = np.full((c, n_events), np.nan)
-    return out

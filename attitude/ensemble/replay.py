@@ -146,20 +146,24 @@ def rerun_member(
     """
     import attitude.accessor  # noqa: F401 - ds.attitude (times of CF-decoded files)
 
+    from ..propagate import propagate
     from ._run import propagate_ensemble
 
     with _opened(source) as ds:
         i = _member(ds, k)
-        if "spacecraft" in ds.attrs:
-            return _rerun_spacecraft(ds, i, potential, spacecraft, software, commands)
-        for name, v in (("spacecraft", spacecraft), ("software", software),
-                        ("commands", commands)):  # fmt: skip
-            if v is not None:
-                raise AttitudeValueError(
-                    f"{name}: this ensemble ran rigid bodies without actuators or software"
-                )
-        body, q0, Q0 = _initial(ds, i)
         a = dict(ds.attrs)
+        if "spacecraft" in a:
+            software = _spacecraft_inputs(ds, i, spacecraft, software, commands)
+            q0 = np.asarray(ds["initial_q"].isel(member=i).values, dtype=np.float64)
+            Q0 = np.asarray(ds["initial_Q"].isel(member=i).values, dtype=np.float64)
+        else:
+            for name, v in (("spacecraft", spacecraft), ("software", software),
+                            ("commands", commands)):  # fmt: skip
+                if v is not None:
+                    raise AttitudeValueError(
+                        f"{name}: this ensemble ran rigid bodies without actuators or software"
+                    )
+            body, q0, Q0 = _initial(ds, i)
         if potential is None:
             if str(a.get("potential_name", "torque_free")) != "torque_free":
                 raise AttitudeValueError(
@@ -168,6 +172,7 @@ def rerun_member(
                     "attitude.scenario.loads(ds.attrs['scenario_toml']).potential)"
                 )
             potential = TorqueFree()
+        # the member's integration span, evaluated at the stored times
         t = np.asarray(ds.attitude.quantity("time").value, dtype=np.float64)
         span = [a["integration_start"], a["integration_stop"]] if "integration_stop" in a else []
         grid = np.unique(np.concatenate([t, np.asarray(span, dtype=np.float64)]))
@@ -181,6 +186,10 @@ def rerun_member(
             kw["max_step"] = float(a["max_step"])
         epoch = {"epoch": a["epoch"]} if a.get("epoch") else {}
         member = int(ds["member"].values[i])
+    if "spacecraft" in a:  # the single run, which equals the member bit for bit
+        one = propagate(spacecraft, q0, Q0, grid, potential, software=software,
+                        commands=commands, **kw, **epoch)  # fmt: skip
+        return one.isel(time=rows).assign_coords(member=member)
     one = propagate_ensemble(
         body,
         q0[None, :],
@@ -192,18 +201,17 @@ def rerun_member(
         attrs={"title": f"member {member} of an ensemble, re-run alone", **epoch},
         **kw,
     )
-    out = one.isel(member=0, time=rows).assign_coords(member=member)
-    return out
+    return one.isel(member=0, time=rows).assign_coords(member=member)
 
 
-def _rerun_spacecraft(ds, i, potential, spacecraft, software, commands) -> xr.Dataset:
-    """Member ``i`` of a spacecraft ensemble as its single run (see :func:`rerun_member`)."""
+def _spacecraft_inputs(ds, i, spacecraft, software, commands) -> Any:
+    """Member ``i``'s spacecraft, software and commands checked against a spacecraft
+    ensemble's attrs; the software with the member's stored sensor seeds."""
     from ..actuators.commands import CommandSchedule
-    from ..propagate import propagate
     from ..software import FlightSoftware
     from ..spacecraft import Spacecraft
 
-    a = dict(ds.attrs)
+    a = ds.attrs
     if not isinstance(spacecraft, Spacecraft):
         raise AttitudeValueError(
             "spacecraft: an ensemble of spacecraft stores no spacecraft; pass member k's "
@@ -217,32 +225,7 @@ def _rerun_spacecraft(ds, i, potential, spacecraft, software, commands) -> xr.Da
         raise AttitudeValueError("software: this ensemble ran without flight software")
     if commands is not None and not isinstance(commands, CommandSchedule):
         raise AttitudeTypeError("commands: expected an attitude.CommandSchedule")
-    if potential is None:
-        if str(a.get("potential_name", "torque_free")) != "torque_free":
-            raise AttitudeValueError(
-                f"potential: the ensemble ran with {a.get('potential', a['potential_name'])}; "
-                "pass that potential"
-            )
-        potential = TorqueFree()
     if software is not None and "sensor_seed" in ds:
         seeds = [int(s) for s in np.asarray(ds["sensor_seed"].isel(member=i).values)]
         software = software.with_sensor_seeds(seeds)
-    q0 = np.asarray(ds["initial_q"].isel(member=i).values, dtype=np.float64)
-    Q0 = np.asarray(ds["initial_Q"].isel(member=i).values, dtype=np.float64)
-    t = np.asarray(ds.attitude.quantity("time").value, dtype=np.float64)
-    span = [a["integration_start"], a["integration_stop"]] if "integration_stop" in a else []
-    grid = np.unique(np.concatenate([t, np.asarray(span, dtype=np.float64)]))
-    rows = np.searchsorted(grid, t)
-    kw: dict[str, Any] = {
-        "method": str(a.get("method", "dop853")),
-        "rtol": float(a.get("rtol", 1e-10)),
-        "atol": float(a.get("atol", 1e-12)),
-    }
-    if "max_step" in a:
-        kw["max_step"] = float(a["max_step"])
-    if a.get("epoch"):
-        kw["epoch"] = a["epoch"]
-    member = int(ds["member"].values[i])
-    one = propagate(spacecraft, q0, Q0, grid, potential, software=software, commands=commands,
-                    **kw)  # fmt: skip
-    return one.isel(time=rows).assign_coords(member=member)
+    return software

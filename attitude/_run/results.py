@@ -1,7 +1,14 @@
-"""The result of a run: its states to the Dataset, with every per-sample variable (diagnostics,
-torques, the orbit) computed in one compiled pass (:mod:`attitude._core.diagnostics`) or, for a
-spacecraft with actuators, by :mod:`attitude._holds`; and the samples whose energy, rates or
-torques overflow found (the run then fails there).
+"""The results builder: a single run's :class:`~attitude._methods.RunResult` to what
+:func:`attitude.propagate` returns (:func:`build`: the Dataset with its attrs, events and tick
+records, or a :class:`~attitude.results.Trajectory`), or the
+:class:`~attitude.errors.PropagationError` of a run that failed midway, whose ``partial`` holds
+the samples computed.
+
+A run's states become their Dataset (:func:`finish_dataset`, also each streamed chunk's) with
+every per-sample variable (diagnostics, torques, the orbit) computed in one compiled pass
+(:mod:`attitude._core.diagnostics`) or, for a spacecraft with actuators, by
+:mod:`attitude._holds`; and the samples whose energy, rates or torques overflow are found (the
+run then fails there).
 """
 
 from __future__ import annotations
@@ -13,12 +20,66 @@ import xarray as xr
 
 from orbit._state_kernels import TYPE_EPHEMERIS
 
-from ._core import diagnostics as _kd
-from ._methods import SAMPLE_BUDGET, Problem
-from ._spacecraft_results import add_actuator_variables
-from .results import build_dataset, dataset_from_samples
+from .._core import diagnostics as _kd
+from .._core import rk as _rk
+from .._methods import SAMPLE_BUDGET, Problem, RunResult
+from .._spacecraft_results import add_actuator_variables, add_tick_variables
+from ..errors import PropagationError
+from ..results import Trajectory, add_event_variables, build_dataset, dataset_from_samples
+from .spec import RunSpec
 
-__all__ = ["finish_dataset"]
+__all__ = ["build", "finish_dataset"]
+
+
+def build(spec: RunSpec, result: RunResult) -> xr.Dataset | Trajectory:
+    """The run's result (raises PropagationError if it failed; ``partial``: the samples)."""
+    problem, plan, tt = spec.problem, spec.plan, spec.problem.t
+    attrs: dict[str, Any] = {
+        **spec.attrs,
+        "method": plan.method,
+        **({"method_requested": plan.requested} if plan.requested != plan.method else {}),
+        "formulation": spec.formulation,
+        "initial_projection": spec.correction,
+        **{k: (np.int64(v) if isinstance(v, int) else v) for k, v in result.stats.items()},
+    }
+    if spec.arrays:
+        ds = Trajectory(tt[: result.y.shape[0]], result.y[:, :4], result.y[:, 4:8], attrs)
+    elif plan.streaming and result.status == _rk.NONFINITE and result.message == _OVERFLOW_MESSAGE:
+        ds = finish_dataset(problem, result.y, attrs, first=result.first)
+    else:
+        ds, n_ok = _finish(problem, result.y, attrs, first=result.first, t_last=result.t_event)
+        if n_ok is not None:  # a finite state whose energy or rates overflow: fail there
+            ds = ds.isel(time=slice(0, n_ok))
+            result = RunResult(
+                result.y[:n_ok], _rk.NONFINITE, _OVERFLOW_MESSAGE, result.stats,
+                first=result.first, t_stop=float(tt[result.first + n_ok]), events=result.events,
+            )  # fmt: skip
+    if spec.on_chunk is not None and not plan.streaming:  # the finished samples, in chunks
+        chunk = int(spec.options["chunk"])
+        for i in range(0, ds.sizes["time"], chunk):
+            spec.on_chunk(ds.isel(time=slice(i, i + chunk)))
+    if problem.events is not None:
+        ds = add_event_variables(ds, problem.events, result.events, problem.body, result.status)
+    sc_run = problem.spacecraft
+    if sc_run is not None and sc_run.program is not None:
+        ds = add_tick_variables(ds, sc_run)  # (streamed: on the last sample's Dataset)
+    if result.status not in (_rk.SUCCESS, _rk.EVENT):
+        n = result.first + result.y.shape[0]
+        t_fail = result.t_stop
+        if t_fail is None:
+            t_fail = float(tt[n - 1]) if n else float(tt[0])
+        raise PropagationError(
+            f"propagation stopped at t = {t_fail!r}: {result.message} "
+            f"({n} of {tt.shape[0]} output samples computed"
+            + (
+                ", passed on chunk by chunk)"
+                if plan.streaming
+                else "; the error's partial holds them)"
+            ),
+            time=t_fail,
+            partial=ds,
+        )
+    return ds
 
 
 #: The failure of a run whose states are finite but whose energy, rates or torques overflow.
@@ -63,7 +124,7 @@ def _finish(
         t = t.copy()
         t[-1] = t_last
     if problem.spacecraft is not None:
-        from . import _holds
+        from .. import _holds
 
         d = _holds.diagnostics(problem, t, y)
         if not problem.potential.has_potential:
