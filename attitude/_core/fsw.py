@@ -378,22 +378,9 @@ def _sensed(fs):
     return q, om, bb
 
 
-@jit
-def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
-    """One tick of the flight software at t from the state y (its body rate ``omt``): the
-    commands to apply into ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``
-    if ``keep`` (an unrecorded tick writes nothing there and skips what only the record needs:
-    the error angle, the estimation error and its NEES)."""
-    nw = int(sc[SC.NW])
-    nm = int(sc[SC.NM])
-    ncmd = int(fw[FW.NCMD])
-    fo = _field_offset(fw, sc)
-    if fs[FS.SENSED] != 0.0:  # measured when your own step asked for its commands
-        q, om, bb = _sensed(fs)
-        fs[FS.SENSED] = 0.0
-    else:
-        q, om, bb = _sense(t, y, omt, sc, fw, fs, rec_row, keep)
-    # modes: forward to the next one when its condition holds
+@jit(inline="always")
+def _mode_switch(fw, fs, t, q, om):
+    """Modes: forward to the next one when its condition holds (its state reset); the mode."""
     mode = int(fs[FS.MODE])
     nmodes = int(fw[FW.NMODES])
     if mode + 1 < nmodes:
@@ -406,10 +393,13 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             fs[FS.INT + 1] = 0.0
             fs[FS.INT + 2] = 0.0
             fs[FS.PRIOR] = math.nan
-    mb = int(fw[int(fw[FW.MODES]) + mode])
-    qR, wR_R, dwR_R = guidance(fw, fs, mb, t, q)
-    fs[FS.ENTERED] = 1.0
-    # errors: q_BR = q̃_R∘q, rates of the reference in body axes
+    return mode
+
+
+@jit(inline="always")
+def _errors(qR, wR_R, dwR_R, q, om):
+    """The attitude error q_BR = q̃_R∘q and its MRP, whether the reference is fixed, its rate
+    and acceleration in body axes, and the rate error."""
     qBR = conj_mul(qR, q)
     sig = mrp(qBR)
     # a fixed reference (inertial pointing): its rates are zeros in every axes
@@ -419,15 +409,13 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         wRN = rotate_inverse(qBR, wR_R)
         dwRN = rotate_inverse(qBR, dwR_R)
     dw = (om[0] - wRN[0], om[1] - wRN[1], om[2] - wRN[2])
-    external = fw[FW.EXTERNAL] != 0.0
-    # control law (attitude._core.fsw_laws: one kernel per law)
-    ctrl = CTRL_NONE if external else int(fw[mb + MB.CTRL])
-    L, m = control_law(ctrl, fw, fs, sc, y, mb, t, om, bb, qBR, sig, dw, wRN, dwRN, still)
-    fs[FS.BPREV] = bb[0]
-    fs[FS.BPREV + 1] = bb[1]
-    fs[FS.BPREV + 2] = bb[2]
-    fs[FS.BVALID] = 1.0 if fo > 0 else 0.0
-    # momentum dumping (cross-product law) beside the wheels
+    return qBR, sig, still, wRN, dwRN, dw
+
+
+@jit(inline="always")
+def _dumping(fw, sc, y, mb, bb, m):
+    """Momentum dumping with magnetorquers beside the wheels (the cross-product law) added to
+    the dipole request ``m``; also |B|²."""
     kd = fw[mb + MB.DUMP]
     b2 = bb[0] * bb[0] + bb[1] * bb[1] + bb[2] * bb[2]
     if kd > 0.0 and b2 > 0.0:
@@ -436,7 +424,14 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
         dh = (hw0 - fw[r], hw1 - fw[r + 1], hw2 - fw[r + 2])
         c = cross(dh, bb)  # m = k (Δh × B)/|B|²: the torque m × B = −k Δh⊥ unloads the wheels
         m = (m[0] + kd * c[0] / b2, m[1] + kd * c[1] / b2, m[2] + kd * c[2] / b2)
-    # allocation into the raw commands (your own software wrote them into cmd)
+    return m, b2
+
+
+@jit(inline="always")
+def _allocate(fw, sc, y, om, mb, bb, b2, cmd, external, L, m, nw, nm, ncmd):
+    """The requests to the raw commands ``cmd`` (your own software wrote them there): wheels
+    through G⁺ and the null-space term, a torque on magnetorquers alone, dipoles to the rods,
+    or an ideal torque. Returns the (torque, dipole) requests as recorded."""
     out = cmd
     ideal = (0.0, 0.0, 0.0)
     if external:
@@ -483,22 +478,32 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     sc[SC.IDEAL] = ideal[0]
     sc[SC.IDEAL + 1] = ideal[1]
     sc[SC.IDEAL + 2] = ideal[2]
-    # record what was computed, then the delay
-    if keep:
-        rec_row[R.T] = t
-        rec_row[R.MODE] = mode
-        for i in range(4):
-            rec_row[R.QREF + i] = qR[i]
-        for i in range(3):
-            rec_row[R.SIGMA + i] = sig[i]
-            rec_row[R.DOMEGA + i] = dw[i]
-            rec_row[R.TORQUE + i] = L[i]
-            rec_row[R.DIPOLE + i] = m[i]
-        sq = shorter(qBR)
-        s2 = sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]
-        rec_row[R.ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
-        for i in range(ncmd):
-            rec_row[R.CMD + i] = out[i]
+    return L, m
+
+
+@jit(inline="always")
+def _record(rec_row, t, mode, qR, sig, dw, L, m, qBR, out, ncmd):
+    """What the tick computed, into its record row."""
+    rec_row[R.T] = t
+    rec_row[R.MODE] = mode
+    for i in range(4):
+        rec_row[R.QREF + i] = qR[i]
+    for i in range(3):
+        rec_row[R.SIGMA + i] = sig[i]
+        rec_row[R.DOMEGA + i] = dw[i]
+        rec_row[R.TORQUE + i] = L[i]
+        rec_row[R.DIPOLE + i] = m[i]
+    sq = shorter(qBR)
+    s2 = sq[1] * sq[1] + sq[2] * sq[2] + sq[3] * sq[3]
+    rec_row[R.ANGLE] = 2.0 * math.atan2(math.sqrt(s2), sq[0])
+    for i in range(ncmd):
+        rec_row[R.CMD + i] = out[i]
+
+
+@jit(inline="always")
+def _delay(fw, fs, out, ncmd):
+    """Commands ``delay`` whole ticks late: this tick's out goes in, the one ``delay`` ticks ago
+    out."""
     delay = int(fw[FW.DELAY])
     if delay > 0:
         k = int(fs[FS.TICK])
@@ -507,6 +512,42 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
             v = fs[slot + i]
             fs[slot + i] = out[i]
             out[i] = v if k >= delay else 0.0
+
+
+@jit
+def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
+    """One tick of the flight software at t from the state y (its body rate ``omt``): the
+    commands to apply into ``cmd`` (n_cmd; after the delay), the tick's record into ``rec_row``
+    if ``keep`` (an unrecorded tick writes nothing there and skips what only the record needs:
+    the error angle, the estimation error and its NEES)."""
+    nw = int(sc[SC.NW])
+    nm = int(sc[SC.NM])
+    ncmd = int(fw[FW.NCMD])
+    fo = _field_offset(fw, sc)
+    if fs[FS.SENSED] != 0.0:  # measured when your own step asked for its commands
+        q, om, bb = _sensed(fs)
+        fs[FS.SENSED] = 0.0
+    else:
+        q, om, bb = _sense(t, y, omt, sc, fw, fs, rec_row, keep)
+    mode = _mode_switch(fw, fs, t, q, om)
+    mb = int(fw[int(fw[FW.MODES]) + mode])
+    qR, wR_R, dwR_R = guidance(fw, fs, mb, t, q)
+    fs[FS.ENTERED] = 1.0
+    qBR, sig, still, wRN, dwRN, dw = _errors(qR, wR_R, dwR_R, q, om)
+    external = fw[FW.EXTERNAL] != 0.0
+    # control law (attitude._core.fsw_laws: one kernel per law)
+    ctrl = CTRL_NONE if external else int(fw[mb + MB.CTRL])
+    L, m = control_law(ctrl, fw, fs, sc, y, mb, t, om, bb, qBR, sig, dw, wRN, dwRN, still)
+    fs[FS.BPREV] = bb[0]
+    fs[FS.BPREV + 1] = bb[1]
+    fs[FS.BPREV + 2] = bb[2]
+    fs[FS.BVALID] = 1.0 if fo > 0 else 0.0
+    m, b2 = _dumping(fw, sc, y, mb, bb, m)
+    out = cmd
+    L, m = _allocate(fw, sc, y, om, mb, bb, b2, cmd, external, L, m, nw, nm, ncmd)
+    if keep:
+        _record(rec_row, t, mode, qR, sig, dw, L, m, qBR, out, ncmd)
+    _delay(fw, fs, out, ncmd)
 
 
 @jit
