@@ -43,7 +43,8 @@ _DRIVERS = {"dop853": "dop853_spacecraft_fsw", "taylor": "taylor_spacecraft_fsw"
 
 
 class _Compiles:
-    """numba's compile events (``numba:compile``): wall-clock seconds of the outermost ones."""
+    """numba's compile events (``numba:compile``): wall-clock seconds of the outermost ones,
+    their number, and the number of functions compiled in all (``functions``)."""
 
     def __init__(self) -> None:
         from numba.core import event
@@ -56,6 +57,7 @@ class _Compiles:
 
             def on_end(inner, ev):
                 self.depth -= 1
+                self.functions += 1
                 if self.depth == 0:
                     self.seconds += time.perf_counter() - self.t0
                     self.count += 1
@@ -64,6 +66,7 @@ class _Compiles:
         self.t0 = 0.0
         self.seconds = 0.0
         self.count = 0
+        self.functions = 0
         self._event = event
         self._listener = Listener()
         event.register("numba:compile", self._listener)

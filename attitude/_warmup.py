@@ -96,30 +96,11 @@ def _order(paths: Sequence[Path]) -> tuple[list[Path], list[Path]]:
 
 def _run_one(path: str, outdir: str) -> tuple[str, int, float]:
     """In a worker: ``path``'s first :data:`SAMPLES` samples; the compilations it made."""
-    from numba.core import event
-
     from . import scenario
+    from ._compiling import _Compiles
     from ._times import TimeGrid
 
-    depth = [0]
-    count = [0]
-    seconds = [0.0]
-    start = [0.0]
-
-    class Listener(event.Listener):
-        def on_start(self, ev):
-            if depth[0] == 0:
-                start[0] = time.perf_counter()
-            depth[0] += 1
-
-        def on_end(self, ev):
-            depth[0] -= 1
-            count[0] += 1
-            if depth[0] == 0:
-                seconds[0] += time.perf_counter() - start[0]
-
-    listener = Listener()
-    event.register("numba:compile", listener)
+    compiles = _Compiles()
     warnings.simplefilter("ignore")  # (the scenarios' own warnings: said when they run)
     try:
         sc = scenario.load(path)
@@ -137,8 +118,8 @@ def _run_one(path: str, outdir: str) -> tuple[str, int, float]:
             sc.run_to_file(out)
         out.unlink(missing_ok=True)
     finally:
-        event.unregister("numba:compile", listener)
-    return path, count[0], seconds[0]
+        compiles.close()
+    return path, compiles.functions, compiles.seconds
 
 
 def warmup(

@@ -40,7 +40,7 @@ import math
 
 import numpy as np
 
-from ._shared_jit import jit
+from ._shared_jit import from_source, jit
 
 # 2π = TWO_PI_1 + TWO_PI_2 + TWO_PI_3 to ~160 bits (computed with mpmath).
 TWO_PI_1 = 6.283185307179586
@@ -485,74 +485,33 @@ def mean_from_hyperbolic_scalar(H, e):
     return v if H >= 0.0 else -v
 
 
-# Loops for the vectorised public API (compiled whole, one call per array).
-@jit
-def kepler_E_loop(M, e, out):
-    for i in range(M.size):
-        out[i] = kepler_E(M[i], e[i])
-
-
-@jit
-def kepler_H_loop(M, e, out):
-    for i in range(M.size):
-        out[i] = kepler_H(M[i], e[i])
-
-
-@jit
-def true_from_eccentric_loop(E, e, out):
-    for i in range(E.size):
-        out[i] = true_from_eccentric_scalar(E[i], e[i])
-
-
-@jit
-def eccentric_from_true_loop(f, e, out):
-    for i in range(f.size):
-        out[i] = eccentric_from_true_scalar(f[i], e[i])
-
-
-@jit
-def mean_from_eccentric_loop(E, e, out):
-    for i in range(E.size):
-        out[i] = mean_from_eccentric_scalar(E[i], e[i])
-
-
-@jit
-def true_from_hyperbolic_loop(H, e, out):
-    for i in range(H.size):
-        out[i] = true_from_hyperbolic_scalar(H[i], e[i])
-
-
-@jit
-def hyperbolic_from_true_loop(f, e, out):
-    for i in range(f.size):
-        out[i] = hyperbolic_from_true_scalar(f[i], e[i])
-
-
-@jit
-def mean_from_hyperbolic_loop(H, e, out):
-    for i in range(H.size):
-        out[i] = mean_from_hyperbolic_scalar(H[i], e[i])
-
-
-@jit
-def true_from_mean_loop(M, e, out):
-    for i in range(M.size):
-        out[i] = true_from_eccentric_scalar(kepler_E(M[i], e[i]), e[i])
-
-
-@jit
-def true_from_mean_hyperbolic_loop(M, e, out):
-    for i in range(M.size):
-        out[i] = true_from_hyperbolic_scalar(kepler_H(M[i], e[i]), e[i])
-
-
-@jit
-def mean_from_true_loop(f, e, out):
-    for i in range(f.size):
-        out[i] = mean_from_eccentric_scalar(eccentric_from_true_scalar(f[i], e[i]), e[i])
-
-
-@jit
-def mean_from_true_hyperbolic_loop(f, e, out):
-    for i in range(f.size):
-        out[i] = mean_from_hyperbolic_scalar(hyperbolic_from_true_scalar(f[i], e[i]), e[i])
+# Loops for the vectorised public API (compiled whole, one call per array): the value of
+# element i from x = X[i] and e = E[i], one loop generated per line.
+_LOOPS = {
+    "kepler_E_loop": "kepler_E(x, e)",
+    "kepler_H_loop": "kepler_H(x, e)",
+    "true_from_eccentric_loop": "true_from_eccentric_scalar(x, e)",
+    "eccentric_from_true_loop": "eccentric_from_true_scalar(x, e)",
+    "mean_from_eccentric_loop": "mean_from_eccentric_scalar(x, e)",
+    "true_from_hyperbolic_loop": "true_from_hyperbolic_scalar(x, e)",
+    "hyperbolic_from_true_loop": "hyperbolic_from_true_scalar(x, e)",
+    "mean_from_hyperbolic_loop": "mean_from_hyperbolic_scalar(x, e)",
+    "true_from_mean_loop": "true_from_eccentric_scalar(kepler_E(x, e), e)",
+    "true_from_mean_hyperbolic_loop": "true_from_hyperbolic_scalar(kepler_H(x, e), e)",
+    "mean_from_true_loop": "mean_from_eccentric_scalar(eccentric_from_true_scalar(x, e), e)",
+    "mean_from_true_hyperbolic_loop": (
+        "mean_from_hyperbolic_scalar(hyperbolic_from_true_scalar(x, e), e)"
+    ),
+}
+globals().update(
+    from_source(
+        "".join(
+            f"def {name}(X, E, out):\n    for i in range(X.size):\n"
+            f"        x = X[i]\n        e = E[i]\n        out[i] = {value}\n\n"
+            for name, value in _LOOPS.items()
+        ),
+        globals(),
+        __name__,
+        __file__,
+    )
+)

@@ -53,6 +53,7 @@ from . import _numba_standins
 __all__ = [
     "JIT_DISABLED",
     "Kernel",
+    "from_source",
     "interpreted",
     "jit",
     "jit_generic",
@@ -335,6 +336,29 @@ def will_compile(dispatcher) -> bool:
     except Exception:  # pragma: no cover - an unreadable index, or numba's internals moved
         return True
     return not any(isinstance(key, tuple) and key[1:2] == (magic,) for key in index)
+
+
+def from_source(
+    source: str, namespace: dict, module: str, file: str, suffix: str = "", **options
+) -> dict:
+    """The functions that ``source`` defines, executed in ``namespace``, compiled with :func:`jit`
+    and ``options``: kernels written once as a pattern and generated for several cases (lane
+    widths, the registered laws, element-wise loops).
+
+    They belong to ``module`` and their source location is ``file`` (numba keys their cache on
+    it, :func:`source_stamp`); ``suffix`` is appended to their qualified names (their own cache
+    files, where one file generates the same names for several cases).
+    """
+    before = set(namespace)
+    exec(compile(source, file, "exec"), namespace)
+    out = {}
+    for name, f in list(namespace.items()):
+        if name in before or not isinstance(f, types.FunctionType):
+            continue
+        f.__module__ = module
+        f.__qualname__ = f"{name}{suffix}"
+        out[name] = jit(f, **options)
+    return out
 
 
 def jit_generic(func=None, /, **options):

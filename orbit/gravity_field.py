@@ -18,6 +18,7 @@ import numpy as np
 
 from . import _gravity_field_kernels as _kg
 from .errors import OrbitValueError
+from .kepler import _as_array
 
 __all__ = ["SphericalHarmonics"]
 
@@ -34,18 +35,9 @@ def _egm2008() -> dict[str, Any]:
 
 
 def _positions(r: Any, name: str) -> np.ndarray:
-    if hasattr(r, "unit"):
-        from astropy import units as u
-
-        try:
-            r = r.to_value(u.m)
-        except u.UnitConversionError:
-            raise OrbitValueError(f"{name}: a length (m), got unit {r.unit}") from None
-    arr = np.asarray(r, dtype=float)
+    arr = _as_array(r, name, "m")
     if arr.shape[-1:] != (3,):
         raise OrbitValueError(f"{name}: positions of shape (..., 3) in metres, got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise OrbitValueError(f"{name}: positions must be finite")
     dist = np.linalg.norm(arr, axis=-1)
     if np.any(dist < POLAR_RADIUS):
         raise OrbitValueError(

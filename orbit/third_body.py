@@ -16,6 +16,7 @@ import numpy as np
 
 from . import _gravity_field_kernels as _kg
 from .errors import OrbitValueError
+from .kepler import _as_array
 from .timescales import as_epoch, check_dates, offline_iers
 
 __all__ = ["ThirdBody"]
@@ -76,10 +77,8 @@ class ThirdBody:
         from astropy.time import TimeDelta
 
         ep = as_epoch(epoch, "epoch", allow_none=False)
-        tt = np.asarray(getattr(t, "to_value", lambda _: t)("s"), dtype=np.float64)
+        tt = _as_array(t, "t", "s")
         flat = tt.ravel()
-        if not np.all(np.isfinite(flat)):
-            raise OrbitValueError("t: times must be finite")
         check_dates(ep, flat, "t")
         times = ep + TimeDelta(flat, format="sec")
         with offline_iers():
@@ -103,17 +102,10 @@ class ThirdBody:
         -------
         ndarray, shape (..., 3) [m/s²]
         """
-        if hasattr(r_gcrs, "unit"):
-            from astropy import units as u
-
-            try:
-                r_gcrs = r_gcrs.to_value(u.m)
-            except u.UnitConversionError:
-                raise OrbitValueError(f"r_gcrs: a length (m), got unit {r_gcrs.unit}") from None
-        r = np.asarray(r_gcrs, dtype=float)
-        if r.shape[-1:] != (3,) or not np.all(np.isfinite(r)):
-            raise OrbitValueError(f"r_gcrs: finite positions of shape (..., 3), got {r.shape}")
-        tt = np.asarray(getattr(t, "to_value", lambda _: t)("s"), dtype=np.float64)
+        r = _as_array(r_gcrs, "r_gcrs", "m")
+        if r.shape[-1:] != (3,):
+            raise OrbitValueError(f"r_gcrs: positions of shape (..., 3), got {r.shape}")
+        tt = _as_array(t, "t", "s")
         try:
             shape = np.broadcast_shapes(r.shape[:-1], tt.shape)
         except ValueError:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from astropy import units as u
 
-from orbit import OrbitValueError, ThirdBody
+from orbit import OrbitTypeError, OrbitValueError, ThirdBody
 from orbit import _gravity_field_kernels as kg
 from orbit.sun import sun_position
 
@@ -86,14 +86,14 @@ def test_shapes_broadcast_and_units():
         (lambda: ThirdBody("mars"), "body: 'sun' or 'moon'"),
         (lambda: ThirdBody("sun", mu=-1.0), "mu: a positive"),
         (lambda: ThirdBody("sun").acceleration(np.zeros(2), EPOCH, 0.0), r"r_gcrs: .*\(..., 3\)"),
-        (lambda: ThirdBody("sun").acceleration([7e6, 0, 0] * u.s, EPOCH, 0.0), "a length"),
+        (lambda: ThirdBody("sun").acceleration([7e6, 0, 0] * u.s, EPOCH, 0.0), "cannot be conv"),
         (
             lambda: ThirdBody("sun").acceleration(np.ones((2, 3)) * 7e6, EPOCH, np.zeros(3)),
             "does not broadcast",
         ),
-        (lambda: ThirdBody("moon").position(EPOCH, np.nan), "t: times must be finite"),
+        (lambda: ThirdBody("moon").position(EPOCH, np.nan), "t: must be finite"),
     ],
 )
 def test_bad_input(call, match):
-    with pytest.raises(OrbitValueError, match=match):
+    with pytest.raises((OrbitValueError, OrbitTypeError), match=match):
         call()

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import from_source, jit
 
 from .actuators import wheel_momentum_sum
 from .fsw_layout import FS, FW, MB
@@ -154,16 +154,15 @@ def _dispatcher():
     """``control_law(code, ...)``: the law of ``code`` (zero torque and dipole for 0), a branch
     per registered law, generated from :data:`LAWS` (this file: numba's source location)."""
     args = "fw, fs, sc, y, mb, t, om, bb, qBR, sig, dw, wRN, dwRN, still"
-    src = [f"def control_law(code, {args}):"]
+    src = [
+        f"def control_law(code, {args}):",
+        '    """The torque and dipole requested by the law ``code`` (:data:`LAWS`)."""',
+    ]
     for code, name, _ in LAWS:
         src.append(f"    if code == {code}:\n        return {name}({args})")
     src.append("    return ZERO3, ZERO3\n")
     ns = {name: kernel for _, name, kernel in LAWS} | {"ZERO3": ZERO3}
-    exec(compile("\n".join(src), __file__, "exec"), ns)
-    f = ns["control_law"]
-    f.__module__ = __name__
-    f.__doc__ = "The requested torque and dipole of the law ``code`` (:data:`LAWS`)."
-    return jit(f, inline="always")
+    return from_source("\n".join(src), ns, __name__, __file__, inline="always")["control_law"]
 
 
 control_law = _dispatcher()

@@ -24,7 +24,7 @@ import os
 import sys
 import types
 
-from orbit._shared_jit import jit
+from orbit._shared_jit import from_source
 
 from .fma import fma as _fma
 
@@ -87,13 +87,8 @@ def helpers(width: int) -> dict:
         src.append(f'def {name}({args}):\n    """{doc}"""\n    return ({items},)\n')
     writes = "".join(f"    a[k, c, {i}] = v[{i}]\n" for i in range(width))
     src.append(f'def store(a, k, c, v):\n    """``a[k, c, :] = v``."""\n{writes}')
-    ns: dict = {"_fma": _fma}
-    exec(compile("\n".join(src), __file__, "exec"), ns)  # (this file: numba's source location)
-    out = {}
-    for name in (*_ELEMENTWISE, "store"):
-        if width != LANES:  # (its own cache files, should it be called from Python)
-            ns[name].__qualname__ = f"{name}__lanes{width}"
-        out[name] = jit(ns[name], inline="always")
+    suffix = "" if width == LANES else f"__lanes{width}"  # (its own cache files)
+    out = from_source("\n".join(src), {"_fma": _fma}, __name__, __file__, suffix, inline="always")
     out.update(LANES=width, ZERO=(0.0,) * width)
     return out
 
