@@ -19,8 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
+
 from ._core import holds as _kh
-from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
 from ._validation import as_float_array
 from .errors import AttitudeError, AttitudeTypeError, AttitudeValueError

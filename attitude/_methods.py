@@ -18,8 +18,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
+
 from . import _interrupt
-from ._core import rk as _rk
 from .body import RigidBody
 from .errors import AttitudeValueError
 from .potentials import Potential
@@ -203,7 +204,7 @@ def dop853_call(
 ) -> tuple[int, int]:
     """A compiled DOP853 entry point through ``t_out``, at most :data:`STEP_BUDGET` steps a call.
 
-    The arguments are those of :func:`attitude._core.rk.dop853_run` (``entry`` is one of the
+    The arguments are those of :func:`orbit._rk.dop853_run` (``entry`` is one of the
     ``dop853_*`` entry points, or ``attitude._core.taylor.taylor_canonical_builtin``, which has
     the same layout). Each call is given the step limit ``min(max_steps, steps so far
     + STEP_BUDGET)``; when it stops at that limit short of ``max_steps`` it is called again,
@@ -216,7 +217,7 @@ def dop853_call(
     Returns
     -------
     status, n_done : int
-        As :func:`~attitude._core.rk.dop853_run` over the whole of ``t_out``.
+        As :func:`~orbit._rk.dop853_run` over the whole of ``t_out``.
     """
     k = 0
     probe = int(counters[0]) == 0  # a fresh run: estimate the work after its first steps

@@ -46,8 +46,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit._layout import Appender
+
 from ._core import events as _ke
-from ._core.layout import Appender
 from ._user_kernels import compile_failure
 from ._validation import as_scalar
 from .errors import AttitudeTypeError, AttitudeValueError

@@ -35,8 +35,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
+
 from ._core import formulations as _kf
-from ._core import rk as _rk
 from ._methods import SAMPLE_BUDGET, RunResult, dop853_call
 from .canonical import from_euler_canonical, to_euler_canonical
 from .errors import AttitudeTypeError, AttitudeValueError, SingularityError

@@ -44,10 +44,10 @@ from typing import Any
 
 import numpy as np
 
+from orbit._layout import Appender
 from orbit._shared_jit import interpreted as _interpreted
 
 from ._core import frames as _kf
-from ._core.layout import Appender
 from ._validation import as_float_array, as_quaternion, as_scalar
 from .body import RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError

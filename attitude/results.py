@@ -629,7 +629,7 @@ def add_event_variables(
     Attrs ``status`` ("success" or "event": a terminal event ended the run) and
     ``terminal_event`` (its label and time).
     """
-    from ._core import rk as _rk
+    from orbit import _rk
 
     u = UnitSystem(body)
     k = records.t.shape[0]

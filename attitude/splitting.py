@@ -42,8 +42,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
+
 from . import _interrupt, _methods
-from ._core import rk as _rk
 from ._core import splitting as _ks
 from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
 from orbit._state_kernels import TYPE_KEPLER
 
-from ._core import rk as _rk
 from ._core import taylor as _kt
 from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
 from .body import RigidBody

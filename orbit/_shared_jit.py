@@ -489,7 +489,7 @@ def rebind(
     the objects a module has under the given names.
 
     ``dop853_canonical = rebind(dop853_run, globals(), "canonical", RHS="canonical_rhs")`` in a
-    module of entry points: the DOP853 driver of :mod:`attitude._core.rk` compiled with that
+    module of entry points: the DOP853 driver of :mod:`orbit._rk` compiled with that
     module's ``canonical_rhs`` as its right-hand side ``RHS``. The right-hand side is a global of
     the copy, not an argument: a compiled function that takes a compiled function as an argument
     cannot be cached on its own, so it must be inlined into a cached caller, and numba's

@@ -1,4 +1,4 @@
-"""Layouts declared once (issue 40, point 1): the helper of :mod:`attitude._core.layout`, and
+"""Layouts declared once (issue 40, point 1): the helper of :mod:`orbit._layout`, and
 each public object packed through its declaration and read back field by field."""
 
 from __future__ import annotations
@@ -14,11 +14,11 @@ import attitude
 from attitude import frames
 from attitude._core import fsw as _kf
 from attitude._core.fsw_layout import FW, MB
-from attitude._core.layout import Appender, Field, Gap, layout
 from attitude.actuators import Magnetorquer, ReactionWheel
 from attitude.control import MomentumDumping, MRPFeedback, RateDamping, WheelAllocation
 from attitude.software import FlightSoftware, Mode, RateBelow, Slew
 from attitude.software._software import _frame_data, program
+from orbit._layout import Appender, Field, Gap, layout
 
 # -- the helper --------------------------------------------------------------------------------
 
@@ -503,4 +503,4 @@ def test_no_hand_numbered_offsets_in_core():
     for f in core.glob("*.py"):
         found |= set(re.findall(r"^([A-Z][A-Z0-9_]*) = -?\d+\s*(?:#.*)?$", f.read_text(), re.M))
     stray = {n for n in found if not _CODES.match(n)} - _STATUSES - _SIZES
-    assert not stray, f"hand-numbered constants (declare them with attitude._core.layout): {stray}"
+    assert not stray, f"hand-numbered constants (declare them with orbit._layout): {stray}"

@@ -32,13 +32,13 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit
 
 from .environment import (
     DIPOLE,
     field_body,
 )
-from .layout import Field, layout
 from .quat import conj_mul, cross
 
 # Header of the spacecraft block.

@@ -43,11 +43,11 @@ tabulated orbit is NaN here (its caller fills it: ``orbit.base.OrbitBase.true_an
 
 from __future__ import annotations
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import TYPE, TYPE_KEPLER
 
 from .dynamics import diagnostic_values
-from .layout import Field, layout
 
 # The blocks of a sample, each stored for all m samples in turn (block offsets in units of
 # m), then the torques: 3 (n_terms + 1) per sample.

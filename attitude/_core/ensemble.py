@@ -23,8 +23,8 @@ Array layout (N members, m output times)
 ``y_out`` (N, m, 8) canonical states · ``diag`` (N, m, 13) diagnostics
 (:func:`attitude._core.dynamics.diagnostics_with` columns) · ``work`` (N, WORK_ROWS, 8),
 ``tstate`` (N, 4), ``counters`` (N, 5): the DOP853 state of each member (layout in
-:mod:`attitude._core.rk`) · ``status`` (N,) int64: ``NOT_STARTED`` before the first call, then
-``RUNNING`` or a final code of :mod:`attitude._core.rk` · ``n_done`` (N,) int64 output rows
+:mod:`orbit._rk`) · ``status`` (N,) int64: ``NOT_STARTED`` before the first call, then
+``RUNNING`` or a final code of :mod:`orbit._rk` · ``n_done`` (N,) int64 output rows
 filled. All C-contiguous.
 """
 
@@ -32,9 +32,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from orbit._rk import TOO_MANY_STEPS, WORK_ROWS
 from orbit._shared_jit import jit, jit_generic
-
-from .rk import TOO_MANY_STEPS, WORK_ROWS
 
 __all__ = [
     "NOT_STARTED",

@@ -74,7 +74,6 @@ from attitude._core.potentials import (
     builtin_term_torque,
     builtin_torque,
 )
-from attitude._core.rk import dop853_run
 from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources bound by name)
     fsw_ctl,
     member_stop,
@@ -83,6 +82,7 @@ from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources 
 )
 from attitude._core.splitting import composition_run
 from attitude._core.taylor_gyrostat import gyrostat_step_inline, taylor_holds_run  # noqa: F401
+from orbit._rk import dop853_run
 from orbit._shared_jit import jit, parallel_jit, rebind
 from orbit._state_kernels import orbit_sample as _any_orbit_sample
 
@@ -164,9 +164,9 @@ def canonical_rhs(t, y, params, dydt):
     canonical_rhs_with(torque, t, y, params, dydt)
 
 
-#: DOP853 on eq. 7: :func:`attitude._core.rk.dop853_run` compiled with ``canonical_rhs`` as its
+#: DOP853 on eq. 7: :func:`orbit._rk.dop853_run` compiled with ``canonical_rhs`` as its
 #: right-hand side (arguments ``params, y0, t0, t_out, y_out, work, tstate, counters, rtol,
-#: atol, t_end, max_step, max_steps``; layouts in attitude._core.rk), without reference counting
+#: atol, t_end, max_step, max_steps``; layouts in orbit._rk), without reference counting
 #: for the built-in models (REFCOUNT).
 dop853_canonical = rebind(
     dop853_run, globals(), "canonical", options={"_nrt": REFCOUNT}, RHS="canonical_rhs"
@@ -285,7 +285,7 @@ def euler_angles_rhs(t, y, params, dydt):
     euler_angles_rhs_with(torque, t, y, params, dydt)
 
 
-#: DOP853 on the Euler-angle equations (attitude._core.rk.dop853_run with euler_angles_rhs).
+#: DOP853 on the Euler-angle equations (orbit._rk.dop853_run with euler_angles_rhs).
 dop853_euler_angles = rebind(dop853_run, globals(), "euler_angles", RHS="euler_angles_rhs")
 
 
@@ -295,7 +295,7 @@ def schwab_rhs(t, y, params, dydt):
     schwab_rhs_with(torque, t, y, params, dydt)
 
 
-#: DOP853 on Schwab's equations (attitude._core.rk.dop853_run with schwab_rhs).
+#: DOP853 on Schwab's equations (orbit._rk.dop853_run with schwab_rhs).
 dop853_schwab = rebind(dop853_run, globals(), "schwab", RHS="schwab_rhs")
 
 
@@ -305,7 +305,7 @@ def euler_equations_rhs(t, y, params, dydt):
     euler_equations_rhs_with(torque, t, y, params, dydt)
 
 
-#: DOP853 on Euler's equations (attitude._core.rk.dop853_run with euler_equations_rhs).
+#: DOP853 on Euler's equations (orbit._rk.dop853_run with euler_equations_rhs).
 dop853_euler_equations = rebind(dop853_run, globals(), "euler_equations", RHS="euler_equations_rhs")
 
 

@@ -50,11 +50,11 @@ import math
 
 import numpy as np
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit
 from orbit._state_kernels import frame_from_state, orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
-from .layout import Field, layout
 from .quat import cross, rotate_inverse
 
 # A table: [nseg, nseg segment offsets (relative to the table), the segments]; a segment: its

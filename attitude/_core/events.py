@@ -53,15 +53,8 @@ import math
 
 import numpy as np
 
-from orbit._shared_jit import jit, jit_generic
-from orbit._state_kernels import orbit_state
-from orbit.sun import conical_shadow
-
-from .ensemble import member_begin, member_end
-from .frames import frame_attitude
-from .layout import Field, layout
-from .quat import conj_mul, rotate
-from .rk import (
+from orbit._layout import Field, layout
+from orbit._rk import (
     EVENT,
     EVENT_BUFFER_FULL,
     NONFINITE,
@@ -73,6 +66,13 @@ from .rk import (
     _interpolate,
     dop853_step,
 )
+from orbit._shared_jit import jit, jit_generic
+from orbit._state_kernels import orbit_state
+from orbit.sun import conical_shadow
+
+from .ensemble import member_begin, member_end
+from .frames import frame_attitude
+from .quat import conj_mul, rotate
 from .splitting import (
     KICK,
     ROTOR,
@@ -430,7 +430,7 @@ def dop853_events_run(
     max_step,
     max_steps,
 ):
-    """:func:`attitude._core.rk.dop853_run` with events (layouts: the module docstring).
+    """:func:`orbit._rk.dop853_run` with events (layouts: the module docstring).
 
     The steps taken are those of ``dop853_run`` (same step-size control); after each accepted
     step the events are located on its dense output. Output times are served as there, up to

@@ -29,9 +29,9 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit, jit_generic
 
-from .layout import Field, layout
 from .quat import conj_mul, mul, mul_vec
 
 #: The slots at the end of ``params`` owned by this module.

@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit
 from orbit._state_kernels import (
     MU,
@@ -59,7 +60,6 @@ from orbit._state_kernels import (
     quaternion_from_axes,
 )
 
-from .layout import Field, layout
 from .quat import mul, rotate_inverse
 
 FRAME_INERTIAL = 0

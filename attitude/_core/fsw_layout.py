@@ -3,7 +3,8 @@
 
 from __future__ import annotations
 
-from .layout import Field, Gap, layout
+from orbit._layout import Field, Gap, layout
+
 from .mekf import E
 
 # --- the program fw: header ---------------------------------------------------------------------

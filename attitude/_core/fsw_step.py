@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import orbit_state
 
@@ -36,7 +37,6 @@ from .holds import (
     HS,
     STEP_FAILED,
 )
-from .layout import Field, layout
 from .quat import conj_mul, mrp, rotate_inverse
 
 #: Layout of the measurement vector of :func:`measure`, whose public face is

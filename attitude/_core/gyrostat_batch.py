@@ -37,6 +37,8 @@ import numba
 import numpy as np
 
 from orbit import _state_kernels as _SK
+from orbit._layout import Field, layout
+from orbit._rk import SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
 
 from . import lanes as V
@@ -56,14 +58,12 @@ from .holds import (
     schedule_boundary,
 )
 from .lanes import LANES
-from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
     KIND_HEAVY_TOP,
     MODEL,
 )
-from .rk import SUCCESS, TOO_MANY_STEPS
 from .spacecraft_ensemble import (  # noqa: F401 (fsw_ctl bound by name)
     RECORDS_WAIT,
     fsw_ctl,

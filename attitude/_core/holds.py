@@ -11,7 +11,7 @@ hold add boundaries of their own. The continuous dynamics between boundaries kee
 accuracy: this is where a high-order method restarted at each boundary beats one fixed step per
 tick (Basilisk integrates one RK4 step per task period).
 
-:func:`holds_run` has the arguments of :func:`attitude._core.rk.dop853_run` with ``P =
+:func:`holds_run` has the arguments of :func:`orbit._rk.dop853_run` with ``P =
 (params, sc)`` (the model's numbers and the spacecraft block) and the command source ``ctl``:
 ``ctl``, a tuple whose first item is ``hs`` (HS.SIZE,), the driver's state between calls, and
 the rest the command source's (:data:`BOUNDARY`); for an open-loop schedule
@@ -34,6 +34,16 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, layout
+from orbit._rk import (
+    SUCCESS,
+    TOO_MANY_STEPS,
+    WORK,
+    _dense_coefficients,
+    _initial_step,
+    _interpolate,
+    dop853_step,
+)
 from orbit._shared_jit import jit
 
 from .actuators import (
@@ -46,16 +56,6 @@ from .actuators import (
     next_thruster_off,
     thruster_base,
     thrusters_off_at,
-)
-from .layout import Field, layout
-from .rk import (
-    SUCCESS,
-    TOO_MANY_STEPS,
-    WORK,
-    _dense_coefficients,
-    _initial_step,
-    _interpolate,
-    dop853_step,
 )
 
 HS = layout(
@@ -178,7 +178,7 @@ def holds_run(
 ):
     """Integrate from the stored state through the output times ``t_out`` (forward in time),
     restarting at every hold boundary. Returns ``(status, n_done)`` as
-    :func:`attitude._core.rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``).
+    :func:`orbit._rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``).
     """
     hs = ctl[0]
     sc = P[1]

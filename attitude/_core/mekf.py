@@ -43,10 +43,10 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, Gap, layout
 from orbit._shared_jit import inline_copy, jit
 
 from .fma import fma as F
-from .layout import Field, Gap, layout
 from .quat import SERIES_X2, conj_mul, half_angle, mul, rotate_inverse, shorter
 
 E = layout(

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit, jit_generic
 from orbit._state_kernels import MU as ORBIT_MU
 from orbit._state_kernels import orbit_radial
@@ -49,7 +50,6 @@ from .environment import (
     magnetic_torque,
     solar_torque,
 )
-from .layout import Field, layout
 from .quat import conj_mul, cross, rotate, rotate_inverse
 
 KIND_TORQUE_FREE = 0

@@ -33,11 +33,11 @@ from __future__ import annotations
 
 import math
 
+from orbit._layout import Field, layout
 from orbit._shared_jit import inline_copy, jit
 from orbit._state_kernels import orbit_state
 from orbit.sun import R_EARTH, R_SUN, conical_shadow
 
-from .layout import Field, layout
 from .quat import half_angle, mul, rotate, rotate_inverse, shorter
 from .rng import RNG_SIZE, load, normal, normal_held, store
 

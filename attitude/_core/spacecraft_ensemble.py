@@ -38,11 +38,11 @@ from __future__ import annotations
 
 import math
 
+from orbit._rk import TOO_MANY_STEPS
 from orbit._shared_jit import jit
 
 from .ensemble import RUNNING, member_begin
 from .holds import RECORDS_FULL
-from .rk import TOO_MANY_STEPS
 
 __all__ = [
     "RECORDS_WAIT",

@@ -55,7 +55,7 @@ KICK = 0
 ROTOR = 1
 FREE = 2
 
-# Status codes (same meaning as in attitude._core.rk).
+# Status codes (same meaning as in orbit._rk).
 SUCCESS = 0
 NONFINITE = 1
 #: The call's step budget (``counters[4]``) ran out inside an interval: call again.

@@ -66,10 +66,11 @@ import math
 import numpy as np
 
 from orbit import _state_kernels as _SK
+from orbit._layout import Field, layout
+from orbit._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import jit
 
 from .fma import fma as F
-from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
@@ -77,7 +78,6 @@ from .potentials import (
     MODEL,
 )
 from .quat import rotate_inverse
-from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 
 PMAX = 40  # highest order (rtol = 1e-34; double precision needs p ≤ 20)
 

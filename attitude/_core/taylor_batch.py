@@ -45,13 +45,14 @@ import numba
 import numpy as np
 
 from orbit import _state_kernels as _SK
+from orbit._layout import Field, layout
+from orbit._rk import NONFINITE, SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import jit, parallel_jit, slp_vectorized, specialise
 
 from . import lanes as V
 from .dynamics import diagnostics_row, diagnostics_with
 from .fma import fma as F
 from .lanes import LANES, simd_lanes
-from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
@@ -61,7 +62,6 @@ from .potentials import (
     gravity_gradient_potential_radial,
 )
 from .quat import rotate_inverse
-from .rk import NONFINITE, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
     COL,
     RECIPROCALS,

@@ -46,6 +46,8 @@ from __future__ import annotations
 import math
 
 from orbit import _state_kernels as _SK
+from orbit._layout import Field, layout
+from orbit._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import inline_copy, jit
 
 from .actuators import (
@@ -61,14 +63,12 @@ from .holds import (
     record,
     schedule_boundary,
 )
-from .layout import Field, layout
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
     KIND_HEAVY_TOP,
     MODEL,
 )
-from .rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from .taylor import (
     COL,
     RECIPROCALS,

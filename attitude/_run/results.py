@@ -18,10 +18,10 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from orbit import _rk
 from orbit._state_kernels import TYPE_EPHEMERIS
 
 from .._core import diagnostics as _kd
-from .._core import rk as _rk
 from .._methods import SAMPLE_BUDGET, Problem, RunResult
 from .._spacecraft_results import add_actuator_variables, add_tick_variables
 from ..errors import PropagationError

@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 
+from orbit import _rk
+
 from .. import _compiling
-from .._core import rk as _rk
 from .._methods import RunResult
 from .._progress import ProgressBar
 from .._spacecraft_results import tick_dataset

@@ -14,11 +14,12 @@ from typing import Any
 
 import numpy as np
 
+from orbit import _rk
+
 from .. import _interrupt
 from .._core import ensemble as _ke
 from .._core import entry_points as _builtin_entry_points
 from .._core import fsw as _kf
-from .._core import rk as _rk
 from .._core import spacecraft_ensemble as _kse
 from .._core import taylor as _kt
 from .._core import taylor_gyrostat as _ktg
@@ -54,7 +55,7 @@ MIN_MEMBER_BUDGET = 16
 
 #: ``member_status`` of the members of a chunk whose task failed as a whole (an exception in
 #: the worker, not a member's integration): their rows are NaN. (Above the integrator's codes
-#: of attitude._core.rk, EVENT = 4 and EVENT_BUFFER_FULL = 5 included.)
+#: of orbit._rk, EVENT = 4 and EVENT_BUFFER_FULL = 5 included.)
 CHUNK_FAILED = 9
 
 #: CF ``flag_values``/``flag_meanings`` of ``member_status``.

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._core import rk as _rk
+from orbit import _rk
+
 from ..errors import AttitudeError, AttitudeTypeError, AttitudeValueError, PropagationError
 from ._chunks import _N_DIAG, _chunk_task, _compute_chunk, _failure_message, _Setup
 

@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._core import rk as _rk
+from orbit import _rk
+
 from .._spacecraft_results import actuator_constants, add_actuator_variables, add_tick_variables
 from ..body import RigidBody
 from ..results import build_dataset, instant_attrs, time_unit

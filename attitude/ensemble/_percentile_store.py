@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._core import rk as _rk
+from orbit import _rk
+
 from .statistics import _error_angles
 
 #: Largest store kept in memory (bytes); larger ones go to a temporary file.

@@ -13,7 +13,7 @@ Output choices (docs/ensemble.md, "Output choices"):
 The compiled loop integrates every member from ``t[0]`` to ``t[-1]`` whatever is stored; it only
 evaluates its dense output at the stored times (and at ``t[-1]``). DOP853's steps do not depend
 on the output times (the step loop is driven by the error estimate and the end time ``t[-1]``
-alone, :func:`attitude._core.rk.dop853_run`), so a stored sample is bit for bit the sample of a
+alone, :func:`orbit._rk.dop853_run`), so a stored sample is bit for bit the sample of a
 run that stores everything (tests/test_ensemble.py).
 """
 
@@ -266,7 +266,8 @@ def given_reference(reference: Any, plan: _Plan) -> np.ndarray:
 def nominal_reference(setup: Any, params: np.ndarray, nominal: Any, plan: _Plan) -> np.ndarray:
     """The attitude (stored times, 4) of the nominal initial state, propagated once by the
     members' compiled loop (same body, potential, tolerances and time grid)."""
-    from .._core import rk as _rk
+    from orbit import _rk
+
     from .._validation import as_float_array
     from ._chunks import _compute_chunk
     from ._members import _project

@@ -7,7 +7,8 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .._core import rk as _rk
+from orbit import _rk
+
 from .._validation import as_bool, as_float_array
 from ..errors import AttitudeTypeError, AttitudeValueError
 

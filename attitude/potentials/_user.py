@@ -13,11 +13,11 @@ from typing import Any
 
 import numpy as np
 
+from orbit._layout import Appender
 from orbit._shared_jit import JIT_DISABLED
 
 from .. import _user_kernels
 from .._core import environment as _ke
-from .._core.layout import Appender
 from .._validation import as_float_array, as_quaternion
 from ..errors import AttitudeTypeError, AttitudeValueError
 from ._base import Potential

@@ -9,9 +9,10 @@ from typing import Any
 
 import numpy as np
 
+from orbit._layout import Appender
+
 from .._core import rng as _rng
 from .._core import sensors as _ks
-from .._core.layout import Appender
 from .._validation import as_float_array, as_scalar, refuse_class
 from ..errors import AttitudeTypeError, AttitudeValueError
 

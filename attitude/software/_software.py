@@ -11,11 +11,12 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from orbit._layout import Appender
+
 from .._core import fsw as _kf
 from .._core import fsw_step as _kstep
 from .._core import sensors as _ks
 from .._core.fsw_layout import ES, FW, MB
-from .._core.layout import Appender
 from .._validation import as_float_array, as_int, as_scalar, refuse_class
 from ..body import RigidBody
 from ..control import ControlLaw, MomentumDumping, WheelAllocation

@@ -1,6 +1,6 @@
 """Compiled adaptive Runge–Kutta integration (DOP853) with dense output.
 
-One generic stepper: the method is the data in :mod:`attitude._core.tableaux`, the physics is
+One generic stepper: the method is the data in :mod:`orbit._tableaux`, the physics is
 the right-hand side ``rhs(t, y, params, dydt)`` (a compiled function writing into ``dydt``:
 an argument of the step kernels, which are inlined; the global ``RHS`` of the driver
 :func:`dop853_run`, compiled once per right-hand side), and the whole step loop runs in
@@ -32,8 +32,8 @@ import numpy as np
 
 from orbit._shared_jit import jit, jit_generic
 
-from .layout import Field, layout
-from .tableaux import DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5
+from ._layout import Field, layout
+from ._tableaux import DOP853_A, DOP853_B, DOP853_C, DOP853_D, DOP853_E3, DOP853_E5
 
 # Rows of the work array.
 WORK = layout(
