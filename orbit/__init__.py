@@ -35,13 +35,16 @@ from .kepler import (
     true_from_mean_hyperbolic,
 )
 from .keplerorbit import KeplerOrbit, earth_mu
+from .numerical import Impact, NumericalOrbit
 from .third_body import ThirdBody
 from .timescales import IERSRangeWarning
 
 __all__ = [
     "EphemerisOrbit",
     "IERSRangeWarning",
+    "Impact",
     "KeplerOrbit",
+    "NumericalOrbit",
     "Orbit",
     "OrbitError",
     "OrbitTypeError",
