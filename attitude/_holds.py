@@ -51,7 +51,7 @@ class SpacecraftRun:
     sc: np.ndarray  # the spacecraft block (held slots written during the run)
     hold_t: np.ndarray  # (K,) hold start times
     hold_u: np.ndarray  # (K, n_cmd) raw commands
-    n_state: int  # 8 + n_wheels
+    n_state: int  # 8 + n_wheels (+ 7: r, v, m when the orbit is propagated with the attitude)
     n_rec: int  # record columns after the state in an output row
     ideal_control: bool = False  # flight software acting through an ideal torque
     program: Any = None  # attitude.software._software.Program of a flight software
@@ -60,6 +60,11 @@ class SpacecraftRun:
     # streaming: tick_sink(records) takes the tick records as they fill a buffer, and at the
     # end; ``ticks`` is then empty
     tick_sink: Callable[[np.ndarray], None] | None = None
+
+    @property
+    def coupled(self) -> bool:
+        """The orbit is in the state (attitude._core.coupled)."""
+        return bool(self.spacecraft.coupled)
 
     def fresh_block(self) -> np.ndarray:
         """A copy of the spacecraft block for one run (its held slots are written)."""
@@ -122,12 +127,18 @@ def prepare(
         prog = program(software, spacecraft, float(tt[0]), float(tt[-1]), samples)
     sc = spacecraft.block(np.array([tt[0], tt[-1]]))
     y0 = initial_state(spacecraft, q0, Q0)
+    n_orbit = 0
+    if spacecraft.coupled:
+        from ._coupling import N_ORBIT, initial_orbit_state
+
+        n_orbit = N_ORBIT
+        y0 = np.concatenate([y0, initial_orbit_state(spacecraft, float(tt[0]))])
     run = SpacecraftRun(
         spacecraft=spacecraft,
         sc=sc,
         hold_t=hold_t,
         hold_u=hold_u,
-        n_state=8 + nw,
+        n_state=8 + nw + n_orbit,
         n_rec=_kh.record_width(nw, nm, nt),
         ideal_control=bool(prog is not None and prog.ideal),
         program=prog,
@@ -189,6 +200,11 @@ def check_taylor(spacecraft: Any, potential: Any) -> None:
     not a series)."""
     from .taylor import check_potential
 
+    if spacecraft.coupled:
+        raise AttitudeValueError(
+            "method: 'taylor' does not carry the orbit of a spacecraft propagated with its "
+            "attitude (a mass on a NumericalOrbit); use method='dop853'"
+        )
     check_potential(potential)
     if spacecraft.magnetorquers:
         raise AttitudeValueError(
@@ -528,7 +544,7 @@ def run_taylor(
 
     sr: SpacecraftRun = problem.spacecraft
     check_taylor(sr.spacecraft, problem.potential)
-    nw = sr.n_state - 8
+    nw = len(sr.spacecraft.wheels)
     work = np.zeros((_kt.WORK_ROWS, _ktg.work_columns(nw)))
     tstate = np.zeros(_ktg.TS.SIZE + nw)
     counters = np.zeros(5, dtype=np.int64)
@@ -588,21 +604,30 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
     n_terms = len(problem.potential.terms)
     torques = np.empty((m, n_terms + 1, 3))
     act = np.empty((m, 4, 3))
-    nw = n - 8
+    nw = len(sr.spacecraft.wheels)
     wheels = np.empty((m, nw, 2))
     sc = sr.fresh_block()
     entry = _diagnostics_entry(problem)
+    params = problem.params
+    orbit = None
+    if sr.coupled and m:
+        from ._coupling import reference_params, run_orbit
+
+        # the models read the run's own orbit: its samples (the state there, to round-off)
+        orbit = run_orbit(sr.spacecraft, t, y)
+        params = reference_params(params, sc, orbit.kernel_data())
     for i in range(0, m, SAMPLE_BUDGET):
         j = min(m, i + SAMPLE_BUDGET)
-        entry.spacecraft_diagnostics(t[i:j], y[i:j], problem.params, sc, diag[i:j])
+        entry.spacecraft_diagnostics(t[i:j], y[i:j], params, sc, diag[i:j])
         # C-ordered copies of the (q, Q) columns and the rates: with wheels they are strided
         # views, without them not (two types: the kernel compiled twice)
         entry.term_torques_at_rates(
             t[i:j],
             np.ascontiguousarray(y[i:j, :8]),
             np.ascontiguousarray(diag[i:j, 0:3]),
-            problem.params,
+            params,
             torques[i:j],
         )
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
-    return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec}
+    return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec,
+            "orbit": orbit}  # fmt: skip

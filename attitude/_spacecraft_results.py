@@ -67,7 +67,6 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
     craft = run.spacecraft
     u = UnitSystem(craft.body)
     nw, nm, nt = craft.counts
-    n = run.n_state
     rec = d["records"]  # per actuator its columns (attitude._core.holds *_REC), a row a sample
     wn, mn, tn = craft.names()
 
@@ -90,7 +89,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         )
         new["wheel_momentum"] = var(
             ("time", "wheel"),
-            rows[:, 8:n],
+            rows[:, 8 : 8 + nw],
             u.momentum,
             "axial angular momentum of the wheel, J (a.omega + speed)",
         )

@@ -321,6 +321,7 @@ def build_dataset(
     potential: Any,
     attrs: dict[str, Any],
     torques: np.ndarray | None = None,
+    orbit: Any = None,
 ) -> xr.Dataset:
     """Assemble the result Dataset from the states and their diagnostics.
 
@@ -338,6 +339,8 @@ def build_dataset(
         Run description (method, tolerances, statistics...).
     torques : ndarray, shape (m, n_terms + 1, 3), optional
         Body torque of each term of the model and their sum (``_core.dynamics.term_torques_with``).
+    orbit : Orbit, optional
+        The orbit of the orbit variables (default the potential's): a coupled run's own.
 
     The orbit's variables (``r``, ``f``, ``p``) are computed here by the orbit's methods;
     :func:`dataset_from_samples` takes everything from one compiled pass instead.
@@ -357,7 +360,8 @@ def build_dataset(
         "norm_error": c(diag[:, 10]),
         "qQ": c(diag[:, 11]),
     }
-    orbit = getattr(potential, "orbit", None)
+    if orbit is None:
+        orbit = getattr(potential, "orbit", None)
     if orbit is not None:
         # The orbit module works in km and s whatever the body's unit system.
         blocks["r"] = c(_plain(orbit.radius(t), "km"))

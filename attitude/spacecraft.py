@@ -9,6 +9,7 @@ Arribas et al. (2006) with the wheels' axial momenta beside (q, Q): docs/actuato
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -67,6 +68,11 @@ class Spacecraft:
         (default: the origin of the body axes).
     field : {"igrf", "dipole"} or array_like, shape (3,)
         The magnetorquers' field, as for :class:`attitude.MagneticDipole` (default IGRF).
+    mass : float or Quantity, optional
+        The spacecraft's mass (kg), propellant included. With an :class:`orbit.NumericalOrbit`
+        the orbit and the attitude are propagated together (:mod:`attitude._core.coupled`):
+        the gravity gradient's back-reaction and the thrusters' force act on the orbit, and
+        the thrusters' propellant (``Thruster(..., isp=...)``) lowers the mass.
 
     Raises
     ------
@@ -82,6 +88,7 @@ class Spacecraft:
     orbit: Any
     center_of_mass: np.ndarray
     field: Any
+    mass: float | None
 
     def __init__(
         self,
@@ -93,6 +100,7 @@ class Spacecraft:
         *,
         center_of_mass: Any = None,
         field: Any = "igrf",
+        mass: Any = None,
     ):
         s = object.__setattr__
         if isinstance(body, Spacecraft):
@@ -119,6 +127,12 @@ class Spacecraft:
                 f"orbit.EphemerisOrbit), got {type(orbit).__name__}"
             )
         s(self, "orbit", orbit)
+        if mass is not None:
+            m = float(as_float_array(mass, "mass", unit="kg").reshape(()))
+            if not (math.isfinite(m) and m > 0.0):
+                raise AttitudeValueError(f"mass: a positive number of kilograms, got {m!r}")
+            mass = m
+        s(self, "mass", mass)
         from .potentials import check_field
 
         check_field(field)  # an unknown name is refused with or without magnetorquers
@@ -151,6 +165,7 @@ class Spacecraft:
         center_of_mass: Any = None,
         field: Any = "igrf",
         units: str | None = None,
+        mass: Any = None,
     ) -> tuple[Spacecraft, np.ndarray]:
         """A spacecraft from its inertia tensor and actuators given in a structural frame F.
 
@@ -189,7 +204,7 @@ class Spacecraft:
         cm = None
         if center_of_mass is not None:
             cm = to_p(as_float_array(center_of_mass, "center_of_mass", unit="m"))
-        sc = cls(body, ws, ms, ts, orbit, center_of_mass=cm, field=field)
+        sc = cls(body, ws, ms, ts, orbit, center_of_mass=cm, field=field, mass=mass)
         return sc, q_pf
 
     def with_wheel_speeds(self, speeds: Any) -> Spacecraft:
@@ -204,7 +219,7 @@ class Spacecraft:
         ws = tuple(w.with_speed(float(v)) for w, v in zip(self.wheels, sp, strict=True))
         return Spacecraft(
             self.body, ws, self.magnetorquers, self.thrusters, self.orbit,
-            center_of_mass=self.center_of_mass, field=self.field,
+            center_of_mass=self.center_of_mass, field=self.field, mass=self.mass,
         )  # fmt: skip
 
     # --- properties ------------------------------------------------------------------------
@@ -212,6 +227,13 @@ class Spacecraft:
     def has_actuators(self) -> bool:
         """True with any wheel, magnetorquer or thruster."""
         return bool(self.wheels or self.magnetorquers or self.thrusters)
+
+    @property
+    def coupled(self) -> bool:
+        """True when the orbit is propagated with the attitude: a mass on a NumericalOrbit."""
+        from orbit import NumericalOrbit
+
+        return self.mass is not None and isinstance(self.orbit, NumericalOrbit)
 
     @property
     def counts(self) -> tuple[int, int, int]:
@@ -319,7 +341,7 @@ class Spacecraft:
         """The spacecraft block of the compiled kernels for a run at the times ``t`` (the field
         table of the magnetorquers covers them); held slots zero."""
         nw, nm, nt = self.counts
-        head = _ka.SC.pack(nw=nw, nm=nm, nt=nt, minv=self._minv, mtq=-1.0)
+        head = _ka.SC.pack(nw=nw, nm=nm, nt=nt, minv=self._minv, mtq=-1.0, coupled=-1.0)
         parts = [head]
         parts += [wheel_record(w) for w in self.wheels]
         parts += [magnetorquer_record(m) for m in self.magnetorquers]
@@ -332,6 +354,18 @@ class Spacecraft:
             fb = fm._kernel_params(tt)
             sc[_ka.SC.MTQ] = sc.shape[0]
             sc = np.concatenate([sc, fb])
+        if self.coupled:
+            from ._core import coupled as _kc
+
+            tt = np.asarray(t, dtype=np.float64).reshape(-1)
+            forces = self.orbit._forces.cover(float(tt.min()), float(tt.max()))
+            co = sc.shape[0]
+            head = _kc.COUPLED.pack(
+                iy=8 + nw, forces=co + _kc.COUPLED.SIZE, mu=self.orbit.mu * 1e9,
+                inertia=self.body.inertia,
+            )  # fmt: skip
+            sc[_ka.SC.COUPLED] = co
+            sc = np.concatenate([sc, head, forces])
         return np.ascontiguousarray(sc, dtype=np.float64)
 
     def check_orbit(self, potential_orbit: Any) -> None:
@@ -369,6 +403,8 @@ class Spacecraft:
             parts.append(f"thrusters={nt}")
         if self.orbit is not None:
             parts.append(f"orbit={type(self.orbit).__name__}")
+        if self.mass is not None:
+            parts.append(f"mass={self.mass!r}")
         return f"Spacecraft({', '.join(parts)})"
 
 
@@ -387,7 +423,7 @@ def _replace(obj: Any, **changes: Any) -> Any:
 
 
 def as_spacecraft(body: Any) -> Spacecraft | None:
-    """The Spacecraft if ``body`` is one with actuators, else None."""
-    if isinstance(body, Spacecraft) and body.has_actuators:
+    """The Spacecraft if ``body`` is one with actuators (or a coupled orbit), else None."""
+    if isinstance(body, Spacecraft) and (body.has_actuators or body.coupled):
         return body
     return None

@@ -21,7 +21,9 @@ Layout (index constants are module attributes)
 ----------------------------------------------
 Common header::
 
-    data[TYPE]   type code: TYPE_KEPLER = 0, TYPE_SECULAR_J2 = 1, TYPE_EPHEMERIS = 2
+    data[TYPE]   type code: TYPE_KEPLER = 0, TYPE_SECULAR_J2 = 1, TYPE_EPHEMERIS = 2,
+                 TYPE_LIVE = 3, TYPE_REFERENCE = 4 (data[HDR]: the offset of an
+                 ephemeris table further on in the same array)
     data[MU]     gravitational parameter μ [km³/s²] (the gravity gradient uses it)
     data[T_MIN]  first valid time [s] (−inf for the analytic orbits)
     data[T_MAX]  last valid time [s]  (+inf for the analytic orbits)
@@ -55,6 +57,12 @@ Hermite ephemeris (length ``E_TIMES + 7 N``)::
     data[E_H]                  uniform spacing h [s], or 0 for irregular times
     data[E_TIMES : +N]         node times [s], strictly increasing
     data[E_TIMES + N : +6N]    rows x, y, z, vx, vy, vz of each node [km, km/s]
+
+Live orbit (length ``L_LEN`` = 13; made in place of a copy of an ephemeris table)::
+
+    data[L_STATE : +6]         x, y, z, vx, vy, vz [km, km/s]: the state an integration
+                               carries, written by its right-hand side before the models read it
+    data[L_ACC : +3]           the gravitational acceleration there [km/s²]
 
 Interpolation: the Hermite polynomial of degree 7 matching position and velocity at the 4
 nodes nearest to t (2 on each side; shifted inwards at the ends of the table), its derivative
@@ -103,6 +111,8 @@ __all__ = [
     "TYPE",
     "TYPE_EPHEMERIS",
     "TYPE_KEPLER",
+    "TYPE_LIVE",
+    "TYPE_REFERENCE",
     "TYPE_SECULAR_J2",
     "T_MAX",
     "T_MIN",
@@ -121,6 +131,13 @@ __all__ = [
 TYPE_KEPLER = 0
 TYPE_SECULAR_J2 = 1
 TYPE_EPHEMERIS = 2
+#: A live orbit: the state an integration carries, written into the array by the integrator's
+#: right-hand side before the models read it (attitude._core.coupled); the models' kernels
+#: read it through the same dispatcher. Made in place of an ephemeris table's copy.
+TYPE_LIVE = 3
+#: A reference to an ephemeris table further on in the same array (``data[HDR]``: its offset
+#: from this block): a live orbit turned, after the run, into the table of the run's samples.
+TYPE_REFERENCE = 4
 
 # Common header.
 TYPE = 0
@@ -148,6 +165,11 @@ J_LEN = J_RAAN_DOT + 5  # 18
 E_N = HDR
 E_H = HDR + 1
 E_TIMES = HDR + 4  # two reserved slots (6, 7) for future use
+
+# Live orbit.
+L_STATE = HDR  # x, y, z [km], vx, vy, vz [km/s]
+L_ACC = HDR + 6  # the gravitational acceleration there [km/s²]
+L_LEN = HDR + 9
 
 _NAN = math.nan
 
@@ -548,6 +570,11 @@ def orbit_state(d, t):
         return _kepler_state(d, t)
     if kind == TYPE_SECULAR_J2:
         return _j2_state(d, t)
+    if kind == TYPE_LIVE:
+        o = L_STATE
+        return d[o], d[o + 1], d[o + 2], d[o + 3], d[o + 4], d[o + 5]
+    if kind == TYPE_REFERENCE:
+        return _eph_state(d[int(d[HDR]) :], t, True)
     return _eph_state(d, t, True)
 
 
@@ -559,6 +586,12 @@ def orbit_radial(d, t):
         return _kepler_radial(d, t)
     if kind == TYPE_SECULAR_J2:
         return _j2_radial(d, t)
+    if kind == TYPE_LIVE:
+        x, y, z = d[L_STATE], d[L_STATE + 1], d[L_STATE + 2]
+        r = math.sqrt(x * x + y * y + z * z)
+        return r, x / r, y / r, z / r
+    if kind == TYPE_REFERENCE:
+        return _eph_radial(d[int(d[HDR]) :], t)
     return _eph_radial(d, t)
 
 
@@ -616,6 +649,12 @@ def orbit_sample(d, t):
         return _kepler_sample(d, t)
     if kind == TYPE_SECULAR_J2:
         return _j2_sample(d, t)
+    if kind == TYPE_LIVE:
+        x, y, z, vx, vy, vz = orbit_state(d, t)
+        r, p0, p1, p2, p3 = frame_from_state(x, y, z, vx, vy, vz)
+        return r, x / r, y / r, z / r, _NAN, p0, p1, p2, p3
+    if kind == TYPE_REFERENCE:
+        return _eph_sample(d[int(d[HDR]) :], t)
     return _eph_sample(d, t)
 
 
@@ -742,6 +781,10 @@ def orbit_acceleration(d, t):
         return g * x, g * y, g * z
     if kind == TYPE_SECULAR_J2:
         return _j2_acceleration(d, t)
+    if kind == TYPE_LIVE:
+        return d[L_ACC], d[L_ACC + 1], d[L_ACC + 2]
+    if kind == TYPE_REFERENCE:
+        return _eph_acceleration(d[int(d[HDR]) :], t)
     return _eph_acceleration(d, t)
 
 

@@ -18,6 +18,7 @@ the integrator's own dense output as a Dataset.
 from __future__ import annotations
 
 import math
+import secrets
 from collections.abc import Sequence
 from typing import Any
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from . import _force_kernels as _fk
 from . import _rk
+from . import _state_kernels as _sk
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitTypeError, OrbitValueError
 from .gravity_field import POLAR_RADIUS, SphericalHarmonics
@@ -314,6 +316,8 @@ class NumericalOrbit(EphemerisOrbit):
         self._bwd = _Integrator(-1.0)
         self._nodes: dict[int, np.ndarray] = {0: self._y0.copy()}
         self._covered = (0, 0)
+        #: A mark in the table's reserved word (orbit._state_kernels E_H + 1, else 0).
+        self.token = float(secrets.randbits(52)) + 0.5
         self._cover(0.0, 2.0 * self._h)
 
     # -- identity ---------------------------------------------------------------------------
@@ -395,10 +399,17 @@ class NumericalOrbit(EphemerisOrbit):
             if k < idx.size:
                 raise it.impact  # type: ignore[misc]
         self._covered = (want0, want1)
+        self._set_table()
+
+    def _set_table(self) -> None:
+        """The Hermite table of the nodes reached (marked with the orbit's token: a run that
+        propagates the orbit with the attitude finds the models' copies of it by the mark)."""
         keys = sorted(self._nodes)
         st = np.array([self._nodes[j] for j in keys]) * 1e-3
-        EphemerisOrbit.__init__(self, np.array(keys, dtype=np.float64) * h, st[:, :3], st[:, 3:],
-                                self._epoch, self._mu_km, source="numerical orbit")  # fmt: skip
+        EphemerisOrbit.__init__(self, np.array(keys, dtype=np.float64) * self._h, st[:, :3],
+                                st[:, 3:], self._epoch, self._mu_km,
+                                source="numerical orbit")  # fmt: skip
+        self._kdata[_sk.E_H + 1] = self.token
 
     def check_times(self, t: Any, name: str = "t") -> None:
         """Integrate on to cover ``t`` (raise :class:`Impact` for times past an impact)."""
@@ -418,11 +429,7 @@ class NumericalOrbit(EphemerisOrbit):
             if hi >= exc.time >= 0.0 or lo <= exc.time <= 0.0:
                 raise
             # The impact lies beyond the nodes' margin only: the asked times stay valid.
-            keys = sorted(self._nodes)
-            st = np.array([self._nodes[j] for j in keys]) * 1e-3
-            EphemerisOrbit.__init__(self, np.array(keys, dtype=np.float64) * self._h,
-                                    st[:, :3], st[:, 3:], self._epoch, self._mu_km,
-                                    source="numerical orbit")  # fmt: skip
+            self._set_table()
 
     # -- the Dataset ------------------------------------------------------------------------
     def propagate(self, t: Any) -> Any:

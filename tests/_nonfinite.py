@@ -112,7 +112,7 @@ _KERNEL_STATES = [
 def kernel_dop853() -> None:
     """The compiled DOP853 driver called directly: the non-finite torque and state the public
     API refuses (a NaN first derivative gave a NaN step size: the rejection loop spun)."""
-    from attitude._core import rk
+    from orbit import _rk as rk
 
     for name, weight, Q in _KERNEL_STATES:
         entry, p = _heavy_params(weight)

@@ -20,7 +20,6 @@ import pytest
 import orbit
 from attitude import frames
 from attitude._core import entry_points as generic
-from attitude._core import rk
 from attitude.canonical import project_state
 from attitude.potentials import (
     AerodynamicDrag,
@@ -33,6 +32,7 @@ from attitude.potentials import (
     TorqueFree,
 )
 from orbit import _kernels as K
+from orbit import _rk as rk
 from orbit._shared_jit import interpreted
 
 EPOCH = "2024-03-20T12:00:00"

@@ -23,7 +23,6 @@ from attitude import canonical as C
 from attitude import io
 from attitude import quaternion as qt
 from attitude._core import entry_points as _ep
-from attitude._core import rk as _rk
 from attitude.body import RigidBody
 from attitude.ensemble import (
     Dispersions,
@@ -37,6 +36,7 @@ from attitude.errors import AttitudeTypeError, AttitudeValueError, PropagationEr
 from attitude.potentials import CustomTorque, GravityGradient, HeavyTop, TorqueFree
 from attitude.propagate import propagate
 from attitude.scenario import ScenarioError, load, loads
+from orbit import _rk
 
 ROOT = Path(__file__).resolve().parents[1]
 I_PAPER = np.array([1.25, 1.0, 0.75])

@@ -18,7 +18,6 @@ import pytest
 from attitude import canonical as C
 from attitude import quaternion as qt
 from attitude._core import entry_points as _ep
-from attitude._core import rk as _rk
 from attitude.body import RigidBody
 from attitude.ensemble import propagate_ensemble, rerun_member, run_scenario
 from attitude.ensemble._chunks import _compute_chunk, _Setup
@@ -27,6 +26,7 @@ from attitude.events import RateExceeds
 from attitude.potentials import CustomTorque, GravityGradient, HeavyTop, TorqueFree
 from attitude.propagate import METHODS, Problem, propagate
 from attitude.scenario import load, loads
+from orbit import _rk
 
 ROOT = Path(__file__).resolve().parents[1]
 I_PAPER = np.array([1.25, 1.0, 0.75])

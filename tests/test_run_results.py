@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from attitude import propagate
-from attitude._core import rk
 from attitude._methods import RunResult
 from attitude._run import results, runner
 from attitude._run.spec import RunSpec
 from attitude.errors import PropagationError
 from attitude.results import Trajectory
+from orbit import _rk as rk
 
 I = [1.25, 1.0, 0.75]
 Q0 = [0.0, 0.3, 0.2, 0.1]

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from attitude import propagate
-from attitude._core import rk
 from attitude._run import runner
 from attitude._run.spec import RunSpec
 from attitude.potentials import HeavyTop
+from orbit import _rk as rk
 
 I = [1.25, 1.0, 0.75]
 Q0 = [0.0, 0.3, 0.2, 0.1]

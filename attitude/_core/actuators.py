@@ -51,6 +51,9 @@ SC = layout(
     tau=Field(3, "N m", "(held) the thrusters' torque about the centre of mass"),
     mtq=Field(1, "", "offset of the magnetic-field block (−1: no magnetorquers)"),
     ideal=Field(3, "N m", "(held) an ideal control torque, body axes"),
+    force=Field(3, "N", "(held) the thrusters' force, body axes"),
+    mdot=Field(1, "kg/s", "(held) the propellant the firing thrusters burn"),
+    coupled=Field(1, "", "offset of the coupled-orbit block (−1: the orbit is given)"),
     wheels=Field(0, "", "the wheel, magnetorquer and thruster records, the field block"),
 )
 
@@ -99,6 +102,7 @@ THR = layout(
     on=Field(1, "s", "(held) on-time from the hold's start"),
     off_at=Field(1, "s", "(held) the time the thruster turns off (t_hold + on-time)"),
     firing=Field(1, "", "(held) 1.0 while firing in the current segment"),
+    mdot=Field(1, "kg/s", "propellant burnt while firing, F/(isp g0) (0: none counted)"),
 )
 
 # Limit flags of a wheel command (WHEEL.FLAGS), Basilisk's ConfigureRWRequests in this order.
@@ -335,9 +339,12 @@ def configure_hold_rate(sc, y, om, cmd, t_hold, t_next):
 
 @jit
 def thrusters_update(sc):
-    """The held thruster torque from the thrusters firing (THR.FIRING). (Their force moves no
-    orbit here: the orbit is prescribed; each thruster's force is in the results.)"""
+    """The held thruster torque, force (body axes) and mass flow from the thrusters firing
+    (THR.FIRING). The force and the mass flow act on a coupled orbit
+    (:mod:`attitude._core.coupled`); on a given orbit they are only recorded."""
     a0 = a1 = a2 = 0.0
+    f0 = f1 = f2 = 0.0
+    md = 0.0
     for j in range(int(sc[SC.NT])):
         b = thruster_base(sc, j)
         if sc[b + THR.FIRING] != 0.0:
@@ -345,9 +352,17 @@ def thrusters_update(sc):
             a0 += fm * sc[b + THR.ARM]
             a1 += fm * sc[b + THR.ARM + 1]
             a2 += fm * sc[b + THR.ARM + 2]
+            f0 += fm * sc[b + THR.DIR]
+            f1 += fm * sc[b + THR.DIR + 1]
+            f2 += fm * sc[b + THR.DIR + 2]
+            md += sc[b + THR.MDOT]
     sc[SC.TAU] = a0
     sc[SC.TAU + 1] = a1
     sc[SC.TAU + 2] = a2
+    sc[SC.FORCE] = f0
+    sc[SC.FORCE + 1] = f1
+    sc[SC.FORCE + 2] = f2
+    sc[SC.MDOT] = md
 
 
 @jit

@@ -45,6 +45,7 @@ from .actuators import (
     wheel_momentum_sum,
     wheel_speed,
 )
+from .coupled import coupled_begin, coupled_end
 from .environment import field_body
 from .quat import conj_mul, cross, mul_vec
 
@@ -58,6 +59,10 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
     """Eq. 7 of the gyrostat with the model's torque plus the actuators'; writes ``dydt``."""
     params = P[0]
     sc = P[1]
+    co = int(sc[SC.COUPLED])
+    ag = (0.0, 0.0, 0.0)
+    if co >= 0:  # the orbit is in the state: the models read it (attitude._core.coupled)
+        ag = coupled_begin(sc, co, params, t, y)
     q = (y[0], y[1], y[2], y[3])
     Q = (y[4], y[5], y[6], y[7])
     w = conj_mul(q, Q)
@@ -83,6 +88,8 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
         if sc[bk + WHEEL.FRICTION] != 0.0:  # (frictionless wheels: no speed, no call)
             u += wheel_friction(sc, bk, wheel_speed(sc, bk, y[8 + k], om))
         dydt[8 + k] = u
+    if co >= 0:
+        coupled_end(sc, co, q, y, ag, dydt)
 
 
 @jit(inline="always")

@@ -130,9 +130,15 @@ def _finish(
         if not problem.potential.has_potential:
             attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
         ds = build_dataset(
-            t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"]
-        )
-        return add_actuator_variables(ds, problem.spacecraft, y, d), None
+            t, y[:, :8], d["diag"], problem.body, problem.potential, attrs, torques=d["torques"],
+            orbit=d["orbit"],
+        )  # fmt: skip
+        ds = add_actuator_variables(ds, problem.spacecraft, y, d)
+        if problem.spacecraft.coupled:
+            from .._coupling import orbit_variables
+
+            ds = ds.assign(orbit_variables(problem.spacecraft.spacecraft, y))
+        return ds, None
     # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
     # buffer whose blocks become the Dataset's variables without copies.
     pot = problem.potential

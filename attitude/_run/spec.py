@@ -81,7 +81,9 @@ class RunSpec:
                 "output: 'arrays' returns the states only; events and on_chunk need the "
                 "Dataset (output='dataset')"
             )
-        craft = body if isinstance(body, Spacecraft) and body.has_actuators else None
+        craft = (
+            body if isinstance(body, Spacecraft) and (body.has_actuators or body.coupled) else None
+        )
         if software is not None and craft is None:
             craft = body if isinstance(body, Spacecraft) else Spacecraft(body)
         body = body.body if isinstance(body, Spacecraft) else body
@@ -180,6 +182,10 @@ class RunSpec:
             events=evset,
             spacecraft=sc_run,
         )
+        if sc_run is not None and sc_run.coupled:
+            from .. import _coupling
+
+            _coupling.attach(problem.params, sc_run.sc, craft, _has_gravity_gradient(pot))
         _check_initial_state(problem)
         if method == "dop853" or method.startswith("scipy:"):
             # the fixed-step methods count their steps themselves; "exact" takes none
@@ -235,13 +241,22 @@ def epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
     return out
 
 
+def _has_gravity_gradient(pot: Potential) -> bool:
+    """Whether the model (or a term of a sum) is a gravity gradient."""
+    from ..potentials import GravityGradient
+
+    terms = getattr(pot, "terms", None) or (pot,)
+    return any(isinstance(p, GravityGradient) for p in terms)
+
+
 def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:
     """The compiled entry points of the model, of the user's event functions and of the user's
     compiled flight-software step."""
     user_events = () if evset is None else tuple(evset.user_functions)
     step = None if sc_run is None or sc_run.program is None else sc_run.program.compiled_step
     if not user_events and step is None:
-        return pot._entry_points(closed_loop=sc_run is not None and sc_run.program is not None)
+        generic = sc_run is not None and (sc_run.program is not None or sc_run.coupled)
+        return pot._entry_points(closed_loop=generic)
     from .. import _user_kernels
 
     return _user_kernels.entry_points(pot._user_terms(), user_events, step=step, potential=pot)

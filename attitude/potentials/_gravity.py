@@ -100,13 +100,17 @@ class GravityGradient(Potential):
                 f"orbit.EphemerisOrbit), got {type(orbit).__name__}"
             )
         self.orbit = orbit
-        self._orbit_data = np.ascontiguousarray(orbit.kernel_data(), dtype=np.float64)
         if inertia is None:
             self.inertia = None
         elif isinstance(inertia, RigidBody):
             self.inertia = inertia.inertia
         else:
             self.inertia = RigidBody(inertia).inertia
+
+    @property
+    def _orbit_data(self) -> np.ndarray:
+        # read at each use: a NumericalOrbit's table grows as its orbit is integrated on
+        return np.ascontiguousarray(self.orbit.kernel_data(), dtype=np.float64)
 
     def _params(self, inertia: np.ndarray) -> np.ndarray:
         head = np.array([*inertia, self._kind], dtype=np.float64)

@@ -155,7 +155,6 @@ class _TorqueEnvironment:
         self._field = None
         if field is not None:
             self._field = MagneticDipole(orbit, np.zeros(3), field, step=step)
-        self._orbit_data = np.ascontiguousarray(orbit.kernel_data(), dtype=np.float64)
         self._block: np.ndarray | None = None
         self._covers: tuple[float, float] | None = None
 
@@ -174,7 +173,8 @@ class _TorqueEnvironment:
         if self._field is not None:
             self._field.prepare(span)
             h["field"] = out.append(self._field._kernel_params(span))
-        h["orbit"] = out.append(self._orbit_data)
+        # (the orbit's table now: a NumericalOrbit's grows as its orbit is integrated on)
+        h["orbit"] = out.append(np.ascontiguousarray(self.orbit.kernel_data(), dtype=np.float64))
         epoch = getattr(self.orbit, "epoch", None)
         if epoch is not None:
             from orbit import sun as _sun

@@ -1,0 +1,137 @@
+"""The run-side glue of orbit and attitude in one state (:mod:`attitude._core.coupled`).
+
+A coupled run integrates y = (q, Q, h, r, v, m). Before it, the models' copies of the
+NumericalOrbit's table (found by the orbit's mark, ``NumericalOrbit.token``) are turned into
+live orbits whose state the right-hand side writes; after it, into references to one table of
+the run's own samples, which the diagnostics, torques and orbit variables of the Dataset read
+(at the samples it is the integrated state itself).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from orbit import _state_kernels as _sk
+
+from ._core import actuators as _ka
+from ._core import coupled as _kc
+from .errors import AttitudeValueError
+
+__all__ = ["N_ORBIT", "attach", "initial_orbit_state", "live_slots", "reference_params"]
+
+#: State variables the orbit adds: r (3), v (3), m.
+N_ORBIT = 7
+
+
+def initial_orbit_state(craft: Any, t0: float) -> np.ndarray:
+    """(r, v, m) at the run's start (m, m/s, kg): the orbit's state at ``t0``."""
+    orb = craft.orbit
+    if t0 == 0.0:
+        rv = orb.initial_state
+    else:
+        ds = orb.propagate(np.array([t0]))
+        if ds.sizes["time"] != 1:
+            raise AttitudeValueError(
+                f"t: the orbit reaches the Earth's surface before the run's start t = {t0!r} s"
+            )
+        rv = np.concatenate([ds.position.values[0], ds.velocity.values[0]])
+    return np.concatenate([rv, [craft.mass]]).astype(np.float64)
+
+
+def live_slots(a: np.ndarray, token: float) -> list[int]:
+    """Offsets in ``a`` of the copies of an orbit table marked with ``token``."""
+    hits = np.flatnonzero(a == token) - (_sk.E_H + 1)
+    return [int(o) for o in hits if o >= 0 and a[o + _sk.TYPE] == _sk.TYPE_EPHEMERIS]
+
+
+def attach(params: np.ndarray, sc: np.ndarray, craft: Any, gravity_gradient: bool) -> None:
+    """Turn the model's orbit copies in ``params`` into live orbits and list them in the
+    spacecraft block ``sc`` (its coupled block); the mutual potential's force on when the model
+    has a gravity gradient."""
+    co = int(sc[_ka.SC.COUPLED])
+    slots = live_slots(params, craft.orbit.token)
+    if len(slots) > _kc.MAX_SLOTS:
+        raise AttitudeValueError(
+            f"potential: {len(slots)} models read the orbit; at most {_kc.MAX_SLOTS} in a run "
+            "whose orbit is propagated with the attitude"
+        )
+    for o in slots:
+        params[o + _sk.TYPE] = _sk.TYPE_LIVE
+        params[o + _sk.T_MIN] = -np.inf
+        params[o + _sk.T_MAX] = np.inf
+    sc[co + _kc.COUPLED.N_SLOTS] = len(slots)
+    sc[co + _kc.COUPLED.SLOTS : co + _kc.COUPLED.SLOTS + len(slots)] = slots
+    sc[co + _kc.COUPLED.GG] = 1.0 if gravity_gradient else 0.0
+
+
+def sample_table(t: np.ndarray, r: np.ndarray, v: np.ndarray, mu_km: float) -> np.ndarray:
+    """An ephemeris table (orbit._state_kernels layout, km) through the samples (t, r [m],
+    v [m/s]): at each sample it is the sample. One sample gets a second node a second on."""
+    t = np.asarray(t, dtype=np.float64)
+    r = np.asarray(r, dtype=np.float64) * 1e-3
+    v = np.asarray(v, dtype=np.float64) * 1e-3
+    if t.size == 1:
+        t = np.array([t[0], t[0] + 1.0])
+        r = np.stack([r[0], r[0] + v[0]])
+        v = np.stack([v[0], v[0]])
+    order = np.argsort(t, kind="stable")
+    t, r, v = t[order], r[order], v[order]
+    n = t.size
+    d = np.zeros(_sk.E_TIMES + 7 * n)
+    d[_sk.TYPE] = _sk.TYPE_EPHEMERIS
+    d[_sk.MU] = mu_km
+    d[_sk.T_MIN] = t[0]
+    d[_sk.T_MAX] = t[-1]
+    d[_sk.E_N] = n
+    dt = np.diff(t)
+    d[_sk.E_H] = dt[0] if np.all(dt == dt[0]) else 0.0
+    d[_sk.E_TIMES : _sk.E_TIMES + n] = t
+    d[_sk.E_TIMES + n :] = np.concatenate([r, v], axis=1).ravel()
+    return d
+
+
+def reference_params(params: np.ndarray, sc: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """The model's parameters for the diagnostics after a coupled run: each live orbit a
+    reference to ``table`` (appended)."""
+    co = int(sc[_ka.SC.COUPLED])
+    out = np.concatenate([params, table])
+    for k in range(int(sc[co + _kc.COUPLED.N_SLOTS])):
+        o = int(sc[co + _kc.COUPLED.SLOTS + k])
+        out[o + _sk.TYPE] = _sk.TYPE_REFERENCE
+        out[o + _sk.HDR] = params.shape[0] - o
+    return out
+
+
+def run_orbit(craft: Any, t: np.ndarray, y: np.ndarray) -> Any:
+    """The run's own orbit: an :class:`orbit.EphemerisOrbit` through its samples (``y`` the
+    state rows), which the Dataset's orbit variables are computed from."""
+    from orbit import EphemerisOrbit
+
+    iy = 8 + len(craft.wheels)
+    d = sample_table(t, y[:, iy : iy + 3], y[:, iy + 3 : iy + 6], craft.orbit.mu)
+    n = int(d[_sk.E_N])
+    rows = d[_sk.E_TIMES + n :].reshape(n, 6)
+    return EphemerisOrbit(
+        d[_sk.E_TIMES : _sk.E_TIMES + n], rows[:, :3], rows[:, 3:], craft.orbit.epoch,
+        craft.orbit.mu, source="the run's propagated orbit (its samples)",
+    )  # fmt: skip
+
+
+def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:
+    """The Dataset variables of the propagated orbit: position, velocity (GCRS) and mass."""
+    import xarray as xr
+
+    iy = 8 + len(craft.wheels)
+    frame = {"reference_frame": "GCRS"}
+    return {
+        "position": xr.Variable(("time", "axis"), np.ascontiguousarray(y[:, iy : iy + 3]),
+                                {"units": "m", "long_name": "position of the centre of mass",
+                                 **frame}),
+        "velocity": xr.Variable(("time", "axis"), np.ascontiguousarray(y[:, iy + 3 : iy + 6]),
+                                {"units": "m s-1", "long_name": "velocity of the centre of mass",
+                                 **frame}),
+        "mass": xr.Variable(("time",), np.ascontiguousarray(y[:, iy + 6]),
+                            {"units": "kg", "long_name": "spacecraft mass"}),
+    }  # fmt: skip
