@@ -177,9 +177,9 @@ def run_coupled_taylor(
         raise AttitudeValueError(f"r0, v0: need a finite, non-zero position, got {r}, {v}")
     if not (rtol > 0.0 and atol > 0.0):
         raise AttitudeValueError(f"rtol, atol: must be > 0, got {rtol!r}, {atol!r}")
-    y0 = np.concatenate([q, Q, to_body(q, r), to_body(q, v)])
+    y0 = _kt.XSTATE.pack(q=q, p=Q, r=to_body(q, r), v=to_body(q, v))
     m = tt.shape[0]
-    y_out = np.empty((m, _kt.N_COUPLED))
+    y_out = np.empty((m, _kt.XSTATE.SIZE))
     work, tstate, counters = _kc.new_state()
     status, k = dop853_call(
         _kc.coupled_run, params, y0, float(tt[0]), tt, y_out, work, tstate, counters,
@@ -191,10 +191,8 @@ def run_coupled_taylor(
             f"({k} of {m} output times)",
             time=float(tstate[0]),
         )
-    qo = y_out[:, 0:4]
-    Qo = y_out[:, 4:8]
-    rb = y_out[:, 8:11]
-    vb = y_out[:, 11:14]
+    st = _kt.XSTATE.read(y_out)
+    qo, Qo, rb, vb = st["q"], st["p"], st["r"], st["v"]
     return {
         "t": tt,
         "q": qo,

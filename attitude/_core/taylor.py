@@ -48,9 +48,10 @@ V2 = −μ/(2|r|³) (tr I − 3 r̂ᵀ I r̂) (r in body axes; its torque is the
 (−∇ of −(μ tr I/2) |r|⁻³ gives the first term, of (3μ/2) (rᵀ I r) |r|⁻⁵ the other two; r × F =
 −3μ |r|⁻⁵ r × I r = −τ, so r × p + R(q) g is conserved). In the coupled mode
 (``KIND_GRAVITY_GRADIENT_COUPLED``, block :data:`COUPLED`) the body-axes r and v are part of the
-state (row Y holds 14 values: q, Q, r_B, v_B), carried from step to step instead of restarted
-from Kepler, and v̇ = −μ r/|r|³ + v × ω + F/m. Carrying them in body axes keeps the recurrences
-above unchanged (the series start from the state, with no rotation at the start of a step).
+state (row Y holds the 14 values of :data:`XSTATE`: q, Q, r_B, v_B), carried from step to step
+instead of restarted from Kepler, and v̇ = −μ r/|r|³ + v × ω + F/m. Carrying them in body axes
+keeps the recurrences above unchanged (the series start from the state, with no rotation at the
+start of a step).
 F/m is polynomial in r, |r|⁻⁵ and |r|⁻⁷ = |r|⁻⁵/|r|² (a series division), with the Cauchy
 products rᵀ I r and (rᵀ I r) ⋆ |r|⁻⁷ in the extra columns of :data:`XCOL`
 (:func:`force_series`); 1/m = 0 turns the back-reaction off (a Kepler orbit integrated in
@@ -135,9 +136,14 @@ COUPLED = layout(
     inv_mass=Field(1, "1/kg", "1/m (0: no back-reaction on the orbit)"),
 )
 assert MODEL.KIND + COUPLED.MU == MODEL.DATA + _SK.MU
-#: Number of state values of the coupled mode (q, Q, r_B, v_B) and their coefficient columns.
-N_COUPLED = 14
-STATE_COLUMNS = (0, 1, 2, 3, 4, 5, 6, 7, COL.A, COL.A + 1, COL.A + 2, COL.V, COL.V + 1, COL.V + 2)
+# The coupled mode's state (row Y; the coefficient columns of q, Q are 0..7, of r, v COL.A, COL.V).
+XSTATE = layout(
+    "coupled Taylor state",
+    q=4,
+    p=Field(4, "kg m2/s", "Q"),
+    r=Field(3, "m", "position of the centre of mass, body axes"),
+    v=Field(3, "m/s", "its velocity (inertial), body axes"),
+)
 Y = PMAX + 1
 #: 1/(k + 1) for the orders of the table: a load instead of a division in the recurrences
 #: (the same numbers; a division sat on their chain of dependent operations).
@@ -201,8 +207,8 @@ def _initial_row(work, t, params):
     elif kind == KIND_GRAVITY_GRADIENT_COUPLED:
         # Coupled mode: the orbit is carried in the state (body axes, values 8..13), not restarted.
         for i in range(3):
-            cf[0, COL.A + i] = y[8 + i]
-            cf[0, COL.V + i] = y[11 + i]
+            cf[0, COL.A + i] = y[XSTATE.R + i]
+            cf[0, COL.V + i] = y[XSTATE.V + i]
     return n, c
 
 

@@ -8,8 +8,9 @@ Jorba & Zou's radius ρ is taken over the four blocks q, Q, r, v (each with its 
 dense output evaluates the 14 polynomials.
 
 Layout: ``work`` (WORK_ROWS, XCOL.SIZE): rows 0..p the coefficients (the columns of
-:data:`~attitude._core.taylor.XCOL`), row Y the current state (columns 0..13); ``tstate`` and
-``counters`` as in :mod:`attitude._core.taylor`.
+:data:`~attitude._core.taylor.XCOL`), row Y the current state (the 14 values of
+:data:`~attitude._core.taylor.XSTATE`); ``tstate`` and ``counters`` as in
+:mod:`attitude._core.taylor`.
 """
 
 from __future__ import annotations
@@ -24,9 +25,9 @@ from orbit._shared_jit import jit
 from .fma import fma as F
 from .taylor import (
     COL,
-    N_COUPLED,
     WORK_ROWS,
     XCOL,
+    XSTATE,
     Y,
     _initial_row,
     order_from_tolerance,
@@ -83,8 +84,8 @@ def dense_eval_coupled(work, p, tau, out):
         for k in range(p - 1, -1, -1):
             a = F(a, tau, work[k, COL.A + i])
             b = F(b, tau, work[k, COL.V + i])
-        out[8 + i] = a
-        out[11 + i] = b
+        out[XSTATE.R + i] = a
+        out[XSTATE.V + i] = b
 
 
 @jit
@@ -102,14 +103,14 @@ def coupled_step(params, work, tstate, counters, rtol, atol, t_end, max_step):
     h = t_new - t
     y = work[Y]
     dense_eval_coupled(work, p, h, y)
-    for i in range(N_COUPLED):
+    for i in range(XSTATE.SIZE):
         if not math.isfinite(y[i]):
             # Keep the state at the start of the step (row 0 of the table) as the current state.
             for ii in range(8):
                 y[ii] = work[0, ii]
             for ii in range(3):
-                y[8 + ii] = work[0, COL.A + ii]
-                y[11 + ii] = work[0, COL.V + ii]
+                y[XSTATE.R + ii] = work[0, COL.A + ii]
+                y[XSTATE.V + ii] = work[0, COL.V + ii]
             return NONFINITE
     tstate[2] = t
     tstate[1] = h
@@ -130,7 +131,7 @@ def _emit(work, tstate, counters, t_out, y_out, k, direction):
         to = t_out[k]
         t = tstate[0]
         if to == t:
-            for i in range(N_COUPLED):
+            for i in range(XSTATE.SIZE):
                 y_out[k, i] = y[i]
         elif counters[4] == 1 and direction * (to - tstate[2]) >= 0.0 and direction * (t - to) > 0:
             dense_eval_coupled(work, p, to - tstate[2], y_out[k])
@@ -150,7 +151,7 @@ def coupled_run(
     m = t_out.shape[0]
     y = work[Y]
     if counters[3] == 0:
-        for i in range(N_COUPLED):
+        for i in range(XSTATE.SIZE):
             y[i] = y0[i]
         tstate[0] = t0
         tstate[1] = 0.0
