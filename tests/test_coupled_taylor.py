@@ -68,13 +68,14 @@ def drifts(out, mass=MASS):
     }
 
 
-@pytest.mark.parametrize("n_orbits", [10, 100])
+@pytest.mark.parametrize("n_orbits", [10, 100, 1000])
 def test_total_energy_and_angular_momentum_are_conserved_while_spin_and_orbit_exchange(n_orbits):
     out = run(n_orbits)
     d = drifts(out)
     # the exchange is visible: the spin's share of L and H moves by ≫ the tolerance ...
     assert d["L_spin"] > 1e-10 and d["E_spin"] > 1e-10, d
-    # ... while the totals stay constant (measured: ~4e-15 after 10 orbits, ~1e-14 after 100)
+    # ... while the totals stay constant (measured: 2e-15 after 10 orbits, 2e-14 after 100,
+    # 6e-14 after 1000)
     assert d["energy"] <= 1e-12 and d["L"] <= 1e-12 and d["|L|"] <= 1e-12, d
     # without the back-reaction the same exchange is not compensated: L then drifts
     free = drifts(run(n_orbits, mass=math.inf))
