@@ -61,6 +61,9 @@ KIND_EDDY_CURRENTS = 4
 KIND_AERODYNAMIC_DRAG = 5
 KIND_SOLAR_RADIATION = 6
 KIND_SUM = 100
+# Gravity gradient with the orbit integrated alongside (orbit–attitude coupling, issue 41): only
+# the Taylor integrator's coupled runner builds such parameters (attitude._core.taylor).
+KIND_GRAVITY_GRADIENT_COUPLED = 7
 KIND_USER = -1  # no built-in part: the model is the user's terms only (attitude._user_kernels)
 
 # The model's parameters: the inertia, then a single model's block (its kind, its numbers),

@@ -36,6 +36,27 @@ The torque enters through auxiliary series that are themselves solutions of poly
   .orbit_state on the orbit's kernel_data), so the attitude sees the same analytic orbit as
   every other method, with no orbital drift.
 
+Coupled orbit–attitude mode (issue 41)
+--------------------------------------
+For a body of mass m the orbit (r, p = m v) and the attitude (q, Q) together have the
+Hamiltonian H = |p|²/(2m) − μ m/|r| + V2(q, r) + ½ gᵀ I⁻¹ g, with MacCullagh's term
+V2 = −μ/(2|r|³) (tr I − 3 r̂ᵀ I r̂) (r in body axes; its torque is the gravity gradient above,
+τ = −r × ∇V2). The orbit then feels the back-reaction F = −∇_r V2, in body axes
+
+    F = −(3μ tr I/2) |r|⁻⁵ r − 3μ |r|⁻⁵ I r + (15μ/2) (rᵀ I r) |r|⁻⁷ r,
+
+(−∇ of −(μ tr I/2) |r|⁻³ gives the first term, of (3μ/2) (rᵀ I r) |r|⁻⁵ the other two; r × F =
+−3μ |r|⁻⁵ r × I r = −τ, so r × p + R(q) g is conserved). In the coupled mode
+(``KIND_GRAVITY_GRADIENT_COUPLED``, block :data:`COUPLED`) the body-axes r and v are part of the
+state (row Y holds the 14 values of :data:`XSTATE`: q, Q, r_B, v_B), carried from step to step
+instead of restarted from Kepler, and v̇ = −μ r/|r|³ + v × ω + F/m. Carrying them in body axes
+keeps the recurrences above unchanged (the series start from the state, with no rotation at the
+start of a step).
+F/m is polynomial in r, |r|⁻⁵ and |r|⁻⁷ = |r|⁻⁵/|r|² (a series division), with the Cauchy
+products rᵀ I r and (rᵀ I r) ⋆ |r|⁻⁷ in the extra columns of :data:`XCOL`
+(:func:`force_series`); 1/m = 0 turns the back-reaction off (a Kepler orbit integrated in
+body axes). The stepping of this mode is in :mod:`attitude._core.taylor_coupled`.
+
 Order and step (Jorba & Zou 2005, Experimental Math. 14, 99–117, Sect. 3.2)
 ----------------------------------------------------------------------------
 Order p = ⌈−½ ln ε + 1⌉ with ε = rtol. Per block b ∈ {q, Q}, with the scale
@@ -66,7 +87,7 @@ import math
 import numpy as np
 
 from orbit import _state_kernels as _SK
-from orbit._layout import Field, layout
+from orbit._layout import Field, Gap, layout
 from orbit._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import jit
 
@@ -74,6 +95,7 @@ from .fma import fma as F
 from .potentials import (
     HEAVY_TOP,
     KIND_GRAVITY_GRADIENT,
+    KIND_GRAVITY_GRADIENT_COUPLED,
     KIND_HEAVY_TOP,
     MODEL,
 )
@@ -94,6 +116,33 @@ COL = layout(
     u3=Field(1, "", "|r|⁻³"),
     u5=Field(1, "", "|r|⁻⁵"),
     x=Field(3, "", "r × I r"),
+)
+# The coupled mode's columns: COL's, then the series of the back-reaction force (the other
+# kinds never touch them, and their tables stay COL.SIZE wide).
+XCOL = layout(
+    "coupled Taylor coefficient columns",
+    col=Gap(COL.SIZE),
+    u7=Field(1, "", "|r|⁻⁷"),
+    rir=Field(1, "", "rᵀ I r"),
+    e7=Field(1, "", "(rᵀ I r) |r|⁻⁷"),
+)
+# The coupled mode's model block (at MODEL.KIND): μ where the gravity gradient reads the orbit's
+# μ (MODEL.DATA + orbit._state_kernels.MU), so the torque and orbit series are shared.
+COUPLED = layout(
+    "coupled gravity gradient block",
+    kind=1,
+    type=Field(1, "", "unused (the orbit type's place)"),
+    mu=Field(1, "m3 s-2", "gravitational parameter μ"),
+    inv_mass=Field(1, "1/kg", "1/m (0: no back-reaction on the orbit)"),
+)
+assert MODEL.KIND + COUPLED.MU == MODEL.DATA + _SK.MU
+# The coupled mode's state (row Y; the coefficient columns of q, Q are 0..7, of r, v COL.A, COL.V).
+XSTATE = layout(
+    "coupled Taylor state",
+    q=4,
+    p=Field(4, "kg m2/s", "Q"),
+    r=Field(3, "m", "position of the centre of mass, body axes"),
+    v=Field(3, "m/s", "its velocity (inertial), body axes"),
 )
 Y = PMAX + 1
 #: 1/(k + 1) for the orders of the table: a load instead of a division in the recurrences
@@ -155,6 +204,11 @@ def _initial_row(work, t, params):
         for i in range(3):
             cf[0, COL.A + i] = r[i]
             cf[0, COL.V + i] = v[i]
+    elif kind == KIND_GRAVITY_GRADIENT_COUPLED:
+        # Coupled mode: the orbit is carried in the state (body axes, values 8..13), not restarted.
+        for i in range(3):
+            cf[0, COL.A + i] = y[XSTATE.R + i]
+            cf[0, COL.V + i] = y[XSTATE.V + i]
     return n, c
 
 
@@ -168,6 +222,9 @@ def taylor_coefficients(cf, p, params, n, c):
     lane by lane and reproduces this table bit for bit.
     """
     kind = int(params[MODEL.KIND])
+    coupled = kind == KIND_GRAVITY_GRADIENT_COUPLED
+    if coupled:  # the gravity gradient's series, and the back-reaction force (force_series)
+        kind = KIND_GRAVITY_GRADIENT
     iI0 = 1.0 / params[0]
     iI1 = 1.0 / params[1]
     iI2 = 1.0 / params[2]
@@ -241,6 +298,8 @@ def taylor_coefficients(cf, p, params, n, c):
         cf[k + 1, 3] = h * F(iI2, a32, F(iI1, a31, iI0 * a30))
         # Torque series τ[k] (and the auxiliary series to order k + 1).
         t0, t1, t2 = torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2)
+        if coupled:
+            force_series(cf, k, params, mu)
         inv = RECIPROCALS[k]
         # Euler's equations: ġ = g × ω + n τ
         cf[k + 1, COL.G] = F(e0, p12, n * t0) * inv
@@ -351,6 +410,55 @@ def torque_series(cf, k, kind, W, cx, cy, cz, mu, D0, D1, D2):
         cf[k + 1, COL.V + 1] = F(-mu, f1, d1) * inv
         cf[k + 1, COL.V + 2] = F(-mu, f2, d2) * inv
     return t0, t1, t2
+
+
+@jit
+def force_series(cf, k, params, mu):
+    """Coupled mode: add the back-reaction F_B/m at order k to v[k + 1] (after
+    :func:`torque_series`, which filled r, |r|², |r|⁻⁵ to order k and v[k + 1] without it).
+
+    F/m = (3μ/m) (−(tr I/2 + I_i) |r|⁻⁵ r_i + (5/2) (rᵀ I r) |r|⁻⁷ r_i) (module docstring),
+    with rᵀ I r, |r|⁻⁷ = |r|⁻⁵/|r|² and (rᵀ I r) |r|⁻⁷ at order k in the :data:`XCOL` columns.
+    """
+    I0 = params[0]
+    I1 = params[1]
+    I2 = params[2]
+    # rᵀ I r at order k
+    e = 0.0
+    for j in range(k + 1):
+        e = F(I0 * cf[j, COL.A], cf[k - j, COL.A], e)
+        e = F(I1 * cf[j, COL.A + 1], cf[k - j, COL.A + 1], e)
+        e = F(I2 * cf[j, COL.A + 2], cf[k - j, COL.A + 2], e)
+    cf[k, XCOL.RIR] = e
+    # |r|⁻⁷ = |r|⁻⁵ / |r|²: division (as |r|⁻⁵ from |r|⁻³)
+    acc = cf[k, COL.U5]
+    for j in range(1, k + 1):
+        acc = F(-cf[j, COL.R2], cf[k - j, XCOL.U7], acc)
+    cf[k, XCOL.U7] = acc / cf[0, COL.R2]
+    acc = 0.0
+    for j in range(k + 1):
+        acc = F(cf[j, XCOL.RIR], cf[k - j, XCOL.U7], acc)
+    cf[k, XCOL.E7] = acc
+    # |r|⁻⁵ ⋆ r and (rᵀ I r) |r|⁻⁷ ⋆ r
+    a0 = a1 = a2 = 0.0
+    b0 = b1 = b2 = 0.0
+    for j in range(k + 1):
+        u5 = cf[j, COL.U5]
+        e7 = cf[j, XCOL.E7]
+        r0 = cf[k - j, COL.A]
+        r1 = cf[k - j, COL.A + 1]
+        r2 = cf[k - j, COL.A + 2]
+        a0 = F(u5, r0, a0)
+        a1 = F(u5, r1, a1)
+        a2 = F(u5, r2, a2)
+        b0 = F(e7, r0, b0)
+        b1 = F(e7, r1, b1)
+        b2 = F(e7, r2, b2)
+    th = 0.5 * (I0 + I1 + I2)
+    s = 3.0 * mu * params[MODEL.KIND + COUPLED.INV_MASS] * RECIPROCALS[k]
+    cf[k + 1, COL.V] += s * F(2.5, b0, -(th + I0) * a0)
+    cf[k + 1, COL.V + 1] += s * F(2.5, b1, -(th + I1) * a1)
+    cf[k + 1, COL.V + 2] += s * F(2.5, b2, -(th + I2) * a2)
 
 
 @jit
