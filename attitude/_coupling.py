@@ -17,9 +17,14 @@ from orbit import _state_kernels as _sk
 
 from ._core import actuators as _ka
 from ._core import coupled as _kc
+from ._core import environment as _ke
+from ._core import potentials as _kp
 from .errors import AttitudeValueError
 
-__all__ = ["N_ORBIT", "attach", "initial_orbit_state", "live_slots", "reference_params"]
+__all__ = [
+    "N_ORBIT", "attach", "attach_software", "initial_orbit_state", "live_slots",
+    "reference_params",
+]  # fmt: skip
 
 #: State variables the orbit adds: r (3), v (3), m.
 N_ORBIT = 7
@@ -46,24 +51,66 @@ def live_slots(a: np.ndarray, token: float) -> list[int]:
     return [int(o) for o in hits if o >= 0 and a[o + _sk.TYPE] == _sk.TYPE_EPHEMERIS]
 
 
+def _make_live(a: np.ndarray, token: float, what: str) -> list[int]:
+    """Turn the copies of the orbit's table in ``a`` into live orbits; their offsets."""
+    slots = live_slots(a, token)
+    if len(slots) > _kc.MAX_SLOTS:
+        raise AttitudeValueError(
+            f"{what}: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run whose "
+            "orbit is propagated with the attitude"
+        )
+    for o in slots:
+        a[o + _sk.TYPE] = _sk.TYPE_LIVE
+        a[o + _sk.T_MIN] = -np.inf
+        a[o + _sk.T_MAX] = np.inf
+    return slots
+
+
+def attach_software(fw: np.ndarray, sc: np.ndarray, craft: Any) -> None:
+    """Turn the flight software's copies of the orbit (guidance, sensors) into live orbits,
+    which the tick writes from the state (listed in the spacecraft block)."""
+    co = int(sc[_ka.SC.COUPLED])
+    slots = _make_live(fw, craft.orbit.token, "software")
+    sc[co + _kc.COUPLED.N_FSW] = len(slots)
+    sc[co + _kc.COUPLED.FSW : co + _kc.COUPLED.FSW + len(slots)] = slots
+
+
 def attach(params: np.ndarray, sc: np.ndarray, craft: Any, gravity_gradient: bool) -> None:
     """Turn the model's orbit copies in ``params`` into live orbits and list them in the
     spacecraft block ``sc`` (its coupled block); the mutual potential's force on when the model
     has a gravity gradient."""
     co = int(sc[_ka.SC.COUPLED])
-    slots = live_slots(params, craft.orbit.token)
-    if len(slots) > _kc.MAX_SLOTS:
-        raise AttitudeValueError(
-            f"potential: {len(slots)} models read the orbit; at most {_kc.MAX_SLOTS} in a run "
-            "whose orbit is propagated with the attitude"
-        )
-    for o in slots:
-        params[o + _sk.TYPE] = _sk.TYPE_LIVE
-        params[o + _sk.T_MIN] = -np.inf
-        params[o + _sk.T_MAX] = np.inf
+    slots = _make_live(params, craft.orbit.token, "potential")
     sc[co + _kc.COUPLED.N_SLOTS] = len(slots)
     sc[co + _kc.COUPLED.SLOTS : co + _kc.COUPLED.SLOTS + len(slots)] = slots
     sc[co + _kc.COUPLED.GG] = 1.0 if gravity_gradient else 0.0
+    env = [(b, k) for b, k in _term_blocks(params) if k in _ENV_KINDS]
+    if len(env) > _kc.MAX_ENV:
+        raise AttitudeValueError(
+            f"potential: {len(env)} drag and radiation models; at most {_kc.MAX_ENV} in a run "
+            "whose orbit is propagated with the attitude"
+        )
+    sc[co + _kc.COUPLED.N_ENV] = len(env)
+    for e, (base, kind) in enumerate(env):
+        sc[co + _kc.COUPLED.ENV + e] = base
+        sc[co + _kc.COUPLED.ENV_KIND + e] = _ENV_KINDS[kind]
+        params[
+            base + _ke.DRAG.LIVE if kind == _kp.KIND_AERODYNAMIC_DRAG else base + _ke.SRP.LIVE
+        ] = 1.0
+
+
+#: The environment models whose forces act on a coupled orbit.
+_ENV_KINDS = {_kp.KIND_AERODYNAMIC_DRAG: _kc.FORCE_DRAG, _kp.KIND_SOLAR_RADIATION: _kc.FORCE_SOLAR}
+
+
+def _term_blocks(params: np.ndarray) -> list[tuple[int, int]]:
+    """(offset, kind) of each built-in term's block in a model's parameters."""
+    if int(params[_kp.MODEL.KIND]) == _kp.KIND_SUM:
+        n = int(params[_kp.SUM.NTERMS])
+        bases = [int(params[_kp.SUM.OFFSETS + j]) for j in range(n)]
+    else:
+        bases = [_kp.MODEL.KIND]
+    return [(b, int(params[b])) for b in bases]
 
 
 def sample_table(t: np.ndarray, r: np.ndarray, v: np.ndarray, mu_km: float) -> np.ndarray:

@@ -129,10 +129,12 @@ def prepare(
     y0 = initial_state(spacecraft, q0, Q0)
     n_orbit = 0
     if spacecraft.coupled:
-        from ._coupling import N_ORBIT, initial_orbit_state
+        from ._coupling import N_ORBIT, attach_software, initial_orbit_state
 
         n_orbit = N_ORBIT
         y0 = np.concatenate([y0, initial_orbit_state(spacecraft, float(tt[0]))])
+        if prog is not None:
+            attach_software(prog.fw, sc, spacecraft)
     run = SpacecraftRun(
         spacecraft=spacecraft,
         sc=sc,
@@ -201,10 +203,10 @@ def check_taylor(spacecraft: Any, potential: Any) -> None:
     from .taylor import check_potential
 
     if spacecraft.coupled:
-        raise AttitudeValueError(
-            "method: 'taylor' does not carry the orbit of a spacecraft propagated with its "
-            "attitude (a mass on a NumericalOrbit); use method='dop853'"
-        )
+        from ._coupled_taylor import check_spacecraft
+
+        check_spacecraft(spacecraft, potential)
+        return
     check_potential(potential)
     if spacecraft.magnetorquers:
         raise AttitudeValueError(

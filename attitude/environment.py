@@ -599,10 +599,11 @@ def msis_density(
     return np.asarray(out[..., 0], dtype=np.float64).reshape(n)
 
 
-def exponential_density(height: Any) -> np.ndarray:
-    """Vallado's exponential atmosphere (Table 8-4) [kg/m³] at geodetic heights [km]."""
+def exponential_density(height: Any, bands: Any = None) -> np.ndarray:
+    """Vallado's exponential atmosphere (Table 8-4; or other ``bands`` (h0 km, ρ0, H km))
+    [kg/m³] at geodetic heights [km]."""
     h = np.asarray(height, dtype=np.float64)
-    tab = VALLADO_EXPONENTIAL
+    tab = VALLADO_EXPONENTIAL if bands is None else np.asarray(bands, dtype=np.float64)
     k = np.clip(np.searchsorted(tab[:, 0], h, side="right") - 1, 0, len(tab) - 1)
     return tab[k, 1] * np.exp(-(h - tab[k, 0]) / tab[k, 2])
 

@@ -291,6 +291,13 @@ def drag_groups(facets: Sequence[Facet]) -> np.ndarray:
     return _group_rows(facets, lambda f: f.cd * f.area * f.center)
 
 
+def force_groups(facets: Sequence[Facet], side: Any) -> np.ndarray:
+    """(g, 2 k): per group of :func:`drag_groups` (the same order), the sums of the k numbers
+    ``side(f)`` a facet's *force* is linear in, over the facets along +n̂ then −n̂ (a coupled
+    run's orbit feels the forces whose moments the torques sum)."""
+    return _group_rows(facets, lambda f: np.asarray(side(f), dtype=np.float64))[:, 3:]
+
+
 def optical_groups(facets: Sequence[Facet]) -> np.ndarray:
     """The facets as the solar-radiation kernel sums them: (g, 21) rows [n̂ (3), then for the
     facets along +n̂ and then −n̂: a (3) m³, β_s (3) m³, β_d (3) m³], one row per normal up to

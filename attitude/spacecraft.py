@@ -355,17 +355,23 @@ class Spacecraft:
             sc[_ka.SC.MTQ] = sc.shape[0]
             sc = np.concatenate([sc, fb])
         if self.coupled:
+            from orbit import _state_kernels as _sk
+
             from ._core import coupled as _kc
+            from .environment import OMEGA_EARTH
 
             tt = np.asarray(t, dtype=np.float64).reshape(-1)
+            self.orbit.check_times(tt, "t")
             forces = self.orbit._forces.cover(float(tt.min()), float(tt.max()))
+            path = np.array(self.orbit.kernel_data(), dtype=np.float64)  # its own path
             co = sc.shape[0]
             head = _kc.COUPLED.pack(
-                iy=8 + nw, forces=co + _kc.COUPLED.SIZE, mu=self.orbit.mu * 1e9,
-                inertia=self.body.inertia,
+                iy=8 + nw, forces=co + _kc.COUPLED.SIZE, pred=co + _kc.COUPLED.SIZE + forces.size,
+                mu=self.orbit.mu * 1e9, inertia=self.body.inertia, omega_earth=OMEGA_EARTH,
             )  # fmt: skip
+            path[_sk.E_H + 1] = 0.0  # (not the orbit's mark: this copy stays a table)
             sc[_ka.SC.COUPLED] = co
-            sc = np.concatenate([sc, head, forces])
+            sc = np.concatenate([sc, head, forces, path])
         return np.ascontiguousarray(sc, dtype=np.float64)
 
     def check_orbit(self, potential_orbit: Any) -> None:

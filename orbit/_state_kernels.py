@@ -92,41 +92,12 @@ from . import _kernels as _k
 from ._shared_jit import jit, specialise
 
 __all__ = [
-    "E_H",
-    "E_N",
-    "E_TIMES",
-    "HDR",
-    "J_ARGP_DOT",
-    "J_COSI",
-    "J_EL",
-    "J_LEN",
-    "J_RAAN_DOT",
-    "J_RATIO",
-    "J_SINI",
-    "K_EL",
-    "K_HALF",
-    "K_LEN",
-    "K_TRIG",
-    "MU",
-    "TYPE",
-    "TYPE_EPHEMERIS",
-    "TYPE_KEPLER",
-    "TYPE_LIVE",
-    "TYPE_REFERENCE",
-    "TYPE_SECULAR_J2",
-    "T_MAX",
-    "T_MIN",
-    "hermite4",
-    "hermite4_second",
-    "orbit_acceleration",
-    "orbit_frame",
-    "orbit_radial",
-    "orbit_sample",
-    "orbit_state",
-    "radial_kernel",
-    "sample_kernel",
-    "table_interval",
-]
+    "E_H", "E_N", "E_TIMES", "HDR", "J_ARGP_DOT", "J_COSI", "J_EL", "J_LEN", "J_RAAN_DOT",
+    "J_RATIO", "J_SINI", "K_EL", "K_HALF", "K_LEN", "K_TRIG", "MU", "TYPE", "TYPE_EPHEMERIS",
+    "TYPE_KEPLER", "TYPE_LIVE", "TYPE_REFERENCE", "TYPE_SECULAR_J2", "T_MAX", "T_MIN",
+    "hermite4", "hermite4_second", "orbit_acceleration", "orbit_frame", "orbit_radial",
+    "orbit_sample", "orbit_state", "radial_kernel", "sample_kernel", "table_interval",
+]  # fmt: skip
 
 TYPE_KEPLER = 0
 TYPE_SECULAR_J2 = 1

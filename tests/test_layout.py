@@ -332,13 +332,21 @@ def test_environment_blocks_round_trip():
     bands = np.ravel(env.VALLADO_EXPONENTIAL)
     assert d["bands"] == at + groups.size and d["nb"] == len(env.VALLADO_EXPONENTIAL)
     np.testing.assert_array_equal(p[int(d["bands"]) : int(d["bands"]) + bands.size], bands)
+    # the force sums (Σ C_D A along ±n̂ per group) follow the bands
+    forces = np.array([[sum(f.cd * f.area for f in facets if np.allclose(f.normal, s * g[:3]))
+                        for s in (1.0, -1.0)] for g in groups])  # fmt: skip
+    assert d["forces"] == d["bands"] + bands.size and d["live"] == 0.0
+    np.testing.assert_allclose(p[int(d["forces"]) : int(d["forces"]) + forces.size],
+                               forces.ravel(), rtol=1e-15)  # fmt: skip
     srp = SolarRadiation(orbit, facets)
     p = srp.prepare(span)._kernel_params(span)
     r = _ke.SRP.read(p)
     groups = optical_groups(facets)
     assert (r["nf"], r["p"], r["au"]) == (len(groups), env.P_SUN_1AU, env.AU_KM)
     assert r["eclipse"] == _ke.ECLIPSE_CONICAL and r["umbra"] == float(srp._umbra)
-    np.testing.assert_array_equal(p[_ke.SRP.FACETS : int(r["tab"])], groups.ravel())
+    np.testing.assert_array_equal(p[_ke.SRP.FACETS : int(r["forces"])], groups.ravel())
+    assert r["forces"] == _ke.SRP.FACETS + groups.size and r["live"] == 0.0
+    assert int(r["tab"]) == int(r["forces"]) + 6 * len(groups)
 
 
 def test_environment_index_is_the_declared_layout():
@@ -486,13 +494,16 @@ def test_model_parameters_round_trip():
 
 #: What may stay a number in attitude._core: enumerations (codes a block holds, not offsets),
 #: statuses, and sizes that are not layouts (SIMD widths, orders, stage counts).
-_CODES = re.compile(r"^(KIND|COND|GUID|CTRL|DIR|FRAME|FLAG|DENSITY|ECLIPSE|PIECE|INVARIANTS)_")
+_CODES = re.compile(
+    r"^(KIND|COND|GUID|CTRL|DIR|FRAME|FLAG|DENSITY|ECLIPSE|PIECE|INVARIANTS|FORCE)_"
+)
 _STATUSES = {"SUCCESS", "NONFINITE", "STEP_TOO_SMALL", "TOO_MANY_STEPS", "EVENT", "PAUSED",
              "EVENT_BUFFER_FULL", "NOT_STARTED", "RUNNING", "RECORDS_WAIT", "BOUNDARY_DONE",
              "BOUNDARY_NEEDS_COMMANDS", "NEEDS_COMMANDS", "RECORDS_FULL", "STEP_FAILED",
              "RISING", "FALLING", "BOTH", "KICK", "ROTOR", "FREE"}  # fmt: skip
 _SIZES = {"LANES", "PMAX", "PMIN", "WINDOW", "N_STAGES", "N_STAGES_EXTENDED",
-          "INTERPOLATOR_POWER", "RNG_SIZE", "SPAN_TICKS", "N_COUNTERS", "NDIAG"}  # fmt: skip
+          "INTERPOLATOR_POWER", "RNG_SIZE", "SPAN_TICKS", "N_COUNTERS", "NDIAG", "MAX_SLOTS",
+          "MAX_ENV"}  # fmt: skip
 
 
 def test_no_hand_numbered_offsets_in_core():

@@ -82,6 +82,13 @@ DIPOLE = layout("magnetic dipole block", **_BLOCK_HEAD, vec=Field(3, "A m2", "th
 EDDY = layout(
     "eddy-current block", **_BLOCK_HEAD, tensor=Field(9, "A m2 s/T", "magnetic tensor", (3, 3))
 )
+#: A coupled run (attitude._core.coupled) writes the environment at the integrated state into
+#: these words of a block (``live`` = 1), which the torque and force kernels then read instead
+#: of the table along the orbit.
+_LIVE = dict(
+    forces=Field(1, "", "offset of the facet groups' force sums, relative to the block"),
+    live=Field(1, "", "1: the words below hold the environment at the integrated state"),
+)
 DRAG = layout(
     "drag block",
     **_BLOCK_HEAD,
@@ -89,7 +96,10 @@ DRAG = layout(
     density=Field(1, "", "DENSITY_*"),
     bands=Field(1, "", "offset of the exponential bands (h0, ρ0, H), relative to the block"),
     nb=Field(1, "", "their number"),
-    facets=Field(0, "", "nf facet groups (DRAG_GROUP), then the bands"),
+    **_LIVE,
+    live_v=Field(3, "m/s", "velocity relative to the atmosphere, space axes"),
+    live_rho=Field(1, "kg/m3", "density"),
+    facets=Field(0, "", "nf facet groups (DRAG_GROUP), the bands, the force sums"),
 )
 #: A drag facet group: its normal, then Σ C_D A r of the facets along n̂ and along −n̂.
 DRAG_GROUP = layout("drag facet group", normal=3, plus=Field(3, "m3"), minus=Field(3, "m3"))
@@ -107,7 +117,10 @@ SRP = layout(
     rsun=Field(1, "km", "the Sun's radius"),
     rearth=Field(1, "km", "the Earth's radius"),
     umbra=Field(1, "", "1: the shadow margins may decide the umbra"),
-    facets=Field(0, "", "nf facet groups (SRP_GROUP)"),
+    **_LIVE,
+    live_ds=Field(3, "km", "satellite → Sun, space axes"),
+    live_nu=Field(1, "", "shadow fraction"),
+    facets=Field(0, "", "nf facet groups (SRP_GROUP), then the force sums"),
 )
 #: A solar radiation facet group: its normal, then a, β_s, β_d (3 each) of the facets along n̂
 #: and along −n̂ (attitude.facets.optical_groups).
@@ -330,19 +343,13 @@ def exponential_density(params, bands, nb, h):
     return params[r + 1] * math.exp(-(h - params[r]) / params[r + 2])
 
 
-# The facet kernels let LLVM fuse multiply-adds (fastmath "contract" only: no reassociation, no
-# assumption about NaN or infinities): a third fewer instructions in the sums over the facets
-# and the table window, and one rounding less in each fused pair.
-@jit(fastmath={"contract"})
-def drag_torque(q, t, params, base):
-    # Flat plates in free-molecular flow: a facet whose outward normal n̂ faces the flow
-    # (cos θ = n̂·v̂ > 0, v the velocity relative to the atmosphere) feels
-    # F = −½ ρ C_D A cos θ |v|² v̂ at its centre c (Montenbruck & Gill 2000, Sect. 3.5, with the
-    # projected area A cos θ); τ = Σ c × F = −½ ρ (Σ max(n̂·v, 0) C_D A c) × v, with no
-    # normalisation of v. Facets shadowing each other are not handled.
-    # With √ρ v tabulated (DENSITY_FOLDED, where the tables showed it interpolates as well as
-    # v and ln ρ apart) the same sum over that vector is the torque with ρ = 1: τ is
-    # homogeneous of degree 2 in v (max(n̂·λv, 0) = λ max(n̂·v, 0) for λ > 0).
+@jit(inline="always")
+def drag_wind(t, params, base):
+    """(v, ρ): the velocity relative to the atmosphere (m/s, space axes) and the density at t,
+    from the table (folded: √ρ v and 1) or, in a coupled run, at the integrated state."""
+    if params[base + DRAG.LIVE] != 0.0:
+        o = base + DRAG.LIVE_V
+        return (params[o], params[o + 1], params[o + 2]), params[base + DRAG.LIVE_RHO]
     s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
     vs = table_vec3(params, s, row, w, 0)
     code = int(params[base + DRAG.DENSITY])
@@ -356,6 +363,23 @@ def drag_torque(q, t, params, base):
             )
         else:
             rho = math.exp(x)
+    return vs, rho
+
+
+# The facet kernels let LLVM fuse multiply-adds (fastmath "contract" only: no reassociation, no
+# assumption about NaN or infinities): a third fewer instructions in the sums over the facets
+# and the table window, and one rounding less in each fused pair.
+@jit(fastmath={"contract"})
+def drag_torque(q, t, params, base):
+    # Flat plates in free-molecular flow: a facet whose outward normal n̂ faces the flow
+    # (cos θ = n̂·v̂ > 0, v the velocity relative to the atmosphere) feels
+    # F = −½ ρ C_D A cos θ |v|² v̂ at its centre c (Montenbruck & Gill 2000, Sect. 3.5, with the
+    # projected area A cos θ); τ = Σ c × F = −½ ρ (Σ max(n̂·v, 0) C_D A c) × v, with no
+    # normalisation of v. Facets shadowing each other are not handled.
+    # With √ρ v tabulated (DENSITY_FOLDED, where the tables showed it interpolates as well as
+    # v and ln ρ apart) the same sum over that vector is the torque with ρ = 1: τ is
+    # homogeneous of degree 2 in v (max(n̂·λv, 0) = λ max(n̂·v, 0) for λ > 0).
+    vs, rho = drag_wind(t, params, base)
     v = rotate_inverse(q, vs)
     ax = 0.0
     ay = 0.0
@@ -373,6 +397,24 @@ def drag_torque(q, t, params, base):
         az += c * f[k + _U[2]]
     k = -0.5 * rho
     return k * (ay * v[2] - az * v[1]), k * (az * v[0] - ax * v[2]), k * (ax * v[1] - ay * v[0])
+
+
+@jit(fastmath={"contract"})
+def drag_force(q, t, params, base):
+    """The drag force (N, body axes) of the model's facets: −½ ρ Σ C_D A max(n̂·v, 0) v, the
+    sum of the forces whose moments :func:`drag_torque` sums."""
+    vs, rho = drag_wind(t, params, base)
+    v = rotate_inverse(q, vs)
+    a = 0.0
+    f0 = base + DRAG.FACETS
+    fo = base + int(params[base + DRAG.FORCES])
+    for i in range(int(params[base + DRAG.NF])):
+        f = params[f0 + DRAG_GROUP.SIZE * i : f0 + DRAG_GROUP.SIZE * (i + 1)]
+        c = v[0] * f[0] + v[1] * f[1] + v[2] * f[2]
+        k = fo + 2 * i if c > 0.0 else fo + 2 * i + 1
+        a += abs(c) * params[k]
+    k = -0.5 * rho * a
+    return k * v[0], k * v[1], k * v[2]
 
 
 # Solar radiation pressure -----------------------------------------------------------------------
@@ -450,6 +492,61 @@ def sunlight(code, umbra, params, base, s, row, w):
     )  # fmt: skip
 
 
+@jit(inline="always")
+def solar_light(t, params, base):
+    """(ν, satellite → Sun [km, space axes]) at t: from the table or, in a coupled run, at the
+    integrated state."""
+    if params[base + SRP.LIVE] != 0.0:
+        o = base + SRP.LIVE_DS
+        return params[base + SRP.LIVE_NU], (params[o], params[o + 1], params[o + 2])
+    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
+    nu = sunlight(
+        int(params[base + SRP.ECLIPSE]), params[base + SRP.UMBRA] != 0.0, params, base, s, row, w
+    )
+    if nu == 0.0:
+        return 0.0, (1.0, 0.0, 0.0)
+    return nu, table_vec3(params, s, row, w, 0)
+
+
+@jit(fastmath={"contract"})
+def solar_force(q, t, params, base):
+    """The radiation-pressure force (N, body axes) of the model's facets:
+    −P Σ A cos θ [(1 − C_s) ŝ + 2 (C_s cos θ + C_d/3) n̂_f] over the facets facing the Sun,
+    the sum of the forces whose moments :func:`solar_torque` sums."""
+    nu, ds = solar_light(t, params, base)
+    if nu == 0.0:
+        return 0.0, 0.0, 0.0
+    d2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2]
+    idn = 1.0 / math.sqrt(d2)
+    au = params[base + SRP.AU] * idn
+    pressure = nu * params[base + SRP.P] * (au * au)
+    sb = rotate_inverse(q, (ds[0] * idn, ds[1] * idn, ds[2] * idn))
+    a = 0.0
+    bx = 0.0
+    by = 0.0
+    bz = 0.0
+    f0 = base + SRP.FACETS
+    fo = base + int(params[base + SRP.FORCES])
+    for i in range(int(params[base + SRP.NF])):
+        f = params[f0 + SRP_GROUP.SIZE * i : f0 + SRP_GROUP.SIZE * (i + 1)]
+        c = sb[0] * f[0] + sb[1] * f[1] + sb[2] * f[2]
+        # the facets along n̂ face the Sun when c > 0 (their normal n̂), those along −n̂ when
+        # c < 0 (their normal −n̂)
+        k = fo + 6 * i if c > 0.0 else fo + 6 * i + 3
+        sg = 1.0 if c > 0.0 else -1.0
+        c = abs(c)
+        a += c * params[k]
+        m = sg * (c * c * params[k + 1] + c * params[k + 2])
+        bx += m * f[0]
+        by += m * f[1]
+        bz += m * f[2]
+    return (
+        -pressure * (a * sb[0] + bx),
+        -pressure * (a * sb[1] + by),
+        -pressure * (a * sb[2] + bz),
+    )
+
+
 @jit(fastmath={"contract"})  # (as drag_torque)
 def solar_torque(q, t, params, base):
     # Flat plates with absorbed, specular and diffuse fractions (1 − C_s − C_d, C_s, C_d): a
@@ -458,13 +555,9 @@ def solar_torque(q, t, params, base):
     # Montenbruck & Gill 2000, Sect. 3.4.1), P = ν P_1AU (1 AU/d)², ν the shadow fraction;
     # τ = Σ c × F = −P [(Σ cos θ A (1 − C_s) c) × ŝ + Σ (2 A C_s cos² θ + ⅔ A C_d cos θ) c × n̂]
     # over the facets with cos θ > 0. Facets shadowing each other are not handled.
-    s, row, w = table_locate(params, base + int(params[base + BLOCK.TAB]), t)
-    nu = sunlight(
-        int(params[base + SRP.ECLIPSE]), params[base + SRP.UMBRA] != 0.0, params, base, s, row, w
-    )
+    nu, ds = solar_light(t, params, base)
     if nu == 0.0:
         return 0.0, 0.0, 0.0
-    ds = table_vec3(params, s, row, w, 0)  # satellite → Sun [km]
     d2 = ds[0] * ds[0] + ds[1] * ds[1] + ds[2] * ds[2]
     idn = 1.0 / math.sqrt(d2)
     au = params[base + SRP.AU] * idn  # 1 AU / d

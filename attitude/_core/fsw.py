@@ -51,6 +51,7 @@ from .actuators import (
     wheel_momentum_sum,
     wheel_speed,
 )
+from .coupled import coupled_software
 from .environment import field_body
 from .frames import (
     FRAME,
@@ -501,6 +502,19 @@ def _record(rec_row, t, mode, qR, sig, dw, L, m, qBR, out, ncmd):
 
 
 @jit(inline="always")
+def _burns(fw, t, cmd, c0):
+    """The burns in progress at t: their thrusters on for the period (the part of it left at
+    the burn's end), beside the allocation's command (attitude.software.Burn)."""
+    bo = int(fw[FW.BURNS])
+    per = fw[FW.PERIOD]
+    for b in range(int(fw[bo])):
+        o = bo + 1 + 3 * b
+        if fw[o] <= t < fw[o + 1]:
+            j = c0 + int(fw[o + 2])
+            cmd[j] = max(cmd[j], min(1.0, (fw[o + 1] - t) / per))
+
+
+@jit(inline="always")
 def _delay(fw, fs, out, ncmd):
     """Commands ``delay`` whole ticks late: this tick's out goes in, the one ``delay`` ticks ago
     out."""
@@ -545,6 +559,8 @@ def fsw_tick(t, y, omt, params, sc, fw, fs, cmd, rec_row, keep):
     m, b2 = _dumping(fw, sc, y, mb, bb, m)
     out = cmd
     L, m = _allocate(fw, sc, y, om, mb, bb, b2, cmd, external, L, m, nw, nm, ncmd)
+    if fw[FW.BURNS] > 0.0:
+        _burns(fw, t, cmd, nw + nm)
     if keep:
         _record(rec_row, t, mode, qR, sig, dw, L, m, qBR, out, ncmd)
     _delay(fw, fs, out, ncmd)
@@ -573,6 +589,8 @@ def fsw_boundary(P, y, t, t_end, ctl):
             sc[SC.IDEAL + 2] = 0.0
             hs[HS.HOLD_END] = fw[FW.T0]
     if t >= fs[FS.NEXT]:
+        if sc[SC.COUPLED] >= 0.0:  # the orbit is in the state: the software reads it there
+            coupled_software(sc, int(sc[SC.COUPLED]), fw, t, y)
         k = int(fs[FS.TICK])
         every = int(fw[FW.RECORD_EVERY])
         if every > 0:

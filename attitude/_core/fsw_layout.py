@@ -33,6 +33,7 @@ FW = layout(
     z=Field(1, "", "offset in fs of the measurement vector (Z.SIZE), the Sun heads' scratch"),
     record_table=Field(1, "", "offset of the recorded ticks' indices (RECORD_EVERY = 0)"),
     record_n=Field(1, "", "their number"),
+    burns=Field(1, "", "offset of the burn table: n, then (start, stop, thruster) each; 0: none"),
     size=32,
 )
 

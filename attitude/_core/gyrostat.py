@@ -89,7 +89,7 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
             u += wheel_friction(sc, bk, wheel_speed(sc, bk, y[8 + k], om))
         dydt[8 + k] = u
     if co >= 0:
-        coupled_end(sc, co, q, y, ag, dydt)
+        coupled_end(sc, co, params, q, t, y, ag, dydt)
 
 
 @jit(inline="always")

@@ -207,6 +207,10 @@ def _spacecraft_runner(
         )
     if method == "taylor":
         _holds.check_taylor(craft, pot)
+        if craft.coupled:
+            from .._coupled_taylor import run_taylor
+
+            return run_taylor
         return _holds.run_taylor
     return _holds.run_dop853
 

@@ -20,7 +20,7 @@ from .._core import models as _models
 from .._core import potentials as _kp
 from .._validation import as_float_array, as_scalar
 from ..errors import AttitudeTypeError, AttitudeValueError
-from ..facets import drag_groups, facet_array, optical_groups
+from ..facets import drag_groups, facet_array, force_groups, optical_groups
 from ._base import Potential
 
 __all__ = [
@@ -399,9 +399,11 @@ class AerodynamicDrag(_EnvironmentModel):
 
     A facet whose outward normal faces the flow (cos θ = n̂·v̂ > 0) feels
     F = −½ ρ C_D A cos θ |v|² v̂ at its centre, v the velocity relative to an atmosphere
-    co-rotating with the Earth (v − ω⊕ × r); τ = Σ c × F. The flow around facets that shadow
-    each other is not modelled (every facet facing the flow counts in full), nor the velocity
-    ω × c of the facets from the body's own rotation (|ω × c| / |v| ~ 1e-6 for a CubeSat).
+    co-rotating with the Earth (v − ω⊕ × r); τ = Σ c × F. On a spacecraft with a mass on an
+    :class:`orbit.NumericalOrbit` the force Σ F acts on the orbit too (docs/orbit.md). The flow
+    around facets that shadow each other is not modelled (every facet facing the flow counts in
+    full), nor the velocity ω × c of the facets from the body's own rotation (|ω × c| / |v|
+    ~ 1e-6 for a CubeSat).
 
     Parameters
     ----------
@@ -410,9 +412,10 @@ class AerodynamicDrag(_EnvironmentModel):
         position).
     facets : sequence of attitude.Facet
         The surfaces (body axes, SI).
-    density : {"msis", "exponential"}
-        NRLMSIS 2.1 through ``pymsis`` with the indices below, or the exponential atmosphere of
-        Vallado (2013), Table 8-4 (no indices).
+    density : {"msis", "exponential"} or float
+        NRLMSIS 2.1 through ``pymsis`` with the indices below, the exponential atmosphere of
+        Vallado (2013), Table 8-4 (no indices), or a constant density [kg/m³] (an idealised
+        atmosphere, e.g. for trade studies and checks).
     f107, f107a : float
         Daily F10.7 of the previous day and its 81-day mean [sfu], each in [50, 400]; given,
         never fetched (pymsis is called with all indices, so it never opens or downloads its
@@ -439,10 +442,20 @@ class AerodynamicDrag(_EnvironmentModel):
         step: Any = None,
         span: Any = None,
     ):
-        if not isinstance(density, str) or density not in ("msis", "exponential"):
+        self._bands = _env.VALLADO_EXPONENTIAL
+        if not isinstance(density, str):
+            rho = as_scalar(density, "density")
+            if not (math.isfinite(rho) and rho > 0.0):
+                raise AttitudeValueError(
+                    f"density: a constant density must be a positive number of kg/m³, got {rho!r}"
+                )
+            # one band with an infinite scale height: ρ everywhere
+            self._bands = np.array([[-1e9, rho, math.inf]])
+            density = rho
+        elif density not in ("msis", "exponential"):
             raise AttitudeValueError(
-                f"density: expected 'msis' (NRLMSIS 2.1 through pymsis) or 'exponential' "
-                f"(Vallado's table), got {density!r}"
+                f"density: expected 'msis' (NRLMSIS 2.1 through pymsis), 'exponential' "
+                f"(Vallado's table) or a constant density in kg/m³, got {density!r}"
             )
         why = "evaluates the atmosphere at the orbit's Earth-fixed positions and date"
         self.orbit = _check_orbit(orbit, "AerodynamicDrag", True, why)
@@ -452,26 +465,26 @@ class AerodynamicDrag(_EnvironmentModel):
         self.f107a = as_scalar(f107a, "f107a")
         self.ap = as_scalar(ap, "ap")
         _env.check_space_weather(self.f107, self.f107a, self.ap)
-        self._density_code = (
-            _ke.DENSITY_EXPONENTIAL if density == "exponential" else _ke.DENSITY_TABLE
-        )
+        self._density_code = _ke.DENSITY_TABLE if density == "msis" else _ke.DENSITY_EXPONENTIAL
         self._setup(self.orbit, step, span)
 
     _layout = _ke.DRAG
 
     def _head(self) -> tuple[dict[str, Any], np.ndarray]:
-        bands = _env.VALLADO_EXPONENTIAL
+        bands = self._bands
         groups = drag_groups(self.facets).reshape(-1, _ke.DRAG_GROUP.SIZE)
         bands_at = _ke.DRAG.FACETS + groups.size
-        fields = dict(nf=len(groups), density=self._density_code, bands=bands_at, nb=len(bands))
-        return fields, np.concatenate([groups.ravel(), np.ravel(bands)])
+        forces = force_groups(self.facets, lambda f: [f.cd * f.area])
+        fields = dict(nf=len(groups), density=self._density_code, bands=bands_at, nb=len(bands),
+                      forces=bands_at + np.size(bands))  # fmt: skip
+        return fields, np.concatenate([groups.ravel(), np.ravel(bands), forces.ravel()])
 
     def _rows(self, g: Any) -> np.ndarray:
         key = ("drag_rows", self.density, self.f107, self.f107a, self.ap)
         if key not in g._memo:
             lat, lon, h = g.geodetic
             _check_above_surface(h, g.t)
-            if self.density == "exponential":
+            if self.density != "msis":
                 x = h
             else:
                 x = np.log(
@@ -486,7 +499,7 @@ class AerodynamicDrag(_EnvironmentModel):
         return rows
 
     def _table(self, g: Any) -> np.ndarray:
-        if self.density == "exponential":
+        if self.density != "msis":
             self._density_code = _ke.DENSITY_EXPONENTIAL
             return _env.table(g, self._rows(g))
         # pymsis's density jumps at 00:00 UTC: tables cut there
@@ -502,8 +515,8 @@ class AerodynamicDrag(_EnvironmentModel):
         """What the torque uses at times ``t``: ``density`` [kg/m³] and ``velocity`` [m/s],
         the velocity relative to the atmosphere in space-frame components."""
         _, v = self._table_values(t)
-        if self.density == "exponential":
-            rho = _env.exponential_density(v[..., 3])
+        if self.density != "msis":
+            rho = _env.exponential_density(v[..., 3], self._bands)
         else:
             rho = np.exp(v[..., 3])
         if self._density_code == _ke.DENSITY_FOLDED:
@@ -587,8 +600,14 @@ class SolarRadiation(_EnvironmentModel):
             rsun=R_SUN,
             rearth=R_EARTH,
             umbra=float(self._umbra),  # the shadow margins may decide the umbra (set by _table)
+            forces=_ke.SRP.FACETS + groups.size,
         )
-        return fields, groups.ravel()
+        forces = force_groups(
+            self.facets,
+            lambda f: [f.area * (1.0 - f.specular), 2.0 * f.area * f.specular,
+                       (2.0 / 3.0) * f.area * f.diffuse],
+        )  # fmt: skip
+        return fields, np.concatenate([groups.ravel(), forces.ravel()])
 
     def _table(self, g: Any) -> np.ndarray:
         rows = _env.sun_shadow(g)

@@ -36,10 +36,11 @@ THRUSTER_KEYS: dict[str, str | None] = {
     "direction": None,
     "max_thrust": "force",
     "min_impulse_bit": "impulse",
+    "isp": "time",
     "name": None,
 }
 #: Keys of [spacecraft] that describe actuators (the rest serve the environment models).
-ACTUATOR_KEYS = ("wheels", "magnetorquers", "thrusters", "center_of_mass")
+ACTUATOR_KEYS = ("wheels", "magnetorquers", "thrusters", "center_of_mass", "mass")
 _VECTORS = {"axis", "direction", "position"}
 
 
@@ -111,7 +112,8 @@ def spacecraft(r: _Reader, sc: Mapping[str, Any], body: Any, orbit: Any, field: 
         raise _fail(
             "spacecraft.center_of_mass", "given without thrusters (their lever arms use it)"
         )
-    if not any(built):
+    mass = r.value(sc, "mass", "spacecraft", "mass", default=None)
+    if not any(built) and mass is None:
         return None
     cm = None
     if "center_of_mass" in sc:
@@ -123,7 +125,7 @@ def spacecraft(r: _Reader, sc: Mapping[str, Any], body: Any, orbit: Any, field: 
         )
     try:
         return Spacecraft(body, built[0], built[1], built[2], orbit, center_of_mass=cm,
-                          field=field)  # fmt: skip
+                          field=field, mass=mass)  # fmt: skip
     except AttitudeError as exc:
         raise ScenarioError(f"spacecraft.{exc}") from None
 

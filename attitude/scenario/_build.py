@@ -156,7 +156,7 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         or r.table("initial_state").get("frame", "inertial") not in ("inertial",)
     )
     sct = r.table("spacecraft")
-    has_actuators = any(k in sct for k in ("wheels", "magnetorquers", "thrusters"))
+    has_actuators = any(k in sct for k in ("wheels", "magnetorquers", "thrusters", "mass"))
     if has_actuators and "magnetorquers" in sct and orbit is None:
         raise _fail(
             "spacecraft.magnetorquers",

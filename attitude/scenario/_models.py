@@ -36,7 +36,7 @@ from ._schema import (
     _unknown_choice,
 )
 
-_ORBIT_TYPES = ("kepler", "secular_j2", "tle", "oem")
+_ORBIT_TYPES = ("kepler", "secular_j2", "tle", "oem", "numerical")
 _ELEMENT_KEYS = ("a", "e", "inc", "raan", "argp", "f0", "mu")
 
 
@@ -59,6 +59,22 @@ def _orbit(
         "secular_j2": ("a", "e", "inc", "raan", "argp", "f0", "mu", "j2", "radius"),
         "tle": ("tle", "step", "mu"),
         "oem": ("oem", "mu"),
+        "numerical": (
+            "a",
+            "e",
+            "inc",
+            "raan",
+            "argp",
+            "f0",
+            "r0",
+            "v0",
+            "mu",
+            "degree",
+            "order",
+            "third_bodies",
+            "earth_rotation",
+            "rtol",
+        ),
     }[kind]
     for k in ot:
         base = k[:-5] if k.endswith("_unit") else k
@@ -122,6 +138,8 @@ def _orbit(
                     t0=t0 * u.s,
                 )
             return orb, epoch
+        if kind == "numerical":
+            return _numerical(r, ot, epoch, mu_q), epoch
         if kind == "tle":
             lines = ot.get("tle")
             if (
@@ -186,6 +204,64 @@ def _orbit(
     except ScenarioError:
         raise
     except ValueError as exc:
+        raise _fail("orbit", str(exc)) from None
+
+
+def _numerical(r: _Reader, ot: Mapping[str, Any], epoch: str | None, mu_q: Any) -> Any:
+    """An ``[orbit] type = "numerical"``: its state at the epoch from elements (a, e, inc,
+    raan, argp, f0: the osculating two-body state) or from r0 and v0 (GCRS), its field
+    (``degree``, ``order``: EGM2008; none: a point mass) and ``third_bodies``."""
+    from astropy import units as u
+
+    import orbit as O
+
+    if epoch is None:
+        raise _fail("orbit.epoch", "a numerical orbit needs a date: give orbit.epoch (or "
+                                   "scenario.epoch), e.g. '2026-03-20T00:00:00'")  # fmt: skip
+    has_elements = any(k in ot for k in _ELEMENT_KEYS[:6])
+    if has_elements and ("r0" in ot or "v0" in ot):
+        raise _fail("orbit.r0", "give either the elements (a, e, inc, raan, argp, f0) or r0, v0")
+    degree = ot.get("degree")
+    order = ot.get("order")
+    for k, v in (("degree", degree), ("order", order)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int)):
+            raise _fail(f"orbit.{k}", f"expected a whole number, got {v!r}")
+    if order is not None and degree is None:
+        raise _fail("orbit.order", "given without orbit.degree")
+    if degree is not None and mu_q is not None:
+        raise _fail("orbit.mu", "the field's own GM is used with orbit.degree; give one of them")
+    bodies = ot.get("third_bodies", [])
+    if not isinstance(bodies, list) or not all(isinstance(b, str) for b in bodies):
+        raise _fail(
+            "orbit.third_bodies", f'expected a list such as ["sun", "moon"], got {bodies!r}'
+        )
+    try:
+        gravity = None if degree is None else O.SphericalHarmonics(degree, order)
+        if has_elements:
+            for k in ("a", "e", "inc", "raan", "argp"):
+                if k not in ot:
+                    raise _fail(f"orbit.{k}", "missing (the elements need a, e, inc, raan, argp)")
+            ang = {k: r.value(ot, k, "orbit", "angle") * u.rad for k in ("inc", "raan", "argp")}
+            f0 = r.value(ot, "f0", "orbit", "angle", default=0.0) * u.rad
+            e = r.number(ot, "e", "orbit")
+            _check_orbit_angles(r, ot, ang["inc"].value, e, f0.value)
+            mu_el = mu_q if mu_q is not None else (
+                None if gravity is None else gravity.mu * 1e-9 * u.Unit("km3 s-2"))  # fmt: skip
+            kep = O.KeplerOrbit(r.value(ot, "a", "orbit", "length") * u.km, e, ang["inc"],
+                                ang["raan"], ang["argp"], f0=f0, mu=mu_el)  # fmt: skip
+            r0, v0 = kep.position(0.0), kep.velocity(0.0)
+        else:
+            for k in ("r0", "v0"):
+                if k not in ot:
+                    raise _fail(f"orbit.{k}", "missing (give r0 and v0, or the elements)")
+            r0 = r.value(ot, "r0", "orbit", "length", n=3)
+            v0 = r.value(ot, "v0", "orbit", "speed", n=3)
+        return O.NumericalOrbit(
+            r0, v0, epoch.rstrip("Z"), gravity=gravity, third_bodies=tuple(bodies), mu=mu_q,
+            earth_rotation=r.string(ot, "earth_rotation", "orbit", "iers"),
+            rtol=r.number(ot, "rtol", "orbit", 1e-12),
+        )  # fmt: skip
+    except O.OrbitError as exc:
         raise _fail("orbit", str(exc)) from None
 
 

@@ -42,6 +42,8 @@ _INTERNAL = {
     "power": "W",
     "viscous": "N m s",
     "impulse": "N s",
+    "mass": "kg",
+    "speed": "km s-1",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -61,6 +63,8 @@ _EXAMPLE = {
     "power": "'W'",
     "viscous": "'N m s'",
     "impulse": "'N s' or 'mN s'",
+    "mass": "'kg' or 'g'",
+    "speed": "'km/s' or 'm/s'",
 }
 
 _ALIASES: list[Any] = []
@@ -124,6 +128,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "magnetorquers": None,
         "thrusters": None,
         "center_of_mass": "position",
+        "mass": "mass",
     },
     # the flight software (attitude.FlightSoftware; keys in scenario/_software.py)
     "software": {},
@@ -150,6 +155,13 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "tle": None,
         "oem": None,
         "step": "time",
+        "r0": "length",
+        "v0": "speed",
+        "degree": None,
+        "order": None,
+        "third_bodies": None,
+        "earth_rotation": None,
+        "rtol": None,
     },
     "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
     "integrator": {

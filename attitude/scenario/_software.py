@@ -22,6 +22,7 @@ SOFTWARE_KEYS: dict[str, str | None] = {
     "modes": None,
     "sensors": None,
     "estimator": None,
+    "burns": None,
 }
 MODE_KEYS: dict[str, str | None] = {
     "name": None,
@@ -290,14 +291,16 @@ def software(r: _Reader, st: Mapping[str, Any], craft: Any, body: Any, orbit: An
     ]
     sensors = _sensors(r, st.get("sensors"))
     estimator = _estimator(r, st.get("estimator"))
+    burns = _burns(r, st.get("burns"))
     try:
         if len(modes) == 1:
             m = modes[0][1]
             return FlightSoftware(period, m.guidance, m.control, m.allocation, sensors=sensors,
                                   estimator=estimator, delay=delay, phase=phase,
-                                  record_every=every)  # fmt: skip
+                                  record_every=every, burns=burns)  # fmt: skip
         return FlightSoftware(period, sensors=sensors, estimator=estimator, modes=modes,
-                              delay=delay, phase=phase, record_every=every)  # fmt: skip
+                              delay=delay, phase=phase, record_every=every,
+                              burns=burns)  # fmt: skip
     except AttitudeError as exc:
         raise ScenarioError(f"software.{exc}") from None
 
@@ -400,3 +403,29 @@ def _estimator(r: _Reader, spec: Any) -> Any:
         return MEKF(**kw)
     except AttitudeError as exc:
         raise ScenarioError(f"software.estimator.{exc}") from None
+
+
+def _burns(r: _Reader, spec: Any) -> tuple:
+    """``[[software.burns]]``: start, duration (with their ``_unit``s) and thrusters."""
+    from ..software import Burn
+
+    if spec is None:
+        return ()
+    if not isinstance(spec, list) or not all(isinstance(x, dict) for x in spec):
+        raise _fail("software.burns", "expected an array of tables [[software.burns]]")
+    out = []
+    for i, b in enumerate(spec):
+        where = f"software.burns[{i}]"
+        for k in b:
+            if k not in ("start", "duration", "thrusters", "start_unit", "duration_unit"):
+                raise _fail(f"{where}.{k}", "unknown key (start, duration, thrusters)")
+        for k in ("start", "duration"):
+            if k not in b:
+                raise _fail(f"{where}.{k}", "missing")
+        try:
+            start = _quantity(r, b, "start", where, "s")
+            duration = _quantity(r, b, "duration", where, "s")
+            out.append(Burn(start, duration, b.get("thrusters", 0)))
+        except (ValueError, TypeError) as exc:
+            raise _fail(where, str(exc)) from None
+    return tuple(out)

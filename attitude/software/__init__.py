@@ -8,12 +8,14 @@ held from one tick to the next. Passed as ``propagate(spacecraft, ..., software=
 
 from __future__ import annotations
 
+from ._burns import Burn
 from ._guidance import Slew
 from ._modes import After, Condition, PointingBeyond, PointingWithin, RateAbove, RateBelow
 from ._software import FlightSoftware, MeasurementIndex, Measurements, Mode
 
 __all__ = [
     "After",
+    "Burn",
     "Condition",
     "FlightSoftware",
     "MeasurementIndex",

@@ -310,6 +310,9 @@ class FlightSoftware:
         to a file for long runs, ``propagate(..., on_chunk=writer.append)`` or the
         ``attitude run`` command); a time interval (e.g. ``60 * u.s``, a whole number of
         periods).
+    burns : sequence of Burn, optional
+        Thruster burns (orbit manoeuvres) the software commands while its modes control the
+        attitude (:class:`attitude.software.Burn`).
     """
 
     def __init__(
@@ -326,8 +329,16 @@ class FlightSoftware:
         phase: Any = 0.0,
         inertia: Any = None,
         record_every: Any = None,
+        burns: Sequence[Any] = (),
     ):
         self.period = _period(period)
+        from ._burns import Burn
+
+        if isinstance(burns, Burn):
+            burns = (burns,)
+        if not isinstance(burns, Sequence) or not all(isinstance(b, Burn) for b in burns):
+            raise AttitudeTypeError("burns: a list of attitude.software.Burn")
+        self.burns = tuple(burns)
         self.delay = as_int(delay, "delay", low=0)
         ph = as_float_array(phase, "phase", unit="s")
         if ph.shape != () or not 0.0 <= float(ph) < math.inf:
@@ -647,6 +658,10 @@ def program(
         span = np.array([t0, t_end])
         fm.prepare(span)
         h["field"] = out.append(fm._kernel_params(span))
+    if software.burns:
+        from ._burns import burn_table
+
+        h["burns"] = out.append(burn_table(software.burns, craft))
     if craft.orbit is not None:
         h["orbit"] = out.append(craft.orbit.kernel_data())
         if getattr(craft.orbit, "epoch", None) is not None:

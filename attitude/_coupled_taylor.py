@@ -29,53 +29,14 @@ from ._core import taylor_coupled as _kc
 from ._core.potentials import KIND_GRAVITY_GRADIENT_COUPLED, MODEL
 from ._methods import dop853_call
 from ._validation import as_float_array, as_times
-from .canonical import project_state
+from .canonical import body_angular_momentum, project_state
 from .errors import AttitudeValueError, PropagationError
+from .quaternion import conjugate, rotate
 
 __all__ = ["coupled_invariants", "coupled_params", "run_coupled_taylor"]
 
 #: Earth's gravitational parameter [m³/s²] (WGS 84).
 MU_EARTH = 3.986004418e14
-
-
-def _qmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Hamilton product of quaternions (scalar first), along the last axis."""
-    a0, a1, a2, a3 = np.moveaxis(a, -1, 0)
-    b0, b1, b2, b3 = np.moveaxis(b, -1, 0)
-    return np.stack(
-        [
-            a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
-            a0 * b1 + a1 * b0 + a2 * b3 - a3 * b2,
-            a0 * b2 - a1 * b3 + a2 * b0 + a3 * b1,
-            a0 * b3 + a1 * b2 - a2 * b1 + a3 * b0,
-        ],
-        axis=-1,
-    )
-
-
-def _conj(q: np.ndarray) -> np.ndarray:
-    return q * np.array([1.0, -1.0, -1.0, -1.0])
-
-
-def _pure(v: np.ndarray) -> np.ndarray:
-    return np.concatenate([np.zeros((*v.shape[:-1], 1)), v], axis=-1)
-
-
-def to_space(q: np.ndarray, x_body: np.ndarray) -> np.ndarray:
-    """Body → space components, vec(q∘(0, x)∘q̃)/|q|² (docs/conventions.md; |q| ≠ 1 allowed)."""
-    n = np.sum(q * q, axis=-1, keepdims=True)
-    return _qmul(_qmul(q, _pure(x_body)), _conj(q))[..., 1:] / n
-
-
-def to_body(q: np.ndarray, x_space: np.ndarray) -> np.ndarray:
-    """Space → body components, vec(q̃∘(0, x)∘q)/|q|²."""
-    n = np.sum(q * q, axis=-1, keepdims=True)
-    return _qmul(_qmul(_conj(q), _pure(x_space)), q)[..., 1:] / n
-
-
-def body_momentum(q: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """g = ½ vec(q̃∘Q): the body angular momentum (Arribas et al. eq. 17)."""
-    return 0.5 * _qmul(_conj(q), Q)[..., 1:]
 
 
 def coupled_params(inertia: Any, mass: float, mu: float) -> np.ndarray:
@@ -177,7 +138,21 @@ def run_coupled_taylor(
         raise AttitudeValueError(f"r0, v0: need a finite, non-zero position, got {r}, {v}")
     if not (rtol > 0.0 and atol > 0.0):
         raise AttitudeValueError(f"rtol, atol: must be > 0, got {rtol!r}, {atol!r}")
-    y0 = _kt.XSTATE.pack(q=q, p=Q, r=to_body(q, r), v=to_body(q, v))
+    y_out, status, k, t_reached, n_steps, order = _integrate(
+        params, q, Q, r, v, tt, rtol, atol, max_step, max_steps
+    )
+    if status != _rk.SUCCESS:
+        raise PropagationError(
+            f"coupled taylor run stopped at t = {t_reached!r}: {_rk.STATUS_MESSAGES[status]} "
+            f"({k} of {tt.shape[0]} output times)",
+            time=t_reached,
+        )
+    return _space_axes(tt, y_out) | {"n_steps": n_steps, "order": order}
+
+
+def _integrate(params, q, Q, r, v, tt, rtol, atol, max_step, max_steps):
+    """The compiled run: (rows of XSTATE, status, rows done, time reached, steps, order)."""
+    y0 = _kt.XSTATE.pack(q=q, p=Q, r=rotate(conjugate(q), r), v=rotate(conjugate(q), v))
     m = tt.shape[0]
     y_out = np.empty((m, _kt.XSTATE.SIZE))
     work, tstate, counters = _kc.new_state()
@@ -185,26 +160,79 @@ def run_coupled_taylor(
         _kc.coupled_run, params, y0, float(tt[0]), tt, y_out, work, tstate, counters,
         float(rtol), float(atol), float(tt[-1]), float(max_step), int(max_steps),
     )  # fmt: skip
-    if status != _rk.SUCCESS:
-        raise PropagationError(
-            f"coupled taylor run stopped at t = {tstate[0]!r}: {_rk.STATUS_MESSAGES[status]} "
-            f"({k} of {m} output times)",
-            time=float(tstate[0]),
-        )
-    st = _kt.XSTATE.read(y_out)
+    return y_out[:k], int(status), int(k), float(tstate[0]), int(counters[0]), int(tstate[3])
+
+
+def _space_axes(tt: np.ndarray, y: np.ndarray) -> dict[str, Any]:
+    st = _kt.XSTATE.read(y)
     qo, Qo, rb, vb = st["q"], st["p"], st["r"], st["v"]
     return {
-        "t": tt,
+        "t": tt[: y.shape[0]],
         "q": qo,
         "Q": Qo,
-        "r": to_space(qo, rb),
-        "v": to_space(qo, vb),
+        "r": rotate(qo, rb),
+        "v": rotate(qo, vb),
         "r_body": rb,
         "v_body": vb,
-        "g": body_momentum(qo, Qo),
-        "n_steps": int(counters[0]),
-        "order": int(tstate[3]),
+        "g": body_angular_momentum(qo, Qo),
     }
+
+
+def check_spacecraft(craft: Any, potential: Any, software: Any = None) -> None:
+    """Raise :class:`AttitudeValueError` (naming ``method``) unless ``method="taylor"`` carries
+    this coupled spacecraft: no actuators or software, the gravity gradient of its own orbit
+    (the mutual potential to second order), a point-mass Earth without third bodies (the
+    series of eq. 7 with the orbit in body axes, :mod:`attitude._core.taylor`)."""
+    from .potentials import GravityGradient
+
+    orb = craft.orbit
+    why = None
+    if craft.has_actuators or software is not None:
+        why = "actuators or flight software"
+    elif not isinstance(potential, GravityGradient):
+        why = f"the model {type(potential).__name__}"
+    elif orb.gravity is not None or orb.third_bodies:
+        why = "a gravity field or third bodies on the orbit"
+    if why is not None:
+        raise AttitudeValueError(
+            f"method: 'taylor' carries the orbit of a spacecraft propagated with its attitude "
+            f"around a point-mass Earth in its gravity gradient; not with {why}: "
+            "use method='dop853'"
+        )
+
+
+def run_taylor(
+    problem: Any,
+    *,
+    rtol: float,
+    atol: float,
+    max_step: float = math.inf,
+    max_steps: int = 100_000_000,
+    **_: Any,
+) -> Any:
+    """``method="taylor"`` for a spacecraft carrying its orbit (:func:`check_spacecraft`): the
+    rows (q, Q, r, v, m) and empty command records of the spacecraft runners."""
+    from ._methods import RunResult
+
+    sr = problem.spacecraft
+    craft = sr.spacecraft
+    check_spacecraft(craft, problem.potential, sr.software)
+    params = coupled_params(craft.body.inertia, craft.mass, craft.orbit.mu * 1e9)
+    y0 = problem.y0
+    tt = np.ascontiguousarray(problem.t, dtype=np.float64)
+    y, status, k, t_reached, n_steps, order = _integrate(
+        params, y0[:4], y0[4:8], y0[8:11], y0[11:14], tt, rtol, atol, max_step, max_steps
+    )
+    sp = _space_axes(tt, y)
+    rows = np.zeros((k, sr.n_state + sr.n_rec))
+    rows[:, 0:4] = sp["q"]
+    rows[:, 4:8] = sp["Q"]
+    rows[:, 8:11] = sp["r"]
+    rows[:, 11:14] = sp["v"]
+    rows[:, 14] = craft.mass
+    stats = {"rtol": rtol, "atol": atol, "order": order, "n_steps": n_steps}
+    msg = _rk.STATUS_MESSAGES.get(status, "stopped")
+    return RunResult(rows, status, msg, stats, t_stop=None if status == _rk.SUCCESS else t_reached)
 
 
 def coupled_invariants(out: dict[str, Any], inertia: Any, mass: float, mu: float) -> dict:
@@ -228,7 +256,7 @@ def coupled_invariants(out: dict[str, Any], inertia: Any, mass: float, mu: float
     e_orbit = 0.5 * mass * np.sum(vb * vb, axis=-1) - mu * mass / rr
     e_spin = 0.5 * np.sum(g * g / inertia, axis=-1)
     l_orbit = mass * np.cross(out["r"], out["v"])
-    l_spin = to_space(q, g)
+    l_spin = rotate(q, g)
     return {
         "energy": e_orbit + v2 + e_spin,
         "E_orbit": e_orbit,

@@ -1,0 +1,264 @@
+"""Orbit and attitude in one state through ``attitude.propagate`` (issue 41): conservation of
+the coupled system's energy and angular momentum, thrust against closed forms (Δv = F t/m,
+the rocket equation, a thrust turning with the body), one-way against coupled, bad input."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import attitude
+import orbit
+from attitude import CommandSchedule, RigidBody, Spacecraft
+from attitude.actuators import Thruster
+from attitude.canonical import momenta_from_angular_velocity
+from attitude.quaternion import rotate, to_matrix
+
+EPOCH = "2026-03-20T00:00:00"
+INERTIA = np.array([1e9, 1e9, 2e7])  # a long bar: its spin and its orbit trade momentum
+MASS = 1e5
+
+
+def _orbit(**kw):
+    return orbit.NumericalOrbit([7000.0, 0.0, 0.0], [0.0, 7.546, 0.1], EPOCH, **kw)
+
+
+def _state(inertia=INERTIA):
+    q0 = np.array(
+        [math.cos(0.2), math.sin(0.2) / math.sqrt(2.0), 0.0, math.sin(0.2) / math.sqrt(2)]
+    )
+    return q0, momenta_from_angular_velocity(q0, [1e-4, -2e-4, 1e-3], inertia)
+
+
+def _invariants(ds, inertia, mass, mu):
+    """Total energy and angular momentum of the coupled system, computed here from the Dataset's
+    states (independent of the run's own diagnostics)."""
+    q, g = ds.q.values, ds.g.values
+    r, v = ds.position.values, ds.velocity.values
+    R = to_matrix(q)
+    rb = np.einsum("nji,nj->ni", R, r)
+    rn = np.linalg.norm(r, axis=1)
+    v2 = 1.5 * mu / rn**5 * np.einsum("ni,i,ni->n", rb, inertia, rb) - mu * inertia.sum() / (
+        2 * rn**3
+    )
+    energy = np.sum(g**2 / inertia, axis=1) / 2 + mass * (np.sum(v**2, axis=1) / 2 - mu / rn) + v2
+    spin = rotate(q, g)
+    return energy, mass * np.cross(r, v) + spin, spin
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_coupled_gravity_gradient_conserves_energy_and_momentum(method):
+    o = _orbit()
+    sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
+    q0, Q0 = _state()
+    period = 2 * math.pi * math.sqrt(7.0e6**3 / (o.mu * 1e9))
+    t = np.linspace(0.0, 10 * period, 501)
+    ds = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method=method,
+                            rtol=1e-14 if method == "taylor" else 1e-13, atol=1e-14)  # fmt: skip
+    assert ds.attrs["method"] == method
+    energy, L, spin = _invariants(ds, INERTIA, MASS, o.mu * 1e9)
+    scale = np.linalg.norm(L[0])
+    assert np.max(np.abs(energy / energy[0] - 1.0)) < 1e-12
+    assert np.max(np.linalg.norm(L - L[0], axis=1)) / scale < 1e-12
+    # the exchange between spin and orbit is 100 times the bound (the test can fail)
+    assert np.max(np.linalg.norm(spin - spin[0], axis=1)) / scale > 1e-10
+
+
+def test_taylor_and_dop853_agree():
+    o = _orbit()
+    sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
+    q0, Q0 = _state()
+    t = np.linspace(0.0, 6000.0, 61)
+    gg = attitude.GravityGradient(o)
+    a = attitude.propagate(sc, q0, Q0, t, gg, method="taylor", rtol=1e-14, atol=1e-14)
+    b = attitude.propagate(sc, q0, Q0, t, gg, method="dop853", rtol=1e-13, atol=1e-14)
+    assert np.max(np.abs(a.position - b.position)) / 7e6 < 1e-11
+    assert np.max(np.abs(a.q - b.q)) < 1e-9
+
+
+def test_one_way_equals_coupled_when_nothing_acts_back():
+    # A sphere feels no gravity-gradient torque and exerts no force back: the coupled orbit is
+    # the NumericalOrbit's own (to the integrators' tolerances).
+    o = _orbit(gravity=orbit.SphericalHarmonics(4), rtol=1e-13)
+    sph = np.array([10.0, 10.0, 10.0])
+    sc = Spacecraft(RigidBody(sph), orbit=o, mass=50.0)
+    q0, Q0 = _state(sph)
+    t = np.linspace(0.0, 5400.0, 91)
+    coupled = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method="dop853",
+                                 rtol=1e-13, atol=1e-13)  # fmt: skip
+    alone = o.propagate(t)
+    rel = np.abs(coupled.position.values - alone.position.values).max() / 7e6
+    assert rel < 1e-12
+    one_way = attitude.propagate(RigidBody(sph), q0, Q0, t, attitude.GravityGradient(o),
+                                 method="dop853", rtol=1e-13, atol=1e-13)  # fmt: skip
+    assert np.abs(one_way.r.values - coupled.r.values).max() < 1e-12 * 7000.0  # km
+    assert np.abs(one_way.q.values - coupled.q.values).max() < 1e-12
+
+
+def _deep_space(mu=1e-20):
+    """An orbit far from any pull (μ tiny): the thrust alone changes the velocity."""
+    return orbit.NumericalOrbit([1e5, 0.0, 0.0], [0.0, 0.0, 0.0], EPOCH, mu=mu)
+
+
+def test_burn_delta_v_and_rocket_equation():
+    o = _deep_space()
+    f, m0, burn = 20.0, 500.0, 100.0
+    for isp in (None, 220.0):
+        th = Thruster([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], f, isp=isp)
+        sc = Spacecraft(RigidBody([100.0, 120.0, 80.0]), thrusters=[th], orbit=o, mass=m0)
+        cmd = CommandSchedule([0.0, burn], thrust=[[1.0], [0.0]])
+        q0 = np.array([1.0, 0.0, 0.0, 0.0])
+        t = np.array([0.0, 50.0, burn, 150.0])
+        ds = attitude.propagate(sc, q0, np.zeros(4), t, commands=cmd, method="dop853",
+                                rtol=1e-13, atol=1e-13)  # fmt: skip
+        dv = ds.velocity.values[-1] - ds.velocity.values[0]
+        if isp is None:
+            assert abs(dv[0] / (f * burn / m0) - 1.0) < 1e-12
+            assert ds.mass.values[-1] == m0
+        else:
+            m1 = m0 - f / (isp * 9.80665) * burn
+            assert abs(ds.mass.values[-1] / m1 - 1.0) < 1e-13
+            assert abs(dv[0] / (isp * 9.80665 * math.log(m0 / m1)) - 1.0) < 1e-12
+        assert np.max(np.abs(dv[1:])) < 1e-12 * abs(dv[0])
+
+
+def test_thrust_turns_with_the_body():
+    # Spinning at ω about z while a thruster along body x fires for a quarter turn:
+    # Δv = F/(m ω) (sin ωT, 1 − cos ωT, 0) = F/(m ω) (1, 1, 0).
+    o = _deep_space()
+    f, m, w = 1.0, 100.0, 0.01
+    T = math.pi / 2 / w
+    th = Thruster([0.0, 0.0, 0.0], [1.0, 0.0, 0.0], f)
+    inertia = np.array([10.0, 12.0, 14.0])
+    sc = Spacecraft(RigidBody(inertia), thrusters=[th], orbit=o, mass=m)
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    Q0 = momenta_from_angular_velocity(q0, [0.0, 0.0, w], inertia)
+    cmd = CommandSchedule([0.0, T], thrust=[[1.0], [0.0]])
+    ds = attitude.propagate(sc, q0, Q0, np.array([0.0, T]), commands=cmd, method="dop853",
+                            rtol=1e-13, atol=1e-13)  # fmt: skip
+    dv = ds.velocity.values[-1] - ds.velocity.values[0]
+    want = f / (m * w) * np.array([1.0, 1.0, 0.0])
+    assert np.max(np.abs(dv - want)) < 1e-11 * np.linalg.norm(want)
+
+
+def test_bad_input():
+    o = _orbit()
+    with pytest.raises(attitude.AttitudeValueError, match="mass"):
+        Spacecraft(RigidBody(INERTIA), orbit=o, mass=0.0)
+    with pytest.raises(attitude.AttitudeValueError, match="isp"):
+        Thruster([0, 0, 0], [1, 0, 0], 1.0, isp=-3.0)
+    sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
+    q0, Q0 = _state()
+    with pytest.raises(attitude.AttitudeValueError, match="formulation"):
+        attitude.propagate(sc, q0, Q0, [0.0, 10.0], formulation="schwab")
+    field = _orbit(gravity=orbit.SphericalHarmonics(2))
+    sc2 = Spacecraft(RigidBody(INERTIA), orbit=field, mass=MASS)
+    with pytest.raises(attitude.AttitudeValueError, match="method"):
+        attitude.propagate(sc2, q0, Q0, [0.0, 10.0], attitude.GravityGradient(field),
+                           method="taylor")  # fmt: skip
+
+
+def _plate(face_area, edge_area):
+    """A thin plate: faces ±x (area face_area), edges ±y (edge_area), centres at the centre of
+    mass (no torque), C_D = 2.2."""
+    from attitude import Facet
+
+    return [
+        Facet(face_area, [1, 0, 0], [0, 0, 0], cd=2.2),
+        Facet(face_area, [-1, 0, 0], [0, 0, 0], cd=2.2),
+        Facet(edge_area, [0, 1, 0], [0, 0, 0], cd=2.2),
+        Facet(edge_area, [0, -1, 0], [0, 0, 0], cd=2.2),
+    ]
+
+
+def test_drag_decay_face_on_against_edge_on():
+    # The same plate face-on (normal along the wind) and edge-on (its edge along the wind),
+    # turning with a circular equatorial orbit so the wind stays fixed in the body, in a
+    # constant-density atmosphere: the orbital energy falls at the ratio of the areas.
+    mu = orbit.earth_mu()
+    r0 = 6778.137
+    v0 = math.sqrt(mu / r0)
+    o = orbit.NumericalOrbit([r0, 0.0, 0.0], [0.0, v0, 0.0], EPOCH)
+    face, edge = 1.0, 0.02
+    facets = _plate(face, edge)
+    inertia = np.array([2.0, 2.0, 3.0])
+    t = np.linspace(0.0, 120.0, 3)
+    drops = []
+    # q0 = 1: body y along the velocity (the edge faces the wind); turned by −90° about z:
+    # body −x along it (the face)
+    for q0 in ([1.0, 0.0, 0.0, 0.0], [math.cos(math.pi / 4), 0, 0, -math.sin(math.pi / 4)]):
+        q0 = np.array(q0)
+        Q0 = momenta_from_angular_velocity(q0, [0.0, 0.0, v0 / r0], inertia)
+        sc = Spacecraft(RigidBody(inertia), orbit=o, mass=100.0)
+        drag = attitude.AerodynamicDrag(o, facets, density=1e-11)
+        ds = attitude.propagate(sc, q0, Q0, t, drag, method="dop853", rtol=1e-13, atol=1e-13)
+        r, v = ds.position.values, ds.velocity.values
+        e = 0.5 * np.sum(v**2, axis=1) - mu * 1e9 / np.linalg.norm(r, axis=1)
+        drops.append(e[0] - e[-1])
+    edge_on, face_on = drops
+    assert face_on > 0.0 and edge_on > 0.0
+    assert abs((face_on / edge_on) / (face / edge) - 1.0) < 1e-6
+
+
+def test_cubesat_decay_depends_on_its_attitude():
+    # The shipped scenario's CubeSat, tumbling (coupled) against the same CubeSat held at a
+    # fixed attitude (its inertia made enormous): drag slows them differently.
+    from pathlib import Path
+
+    from attitude.scenario import load
+
+    sc = load(Path(__file__).resolve().parents[1] / "scenarios" / "cubesat_drag_decay.toml")
+    craft = sc.spacecraft
+    assert craft.coupled
+    t = np.linspace(0.0, 3 * 5500.0, 4)
+    mu = craft.orbit.mu * 1e9
+
+    def energy_drop(body, q0, Q0):
+        sc_ = Spacecraft(body, orbit=craft.orbit, mass=craft.mass)
+        ds = attitude.propagate(sc_, q0, Q0, t, sc.potential, method="dop853", rtol=1e-10,
+                                atol=1e-12)  # fmt: skip
+        r, v = ds.position.values, ds.velocity.values
+        e = 0.5 * np.sum(v**2, axis=1) - mu / np.linalg.norm(r, axis=1)
+        return e[0] - e[-1]
+
+    tumbling = energy_drop(craft.body, sc.q0, sc.Q0)
+    frozen = RigidBody(craft.body.inertia * 1e9)
+    c = math.cos(math.pi / 4)
+    fixed = ([1.0, 0.0, 0.0, 0.0], [c, 0.0, c, 0.0], [c, c, 0.0, 0.0])  # b3 turned to b1, b2
+    drops = [energy_drop(frozen, np.array(q), np.zeros(4)) for q in fixed]
+    assert tumbling > 0.0 and all(d > 0.0 for d in drops)
+    # fixed attitudes present different areas to the wind (18 % apart between these three),
+    # and the tumbling CubeSat another (2 % from the nearest)
+    assert max(drops) / min(drops) > 1.1
+    assert min(abs(tumbling / d - 1.0) for d in drops) > 0.01
+
+
+def test_orbit_raising_scenario_obeys_the_rocket_equation():
+    from pathlib import Path
+
+    from attitude.scenario import loads
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "orbit_raising_burn.toml"
+    text = path.read_text().replace("stop = 4.0\nunit = \"h\"\ncount = 1441",
+                                    "stop = 1500.0\nunit = \"s\"\ncount = 151")  # fmt: skip
+    text = text.replace("duration = 2400.0", "duration = 600.0")
+    sc = loads(text, path=path)
+    ds = sc.run()
+    m = ds.mass.values
+    burnt = 1.0 / (220.0 * 9.80665) * 600.0
+    assert abs((m[0] - m[-1]) / burnt - 1.0) < 1e-9
+    # the orbital energy gained is the thrust's work v·Δv (to the pointing and v's change)
+    r, v = ds.position.values, ds.velocity.values
+    field = sc.spacecraft.orbit.gravity
+    from astropy.time import Time, TimeDelta
+
+    from orbit.frames import gcrs_to_itrs_matrix
+
+    times = Time(sc.epoch.rstrip("Z"), scale="utc") + TimeDelta(ds.time.values, format="sec")
+    R = gcrs_to_itrs_matrix(times)
+    energy = 0.5 * np.sum(v**2, axis=1) + field.potential(np.einsum("nij,nj->ni", R, r))
+    dv = 220.0 * 9.80665 * math.log(m[0] / m[-1])
+    assert abs((energy[-1] - energy[0]) / (np.linalg.norm(v[0]) * dv) - 1.0) < 0.01
+    assert float(np.nanmax(ds.error_angle.values[ds.tick.values > 60.0])) < 1e-2  # rad
