@@ -479,10 +479,17 @@ def _run(
             f"{type(failure.exc).__name__}: {failure.exc}"
         )
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
+    t_event = None
+    if status == _rk.EVENT:  # the orbit reached the surface: the last row is the state there
+        t_stop = None
+        t_event = float(tstate[0])
+        msg = f"the orbit reached the Earth's surface (Impact) at t = {t_event!r} s"
+        st.update(status="event", event="impact", impact_time=t_event)
     if on_chunk is not None:
         last = max(done - 1, 0)
-        return RunResult(y_chunk[:k][-1:].copy(), int(status), msg, st, first=last, t_stop=t_stop)
-    return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop)
+        return RunResult(y_chunk[:k][-1:].copy(), int(status), msg, st, first=last,
+                         t_stop=t_stop, t_event=t_event)  # fmt: skip
+    return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop, t_event=t_event)
 
 
 def run_dop853(

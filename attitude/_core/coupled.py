@@ -39,7 +39,9 @@ from . import environment as _KE
 from .actuators import SC
 from .quat import rotate, rotate_inverse
 
-__all__ = ["COUPLED", "MAX_SLOTS", "coupled_begin", "coupled_end", "coupled_software"]
+__all__ = [
+    "COUPLED", "MAX_SLOTS", "below_surface", "coupled_begin", "coupled_end", "coupled_software",
+]  # fmt: skip
 
 #: Most live orbit copies in a model's parameters.
 MAX_SLOTS = 16
@@ -94,6 +96,13 @@ def coupled_software(sc, co, fw, t, y):
     ax, ay, az = _fk.acceleration(sc[fo:], t, y[iy], y[iy + 1], y[iy + 2])
     for k in range(int(sc[co + COUPLED.N_FSW])):
         write_live(fw, int(sc[co + COUPLED.FSW + k]), y, iy, ax, ay, az)
+
+
+@jit
+def below_surface(sc, co, t, y):
+    """Whether the state's orbit is inside the Earth (WGS 84 ellipsoid): an impact."""
+    iy = int(sc[co + COUPLED.IY])
+    return _fk.surface(sc[int(sc[co + COUPLED.FORCES]) :], t, y[iy], y[iy + 1], y[iy + 2]) < 0.0
 
 
 @jit(inline="always")

@@ -36,6 +36,7 @@ import math
 
 from orbit._layout import Field, layout
 from orbit._rk import (
+    EVENT,
     SUCCESS,
     TOO_MANY_STEPS,
     WORK,
@@ -57,6 +58,7 @@ from .actuators import (
     thruster_base,
     thrusters_off_at,
 )
+from .coupled import below_surface
 
 HS = layout(
     "hold driver state",
@@ -161,6 +163,37 @@ def schedule_boundary(P, y, t, t_end, ctl):
     return BOUNDARY_DONE
 
 
+@jit(inline="always")
+def _impact(P, sc, co, work, tstate, counters, t_out, y_out, k, n):
+    """The last step took the orbit below the surface: the samples before the crossing, then
+    the state at it (bisection on the step's dense output) in row ``k``; returns
+    ``(EVENT, rows filled)`` with ``tstate[0]`` the crossing's time."""
+    _dense_coefficients(RHS, P, work, tstate, counters)
+    yt = work[WORK.YT]
+    lo = tstate[2]
+    hi = tstate[0]
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid == lo or mid == hi:
+            break
+        _interpolate(work, tstate, mid, yt)
+        if below_surface(sc, co, mid, yt):
+            hi = mid
+        else:
+            lo = mid
+    m = t_out.shape[0]
+    while k < m and t_out[k] < hi:
+        _interpolate(work, tstate, t_out[k], y_out[k])
+        record(sc, y_out[k], n)
+        k += 1
+    if k == m:  # every sample asked for precedes the crossing
+        return SUCCESS, k
+    _interpolate(work, tstate, hi, y_out[k])
+    record(sc, y_out[k], n)
+    tstate[0] = hi
+    return EVENT, k + 1
+
+
 #: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
 #: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
 RHS = None
@@ -248,5 +281,8 @@ def holds_run(
         )
         if status != SUCCESS:
             return status, k
+        co = int(sc[SC.COUPLED])
+        if co >= 0 and below_surface(sc, co, tstate[0], y):
+            return _impact(P, sc, co, work, tstate, counters, t_out, y_out, k, n)
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0
