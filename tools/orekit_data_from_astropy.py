@@ -1,0 +1,141 @@
+"""Write a minimal Orekit data directory from what astropy ships (no network, no orekit-data).
+
+Orekit (an independent flight-dynamics library, used only to make test data in a scratch
+environment, never a dependency) needs leap seconds, Earth-orientation parameters and, for a
+gravity field, a coefficient file. The ``orekit-data`` bundle cannot be downloaded on the
+project's machines, and its tables would differ from the ones the package computes with anyway,
+so this script writes Orekit's data from the package's own sources:
+
+* ``tai-utc.dat``: the leap seconds of the IERS table bundled with ``astropy-iers-data``
+  (``Leap_Second.dat``), in the USNO format Orekit reads by default (it does not read the IERS
+  file under its own name without an explicit loader);
+* ``finals2000A.all``: the IERS-A Earth-orientation table bundled with ``astropy-iers-data``,
+  the one :func:`orbit.timescales.iers_table` uses, with two changes so that Orekit's
+  GCRF → ITRF equals astropy's GCRS → ITRS:
+
+  - the Bulletin A columns (which Orekit reads) are replaced by the values astropy uses, the
+    Bulletin B ones where the file has them (astropy's ``IERS_A`` takes B where present);
+  - the celestial-pole offsets dX, dY are written as zeros (both bulletins): astropy's
+    GCRS → CIRS is ERFA ``c2i06a`` (the IAU 2006/2000A model without the observed offsets),
+    while Orekit would add them (about 0.3 mas, 1.5e-9 rad, 1 cm at 7000 km);
+
+  ``--verbatim-eop`` copies the file unchanged instead (to measure those effects);
+* ``egm2008.gfc``: the package's EGM2008 coefficients (``orbit/data/egm2008.npz``: fully
+  normalised, tide-free, GM = 3.986004415e14 m³/s², a = 6 378 136.3 m) to degree and order
+  ``--degree`` (default 70), in the ICGEM format Orekit's ``ICGEMFormatReader`` reads; no
+  time-variable terms.
+
+Run it with any Python that has numpy and astropy (the package need not be installed)::
+
+    python tools/orekit_data_from_astropy.py /work/scratch/orekit-data
+
+``tools/orekit_numerical_orbit_reference.py`` uses the directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import shutil
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+EGM2008 = REPO / "orbit" / "data" / "egm2008.npz"
+
+# finals2000A.all columns (0-based slices of the 1-based ranges of ReadMe.finals2000A).
+PM_X_A, PM_Y_A, UT1_A = slice(18, 27), slice(37, 46), slice(58, 68)
+DX_A, DY_A = slice(97, 106), slice(116, 125)
+PM_X_B, PM_Y_B, UT1_B = slice(134, 144), slice(144, 154), slice(154, 165)
+DX_B, DY_B = slice(165, 175), slice(175, 185)
+
+
+def _put(line: list[str], cols: slice, text: str) -> None:
+    width = cols.stop - cols.start
+    assert len(text) <= width, (text, width)
+    line[cols] = list(text.rjust(width))
+
+
+def tai_utc_dat(src: Path) -> str:
+    """The IERS ``Leap_Second.dat`` (MJD, day, month, year, TAI − UTC) in the USNO format."""
+    months = "JAN FEB MAR APR MAY JUN JUL AUG SEP OCT NOV DEC".split()
+    lines = []
+    for raw in src.read_text().splitlines():
+        if raw.lstrip().startswith("#") or not raw.strip():
+            continue
+        mjd, _day, month, year, tai_utc = raw.split()
+        lines.append(
+            f" {int(year)} {months[int(month) - 1]:>3}  1 =JD {float(mjd) + 2400000.5:.1f}  "
+            f"TAI-UTC= {float(tai_utc):10.7f} S + (MJD - 41317.) X 0.0      S"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def finals_for_orekit(src: Path) -> str:
+    """The finals2000A.all text with astropy's values in the A columns and dX = dY = 0."""
+    out = []
+    for raw in src.read_text().splitlines():
+        line = list(raw.ljust(185))
+        b_pm = raw[PM_X_B].strip() and raw[PM_Y_B].strip()
+        if b_pm:  # astropy: B polar motion where both components are there
+            _put(line, PM_X_A, f"{float(raw[PM_X_B]):9.6f}")
+            _put(line, PM_Y_A, f"{float(raw[PM_Y_B]):9.6f}")
+        if raw[UT1_B].strip():
+            _put(line, UT1_A, f"{float(raw[UT1_B]):10.7f}")
+        for cols, fmt in ((DX_A, "9.3f"), (DY_A, "9.3f"), (DX_B, "10.3f"), (DY_B, "10.3f")):
+            if raw[cols].strip():
+                _put(line, cols, f"{0.0:{fmt}}")
+        out.append("".join(line))
+    return "\n".join(out) + "\n"
+
+
+def write_gfc(path: Path, degree: int) -> None:
+    """EGM2008 to ``degree`` × ``degree`` as an ICGEM file (fully normalised, tide-free)."""
+    with np.load(EGM2008) as d:
+        C, S = d["C"], d["S"]
+        mu, radius = float(d["mu"]), float(d["radius"])
+    lines = [
+        f"EGM2008 to degree and order {degree} from orbit/data/egm2008.npz",
+        "(written by tools/orekit_data_from_astropy.py for Orekit test data)",
+        "begin_of_head ============================================",
+        "product_type           gravity_field",
+        "modelname              EGM2008",
+        f"earth_gravity_constant {mu!r}",
+        f"radius                 {radius!r}",
+        f"max_degree             {degree}",
+        "errors                 no",
+        "norm                   fully_normalized",
+        "tide_system            tide_free",
+        "",
+        "key    L    M         C                          S",
+        "end_of_head ==============================================",
+    ]
+    for n in range(degree + 1):
+        for m in range(n + 1):
+            lines.append(f"gfc {n:4d} {m:4d} {C[n, m]: .18e} {S[n, m]: .18e}")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("directory", type=Path)
+    p.add_argument("--degree", type=int, default=70)
+    p.add_argument("--verbatim-eop", action="store_true",
+                   help="copy finals2000A.all unchanged (Bulletin A, with dX, dY)")  # fmt: skip
+    args = p.parse_args()
+    import astropy_iers_data
+
+    d = args.directory
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "tai-utc.dat").write_text(tai_utc_dat(Path(astropy_iers_data.IERS_LEAP_SECOND_FILE)))
+    src = Path(astropy_iers_data.IERS_A_FILE)
+    if args.verbatim_eop:
+        shutil.copyfile(src, d / "finals2000A.all")
+    else:
+        (d / "finals2000A.all").write_text(finals_for_orekit(src))
+    write_gfc(d / "egm2008.gfc", args.degree)
+    print(f"wrote {d}: tai-utc.dat, finals2000A.all, egm2008.gfc (degree {args.degree})")
+
+
+if __name__ == "__main__":
+    main()
