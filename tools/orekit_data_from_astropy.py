@@ -10,16 +10,13 @@ so this script writes Orekit's data from the package's own sources:
   (``Leap_Second.dat``), in the USNO format Orekit reads by default (it does not read the IERS
   file under its own name without an explicit loader);
 * ``finals2000A.all``: the IERS-A Earth-orientation table bundled with ``astropy-iers-data``,
-  the one :func:`orbit.timescales.iers_table` uses, with two changes so that Orekit's
-  GCRF → ITRF equals astropy's GCRS → ITRS:
-
-  - the Bulletin A columns (which Orekit reads) are replaced by the values astropy uses, the
-    Bulletin B ones where the file has them (astropy's ``IERS_A`` takes B where present);
-  - the celestial-pole offsets dX, dY are written as zeros (both bulletins): astropy's
-    GCRS → CIRS is ERFA ``c2i06a`` (the IAU 2006/2000A model without the observed offsets),
-    while Orekit would add them (about 0.3 mas, 1.5e-9 rad, 1 cm at 7000 km);
-
-  ``--verbatim-eop`` copies the file unchanged instead (to measure those effects);
+  the one :func:`orbit.timescales.iers_table` uses, with the celestial-pole offsets dX, dY
+  written as zeros (both bulletins): astropy's GCRS → CIRS is ERFA ``c2i06a`` (the IAU
+  2006/2000A model without the observed offsets), while Orekit adds them (0.29 mas = 1.4e-9 rad
+  on 2026-03-20, 1 cm at 7000 km). Like astropy's ``IERS_A``, Orekit takes the Bulletin B
+  values of UT1 − UTC and polar motion where the file has them, else the Bulletin A ones
+  (checked: identical at the epoch of the reference orbits). ``--verbatim-eop`` copies the file
+  unchanged (to measure the effect of dX, dY);
 * ``egm2008.gfc``: the package's EGM2008 coefficients (``orbit/data/egm2008.npz``: fully
   normalised, tide-free, GM = 3.986004415e14 m³/s², a = 6 378 136.3 m) to degree and order
   ``--degree`` (default 70), in the ICGEM format Orekit's ``ICGEMFormatReader`` reads; no
@@ -43,10 +40,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 EGM2008 = REPO / "orbit" / "data" / "egm2008.npz"
 
-# finals2000A.all columns (0-based slices of the 1-based ranges of ReadMe.finals2000A).
-PM_X_A, PM_Y_A, UT1_A = slice(18, 27), slice(37, 46), slice(58, 68)
+# The dX, dY columns of finals2000A.all (0-based slices of ReadMe.finals2000A's 1-based ranges).
 DX_A, DY_A = slice(97, 106), slice(116, 125)
-PM_X_B, PM_Y_B, UT1_B = slice(134, 144), slice(144, 154), slice(154, 165)
 DX_B, DY_B = slice(165, 175), slice(175, 185)
 
 
@@ -72,16 +67,10 @@ def tai_utc_dat(src: Path) -> str:
 
 
 def finals_for_orekit(src: Path) -> str:
-    """The finals2000A.all text with astropy's values in the A columns and dX = dY = 0."""
+    """The finals2000A.all text with dX = dY = 0 wherever the file has a value."""
     out = []
     for raw in src.read_text().splitlines():
         line = list(raw.ljust(185))
-        b_pm = raw[PM_X_B].strip() and raw[PM_Y_B].strip()
-        if b_pm:  # astropy: B polar motion where both components are there
-            _put(line, PM_X_A, f"{float(raw[PM_X_B]):9.6f}")
-            _put(line, PM_Y_A, f"{float(raw[PM_Y_B]):9.6f}")
-        if raw[UT1_B].strip():
-            _put(line, UT1_A, f"{float(raw[UT1_B]):10.7f}")
         for cols, fmt in ((DX_A, "9.3f"), (DY_A, "9.3f"), (DX_B, "10.3f"), (DY_B, "10.3f")):
             if raw[cols].strip():
                 _put(line, cols, f"{0.0:{fmt}}")
@@ -121,7 +110,7 @@ def main() -> None:
     p.add_argument("directory", type=Path)
     p.add_argument("--degree", type=int, default=70)
     p.add_argument("--verbatim-eop", action="store_true",
-                   help="copy finals2000A.all unchanged (Bulletin A, with dX, dY)")  # fmt: skip
+                   help="copy finals2000A.all unchanged (with dX, dY)")  # fmt: skip
     args = p.parse_args()
     import astropy_iers_data
 
