@@ -15,12 +15,12 @@ orbit for one day from 2026-03-20T00:00:00 UTC, sampled every 60 s, in the GCRF:
 Orekit's data (leap seconds, Earth orientation, the gravity field) are written from the
 package's own sources by ``tools/orekit_data_from_astropy.py``, so that Orekit's GCRF → ITRF is
 astropy's GCRS → ITRS: the EOP (UT1 − UTC, polar motion) are the bundled IERS-A table's,
-interpolated linearly between the daily values as astropy does (an ``EOPHistory`` of
-interpolation degree 1: Orekit's default cubic interpolation differs from astropy's by up to
-2.5e-5 s of UT1, 1.8e-9 rad), without the celestial-pole offsets dX, dY and without Orekit's
-tidal EOP corrections (simple EOP), neither of which astropy applies. The script checks the
-rotation against ``orbit.frames.gcrs_to_itrs_matrix`` at 49 times over the day and stores the
-largest angle between them.
+interpolated linearly between the daily values as astropy does (Orekit's own interpolation,
+cubic Hermite, differs from astropy's by up to 2.5e-5 s of UT1 in mid-day, 1.8e-9 rad; see
+:func:`linear_eop_itrf`), without the celestial-pole offsets dX, dY and without Orekit's tidal
+EOP corrections (simple EOP), neither of which astropy applies. The script checks the rotation
+against ``orbit.frames.gcrs_to_itrs_matrix`` at 50 times over the day, between the EOP entries
+given to Orekit, and stores the largest angle between them.
 
 The integrator is Dormand-Prince 8(5,3) (``DormandPrince853Integrator``) on Cartesian
 coordinates with absolute tolerances of 5e-8 m and 5e-11 m/s (no relative tolerance) and steps
@@ -149,7 +149,17 @@ def linear_eop_itrf():
     for e in entries:
         lst.add(e)
     hist = EOPHistory(conv, 3, lst, True, loaded.getTimeScales())
-    return FramesFactory.buildUncachedITRF(hist, TimeScalesFactory.getUTC())
+    # FramesFactory.buildUncachedITRF still interpolates the CIRF (6 points an hour apart, on a
+    # grid that starts wherever the first request falls, so the results depend on the order of
+    # the calls at the micrometre level): rebuild the chain with its exact providers.
+    from org.orekit.frames import Frame
+
+    uncached = FramesFactory.buildUncachedITRF(hist, TimeScalesFactory.getUTC())
+    tirf_u = uncached.getParent()
+    cirf_raw = tirf_u.getParent().getTransformProvider().getRawProvider()
+    cirf = Frame(FramesFactory.getGCRF(), cirf_raw, "CIRF (exact)", True)
+    tirf = Frame(cirf, tirf_u.getTransformProvider(), "TIRF (exact)", False)
+    return Frame(tirf, uncached.getTransformProvider(), "ITRF (exact)", False)
 
 
 def rotation(f_from, f_to, date) -> np.ndarray:
@@ -170,8 +180,9 @@ def rotation_angle(d: np.ndarray) -> float:
 
 
 def frame_check(itrf) -> dict:
-    """The largest angles between Orekit's GCRF → ITRF rotations and astropy's (49 times over
-    the day), for the frame used here and for Orekit's default IERS 2010 ones; TT − UTC."""
+    """The largest angles between Orekit's GCRF → ITRF rotations and astropy's (50 times over
+    the day, none on an EOP entry; one in the last EOP_STEP before midnight), for the frame used
+    here and for Orekit's default IERS 2010 ones; TT − UTC."""
     from astropy.time import TimeDelta
     from org.orekit.frames import FramesFactory
     from org.orekit.time import TimeScalesFactory
@@ -180,7 +191,8 @@ def frame_check(itrf) -> dict:
     from orbit.frames import gcrs_to_itrs_matrix
 
     ep, aep = orekit_epoch(), astropy_epoch()
-    t = np.linspace(0.0, DURATION, 49)
+    t = np.append(1800.0 * np.arange(49) + 137.0, DURATION - 0.6 * EOP_STEP)
+    t = np.sort(t[t < DURATION])
     ra = gcrs_to_itrs_matrix(aep + TimeDelta(t, format="sec"))
     gcrf = FramesFactory.getGCRF()
     frames = {
