@@ -15,8 +15,12 @@ so this script writes Orekit's data from the package's own sources:
   2006/2000A model without the observed offsets), while Orekit adds them (0.29 mas = 1.4e-9 rad
   on 2026-03-20, 1 cm at 7000 km). Like astropy's ``IERS_A``, Orekit takes the Bulletin B
   values of UT1 − UTC and polar motion where the file has them, else the Bulletin A ones
-  (checked: identical at the epoch of the reference orbits). ``--verbatim-eop`` copies the file
-  unchanged (to measure the effect of dX, dY);
+  (checked: the daily values of both are identical from 2020 to the table's last prediction).
+  The file's last rows (dates without values) are dropped, as Orekit would read them as zeros;
+  but past its table Orekit takes the EOP as zero anyway, where astropy keeps the last values,
+  so the two differ after the table's last prediction (2027-10-29 in astropy-iers-data
+  0.2026.11.2.0.34.55). ``--keep-cip-offsets`` keeps dX, dY (to measure their
+  effect);
 * ``egm2008.gfc``: the package's EGM2008 coefficients (``orbit/data/egm2008.npz``: fully
   normalised, tide-free, GM = 3.986004415e14 m³/s², a = 6 378 136.3 m) to degree and order
   ``--degree`` (default 70), in the ICGEM format Orekit's ``ICGEMFormatReader`` reads; no
@@ -32,7 +36,6 @@ Run it with any Python that has numpy and astropy (the package need not be insta
 from __future__ import annotations
 
 import argparse
-import shutil
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +43,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 EGM2008 = REPO / "orbit" / "data" / "egm2008.npz"
 
-# The dX, dY columns of finals2000A.all (0-based slices of ReadMe.finals2000A's 1-based ranges).
+# Columns of finals2000A.all (0-based slices of ReadMe.finals2000A's 1-based ranges).
+UT1_A = slice(58, 68)
 DX_A, DY_A = slice(97, 106), slice(116, 125)
 DX_B, DY_B = slice(165, 175), slice(175, 185)
 
@@ -66,13 +70,16 @@ def tai_utc_dat(src: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
-def finals_for_orekit(src: Path) -> str:
-    """The finals2000A.all text with dX = dY = 0 wherever the file has a value."""
+def finals_for_orekit(src: Path, keep_cip_offsets: bool = False) -> str:
+    """The finals2000A.all text without the rows that have no UT1 − UTC and, unless
+    ``keep_cip_offsets``, with dX = dY = 0 wherever the file has a value."""
     out = []
     for raw in src.read_text().splitlines():
+        if not raw[UT1_A].strip():
+            continue
         line = list(raw.ljust(185))
         for cols, fmt in ((DX_A, "9.3f"), (DY_A, "9.3f"), (DX_B, "10.3f"), (DY_B, "10.3f")):
-            if raw[cols].strip():
+            if raw[cols].strip() and not keep_cip_offsets:
                 _put(line, cols, f"{0.0:{fmt}}")
         out.append("".join(line))
     return "\n".join(out) + "\n"
@@ -109,8 +116,8 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("directory", type=Path)
     p.add_argument("--degree", type=int, default=70)
-    p.add_argument("--verbatim-eop", action="store_true",
-                   help="copy finals2000A.all unchanged (with dX, dY)")  # fmt: skip
+    p.add_argument("--keep-cip-offsets", action="store_true",
+                   help="keep the celestial-pole offsets dX, dY of finals2000A.all")  # fmt: skip
     args = p.parse_args()
     import astropy_iers_data
 
@@ -118,10 +125,7 @@ def main() -> None:
     d.mkdir(parents=True, exist_ok=True)
     (d / "tai-utc.dat").write_text(tai_utc_dat(Path(astropy_iers_data.IERS_LEAP_SECOND_FILE)))
     src = Path(astropy_iers_data.IERS_A_FILE)
-    if args.verbatim_eop:
-        shutil.copyfile(src, d / "finals2000A.all")
-    else:
-        (d / "finals2000A.all").write_text(finals_for_orekit(src))
+    (d / "finals2000A.all").write_text(finals_for_orekit(src, args.keep_cip_offsets))
     write_gfc(d / "egm2008.gfc", args.degree)
     print(f"wrote {d}: tai-utc.dat, finals2000A.all, egm2008.gfc (degree {args.degree})")
 
