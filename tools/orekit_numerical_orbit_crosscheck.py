@@ -83,16 +83,48 @@ def angle(d: np.ndarray) -> float:
     return 0.5 * float(np.linalg.norm([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]]))
 
 
-def main() -> None:
-    from astropy.time import Time, TimeDelta
+def propagate(ref, case: str, t_end: float | None = None, rtol: float = 3e-14):
+    """scipy's solution of ``case`` of the reference file ``ref`` (a mapping) at its sample
+    times up to ``t_end`` (default: all): t, r, v, the number of evaluations."""
+    from astropy.time import Time
     from scipy.integrate import solve_ivp
 
     from orbit import SphericalHarmonics, ThirdBody
     from orbit import _gravity_field_kernels as kg
+
+    epoch = Time(str(ref["epoch"]).removesuffix(" UTC"), scale="utc")
+    t = ref[f"{case}_t"]
+    t = t[t <= (t[-1] if t_end is None else t_end)]
+    duration = float(t[-1])
+    rot = Rotation(epoch, duration)
+    field = SphericalHarmonics(int(ref[f"{case}_degree"]), int(ref[f"{case}_order"]))
+    bodies = [str(b) for b in ref[f"{case}_bodies"]]
+    tg = NODE * np.arange(-4, int(duration / NODE) + 5, dtype=np.float64)
+    tables = {b: ThirdBody(b).position(epoch, tg) for b in bodies}
+    mus = {b: ThirdBody(b).mu for b in bodies}
+
+    def rhs(t, y):
+        r = rot(t)
+        a = r.T @ field.acceleration(r @ y[:3])
+        for b in bodies:
+            s = lagrange8(tg, tables[b], t)
+            a = a + np.array(kg.third_body(mus[b], s[0], s[1], s[2], y[0], y[1], y[2]))
+        return np.concatenate([y[3:], a])
+
+    y0 = np.concatenate([ref[f"{case}_r0"], ref[f"{case}_v0"]])
+    sol = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=rtol, atol=1e-9,
+                    max_step=30.0)  # fmt: skip
+    assert sol.success, sol.message
+    return t, sol.y[:3].T, sol.y[3:].T, sol.nfev
+
+
+def main() -> None:
+    from astropy.time import Time, TimeDelta
+
     from orbit.frames import gcrs_to_itrs_matrix
 
     path = Path(sys.argv[1] if len(sys.argv) > 1 else "tests/data/orekit_numerical_orbit.npz")
-    ref = np.load(path)
+    ref = dict(np.load(path))
     epoch = Time(str(ref["epoch"]).removesuffix(" UTC"), scale="utc")
     duration = float(ref["A_t"][-1])
     rot = Rotation(epoch, duration)
@@ -101,38 +133,21 @@ def main() -> None:
     direct = gcrs_to_itrs_matrix(epoch + TimeDelta(tt, format="sec"))
     err = max(angle(rot(s) @ m.T) for s, m in zip(tt, direct, strict=True))
     print(f"R(t) interpolation: largest angle from astropy {err:.2e} rad")
-    tg = NODE * np.arange(-4, int(duration / NODE) + 5, dtype=np.float64)
-    tables = {b: ThirdBody(b).position(epoch, tg) for b in ("sun", "moon")}
-    mus = {b: ThirdBody(b).mu for b in ("sun", "moon")}
-    for case in [c for c in "ABC" if f"{c}_r" in ref.files]:
-        field = SphericalHarmonics(int(ref[f"{case}_degree"]))
-        bodies = [str(b) for b in ref[f"{case}_bodies"]]
-
-        def rhs(t, y, field=field, bodies=bodies):
-            r = rot(t)
-            a = r.T @ field.acceleration(r @ y[:3])
-            for b in bodies:
-                s = lagrange8(tg, tables[b], t)
-                a = a + np.array(kg.third_body(mus[b], s[0], s[1], s[2], y[0], y[1], y[2]))
-            return np.concatenate([y[3:], a])
-
-        y0 = np.concatenate([ref[f"{case}_r0"], ref[f"{case}_v0"]])
-        t = ref[f"{case}_t"]
+    for case in [c for c in "ABC" if f"{c}_r" in ref]:
         sols = []
         for rtol in (1e-13, 3e-14):
             t0 = time.time()
-            sol = solve_ivp(rhs, (0.0, duration), y0, method="DOP853", t_eval=t, rtol=rtol,
-                            atol=1e-9, max_step=30.0)  # fmt: skip
-            assert sol.success, sol.message
-            sols.append(sol.y.T)
-            print(f"case {case} rtol {rtol:.0e}: {sol.nfev} evaluations, "
-                  f"{time.time() - t0:.0f} s", flush=True)  # fmt: skip
-        conv = np.max(np.linalg.norm(sols[0][:, :3] - sols[1][:, :3], axis=1))
-        dr = np.linalg.norm(sols[1][:, :3] - ref[f"{case}_r"], axis=1)
-        dv = np.linalg.norm(sols[1][:, 3:] - ref[f"{case}_v"], axis=1)
-        print(f"case {case} ({field.degree}x{field.degree}{', ' if bodies else ''}"
-              f"{'+'.join(bodies)}): scipy convergence {conv:.1e} m; scipy - Orekit: "
-              f"|dr| max {dr.max():.2e} m (at {t[dr.argmax()]:.0f} s), "
+            t, r, v, nfev = propagate(ref, case, rtol=rtol)
+            sols.append((r, v))
+            print(f"case {case} rtol {rtol:.0e}: {nfev} evaluations, {time.time() - t0:.0f} s",
+                  flush=True)  # fmt: skip
+        conv = np.max(np.linalg.norm(sols[0][0] - sols[1][0], axis=1))
+        dr = np.linalg.norm(sols[1][0] - ref[f"{case}_r"], axis=1)
+        dv = np.linalg.norm(sols[1][1] - ref[f"{case}_v"], axis=1)
+        bodies = "+".join(str(b) for b in ref[f"{case}_bodies"])
+        print(f"case {case} ({ref[f'{case}_degree']}x{ref[f'{case}_order']}"
+              f"{', ' + bodies if bodies else ''}): scipy convergence {conv:.1e} m; "
+              f"scipy - Orekit: |dr| max {dr.max():.2e} m (at {t[dr.argmax()]:.0f} s), "
               f"|dv| max {dv.max():.2e} m/s", flush=True)  # fmt: skip
 
 
