@@ -72,6 +72,7 @@ CASES = {
 POS_TOL = 5e-8  # m (and 5e-11 m/s): the stored runs
 MAX_STEP = 30.0  # s, the integrator's largest step (see the module docstring)
 BODY_STEP = 600.0  # s between tabulated Sun/Moon positions
+EOP_STEP = 600.0  # s between the EOP entries given to Orekit
 
 
 def start_orekit(data_dir: Path) -> None:
@@ -95,9 +96,6 @@ def orekit_epoch():
     y, mo, d = (int(x) for x in EPOCH[:10].split("-"))
     h, mi, s = (int(x) for x in EPOCH[11:].split(":"))
     return AbsoluteDate(y, mo, d, h, mi, float(s), TimeScalesFactory.getUTC())
-
-
-EOP_STEP = 600.0  # s between the EOP entries given to Orekit
 
 
 def linear_eop_itrf():
