@@ -355,13 +355,17 @@ class Spacecraft:
             sc[_ka.SC.MTQ] = sc.shape[0]
             sc = np.concatenate([sc, fb])
         if self.coupled:
+            from orbit import Impact
             from orbit import _state_kernels as _sk
 
             from ._core import coupled as _kc
             from .environment import OMEGA_EARTH
 
             tt = np.asarray(t, dtype=np.float64).reshape(-1)
-            self.orbit.check_times(tt, "t")
+            try:  # the orbit's own path (without the spacecraft's forces) over the run
+                self.orbit.check_times(tt, "t")
+            except Impact:  # it ends at the surface: the run itself stops where it does
+                pass
             forces = self.orbit._forces.cover(float(tt.min()), float(tt.max()))
             path = np.array(self.orbit.kernel_data(), dtype=np.float64)  # its own path
             co = sc.shape[0]

@@ -39,6 +39,7 @@ from ._rk import (
     _dense_coefficients,
     _initial_step,
     _interpolate,
+    crossing,
     dop853_step,
 )
 from ._shared_jit import jit
@@ -185,23 +186,9 @@ def surface(d, t, x, y, z):
 
 
 @jit
-def _locate_impact(d, work, tstate, counters, out):
-    """The time the last step crossed the surface (bisection on its dense output), the state
-    there in ``out``."""
-    _dense_coefficients(orbit_rhs, d, work, tstate, counters)
-    lo = tstate[2]
-    hi = tstate[0]
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if mid == lo or mid == hi:
-            break
-        _interpolate(work, tstate, mid, out)
-        if surface(d, mid, out[0], out[1], out[2]) > 0.0:
-            lo = mid
-        else:
-            hi = mid
-    _interpolate(work, tstate, hi, out)
-    return hi
+def inside(d, t, y):
+    """Whether the state ``y`` (m) is inside the Earth (WGS 84 ellipsoid) at t."""
+    return surface(d, t, y[0], y[1], y[2]) < 0.0
 
 
 @jit
@@ -263,8 +250,9 @@ def run(d, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_stop, max
                                     t_stop, rtol, atol, max_step)  # fmt: skip
         if status != SUCCESS:
             return status, k, math.nan
-        if surface(d, tstate[0], y[0], y[1], y[2]) < 0.0:
-            ti = _locate_impact(d, work, tstate, counters, impact)
+        if inside(d, tstate[0], y):
+            _dense_coefficients(orbit_rhs, d, work, tstate, counters)
+            ti = crossing(inside, d, work, tstate, impact)
             while k < m and direction * (ti - t_out[k]) > 0.0:
                 _interpolate(work, tstate, t_out[k], y_out[k])
                 k += 1

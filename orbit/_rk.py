@@ -163,6 +163,26 @@ def _interpolate(work, tstate, t, out):
 
 
 @jit_generic
+def crossing(inside, data, work, tstate, out):
+    """The first time in the last step (its dense output, computed) where ``inside(data, t,
+    y)`` holds, when it holds at the step's end and not at its start: bisection to the last
+    bit; the state there in ``out``. Returns the time."""
+    lo = tstate[2]
+    hi = tstate[0]
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if mid == lo or mid == hi:
+            break
+        _interpolate(work, tstate, mid, out)
+        if inside(data, mid, out):
+            hi = mid
+        else:
+            lo = mid
+    _interpolate(work, tstate, hi, out)
+    return hi
+
+
+@jit_generic
 def dop853_step(rhs, params, work, tstate, counters, h_abs, direction, t_end, rtol, atol, max_step):
     """One accepted DOP853 step from ``(tstate[0], work[WORK.Y])``, first trying the size ``h_abs``.
 

@@ -153,6 +153,10 @@ def test_bad_input():
     q0, Q0 = _state()
     with pytest.raises(attitude.AttitudeValueError, match="formulation"):
         attitude.propagate(sc, q0, Q0, [0.0, 10.0], formulation="schwab")
+    from attitude.ensemble import propagate_ensemble
+
+    with pytest.raises(attitude.AttitudeValueError, match="ensemble"):
+        propagate_ensemble(sc, np.tile(q0, (2, 1)), np.tile(Q0, (2, 1)), [0.0, 10.0])
     field = _orbit(gravity=orbit.SphericalHarmonics(2))
     sc2 = Spacecraft(RigidBody(INERTIA), orbit=field, mass=MASS)
     with pytest.raises(attitude.AttitudeValueError, match="method"):
@@ -262,3 +266,23 @@ def test_orbit_raising_scenario_obeys_the_rocket_equation():
     dv = 220.0 * 9.80665 * math.log(m[0] / m[-1])
     assert abs((energy[-1] - energy[0]) / (np.linalg.norm(v[0]) * dv) - 1.0) < 0.01
     assert float(np.nanmax(ds.error_angle.values[ds.tick.values > 60.0])) < 1e-2  # rad
+
+
+def test_coupled_run_stops_at_impact():
+    # A ballistic arc from 200 km with the attitude carried: the run ends at the surface,
+    # keeping the samples before it and the state there.
+    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH)
+    sc = Spacecraft(RigidBody([10.0, 12.0, 14.0]), orbit=o, mass=100.0)
+    q0, Q0 = _state(np.array([10.0, 12.0, 14.0]))
+    t = np.linspace(0.0, 3600.0, 361)
+    ds = attitude.propagate(sc, q0, Q0, t, method="dop853", rtol=1e-12, atol=1e-12)
+    alone = o.propagate(t)
+    ti = alone.attrs["impact_time"]
+    assert ds.attrs["status"] == "event" and ds.attrs["event"] == "impact"
+    assert (
+        abs(ds.attrs["impact_time"] - ti) < 1e-6 and ds.time.values[-1] == ds.attrs["impact_time"]
+    )
+    assert ds.sizes["time"] == alone.sizes["time"] + 1  # the samples before, and the impact
+    r = ds.position.values
+    assert np.all(np.linalg.norm(r[:-1], axis=1) > 6.3567e6)
+    np.testing.assert_allclose(r[:-1], alone.position.values, rtol=0, atol=1e-3)

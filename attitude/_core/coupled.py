@@ -99,8 +99,9 @@ def coupled_software(sc, co, fw, t, y):
 
 
 @jit
-def below_surface(sc, co, t, y):
+def below_surface(sc, t, y):
     """Whether the state's orbit is inside the Earth (WGS 84 ellipsoid): an impact."""
+    co = int(sc[SC.COUPLED])
     iy = int(sc[co + COUPLED.IY])
     return _fk.surface(sc[int(sc[co + COUPLED.FORCES]) :], t, y[iy], y[iy + 1], y[iy + 2]) < 0.0
 

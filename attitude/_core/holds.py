@@ -43,6 +43,7 @@ from orbit._rk import (
     _dense_coefficients,
     _initial_step,
     _interpolate,
+    crossing,
     dop853_step,
 )
 from orbit._shared_jit import jit
@@ -164,23 +165,13 @@ def schedule_boundary(P, y, t, t_end, ctl):
 
 
 @jit(inline="always")
-def _impact(P, sc, co, work, tstate, counters, t_out, y_out, k, n):
+def _impact(rhs, P, sc, work, tstate, counters, t_out, y_out, k, n):
     """The last step took the orbit below the surface: the samples before the crossing, then
     the state at it (bisection on the step's dense output) in row ``k``; returns
-    ``(EVENT, rows filled)`` with ``tstate[0]`` the crossing's time."""
-    _dense_coefficients(RHS, P, work, tstate, counters)
-    yt = work[WORK.YT]
-    lo = tstate[2]
-    hi = tstate[0]
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if mid == lo or mid == hi:
-            break
-        _interpolate(work, tstate, mid, yt)
-        if below_surface(sc, co, mid, yt):
-            hi = mid
-        else:
-            lo = mid
+    ``(EVENT, rows filled)`` with ``tstate[0]`` the crossing's time (``rhs``: the copy's
+    right-hand side; this function's own global RHS is never bound)."""
+    _dense_coefficients(rhs, P, work, tstate, counters)
+    hi = crossing(below_surface, sc, work, tstate, work[WORK.YT])
     m = t_out.shape[0]
     while k < m and t_out[k] < hi:
         _interpolate(work, tstate, t_out[k], y_out[k])
@@ -281,8 +272,7 @@ def holds_run(
         )
         if status != SUCCESS:
             return status, k
-        co = int(sc[SC.COUPLED])
-        if co >= 0 and below_surface(sc, co, tstate[0], y):
-            return _impact(P, sc, co, work, tstate, counters, t_out, y_out, k, n)
+        if sc[SC.COUPLED] >= 0.0 and below_surface(sc, tstate[0], y):
+            return _impact(RHS, P, sc, work, tstate, counters, t_out, y_out, k, n)
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0

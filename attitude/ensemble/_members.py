@@ -371,9 +371,9 @@ def is_spacecraft_ensemble(body: Any, commands: Any, software: Any) -> bool:
     if commands is not None or software is not None:
         return True
     if isinstance(body, Spacecraft):
-        return body.has_actuators
+        return body.has_actuators or body.coupled
     if isinstance(body, Sequence) and not isinstance(body, (str, bytes)) and body:
-        return any(isinstance(b, Spacecraft) and b.has_actuators for b in body)
+        return any(isinstance(b, Spacecraft) and (b.has_actuators or b.coupled) for b in body)
     return False
 
 
@@ -514,6 +514,14 @@ class CraftMembers:
                 "software: your own Python step function runs between compiled calls of one "
                 "run; an ensemble runs its members in parallel compiled code: write the law "
                 "with attitude.control, or loop over attitude.propagate"
+            )
+        if craft.coupled:
+            raise AttitudeValueError(
+                "bodies_or_body: an ensemble runs its members in parallel on one shared model "
+                "and flight-software program; a spacecraft whose orbit is propagated with its "
+                "attitude (a mass on a NumericalOrbit) writes its orbit into them, so it is not "
+                "run in ensembles yet: loop over attitude.propagate, or give the spacecraft "
+                "without a mass (the NumericalOrbit then a given orbit)"
             )
         craft.check_orbit(getattr(self.potential, "orbit", None))
         if self.method == "taylor":
