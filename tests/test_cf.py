@@ -43,6 +43,8 @@ SHORT = {
     "rw_inertial_pointing": 5.0,
     "cubesat_bdot": 0.01,  # hours
     "nadir_wheels_dumping": 0.01,  # hours
+    "orbit_raising_burn": 0.2,  # hours: the burn starts at 0.167 h
+    "cubesat_drag_decay": 0.02,  # hours
 }
 
 

@@ -43,6 +43,8 @@ SHORT = {
     "rw_inertial_pointing": 30.0,
     "cubesat_bdot": 0.02,
     "nadir_wheels_dumping": 0.02,
+    "orbit_raising_burn": 0.2,
+    "cubesat_drag_decay": 0.02,
 }
 NO_ORBIT = ("paper_torque_free", "paper_heavy_top", "rw_inertial_pointing")  # no epoch, no r
 
@@ -136,6 +138,8 @@ def test_run_shipped_scenario(name, tmp_path):
             "cubesat_environment": 3600.0,
             "cubesat_bdot": 3600.0,
             "nadir_wheels_dumping": 3600.0,
+            "orbit_raising_burn": 3600.0,
+            "cubesat_drag_decay": 3600.0,
         }.get(name, 1.0)
         assert t[0] == 0.0 and t[-1] <= SHORT[name] * scale
         q = nc.variables["q"][:]
