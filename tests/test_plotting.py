@@ -220,3 +220,23 @@ def test_cli_plot_options(gg_run, tmp_path, capsys):
     assert main(["plot", str(nc), "-o", str(out), "--panels", "wheels"]) == 2
     assert "plot: panels: 'wheels'" in capsys.readouterr().err
     assert main(["plot", str(nc), "-o", str(out), "--layout", "paper"]) == 0
+
+
+def test_a_run_that_propagated_its_orbit_gets_the_orbit_panel(tmp_path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import orbit
+    from attitude import RigidBody, Spacecraft, propagate
+    from attitude.plotting import plot_result
+
+    o = orbit.NumericalOrbit([6778.137, 0.0, 0.0], [0.0, 7.6686, 0.0], "2026-03-20T00:00:00")
+    sc = Spacecraft(RigidBody([1.0, 1.2, 1.4]), orbit=o, mass=10.0)
+    t = np.linspace(0.0, 3 * 5560.0, 301)
+    ds = propagate(sc, [1.0, 0, 0, 0], [0.0, 0.0, 0.0, 0.02], t, method="dop853")
+    fig = plot_result(ds)
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert "height [km]" in labels
+    ax = fig.axes[labels.index("height [km]")]
+    h = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
+    assert 380.0 < h.min() and h.max() < 430.0  # 400 km above the equator's ellipsoid

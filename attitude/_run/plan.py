@@ -198,7 +198,8 @@ def _spacecraft_runner(
         )
     if events is not None:
         raise AttitudeValueError(
-            "events: not located yet for a spacecraft with actuators; run without events"
+            "events: not located yet for a spacecraft with actuators or a propagated orbit (a "
+            "propagated orbit stops at the surface by itself); run without events"
         )
     if output != "dataset":
         raise AttitudeValueError(

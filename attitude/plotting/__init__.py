@@ -174,9 +174,9 @@ def plot_result(
             "frame or variables it does not have)"
         )
     if axis.unit and ("p" in d or orbit is not None):
-        from ._reference import orbit_of, scenario_of
+        from ._reference import orbit_of_run
 
-        o = orbit if orbit is not None else orbit_of(scenario_of(ds))
+        o = orbit if orbit is not None else orbit_of_run(ds)
         ctx.shadow = shadow_along(d, t, o)
     fig, axes = plt.subplots(len(names), 1, figsize=(11, 1.2 + 2.35 * len(names)), sharex=True,
                              constrained_layout=True, squeeze=False)  # fmt: skip

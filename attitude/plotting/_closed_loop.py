@@ -617,4 +617,5 @@ def closed_loop_defaults(ctx: PlotContext) -> list[str]:
     else:
         out += ["rate_norm", "rates"]
     out += [p for p in CLOSED_LOOP_PANELS[2:] if available(ctx, p)]
+    out.append("orbit")  # a run that propagated its orbit (drawn when it has one)
     return [p for p in out if available(ctx, p)]

@@ -260,11 +260,11 @@ def _itrs(run: xr.Dataset, t: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np
     from orbit.frames import gcrs_to_itrs_matrix
 
     from ..quaternion import from_matrix, multiply
-    from ._reference import orbit_of, scenario_of
+    from ._reference import orbit_of_run
 
     epoch = run.attrs.get("epoch")
     frame = str(run.attrs.get("orbit_frame", "GCRS")).upper()
-    o = orbit_of(scenario_of(run))
+    o = orbit_of_run(run)
     if not epoch or (o is None and not {"r", "p"} <= set(run.variables)):
         raise AttitudeValueError(
             "CZML: the run needs a dated orbit (an epoch and an orbit) to be placed around the "

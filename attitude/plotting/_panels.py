@@ -315,6 +315,50 @@ def torque(ax: Any, ctx: PlotContext) -> None:
     _legend(ax)
 
 
+@register_panel("orbit", needs=("position",))
+def orbit(ax: Any, ctx: PlotContext) -> None:
+    """A run that propagated its orbit: the height above the WGS 84 ellipsoid (thin) and its
+    mean over each orbital period (thick: the decay or the raise), the mass on the right when
+    it changes."""
+    from orbit.frames import gcrs_to_itrs, geodetic_from_itrs
+
+    ds = ctx.ds
+    r = np.asarray(ds["position"].values, dtype=np.float64) * 1e-3
+    epoch = ds.attrs.get("epoch")
+    if epoch:
+        from astropy.time import Time, TimeDelta
+
+        times = Time(str(epoch).rstrip("Z"), scale="utc") + TimeDelta(ctx.t_seconds, format="sec")
+        h = geodetic_from_itrs(gcrs_to_itrs(times, r))[2]
+    else:
+        h = np.linalg.norm(r, axis=1) - 6378.137
+    series(ax, ctx.t, h, "band", color="tab:blue", lw=0.6, alpha=0.6, label="height")
+    v = np.asarray(ds["velocity"].values, dtype=np.float64) * 1e-3
+    rn = np.linalg.norm(r, axis=1)
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / 398600.4418)  # km: two-body osculating
+    period = 2.0 * np.pi * np.sqrt(np.abs(a) ** 3 / 398600.4418)
+    ts = ctx.t_seconds
+    if ts.size > 2 and ts[-1] - ts[0] > float(np.median(period)):
+        half = 0.5 * float(np.median(period))
+        lo = np.searchsorted(ts, ts - half)
+        hi = np.searchsorted(ts, ts + half)
+        csum = np.concatenate([[0.0], np.cumsum(h)])
+        mean = (csum[hi] - csum[lo]) / np.maximum(hi - lo, 1)
+        inside = (ts - half >= ts[0]) & (ts + half <= ts[-1])
+        ax.plot(ctx.t[inside], mean[inside], color="tab:blue", lw=2.0, label="mean over an orbit")
+    ax.set_ylabel("height [km]")
+    if "mass" in ds and float(np.ptp(ds["mass"].values)) > 0.0:
+        bx = ax.twinx()
+        bx.plot(ctx.t, ds["mass"].values, color="tab:red", lw=1.2, label="mass")
+        bx.set_ylabel("mass [kg]", color="tab:red")
+        lines = ax.get_lines() + bx.get_lines()
+        ax.legend(lines, [ln.get_label() for ln in lines], loc="upper left",
+                  bbox_to_anchor=(1.07, 1.0), fontsize=8, framealpha=0.9,
+                  borderaxespad=0.0)  # fmt: skip
+    else:
+        _legend(ax)
+
+
 #: The panels of the engineer's figure when none are asked for, in order: those the run has
 #: what they need for.
 DEFAULT_PANELS = ("pointing", "angles", "rates")
@@ -330,4 +374,6 @@ def default_panels(ctx: PlotContext) -> list[str]:
     out = [p for p in names if available(ctx, p)]
     if "torque" in out and ctx.ds.sizes.get("model", 0) < 3:  # one term and its total
         out.remove("torque")
+    if available(ctx, "orbit"):  # the run propagated its orbit
+        out.append("orbit")
     return out

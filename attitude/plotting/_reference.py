@@ -66,6 +66,27 @@ def orbit_of(scenario: Any) -> Any:
     return o
 
 
+def run_orbit(ds: xr.Dataset) -> Any:
+    """The orbit a run propagated with its attitude (its ``position`` and ``velocity``
+    samples, GCRS), as an :class:`orbit.EphemerisOrbit`; None for a run on a given orbit."""
+    if "position" not in ds or "velocity" not in ds or ds.sizes.get("time", 0) < 2:
+        return None
+    from orbit import EphemerisOrbit
+
+    from ..results import time_values
+
+    t = time_values(ds)
+    return EphemerisOrbit(t, ds["position"].values * 1e-3, ds["velocity"].values * 1e-3,
+                          epoch=ds.attrs.get("epoch", "").rstrip("Z") or None,
+                          source="the run's own orbit")  # fmt: skip
+
+
+def orbit_of_run(ds: xr.Dataset, scenario: Any = None) -> Any:
+    """The run's orbit: the one it propagated (its samples), else its scenario's."""
+    o = run_orbit(ds)
+    return o if o is not None else orbit_of(scenario_of(ds) if scenario is None else scenario)
+
+
 def default_frame(ds: xr.Dataset) -> str | None:
     """The scenario's frame: of the initial state, else of the first pointing event, else
     ``lvlh`` when the run has an orbit; None without one."""
@@ -143,7 +164,7 @@ def reference(
     if name == "inertial":
         return Reference(title, np.tile([1.0, 0.0, 0.0, 0.0], (t_seconds.size, 1)))
     if orbit is None:
-        orbit = orbit_of(scenario_of(ds))
+        orbit = orbit_of_run(ds)
     if orbit is None:
         q = _from_p(ds, name)
         if q is None:

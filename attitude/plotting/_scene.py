@@ -405,7 +405,7 @@ def scene(
     """
     from ..results import time_unit, time_values
     from ._common import run_title
-    from ._reference import orbit_of, reference, scenario_of
+    from ._reference import orbit_of_run, reference, scenario_of
 
     if isinstance(ds, xr.Dataset) and "member" in ds.dims and "q" not in ds:
         _member(ds, member)  # an ensemble's statistics: says so
@@ -423,7 +423,7 @@ def scene(
     t_all = time_values(ds)
     n = t_all.size
     sc = scenario_of(full_ds)
-    o = orbit if orbit is not None else orbit_of(sc)
+    o = orbit if orbit is not None else orbit_of_run(ds, sc)
     ref_all = _guidance(ds, t_all)
     if ref_all is not None and not np.isfinite(ref_all).any():  # no guided mode (B-dot...)
         ref_all = None
