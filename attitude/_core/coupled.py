@@ -15,10 +15,11 @@ torque is Arribas et al.'s eq. 20 and whose force is its back-reaction on the or
     F  = −∇V₂ = −3μ I r/|r|⁵ + (15μ/2)(rᵀ I r) r/|r|⁷ − (3μ tr I/2) r/|r|⁵
 
 so the total energy and the total angular momentum r × p + (the body's momentum in space
-axes) are conserved when nothing else acts. The thrusters' force (body axes, turned to space by
-q) and their propellant flow (ṁ = −Σ F/(isp g0)) act too:
+axes) are conserved when nothing else acts. The facets' drag and radiation-pressure forces, the
+thrusters' force (body axes, turned to space by q) and their propellant flow
+(ṁ = −Σ F/(isp g0)) act too:
 
-    ṙ = v,   v̇ = −∇U + (F_thrust + F₂)/m,   ṁ = −Σ ṁ_k.
+    ṙ = v,   v̇ = −∇U + (F_thrust + F_env + F₂)/m,   ṁ = −Σ ṁ_k.
 
 The models read the orbit through their copies of the orbit's kernel data, each turned into a
 *live* orbit (``orbit._state_kernels.TYPE_LIVE``) whose state this right-hand side writes before
