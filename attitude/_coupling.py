@@ -22,7 +22,7 @@ from ._core import potentials as _kp
 from .errors import AttitudeValueError
 
 __all__ = [
-    "N_ORBIT", "attach", "attach_software", "initial_orbit_state", "live_slots",
+    "N_ORBIT", "attach", "attach_software", "follow_path", "initial_orbit_state", "live_slots",
     "reference_params",
 ]  # fmt: skip
 
@@ -75,16 +75,26 @@ def attach_software(fw: np.ndarray, sc: np.ndarray, craft: Any) -> None:
     sc[co + _kc.COUPLED.FSW : co + _kc.COUPLED.FSW + len(slots)] = slots
 
 
-def attach(params: np.ndarray, sc: np.ndarray, craft: Any, gravity_gradient: bool) -> None:
-    """Turn the model's orbit copies in ``params`` into live orbits and list them in the
-    spacecraft block ``sc`` (its coupled block); the mutual potential's force on when the model
-    has a gravity gradient."""
+def attach(params: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -> None:
+    """Turn the model's orbit copies in ``params`` (the tables marked with ``tokens``, default
+    the spacecraft's orbit's mark) into live orbits and list them in the spacecraft block
+    ``sc`` (its coupled block); the mutual potential's force on when the model has a gravity
+    gradient, the drag and radiation models' forces listed."""
     co = int(sc[_ka.SC.COUPLED])
-    slots = _make_live(params, craft.orbit.token, "potential")
+    slots: list[int] = []
+    for token in tokens or (craft.orbit.token,):
+        slots += _make_live(params, token, "potential")
+    if len(slots) > _kc.MAX_SLOTS:
+        raise AttitudeValueError(
+            f"potential: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run "
+            "whose orbit is propagated with the attitude"
+        )
     sc[co + _kc.COUPLED.N_SLOTS] = len(slots)
     sc[co + _kc.COUPLED.SLOTS : co + _kc.COUPLED.SLOTS + len(slots)] = slots
-    sc[co + _kc.COUPLED.GG] = 1.0 if gravity_gradient else 0.0
-    env = [(b, k) for b, k in _term_blocks(params) if k in _ENV_KINDS]
+    blocks = _term_blocks(params)
+    gg = any(k == _kp.KIND_GRAVITY_GRADIENT for _, k in blocks)
+    sc[co + _kc.COUPLED.GG] = 1.0 if gg else 0.0
+    env = [(b, k) for b, k in blocks if k in _ENV_KINDS]
     if len(env) > _kc.MAX_ENV:
         raise AttitudeValueError(
             f"potential: {len(env)} drag and radiation models; at most {_kc.MAX_ENV} in a run "
@@ -111,6 +121,20 @@ def _term_blocks(params: np.ndarray) -> list[tuple[int, int]]:
     else:
         bases = [_kp.MODEL.KIND]
     return [(b, int(params[b])) for b in bases]
+
+
+def follow_path(sc: np.ndarray, orbit: Any) -> np.ndarray:
+    """The spacecraft block with the path of ``orbit`` (a NumericalOrbit the model's
+    environment tables were computed along, when it is not the spacecraft's own: an ensemble's
+    nominal orbit) as the coupled block's path."""
+    co = int(sc[_ka.SC.COUPLED])
+    if orbit is None or not hasattr(orbit, "token") or co < 0:
+        return sc
+    path = np.array(orbit.kernel_data(), dtype=np.float64)
+    path[_sk.E_H + 1] = 0.0  # (not the orbit's mark: this copy stays a table)
+    out = np.concatenate([sc, path])
+    out[co + _kc.COUPLED.PRED] = sc.shape[0]
+    return out
 
 
 def sample_table(t: np.ndarray, r: np.ndarray, v: np.ndarray, mu_km: float) -> np.ndarray:
@@ -182,3 +206,25 @@ def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:
         "mass": xr.Variable(("time",), np.ascontiguousarray(y[:, iy + 6]),
                             {"units": "kg", "long_name": "spacecraft mass"}),
     }  # fmt: skip
+
+
+def sample_orbit(crafts: list, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:
+    """Each member's orbit variables from its own samples (``rows`` (C, m, width)): ``r``
+    (C, m) [km], ``f`` (C, m) [rad] and ``p`` (C, m, 4); NaN after a member's last finite
+    sample."""
+    c, m = rows.shape[:2]
+    out = {"r": np.full((c, m), np.nan), "f": np.full((c, m), np.nan),
+           "p": np.full((c, m, 4), np.nan)}  # fmt: skip
+    for i, craft in enumerate(crafts):
+        iy = 8 + len(craft.wheels)
+        ok = np.isfinite(rows[i, :, iy : iy + 6]).all(axis=1)
+        ok &= np.linalg.norm(np.nan_to_num(rows[i, :, iy : iy + 3]), axis=1) > 0.0  # (a size
+        # estimate's member is zeros)
+        k = int(np.argmin(ok)) if not ok.all() else m
+        if k == 0:
+            continue
+        o = run_orbit(craft, t[:k], rows[i, :k])
+        out["r"][i, :k] = o.radius(t[:k])
+        out["f"][i, :k] = o.true_anomaly(t[:k])
+        out["p"][i, :k] = o.frame_quaternion(t[:k])
+    return out

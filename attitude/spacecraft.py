@@ -379,8 +379,13 @@ class Spacecraft:
         return np.ascontiguousarray(sc, dtype=np.float64)
 
     def check_orbit(self, potential_orbit: Any) -> None:
-        """Raise unless the environment models' orbit is this spacecraft's (when both exist)."""
+        """Raise unless the environment models' orbit is this spacecraft's (when both exist);
+        a spacecraft carrying its orbit may also take a model on another state of the same
+        orbit model (an ensemble's dispersed member and the model's nominal orbit:
+        ``NumericalOrbit.with_state``)."""
         if self.orbit is None or potential_orbit is None or potential_orbit is self.orbit:
+            return
+        if self.coupled and getattr(potential_orbit, "_forces", None) is self.orbit._forces:
             return
         a = np.asarray(self.orbit.kernel_data())
         b = np.asarray(potential_orbit.kernel_data())

@@ -305,8 +305,13 @@ class NumericalOrbit(EphemerisOrbit):
         if not (isinstance(max_step, (int, float)) and 0.0 < max_step <= PAD / 2):
             raise OrbitValueError(f"max_step: seconds in (0, {PAD / 2:g}], got {max_step!r}")
         self._forces = ForceModel(ep, gravity, _bodies(third_bodies), mu_km * 1e9, earth_rotation)
-        self._y0 = np.concatenate([r, v]) * 1e3
         self._options = (float(rtol), float(atol), float(max_step))
+        self._start(r, v)
+
+    def _start(self, r: np.ndarray, v: np.ndarray) -> None:
+        """Start from the state (r [km], v [km/s]) at the epoch: checks, node spacing, the
+        integrators, the first nodes."""
+        self._y0 = np.concatenate([r, v]) * 1e3
         d = self._forces.cover(0.0, 0.0)
         inside = np.empty(1)
         _fk.surface_loop(d, np.zeros(1), self._y0[None, :3].copy(), inside)
@@ -330,6 +335,30 @@ class NumericalOrbit(EphemerisOrbit):
         #: A mark in the table's reserved word (orbit._state_kernels E_H + 1, else 0).
         self.token = float(secrets.randbits(52)) + 0.5
         self._cover(0.0, 2.0 * self._h)
+
+    def with_state(self, r0: Any, v0: Any) -> NumericalOrbit:
+        """The same orbit model (epoch, field, third bodies, Earth rotation, tolerances) from
+        another state at the epoch: an ensemble's dispersed members (they share the force
+        model's tables).
+
+        Parameters
+        ----------
+        r0 : array_like or Quantity, shape (3,) [km]
+            Position at the epoch (GCRS).
+        v0 : array_like or Quantity, shape (3,) [km/s]
+            Velocity at the epoch.
+        """
+        r = np.asarray(_as_array(r0, "r0", "km"), dtype=np.float64)
+        v = np.asarray(_as_array(v0, "v0", "km / s"), dtype=np.float64)
+        for name, x in (("r0", r), ("v0", v)):
+            if x.shape != (3,) or not np.all(np.isfinite(x)):
+                raise OrbitValueError(f"{name}: three finite components, got {x!r}")
+        new = object.__new__(NumericalOrbit)
+        new._epoch = self._epoch
+        new._forces = self._forces
+        new._options = self._options
+        new._start(r, v)
+        return new
 
     # -- identity ---------------------------------------------------------------------------
     @property

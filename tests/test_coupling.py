@@ -153,10 +153,6 @@ def test_bad_input():
     q0, Q0 = _state()
     with pytest.raises(attitude.AttitudeValueError, match="formulation"):
         attitude.propagate(sc, q0, Q0, [0.0, 10.0], formulation="schwab")
-    from attitude.ensemble import propagate_ensemble
-
-    with pytest.raises(attitude.AttitudeValueError, match="ensemble"):
-        propagate_ensemble(sc, np.tile(q0, (2, 1)), np.tile(Q0, (2, 1)), [0.0, 10.0])
     field = _orbit(gravity=orbit.SphericalHarmonics(2))
     sc2 = Spacecraft(RigidBody(INERTIA), orbit=field, mass=MASS)
     with pytest.raises(attitude.AttitudeValueError, match="method"):
@@ -286,3 +282,62 @@ def test_coupled_run_stops_at_impact():
     r = ds.position.values
     assert np.all(np.linalg.norm(r[:-1], axis=1) > 6.3567e6)
     np.testing.assert_allclose(r[:-1], alone.position.values, rtol=0, atol=1e-3)
+
+
+def test_ensemble_members_are_their_single_runs():
+    # Dispersed orbits and masses about a nominal NumericalOrbit (with_state: one force model),
+    # the model on the nominal orbit: each member is bit for bit its single run.
+    from attitude.ensemble import propagate_ensemble
+
+    o = _orbit()
+    body = RigidBody(INERTIA)
+    rng = np.random.default_rng(3)
+    y0 = o.initial_state
+    crafts = [
+        Spacecraft(body, orbit=o.with_state((y0[:3] + rng.normal(0, 100.0, 3)) * 1e-3,
+                                            (y0[3:] + rng.normal(0, 0.1, 3)) * 1e-3),
+                   mass=MASS * (1.0 + 0.01 * k))
+        for k in range(3)
+    ]  # fmt: skip
+    q0, Q0 = _state()
+    t = np.linspace(0.0, 3000.0, 31)
+    gg = attitude.GravityGradient(o)
+    ens = propagate_ensemble(crafts, np.tile(q0, (3, 1)), np.tile(Q0, (3, 1)), t, gg,
+                             method="dop853", rtol=1e-12, atol=1e-12)  # fmt: skip
+    assert ens.position.dims == ("member", "time", "axis")
+    for k, craft in enumerate(crafts):
+        one = attitude.propagate(craft, q0, Q0, t, gg, method="dop853", rtol=1e-12, atol=1e-12)
+        assert np.array_equal(ens.position.values[k], one.position.values)
+        assert np.array_equal(ens.q.values[k], one.q.values)
+        assert np.array_equal(ens.mass.values[k], one.mass.values)
+        assert np.array_equal(ens.r.values[k], one.r.values)
+    # the members differ: their orbits were dispersed by 100 m and 0.1 m/s
+    gap = np.linalg.norm(ens.position.values[0, -1] - ens.position.values[1, -1])
+    assert gap > 10.0
+
+
+def test_scenario_ensemble_disperses_the_orbit_and_the_mass(tmp_path):
+    from pathlib import Path
+
+    import xarray as xr
+
+    from attitude.ensemble import run_scenario
+    from attitude.scenario import loads
+
+    path = Path(__file__).resolve().parents[1] / "scenarios" / "cubesat_drag_decay.toml"
+    text = path.read_text().replace('stop = 24.0\nunit = "h"\ncount = 1441',
+                                    'stop = 600.0\nunit = "s"\ncount = 11')  # fmt: skip
+    text += (
+        "\n[ensemble]\nsize = 3\nseed = 7\nposition_error = 100.0\nposition_error_unit = 'm'\n"
+        "velocity_error = 0.1\nvelocity_error_unit = 'm/s'\nmass_error = 0.02\n"
+    )
+    sc = loads(text, path=path)
+    info = run_scenario(sc, tmp_path / "ens.nc")
+    with xr.open_dataset(info["path"]) as ds:
+        dr = ds.dispersion_position.values
+        assert ds.position.dims == ("member", "time", "axis") and dr.shape == (3, 3)
+        nominal = sc.spacecraft.orbit.initial_state
+        np.testing.assert_allclose(ds.position.values[:, 0], nominal[:3] + dr, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(ds.mass.values[:, 0],
+                                   4.0 * (1.0 + ds.dispersion_mass.values), rtol=1e-15)  # fmt: skip
+        assert 50.0 < np.std(dr) < 200.0

@@ -185,7 +185,8 @@ class RunSpec:
         if sc_run is not None and sc_run.coupled:
             from .. import _coupling
 
-            _coupling.attach(problem.params, sc_run.sc, craft, _has_gravity_gradient(pot))
+            sc_run.sc = _coupling.follow_path(sc_run.sc, getattr(pot, "orbit", None))
+            _coupling.attach(problem.params, sc_run.sc, craft, _orbit_tokens(craft, pot))
         _check_initial_state(problem)
         if method == "dop853" or method.startswith("scipy:"):
             # the fixed-step methods count their steps themselves; "exact" takes none
@@ -241,12 +242,14 @@ def epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
     return out
 
 
-def _has_gravity_gradient(pot: Potential) -> bool:
-    """Whether the model (or a term of a sum) is a gravity gradient."""
-    from ..potentials import GravityGradient
-
-    terms = getattr(pot, "terms", None) or (pot,)
-    return any(isinstance(p, GravityGradient) for p in terms)
+def _orbit_tokens(craft: Any, pot: Potential) -> tuple[float, ...]:
+    """The marks of the orbit tables the model of a coupled spacecraft holds (its orbit's, and
+    the model's orbit's when that is another NumericalOrbit)."""
+    tokens = [craft.orbit.token]
+    po = getattr(pot, "orbit", None)
+    if po is not None and po is not craft.orbit and hasattr(po, "token"):
+        tokens.append(po.token)
+    return tuple(tokens)
 
 
 def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:

@@ -437,7 +437,7 @@ def craft_arrays(members: Any, c: int, m: int, fill: float) -> dict[str, Any]:
         "diag": np.full((c, m, _N_DIAG), fill),
         "torques": np.full((c, m, len(members.potential.terms) + 1, 3), fill),
         "actuators": np.full((c, m, 4, 3), fill),
-        "wheels": np.full((c, m, n - 8, 2), fill),
+        "wheels": np.full((c, m, members.structure.counts[0], 2), fill),
         "counters": np.zeros((c, 5), dtype=np.int64),
         "status": np.zeros(c, dtype=np.int64),
         "n_done": np.full(c, m, dtype=np.int64),
@@ -489,11 +489,10 @@ def _diagnostics(blk, t, y_out, n_done, entry, n_terms):
     from .. import _holds
 
     c, m = y_out.shape[:2]
-    n = blk["y0"].shape[1]
     diag = np.full((c, m, 13), np.nan)
     torques = np.full((c, m, n_terms + 1, 3), np.nan)
     act = np.full((c, m, 4, 3), np.nan)
-    wheels = np.full((c, m, n - 8, 2), np.nan)
+    wheels = np.full((c, m, len(blk["runs"][0].spacecraft.wheels), 2), np.nan)
     for r, run in enumerate(blk["runs"]):
         k = int(n_done[r])
         if not k:

@@ -366,6 +366,16 @@ def as_crafts(body: Any, software: Any) -> Any:
     )
 
 
+def _orbit_tokens(craft: Spacecraft, potential: Any) -> tuple[float, ...]:
+    """The marks of the orbit tables a coupled member's model holds: its own orbit's, and the
+    model's orbit's when a member's orbit is a dispersed copy of it."""
+    tokens = [craft.orbit.token]
+    po = getattr(potential, "orbit", None)
+    if po is not None and po is not craft.orbit and hasattr(po, "token"):
+        tokens.append(po.token)
+    return tuple(tokens)
+
+
 def is_spacecraft_ensemble(body: Any, commands: Any, software: Any) -> bool:
     """Whether ``propagate_ensemble`` runs spacecraft with actuators or flight software."""
     if commands is not None or software is not None:
@@ -383,6 +393,7 @@ class _Structure:
     thruster, command and tick dimensions and their labels)."""
 
     counts: tuple[int, int, int]
+    coupled: bool  # the orbit in the state (a spacecraft with a mass on a NumericalOrbit)
     units: str | None
     names: tuple
     software: tuple | None  # (period, phase, record_every, mode names, sensor kinds, estimator)
@@ -399,11 +410,14 @@ class _Structure:
                 tuple(x.kind for x in (sw.sensors or ())),
                 sw.estimator is not None,
             )
-        return _Structure(craft.counts, craft.units, tuple(map(tuple, craft.names())), soft)
+        return _Structure(craft.counts, craft.coupled, craft.units,
+                          tuple(map(tuple, craft.names())), soft)  # fmt: skip
 
     def differences(self, other: _Structure) -> str:
         if self.counts != other.counts:
             return f"actuators (wheels, magnetorquers, thrusters) {other.counts} != {self.counts}"
+        if self.coupled != other.coupled:
+            return "orbit: carried in the state (a mass on a NumericalOrbit) in one, not the other"
         if self.units != other.units:
             a, b = other.units or "dimensionless", self.units or "dimensionless"
             return f"unit system {a} != {b}"
@@ -515,14 +529,6 @@ class CraftMembers:
                 "run; an ensemble runs its members in parallel compiled code: write the law "
                 "with attitude.control, or loop over attitude.propagate"
             )
-        if craft.coupled:
-            raise AttitudeValueError(
-                "bodies_or_body: an ensemble runs its members in parallel on one shared model "
-                "and flight-software program; a spacecraft whose orbit is propagated with its "
-                "attitude (a mass on a NumericalOrbit) writes its orbit into them, so it is not "
-                "run in ensembles yet: loop over attitude.propagate, or give the spacecraft "
-                "without a mass (the NumericalOrbit then a given orbit)"
-            )
         craft.check_orbit(getattr(self.potential, "orbit", None))
         if self.method == "taylor":
             _holds.check_taylor(craft, self.potential)
@@ -530,6 +536,10 @@ class CraftMembers:
         run, _ = _holds.prepare(
             craft, q0, np.zeros(4), self.span, commands, software, samples=self.samples
         )
+        if craft.coupled:  # the environment tables follow the model's orbit's path
+            from .._coupling import follow_path
+
+            run.sc = follow_path(run.sc, getattr(self.potential, "orbit", None))
         self._runs[key] = run
 
     def run(self, i: int) -> Any:
@@ -576,9 +586,15 @@ class CraftMembers:
             qp, Qp, dc = _project(q[r], Q[r])
             corr = max(corr, dc)
             craft = runs[r].spacecraft
-            y0[r] = _holds.initial_state(craft, qp, Qp)
+            state = _holds.initial_state(craft, qp, Qp)
             inertia[r] = craft.body.inertia
             row = pot._params(craft.body.inertia)
+            if craft.coupled:  # the orbit in the state; the model's orbit copies made live
+                from .._coupling import attach, initial_orbit_state
+
+                state = np.concatenate([state, initial_orbit_state(craft, float(self.span[0]))])
+                attach(row, runs[r].sc, craft, _orbit_tokens(craft, pot))
+            y0[r] = state
             if params is None:
                 params = np.zeros((c, row.shape[0]))
             params[r] = row
@@ -608,7 +624,8 @@ class CraftMembers:
             ncmd = runs[0].hold_u.shape[1]
             hold_t = np.ascontiguousarray(np.concatenate([h[0] for h in scheds]))
             hold_u = np.ascontiguousarray(
-                np.concatenate([h[1] for h in scheds]).reshape(-1, ncmd), dtype=np.float64
+                np.concatenate([h[1] for h in scheds]).reshape(hold_t.shape[0], ncmd),
+                dtype=np.float64,
             )
             out["src"] = (hs, hold_t, hold_u, hold_at, np.zeros(ncmd))
             return out
@@ -621,11 +638,13 @@ class CraftMembers:
         seeds = self.seeds(start, stop)
         for r, run in enumerate(runs):
             p = run.program
-            if id(p) not in fws:
-                fws[id(p)] = (size, size + p.fw.shape[0])
+            # a member carrying its orbit writes it into its program's live copies: its own
+            key = (id(p), r if run.coupled else -1)
+            if key not in fws:
+                fws[key] = (size, size + p.fw.shape[0])
                 parts.append(p.fw)
                 size += p.fw.shape[0]
-            fw_at[r] = fws[id(p)]
+            fw_at[r] = fws[key]
             fs = p.fresh_state()
             if p.sensors:
                 ss = np.concatenate(

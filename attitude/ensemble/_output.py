@@ -426,6 +426,13 @@ def chunk_dataset(
     body = run0.spacecraft.body
     flat = build_dataset(t_flat, rows[:, :8], d["diag"], body, pot, a, torques=d["torques"])
     flat = add_actuator_variables(flat, run0, rows, d)
+    per_member_orbit = {}
+    if run0.coupled:  # each member carried its own orbit: its position, velocity, mass, r, f, p
+        from .._coupling import orbit_variables, sample_orbit
+
+        flat = flat.assign(orbit_variables(run0.spacecraft, rows))
+        rm = rows.reshape(c, ms, rows.shape[1])
+        per_member_orbit = sample_orbit([run.spacecraft for run in runs], t, rm)
     k_ticks = 0
     if "records" in out:
         k_ticks = members.tick_times().shape[0]
@@ -448,6 +455,9 @@ def chunk_dataset(
             data_vars[name] = xr.Variable(
                 ("member", *var.dims), np.stack([v.values for v in each]), var.attrs
             )
+        elif name in per_member_orbit:
+            data_vars[name] = xr.Variable(("member", *var.dims), per_member_orbit[name],
+                                          var.attrs)  # fmt: skip
         elif var.dims and var.dims[0] == "time" and name in ("r", "f", "p"):
             data_vars[name] = xr.Variable(var.dims, np.asarray(var.data)[:ms], var.attrs)
         elif var.dims and var.dims[0] in ("time", "tick"):

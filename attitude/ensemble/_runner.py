@@ -133,7 +133,9 @@ def _crafts(spec: EnsembleSpec) -> xr.Dataset:
     if spec.on_estimate is not None:
         spec.on_estimate(expected)
     bounds = _bounds(n, csize)
-    entry = spec.potential._entry_points(closed_loop=members.program is not None)
+    # (the generic entry points read a coupled member's live orbit through the dispatcher)
+    generic = members.program is not None or members.run(0).coupled
+    entry = spec.potential._entry_points(closed_loop=generic)
     results = _chunks.craft_results(
         members, bounds, t, entry, spec.rtol, spec.atol, spec.max_step, spec.max_steps,
         spec.threads,

@@ -46,11 +46,18 @@ def members_of(sc: Any, disp: Dispersions) -> tuple[Any, np.ndarray, np.ndarray,
     q = multiply(q0, from_rotation_vector(dtheta))
     inertia = np.asarray(craft.body.inertia, dtype=np.float64)
     software = sc.software
-    if disp.inertia_error > 0:
-        parts = (craft.wheels, craft.magnetorquers, craft.thrusters, craft.orbit)
+    orbits, masses = _dispersed_orbits(craft, disp, n)
+    if disp.inertia_error > 0 or disp.disperses_orbit:
+        parts = (craft.wheels, craft.magnetorquers, craft.thrusters)
         where = {"center_of_mass": craft.center_of_mass, "field": craft.field}
         crafts: Any = [
-            Spacecraft(RigidBody(inertia * (1.0 + eps[i]), units=craft.body.units), *parts, **where)
+            Spacecraft(
+                RigidBody(inertia * (1.0 + eps[i]), units=craft.body.units),
+                *parts,
+                orbits[i],
+                mass=masses[i],
+                **where,
+            )
             for i in range(n)
         ]
         Q = np.array(
@@ -63,6 +70,23 @@ def members_of(sc: Any, disp: Dispersions) -> tuple[Any, np.ndarray, np.ndarray,
         crafts = craft
         Q = np.asarray(momenta_from_angular_velocity(q, w0 + domega, craft), dtype=np.float64)
     return crafts, q, Q.reshape(n, 4), software
+
+
+def _dispersed_orbits(craft: Any, disp: Dispersions, n: int) -> tuple[list, list]:
+    """The members' orbits and masses: the nominal ones, or (a spacecraft carrying its orbit)
+    r0 + δr, v0 + δv at the epoch and m (1 + ε) (:meth:`Dispersions.orbit_draws`)."""
+    if not disp.disperses_orbit:
+        return [craft.orbit] * n, [craft.mass] * n
+    if not craft.coupled:
+        raise AttitudeValueError(
+            "ensemble.position_error: the orbit and the mass are dispersed for a spacecraft "
+            "carrying its orbit ([spacecraft] mass on an [orbit] of type 'numerical')"
+        )
+    dr, dv, dm = disp.orbit_draws(0, n)
+    y0 = craft.orbit.initial_state
+    orbits = [craft.orbit.with_state((y0[:3] + dr[i]) * 1e-3, (y0[3:] + dv[i]) * 1e-3)
+              for i in range(n)]  # fmt: skip
+    return orbits, [craft.mass * (1.0 + dm[i]) for i in range(n)]
 
 
 def run_spacecraft_scenario(

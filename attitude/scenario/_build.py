@@ -327,6 +327,14 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
     ie = r.number(table, "inertia_error", "ensemble", 0.0)
     if not ie >= 0:
         raise fail("inertia_error", f"must be >= 0 (relative, e.g. 0.02 for 2 %), got {ie!r}")
+    for key, kind in (("position_error", "position"), ("velocity_error", "velocity")):
+        v = r.value(table, key, "ensemble", kind, default=0.0)
+        if not v >= 0:
+            raise fail(key, f"must be >= 0 (a standard deviation), got {r.given(table, key)}")
+        values[key] = float(v)
+    me = r.number(table, "mass_error", "ensemble", 0.0)
+    if not 0 <= me < 1.0 / 3.0:
+        raise fail("mass_error", f"relative, in [0, 1/3) (truncated at 3 sigma), got {me!r}")
     dists = {}
     for q in ("attitude", "rate", "inertia"):
         key = f"{q}_distribution"
@@ -342,6 +350,9 @@ def _dispersions(r: Any, table: dict[str, Any], body: RigidBody) -> Dispersions:
         attitude_error=values["attitude_error"],
         rate_error=values["rate_error"],
         inertia_error=ie,
+        position_error=values["position_error"],
+        velocity_error=values["velocity_error"],
+        mass_error=me,
         **dists,
         **opts,
     )

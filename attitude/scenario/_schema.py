@@ -44,6 +44,7 @@ _INTERNAL = {
     "impulse": "N s",
     "mass": "kg",
     "speed": "km s-1",
+    "velocity": "m s-1",
 }
 _EXAMPLE = {
     "inertia": "'kg m2' or 'kg km2'",
@@ -65,6 +66,7 @@ _EXAMPLE = {
     "impulse": "'N s' or 'mN s'",
     "mass": "'kg' or 'g'",
     "speed": "'km/s' or 'm/s'",
+    "velocity": "'m/s' or 'cm/s'",
 }
 
 _ALIASES: list[Any] = []
@@ -188,6 +190,9 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "rate_distribution": None,
         "inertia_error": None,
         "inertia_distribution": None,
+        "position_error": "position",
+        "velocity_error": "velocity",
+        "mass_error": None,
         "output": None,
         "every": None,
         "percentiles": None,
