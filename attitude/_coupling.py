@@ -23,7 +23,7 @@ from .errors import AttitudeValueError
 
 __all__ = [
     "N_ORBIT", "attach", "attach_software", "follow_path", "initial_orbit_state", "live_slots",
-    "reference_params",
+    "orbit_variables", "reference_params", "run_orbit", "sample_orbit", "sample_table",
 ]  # fmt: skip
 
 #: State variables the orbit adds: r (3), v (3), m.

@@ -341,3 +341,52 @@ def test_scenario_ensemble_disperses_the_orbit_and_the_mass(tmp_path):
         np.testing.assert_allclose(ds.mass.values[:, 0],
                                    4.0 * (1.0 + ds.dispersion_mass.values), rtol=1e-15)  # fmt: skip
         assert 50.0 < np.std(dr) < 200.0
+
+
+def test_facet_forces_are_the_sums_of_each_facets_force():
+    # The grouped compiled forces (what acts on a coupled orbit) against each facet's force in
+    # numpy, from what the models' torques use (their `atmosphere` and `sunlight`); and their
+    # moments about the centre of mass are the models' torques.
+    from attitude import AerodynamicDrag, SolarRadiation
+    from attitude._core import environment as _ke
+    from attitude.facets import box_wing
+    from attitude.quaternion import conjugate
+
+    o = orbit.KeplerOrbit(6878.0, 0.001, 1.7, 0.3, 0.2, epoch=EPOCH)
+    facets = box_wing([0.3, 0.2, 0.5], center=[0.02, -0.01, 0.05], specular=0.3, diffuse=0.2)
+    rng = np.random.default_rng(11)
+    t = np.sort(rng.uniform(0.0, 5000.0, 12))
+    qs = rng.normal(size=(12, 4))
+    qs /= np.linalg.norm(qs, axis=1)[:, None]
+    drag = AerodynamicDrag(o, facets, density="exponential")
+    srp = SolarRadiation(o, facets)
+    air, sun = drag.atmosphere(t), srp.sunlight(t)
+    pd, ps = drag._kernel_params(t), srp._kernel_params(t)
+    for k in range(t.size):
+        q = qs[k]
+        v = rotate(conjugate(q), air["velocity"][k])  # body axes
+        s = rotate(conjugate(q), sun["direction"][k])
+        pressure = sun["shadow"][k] * ps[_ke.SRP.P] * (ps[_ke.SRP.AU] / sun["distance"][k]) ** 2
+        fd = np.zeros(3)
+        fs = np.zeros(3)
+        td = np.zeros(3)
+        ts = np.zeros(3)
+        for f in facets:
+            c = float(f.normal @ v)
+            if c > 0.0:
+                fk = -0.5 * air["density"][k] * f.cd * f.area * c * v
+                fd += fk
+                td += np.cross(f.center, fk)
+            c = float(f.normal @ s)
+            if c > 0.0:
+                along_n = 2.0 * (f.specular * c + f.diffuse / 3.0)
+                fk = -pressure * f.area * c * ((1.0 - f.specular) * s + along_n * f.normal)
+                fs += fk
+                ts += np.cross(f.center, fk)
+        got_d = np.array(_ke.drag_force(q, t[k], pd, 0))
+        got_s = np.array(_ke.solar_force(q, t[k], ps, 0))
+        assert np.linalg.norm(got_d - fd) <= 1e-13 * np.linalg.norm(fd)
+        assert np.linalg.norm(got_s - fs) <= 1e-13 * max(np.linalg.norm(fs), 1e-30)
+        np.testing.assert_allclose(_ke.drag_torque(q, t[k], pd, 0), td, rtol=1e-12, atol=1e-24)
+        np.testing.assert_allclose(_ke.solar_torque(q, t[k], ps, 0), ts, rtol=1e-12, atol=1e-24)
+    assert np.any(sun["shadow"] > 0.0)

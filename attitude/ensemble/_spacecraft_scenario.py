@@ -72,9 +72,44 @@ def members_of(sc: Any, disp: Dispersions) -> tuple[Any, np.ndarray, np.ndarray,
     return crafts, q, Q.reshape(n, 4), software
 
 
+def orbit_draws(disp: Dispersions, start: int, stop: int) -> tuple:
+    """The orbit errors of members start..stop−1: position (C, 3) [m] and velocity (C, 3)
+    [m/s] in the GCRS, and the relative mass error (C,): normal, the mass's truncated at ±3σ.
+    From their own Philox stream (key from SeedSequence(seed, spawn_key=(41,)), member i at
+    counter 2 i), so the attitude draws are those of an ensemble without them."""
+    from scipy.special import ndtr, ndtri
+
+    from .dispersions import INERTIA_TRUNCATION
+
+    key = np.random.SeedSequence(disp.seed, spawn_key=(41,)).generate_state(2, np.uint64)
+    bg = np.random.Philox(key=key, counter=start * 2)
+    u = np.random.Generator(bg).random((stop - start, 8)) + 2.0**-54
+    lo = ndtr(-INERTIA_TRUNCATION)
+    return (
+        disp.position_error * ndtri(u[:, 0:3]),
+        disp.velocity_error * ndtri(u[:, 3:6]),
+        disp.mass_error * ndtri(lo + u[:, 6] * (1.0 - 2.0 * lo)),
+    )
+
+
+def member_vars(disp: Dispersions, start: int, stop: int) -> dict[str, tuple]:
+    """:func:`dispersion_vars`, and the orbit errors applied when the orbit is dispersed."""
+    out = dispersion_vars(disp, start, stop)
+    if disp.disperses_orbit:
+        dr, dv, dm = orbit_draws(disp, start, stop)
+        what = "error applied at the epoch (GCRS)"
+        out["dispersion_position"] = (("member", "axis"), dr, {"units": "m",
+                                      "long_name": f"position {what}"})  # fmt: skip
+        out["dispersion_velocity"] = (("member", "axis"), dv, {"units": "m s-1",
+                                      "long_name": f"velocity {what}"})  # fmt: skip
+        mass = {"units": "1", "long_name": "relative mass error: m = m_nominal (1 + eps)"}
+        out["dispersion_mass"] = (("member",), dm, mass)
+    return out
+
+
 def _dispersed_orbits(craft: Any, disp: Dispersions, n: int) -> tuple[list, list]:
     """The members' orbits and masses: the nominal ones, or (a spacecraft carrying its orbit)
-    r0 + δr, v0 + δv at the epoch and m (1 + ε) (:meth:`Dispersions.orbit_draws`)."""
+    r0 + δr, v0 + δv at the epoch and m (1 + ε) (:func:`orbit_draws`)."""
     if not disp.disperses_orbit:
         return [craft.orbit] * n, [craft.mass] * n
     if not craft.coupled:
@@ -82,7 +117,7 @@ def _dispersed_orbits(craft: Any, disp: Dispersions, n: int) -> tuple[list, list
             "ensemble.position_error: the orbit and the mass are dispersed for a spacecraft "
             "carrying its orbit ([spacecraft] mass on an [orbit] of type 'numerical')"
         )
-    dr, dv, dm = disp.orbit_draws(0, n)
+    dr, dv, dm = orbit_draws(disp, 0, n)
     y0 = craft.orbit.initial_state
     orbits = [craft.orbit.with_state((y0[:3] + dr[i]) * 1e-3, (y0[3:] + dv[i]) * 1e-3)
               for i in range(n)]  # fmt: skip
@@ -117,7 +152,7 @@ def run_spacecraft_scenario(
         percentiles=percentiles if percentiles is not None else disp.percentiles,
         commands=sc.commands,
         seed=disp.seed,
-        _member_vars=lambda start, stop: dispersion_vars(disp, start, stop),
+        _member_vars=lambda start, stop: member_vars(disp, start, stop),
         **kw,
     )
     limit = disp.max_output_size if max_size is ... else max_size

@@ -83,22 +83,6 @@ class Dispersions:
         """Whether the members' orbits or masses differ (a spacecraft carrying its orbit)."""
         return bool(self.position_error or self.velocity_error or self.mass_error)
 
-    def orbit_draws(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The orbit errors of members start..stop−1: position (C, 3) [m] and velocity (C, 3)
-        [m/s] in the GCRS, and the relative mass error (C,): normal, the mass's truncated at
-        ±3σ. From their own Philox stream (key from SeedSequence(seed, spawn_key=(41,)),
-        member i at counter 2 i), so the attitude draws are those of an ensemble without them."""
-        from scipy.special import ndtr, ndtri
-
-        key = np.random.SeedSequence(self.seed, spawn_key=(41,)).generate_state(2, np.uint64)
-        bg = np.random.Philox(key=key, counter=start * 2)
-        u = np.random.Generator(bg).random((stop - start, 8)) + 2.0**-54
-        dr = self.position_error * ndtri(u[:, 0:3])
-        dv = self.velocity_error * ndtri(u[:, 3:6])
-        lo = ndtr(-INERTIA_TRUNCATION)
-        dm = self.mass_error * ndtri(lo + u[:, 6] * (1.0 - 2.0 * lo))
-        return dr, dv, dm
-
     def uniforms(self, start: int, stop: int) -> np.ndarray:
         """The (stop − start, 12) uniform draws in (0, 1) of members start..stop−1."""
         bg = np.random.Philox(key=self.key, counter=start * (_DRAWS // 4))
@@ -386,23 +370,6 @@ def dispersion_vars(disp: Dispersions, start: int, stop: int) -> dict[str, tuple
         eps,
         {"units": "1", "long_name": "relative inertia error applied: I = I_nominal (1 + eps)"},
     )
-    if disp.disperses_orbit:
-        dr, dv, dm = disp.orbit_draws(start, stop)
-        out["dispersion_position"] = (
-            ("member", "axis"),
-            dr,
-            {"units": "m", "long_name": "position error applied at the epoch (GCRS)"},
-        )
-        out["dispersion_velocity"] = (
-            ("member", "axis"),
-            dv,
-            {"units": "m s-1", "long_name": "velocity error applied at the epoch (GCRS)"},
-        )
-        out["dispersion_mass"] = (
-            ("member",),
-            dm,
-            {"units": "1", "long_name": "relative mass error applied: m = m_nominal (1 + eps)"},
-        )
     counter = (np.arange(start, stop, dtype=np.int64)) * (_DRAWS // 4)
     out["member_draw_counter"] = (
         ("member",),
