@@ -596,3 +596,13 @@ def test_every_reader_agrees_on_what_is_corrupt(tmp_path, capsys):
         for out in ("p.png", "e.aem"):
             (tmp_path / out).unlink(missing_ok=True)
     assert refused >= 2  # most of the file is checksummed data
+
+
+def test_info_summarises_a_propagated_orbit(tmp_path):
+    out = tmp_path / "burn.nc"
+    cli("run", SCEN / "orbit_raising_burn.toml", "-o", out, "--stop", 0.2, cwd=tmp_path)
+    r = cli("info", out, cwd=tmp_path)
+    line = next(x for x in r.stdout.splitlines() if x.startswith("orbit"))
+    assert "propagated with the attitude" in line
+    # 600 s to 720 s of the burn at 1 N, isp 220 s: 0.0556 kg
+    assert "(0.0556" in r.stdout and "kg of propellant" in r.stdout

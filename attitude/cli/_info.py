@@ -18,6 +18,7 @@ def cmd_info(args: argparse.Namespace) -> int:
             rows, inv = _info_rows(args, ds)
             budget = _torque_budget(ds)
             wheels = _wheel_lines(ds)
+            orbit_lines = _orbit_lines(ds)
             from .._pointing_stats import pointing_lines
             from ..errors import AttitudeValueError
 
@@ -39,6 +40,8 @@ def cmd_info(args: argparse.Namespace) -> int:
             print("pointing    " + "\n            ".join(pointing))
         if wheels:
             print("wheels      " + "\n            ".join(wheels))
+        if orbit_lines:
+            print("orbit       " + "\n            ".join(orbit_lines))
         if events:
             print("events      " + ("\n            ".join(ev) if ev else "-"))
     finally:
@@ -209,6 +212,30 @@ def _wheel_lines(ds: Any) -> list[str]:
             f"{labels[k]:<{width}}  {lo[k] * rpm:>11.6g} .. {hi[k] * rpm:<10.6g}  "
             f"{umax[k]:13.4g}  {lim or 'none'}"
         )
+    return out
+
+
+def _orbit_lines(ds: Any) -> list[str]:
+    """A run that propagated its orbit with the attitude: its radius and two-body semi-major
+    axis at the start and the end, the mass used, and where it stopped at the surface."""
+    if "position" not in ds or "velocity" not in ds or ds.sizes.get("time", 0) < 1:
+        return []
+    if "member" in ds.dims:
+        return [f"propagated with the attitude, {ds.sizes['member']} members (position, "
+                "velocity, mass per member)"]  # fmt: skip
+    r = np.asarray(ds["position"].values, dtype=np.float64) * 1e-3
+    v = np.asarray(ds["velocity"].values, dtype=np.float64) * 1e-3
+    rn = np.linalg.norm(r, axis=1)
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / 398600.4418)
+    out = [
+        "propagated with the attitude (GCRS): radius "
+        f"{rn[0]:.3f} -> {rn[-1]:.3f} km, two-body semi-major axis {a[0]:.3f} -> {a[-1]:.3f} km"
+    ]
+    m = np.asarray(ds["mass"].values, dtype=np.float64) if "mass" in ds else np.zeros(1)
+    if m[0] != m[-1]:
+        out.append(f"mass {m[0]:.6g} -> {m[-1]:.6g} kg ({m[0] - m[-1]:.6g} kg of propellant)")
+    if ds.attrs.get("event") == "impact":
+        out.append(f"reached the Earth's surface at t = {float(ds.attrs['impact_time']):.6g} s")
     return out
 
 
