@@ -23,7 +23,7 @@ from .errors import AttitudeValueError
 
 __all__ = [
     "N_ORBIT", "attach", "attach_software", "follow_path", "initial_orbit_state", "live_slots",
-    "orbit_variables", "reference_params", "run_orbit", "sample_orbit", "sample_table",
+    "orbit_tokens", "orbit_variables", "reference_params", "run_orbit", "sample_orbit",
 ]  # fmt: skip
 
 #: State variables the orbit adds: r (3), v (3), m.
@@ -137,32 +137,6 @@ def follow_path(sc: np.ndarray, orbit: Any) -> np.ndarray:
     return out
 
 
-def sample_table(t: np.ndarray, r: np.ndarray, v: np.ndarray, mu_km: float) -> np.ndarray:
-    """An ephemeris table (orbit._state_kernels layout, km) through the samples (t, r [m],
-    v [m/s]): at each sample it is the sample. One sample gets a second node a second on."""
-    t = np.asarray(t, dtype=np.float64)
-    r = np.asarray(r, dtype=np.float64) * 1e-3
-    v = np.asarray(v, dtype=np.float64) * 1e-3
-    if t.size == 1:
-        t = np.array([t[0], t[0] + 1.0])
-        r = np.stack([r[0], r[0] + v[0]])
-        v = np.stack([v[0], v[0]])
-    order = np.argsort(t, kind="stable")
-    t, r, v = t[order], r[order], v[order]
-    n = t.size
-    d = np.zeros(_sk.E_TIMES + 7 * n)
-    d[_sk.TYPE] = _sk.TYPE_EPHEMERIS
-    d[_sk.MU] = mu_km
-    d[_sk.T_MIN] = t[0]
-    d[_sk.T_MAX] = t[-1]
-    d[_sk.E_N] = n
-    dt = np.diff(t)
-    d[_sk.E_H] = dt[0] if np.all(dt == dt[0]) else 0.0
-    d[_sk.E_TIMES : _sk.E_TIMES + n] = t
-    d[_sk.E_TIMES + n :] = np.concatenate([r, v], axis=1).ravel()
-    return d
-
-
 def reference_params(params: np.ndarray, sc: np.ndarray, table: np.ndarray) -> np.ndarray:
     """The model's parameters for the diagnostics after a coupled run: each live orbit a
     reference to ``table`` (appended)."""
@@ -177,17 +151,28 @@ def reference_params(params: np.ndarray, sc: np.ndarray, table: np.ndarray) -> n
 
 def run_orbit(craft: Any, t: np.ndarray, y: np.ndarray) -> Any:
     """The run's own orbit: an :class:`orbit.EphemerisOrbit` through its samples (``y`` the
-    state rows), which the Dataset's orbit variables are computed from."""
+    state rows; at each sample it is the sample), which the Dataset's orbit variables and the
+    diagnostics read. One sample gets a second node a second on."""
     from orbit import EphemerisOrbit
 
     iy = 8 + len(craft.wheels)
-    d = sample_table(t, y[:, iy : iy + 3], y[:, iy + 3 : iy + 6], craft.orbit.mu)
-    n = int(d[_sk.E_N])
-    rows = d[_sk.E_TIMES + n :].reshape(n, 6)
-    return EphemerisOrbit(
-        d[_sk.E_TIMES : _sk.E_TIMES + n], rows[:, :3], rows[:, 3:], craft.orbit.epoch,
-        craft.orbit.mu, source="the run's propagated orbit (its samples)",
-    )  # fmt: skip
+    t = np.asarray(t, dtype=np.float64)
+    r = np.asarray(y[:, iy : iy + 3], dtype=np.float64) * 1e-3
+    v = np.asarray(y[:, iy + 3 : iy + 6], dtype=np.float64) * 1e-3
+    if t.size == 1:
+        t, r, v = np.array([t[0], t[0] + 1.0]), np.stack([r[0], r[0] + v[0]]), np.stack([v[0]] * 2)
+    return EphemerisOrbit(t, r, v, craft.orbit.epoch, craft.orbit.mu,
+                          source="the run's propagated orbit (its samples)")  # fmt: skip
+
+
+def orbit_tokens(craft: Any, potential: Any) -> tuple[float, ...]:
+    """The marks of the orbit tables a coupled spacecraft's model holds: its orbit's, and the
+    model's orbit's when that is another state of the same orbit model (an ensemble member)."""
+    tokens = [craft.orbit.token]
+    po = getattr(potential, "orbit", None)
+    if po is not None and po is not craft.orbit and hasattr(po, "token"):
+        tokens.append(po.token)
+    return tuple(tokens)
 
 
 def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:

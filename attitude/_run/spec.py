@@ -186,7 +186,7 @@ class RunSpec:
             from .. import _coupling
 
             sc_run.sc = _coupling.follow_path(sc_run.sc, getattr(pot, "orbit", None))
-            _coupling.attach(problem.params, sc_run.sc, craft, _orbit_tokens(craft, pot))
+            _coupling.attach(problem.params, sc_run.sc, craft, _coupling.orbit_tokens(craft, pot))
         _check_initial_state(problem)
         if method == "dop853" or method.startswith("scipy:"):
             # the fixed-step methods count their steps themselves; "exact" takes none
@@ -240,16 +240,6 @@ def epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
         out["orbit"] = orbit.describe()
         out["orbit_frame"] = str(getattr(orbit, "frame", ""))
     return out
-
-
-def _orbit_tokens(craft: Any, pot: Potential) -> tuple[float, ...]:
-    """The marks of the orbit tables the model of a coupled spacecraft holds (its orbit's, and
-    the model's orbit's when that is another NumericalOrbit)."""
-    tokens = [craft.orbit.token]
-    po = getattr(pot, "orbit", None)
-    if po is not None and po is not craft.orbit and hasattr(po, "token"):
-        tokens.append(po.token)
-    return tuple(tokens)
 
 
 def _entry_points(pot: Potential, evset: Any, sc_run: Any = None) -> Any:

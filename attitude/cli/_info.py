@@ -220,13 +220,15 @@ def _orbit_lines(ds: Any) -> list[str]:
     axis at the start and the end, the mass used, and where it stopped at the surface."""
     if "position" not in ds or "velocity" not in ds or ds.sizes.get("time", 0) < 1:
         return []
+    from orbit import earth_mu
+
     if "member" in ds.dims:
         return [f"propagated with the attitude, {ds.sizes['member']} members (position, "
                 "velocity, mass per member)"]  # fmt: skip
     r = np.asarray(ds["position"].values, dtype=np.float64) * 1e-3
     v = np.asarray(ds["velocity"].values, dtype=np.float64) * 1e-3
     rn = np.linalg.norm(r, axis=1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / 398600.4418)
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / earth_mu())
     out = [
         "propagated with the attitude (GCRS): radius "
         f"{rn[0]:.3f} -> {rn[-1]:.3f} km, two-body semi-major axis {a[0]:.3f} -> {a[-1]:.3f} km"

@@ -366,16 +366,6 @@ def as_crafts(body: Any, software: Any) -> Any:
     )
 
 
-def _orbit_tokens(craft: Spacecraft, potential: Any) -> tuple[float, ...]:
-    """The marks of the orbit tables a coupled member's model holds: its own orbit's, and the
-    model's orbit's when a member's orbit is a dispersed copy of it."""
-    tokens = [craft.orbit.token]
-    po = getattr(potential, "orbit", None)
-    if po is not None and po is not craft.orbit and hasattr(po, "token"):
-        tokens.append(po.token)
-    return tuple(tokens)
-
-
 def is_spacecraft_ensemble(body: Any, commands: Any, software: Any) -> bool:
     """Whether ``propagate_ensemble`` runs spacecraft with actuators or flight software."""
     if commands is not None or software is not None:
@@ -590,10 +580,10 @@ class CraftMembers:
             inertia[r] = craft.body.inertia
             row = pot._params(craft.body.inertia)
             if craft.coupled:  # the orbit in the state; the model's orbit copies made live
-                from .._coupling import attach, initial_orbit_state
+                from .._coupling import attach, initial_orbit_state, orbit_tokens
 
                 state = np.concatenate([state, initial_orbit_state(craft, float(self.span[0]))])
-                attach(row, runs[r].sc, craft, _orbit_tokens(craft, pot))
+                attach(row, runs[r].sc, craft, orbit_tokens(craft, pot))
             y0[r] = state
             if params is None:
                 params = np.zeros((c, row.shape[0]))

@@ -320,6 +320,7 @@ def orbit(ax: Any, ctx: PlotContext) -> None:
     """A run that propagated its orbit: the height above the WGS 84 ellipsoid (thin) and its
     mean over each orbital period (thick: the decay or the raise), the mass on the right when
     it changes."""
+    from orbit import earth_mu
     from orbit.frames import gcrs_to_itrs, geodetic_from_itrs
 
     ds = ctx.ds
@@ -335,8 +336,9 @@ def orbit(ax: Any, ctx: PlotContext) -> None:
     series(ax, ctx.t, h, "band", color="tab:blue", lw=0.6, alpha=0.6, label="height")
     v = np.asarray(ds["velocity"].values, dtype=np.float64) * 1e-3
     rn = np.linalg.norm(r, axis=1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / 398600.4418)  # km: two-body osculating
-    period = 2.0 * np.pi * np.sqrt(np.abs(a) ** 3 / 398600.4418)
+    mu = earth_mu()
+    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / mu)  # km: two-body osculating
+    period = 2.0 * np.pi * np.sqrt(np.abs(a) ** 3 / mu)
     ts = ctx.t_seconds
     if ts.size > 2 and ts[-1] - ts[0] > float(np.median(period)):
         half = 0.5 * float(np.median(period))
