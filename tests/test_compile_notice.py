@@ -45,16 +45,59 @@ _SCRIPT = textwrap.dedent(
 )
 
 
-def _run(tmp_path: Path, cache: Path, runs: int) -> str:
-    env = dict(os.environ, ATTITUDE_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+def _env(cache: Path | None) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cache is not None:
+        env["ATTITUDE_CACHE_DIR"] = str(cache)
+    return env
+
+
+def _run(tmp_path: Path, cache: Path | None, runs: int) -> str:
     r = subprocess.run(
         [sys.executable, "-c", _SCRIPT, str(SCEN), str(tmp_path), str(runs)],
-        env=env, capture_output=True, text=True, timeout=900, check=False,
+        env=_env(cache), capture_output=True, text=True, timeout=900, check=False,
     )  # fmt: skip
     assert r.returncode == 0, r.stderr
     return r.stderr
 
 
+def test_a_fresh_cache_says_it_compiles_before_compiling(tmp_path):
+    """An empty cache: the notice comes first, before numba has finished anything (the
+    process is stopped there: the whole compilation is the slow test below)."""
+    p = subprocess.Popen(
+        [sys.executable, "-c", _SCRIPT, str(SCEN), str(tmp_path), "1"],
+        env=_env(tmp_path / "cache"), stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        lines = []
+        for line in p.stderr:
+            lines.append(line)
+            if NOTICE in line or len(lines) > 50:
+                break
+        assert p.poll() is None  # still compiling
+    finally:
+        p.kill()
+        p.wait()
+    text = "".join(lines)
+    assert text.count(NOTICE) == 1, text
+    assert not DONE.search(text) and "-- run 0 done" not in text
+
+
+def test_a_cached_closed_loop_says_nothing(tmp_path):
+    """With the kernels in the cache (compiled by this test's first run if no test did
+    before): the second run of the command and the library's run say nothing, nor does a new
+    process."""
+    err = _run(tmp_path, None, 2)
+    first, rest = err.split("-- run 0 done", 1)
+    if NOTICE in first:  # a cold cache: compiled here, and said how long it took
+        assert len(DONE.findall(first)) == 1
+    assert "compil" not in rest, rest
+    assert "-- library done" in rest
+    err = _run(tmp_path, None, 0)
+    assert "compil" not in err and "-- library done" in err, err
+
+
+@pytest.mark.slow
 def test_first_closed_loop_run_says_it_compiles(tmp_path):
     """A fresh cache: the notice once, before the first run's compilation, and the time it
     took; the second run of the command and the library's run in the same process compile
