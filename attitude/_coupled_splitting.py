@@ -103,9 +103,12 @@ def integrate(
     t: np.ndarray,
     dt: float,
     progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
 ) -> tuple[np.ndarray, int, np.ndarray]:
     """Run the coupled composition ``tables`` (kinds, coefs, toffs) from ``y0`` = (q, Q, r, v)
-    (14; SI, space axes) at ``t[0]`` through the times ``t`` (m,).
+    (14; SI, space axes) at ``t[0]`` through the times ``t`` (m,), at most ``chunk`` output
+    times (and :data:`~attitude._methods.STEP_BUDGET` steps) per compiled call, ``progress``
+    called after each (the result does not depend on either).
 
     Returns
     -------
@@ -126,18 +129,20 @@ def integrate(
     state[_ks.COUPLED_STATE.R :] = y0[_ks.COUPLED_STATE.R :]
     counters = np.zeros(_ks.N_COUNTERS, dtype=np.int64)
     counters[4] = STEP_BUDGET  # steps per compiled call: Ctrl-C acts in between
+    chunk = m if chunk is None else max(1, int(chunk))
     pos = 1
     status = _ks.SUCCESS
     while pos < m:
+        stop = min(m, pos + chunk)
         status, k = _ks.coupled_composition(
             params, kinds, coefs, toffs, state, float(t[pos - 1]),
-            np.ascontiguousarray(t[pos:]), dt, y_out[pos:], counters,
+            np.ascontiguousarray(t[pos:stop]), dt, y_out[pos:stop], counters,
         )  # fmt: skip
         pos += int(k)
         _interrupt.check()
         if progress is not None:
             progress(pos, m, float(t[pos - 1]))
-        if status != _ks.PAUSED:
+        if status not in (_ks.SUCCESS, _ks.PAUSED):
             break
     return y_out[:pos], int(status), counters
 
@@ -150,6 +155,7 @@ def _run(
     order: Any = 4,
     max_steps: int = 100_000_000,
     progress: Callable[[int, int, float], None] | None = None,
+    chunk: int | None = None,
     **_: Any,
 ) -> RunResult:
     sr = problem.spacecraft
@@ -166,7 +172,7 @@ def _run(
     params = coupled_params(craft.body.inertia, craft.mass, craft.orbit.mu * 1e9)
     tables = _ks.method_tables(method, order, coupled=True)
     size = _ks.COUPLED_STATE.SIZE  # (q, Q, r, v), then the mass in the spacecraft's rows
-    y, status, counters = integrate(params, tables, problem.y0[:size], t, dt, progress)
+    y, status, counters = integrate(params, tables, problem.y0[:size], t, dt, progress, chunk)
     rows = np.zeros((y.shape[0], sr.n_state + sr.n_rec))
     rows[:, :size] = y
     rows[:, size] = craft.mass

@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 import pytest
+import xarray as xr
 
 import attitude
 import orbit
@@ -229,3 +230,20 @@ def test_what_the_splitting_cannot_carry_is_refused_before_any_work(monkeypatch)
         attitude.propagate(plain, q0, Q0, t, method="splitting", dt=10.0)
     # ... and "auto" still picks the Taylor method for the coupled body
     assert attitude.propagate(sc, q0, Q0, t, gg).attrs["method"] == "taylor"
+
+
+def test_chunks_pauses_and_progress_do_not_change_the_run(monkeypatch):
+    # the state carries over between compiled calls: a run in chunks of 7 samples, paused every
+    # 5 steps (mid-interval: 4 steps an interval), with a progress callable, is the single
+    # call's bit for bit, and so is what on_chunk is handed
+    from attitude import _coupled_splitting
+
+    whole = _run(2, 16, 4, order=6)
+    monkeypatch.setattr(_coupled_splitting, "STEP_BUDGET", 5)
+    calls, parts = [], []
+    part = _run(2, 16, 4, order=6, chunk=7, progress=lambda *a: calls.append(a))
+    _run(2, 16, 4, order=6, on_chunk=parts.append, chunk=7)
+    for ds in (part, xr.concat(parts, "time")):
+        for name in ("q", "Q", "position", "velocity"):
+            np.testing.assert_array_equal(ds[name].values, whole[name].values)
+    assert len(calls) > 20 and calls[-1][:2] == (33, 33)
