@@ -21,8 +21,8 @@ flow. The sub-flows are :mod:`attitude._core.splitting`'s ``FREE_KEPLER``, ``ROT
 ``MUTUAL``; its one stepper runs them. Each sub-flow is the exact flow of a rotation-invariant
 Hamiltonian, so the total angular momentum r × p + R(q) g is conserved to round-off, and the
 energy error stays bounded (backward error analysis: the method is symplectic and
-time-reversible) and of order h^order (docs/integrators.md, "Orbit and attitude: the coupled
-splitting").
+time-reversible) and of order h^order (docs/integrators.md, "Orbit and attitude in one state:
+the coupled splitting").
 
 :func:`check_spacecraft` says which spacecraft these methods carry; :func:`run_splitting` and
 :func:`run_nosquish` are the runners ``propagate`` picks for them (rows q, Q, r, v, m like
@@ -59,31 +59,32 @@ def check_spacecraft(craft: Any, potential: Any, method: str, software: Any = No
     from .potentials import GravityGradient
 
     orb = craft.orbit
-    why = f"method: {method!r} carries the orbit of a spacecraft propagated with its attitude"
+    what = f"method={method!r} carries the orbit of a spacecraft with its attitude"
     if software is not None:
         raise AttitudeValueError(
-            f"software: {why} only without flight software (the splitting composes exact "
-            "flows of one Hamiltonian; the software's commands are no part of it): use "
-            "method='dop853'"
+            f"software: {what} without flight software only (it composes the exact flows of "
+            "one Hamiltonian; the software's commands are no part of it): use method='dop853'"
         )
     if craft.has_actuators:
+        nw, nm, nt = craft.counts
         raise AttitudeValueError(
-            f"spacecraft: {why} only for a rigid body without actuators (this one has "
-            f"{len(craft.wheels)} wheels, {len(craft.magnetorquers)} magnetorquers, "
-            f"{len(craft.thrusters)} thrusters, whose torques and forces derive from no "
-            "potential): use method='dop853'"
+            f"spacecraft: {what} for a rigid body without actuators only (this one has {nw} "
+            f"wheel(s), {nm} magnetorquer(s), {nt} thruster(s), whose torques and forces derive "
+            "from no potential): use method='dop853'"
         )
     if not isinstance(potential, GravityGradient):
         raise AttitudeValueError(
-            f"potential: {why} in its gravity gradient alone (GravityGradient(orbit), the "
-            f"mutual potential to second order); got {type(potential).__name__} (drag, "
+            f"potential: {what} in its GravityGradient(orbit) alone (the mutual potential to "
+            f"second order, whose flow is a kick); got {type(potential).__name__} (drag, "
             "radiation and magnetic torques derive from no potential of the state): use "
             "method='dop853'"
         )
     if orb.gravity is not None or orb.third_bodies:
+        has = [repr(orb.gravity)] if orb.gravity is not None else []
+        has += [f"the {b.body}" for b in orb.third_bodies]
         raise AttitudeValueError(
-            f"orbit: {why} around a point-mass Earth (its drift is the Kepler flow); this "
-            f"NumericalOrbit has a {orb.describe()}: give it gravity=None and no "
+            f"orbit: {what} around a point-mass Earth only (its drift is the Kepler flow); "
+            f"this NumericalOrbit has {' and '.join(has)}: give it gravity=None and no "
             "third_bodies, or use method='dop853'"
         )
 
