@@ -104,7 +104,11 @@ def propagate(
         potentials, wheels and thrusters, flight software; no events, canonical formulation),
         else ``"dop853"`` (:func:`choose_method`; attrs ``method`` and ``method_requested``).
         Or ``"dop853"``, ``"scipy:<solver>"``, and where available ``"exact"``,
-        ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials).
+        ``"nosquish"``, ``"splitting"``, ``"taylor"`` (built-in potentials). A spacecraft
+        carrying its orbit (a mass on a ``NumericalOrbit``) without actuators, in its
+        ``GravityGradient`` around a point-mass Earth, also runs ``"splitting"`` and
+        ``"nosquish"`` (orbit and attitude split into exact Kepler and free flows and kicks:
+        docs/integrators.md).
     rtol, atol : float
         Tolerances of the adaptive methods (per-component, on the 8 state variables);
         ``rtol >= 1e-15``, ``atol >= ATOL_MIN`` (1e-100) and at most 0.1 times the state's

@@ -49,13 +49,14 @@ from ._core import splitting as _ks
 from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["ORDERS", "run_nosquish", "run_splitting"]
+__all__ = ["ORDERS", "check_step_options", "count_steps", "run_nosquish", "run_splitting"]
 
 #: Orders available for both methods.
 ORDERS = (2, 4, 6)
 
 
-def _check(method: str, dt: Any, order: Any) -> tuple[float, int]:
+def check_step_options(method: str, dt: Any, order: Any) -> tuple[float, int]:
+    """``dt`` (a positive finite float) and ``order`` (2, 4 or 6) of a fixed-step method."""
     if dt is None:
         raise AttitudeValueError(
             f"dt: method {method!r} is a fixed-step method and needs the step, e.g. "
@@ -74,7 +75,7 @@ def _check(method: str, dt: Any, order: Any) -> tuple[float, int]:
     return dtf, int(order)
 
 
-def _count_steps(t: Any, dt: float) -> int:
+def count_steps(t: Any, dt: float) -> int:
     """Steps over the output times ``t`` (an array or a TimeGrid, read a slice at a time)."""
     m = t.shape[0]
     total = 0
@@ -97,7 +98,7 @@ def _run(
     chunk: int | None = None,
     on_chunk: Callable[[int, np.ndarray], None] | None = None,
 ) -> RunResult:
-    dt, order = _check(name, dt, order)
+    dt, order = check_step_options(name, dt, order)
     if problem.potential.rate_dependent:
         raise AttitudeValueError(
             f"method: {name!r} composes exact flows of the potential, so its torque must depend "
@@ -106,7 +107,7 @@ def _run(
         )
     t = problem.t
     m = t.shape[0]
-    n_total = _count_steps(t, dt)
+    n_total = count_steps(t, dt)
     if n_total > max_steps:
         raise AttitudeValueError(
             f"dt: {dt:g} needs {n_total} steps over the output times, more than "

@@ -80,7 +80,7 @@ from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources 
     schedule_ctl,
     spacecraft_member_begin,
 )
-from attitude._core.splitting import composition_run
+from attitude._core.splitting import apply_stage, composition_run
 from attitude._core.taylor_gyrostat import gyrostat_step_inline, taylor_holds_run  # noqa: F401
 from orbit._rk import dop853_run
 from orbit._shared_jit import jit, parallel_jit, rebind
@@ -177,8 +177,9 @@ dop853_canonical = rebind(
 def composition(params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters):
     """The splitting methods (:func:`attitude._core.splitting.composition_run`)."""
     return composition_run(
-        torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
-    )
+        apply_stage, torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out,
+        counters,
+    )  # fmt: skip
 
 
 @jit

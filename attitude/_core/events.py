@@ -73,14 +73,7 @@ from orbit.sun import conical_shadow
 from .ensemble import member_begin, member_end
 from .frames import frame_attitude
 from .quat import conj_mul, rotate
-from .splitting import (
-    KICK,
-    ROTOR,
-    free_flow_state,
-    n_steps_for,
-    rotor_flow,
-    state_to_canonical,
-)
+from .splitting import apply_stage, n_steps_for, state_to_canonical
 
 # Layout.
 EV = layout(
@@ -595,23 +588,9 @@ def composition_step(torque, params, kinds, coefs, toffs, state, ts, h, counters
     """One whole step of a composition method (every stage; no merging with the next step)."""
     q = state[0:4]
     w = state[4:8]
+    x = state[8:]  # empty (the coupled methods do not locate events)
     for o in range(kinds.shape[0]):
-        tau = coefs[o] * h
-        kind = kinds[o]
-        if kind == KICK:
-            om = (0.5 * w[1] / params[0], 0.5 * w[2] / params[1], 0.5 * w[3] / params[2])
-            tq = torque(q, om, ts + toffs[o] * h, params)
-            f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-            w[1] += f * tq[0]
-            w[2] += f * tq[1]
-            w[3] += f * tq[2]
-            counters[1] += 1
-        elif kind == ROTOR:
-            rotor_flow(q, w, tau, params)
-            counters[2] += 1
-        else:
-            free_flow_state(q, w, tau, params)
-            counters[2] += 1
+        apply_stage(torque, params, kinds[o], coefs[o] * h, ts + toffs[o] * h, q, w, x, counters)
 
 
 @jit_generic

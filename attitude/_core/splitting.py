@@ -13,6 +13,24 @@ H = T + U in the quaternion variables (q, Q) of Arribas, Elipe & Palacios (2006)
     q ← q∘r, Q ← Q∘r, r = (cos φ/2, sin φ/2 e_k), φ = τ g_k / I_k.
 ``FREE`` — the exact torque-free flow of T (Euler–Poinsot), :mod:`attitude._core.exact`.
 
+Orbit and attitude in one state (issue 41): a rigid body of mass m around a point mass μ,
+H = |p|²/(2m) − μm/|r| + T + V2(q, r) with MacCullagh's V2 = −μ/(2|r|³)(tr I − 3 r̂ᵀ I r̂) (r̂ in
+body axes), split Wisdom–Holman style into A = Kepler + T and B = V2, each flow exact:
+
+``FREE_KEPLER`` — the flow of A: ``FREE`` and the Kepler drift of (r, v)
+    (:func:`orbit._kepler_drift.kepler_drift`, universal variables); the two act on disjoint
+    variables, so they commute.
+``ROTOR_KEPLER`` — ``ROTOR`` and the Kepler drift (the coupled ``"nosquish"``).
+``MUTUAL`` — the flow of V2 (q and r frozen): the body's momentum takes the gravity-gradient
+    torque τ_B = 3μ/|r|⁵ r_B × I r_B (eq. 20) as ``KICK`` does, the orbit the force
+    F = −∇_r V2 = −3μ I r_B/|r|⁵ − (3μ/2)(tr I − 5 r_Bᵀ I r_B/|r|²) r_B/|r|⁵ (body axes, turned to
+    space axes by q): v ← v + τ F/m. τ_B = −r_B × F_B, so the kick leaves r × p + R(q) g as
+    it was; so do the drifts (rotation invariant), so the total angular momentum is conserved
+    to round-off by every coupled method.
+
+The coupled state is :data:`COUPLED_STATE` (q, w, r, v: r [m] and v [m/s] in space axes) and
+the parameters :data:`COUPLED` (I, μ, 1/m); :func:`coupled_composition` is its entry point.
+
 State representation
 --------------------
 Inside the loop the state is (q, w) with w = q̃∘Q = (q·Q, 2g) instead of (q, Q): the map
@@ -45,15 +63,38 @@ import math
 
 import numpy as np
 
+from orbit._kepler_drift import kepler_drift_state
+from orbit._layout import Field, layout
 from orbit._shared_jit import jit, jit_generic
 
 from .exact import free_flow
-from .quat import mul, rotate_inverse
+from .quat import mul, rotate, rotate_inverse
 
 # Sub-flow codes.
 KICK = 0
 ROTOR = 1
 FREE = 2
+FREE_KEPLER = 3
+ROTOR_KEPLER = 4
+MUTUAL = 5
+#: The kicks (flows of a potential: they do not advance t).
+KICKS = (KICK, MUTUAL)
+
+#: Parameters of the coupled orbit–attitude methods (``params`` of :func:`coupled_composition`).
+COUPLED = layout(
+    "coupled splitting parameters",
+    inertia=Field(3, "kg m2", "principal moments of inertia I1, I2, I3"),
+    mu=Field(1, "m3 s-2", "gravitational parameter μ of the central point mass"),
+    inv_mass=Field(1, "1/kg", "1/m (0: no back-reaction on the orbit)"),
+)
+#: The state of the coupled methods inside the loop (the first 8 values: the attitude's).
+COUPLED_STATE = layout(
+    "coupled splitting state",
+    q=Field(4, "", "attitude quaternion (body → space)"),
+    w=Field(4, "kg m2/s", "w = q̃∘Q = (q·Q, 2g)"),
+    r=Field(3, "m", "position of the centre of mass, space axes"),
+    v=Field(3, "m/s", "its velocity, space axes"),
+)
 
 # Status codes (same meaning as in orbit._rk).
 SUCCESS = 0
@@ -154,30 +195,37 @@ def _ops_from_ab(a, b, outer, inner):
     elapsed = 0.0
     for i in range(n):
         toffs[i] = elapsed
-        if kinds[i] != KICK:  # free flows advance t (extended phase space)
+        if kinds[i] not in KICKS:  # free flows advance t (extended phase space)
             elapsed += coefs[i]
     return kinds, coefs, toffs
 
 
-def composition_tables(gamma):
+def composition_tables(gamma, kick=KICK, rotor=ROTOR):
     """Stage tables of the symmetric composition of kick(γh/2)·ROTOR(γh)·kick(γh/2).
 
-    Adjacent half kicks of consecutive factors are one kick of (γᵢ + γᵢ₊₁)h/2.
+    Adjacent half kicks of consecutive factors are one kick of (γᵢ + γᵢ₊₁)h/2. ``kick`` and
+    ``rotor``: the sub-flow codes (``MUTUAL``, ``ROTOR_KEPLER`` for the coupled method).
     """
     gamma = np.asarray(gamma, dtype=np.float64)
     kicks = np.empty(gamma.size + 1)
     kicks[0] = 0.5 * gamma[0]
     kicks[-1] = 0.5 * gamma[-1]
     kicks[1:-1] = 0.5 * (gamma[:-1] + gamma[1:])
-    return _ops_from_ab(kicks, gamma, KICK, ROTOR)
+    return _ops_from_ab(kicks, gamma, kick, rotor)
 
 
-def method_tables(name: str, order: int):
-    """(kinds, coefs, toffs) of method ``name`` ("nosquish" or "splitting") at ``order``."""
+def method_tables(name: str, order: int, coupled: bool = False):
+    """(kinds, coefs, toffs) of method ``name`` ("nosquish" or "splitting") at ``order``;
+    ``coupled``: the orbit–attitude version (the same coefficients, the sub-flows of A = Kepler
+    + T and B = V2)."""
     if name == "nosquish":
+        if coupled:
+            return composition_tables(COMPOSITION_GAMMA[order], MUTUAL, ROTOR_KEPLER)
         return composition_tables(COMPOSITION_GAMMA[order])
     if name == "splitting":
         a, b = SPLITTING_AB[order]
+        if coupled:
+            return _ops_from_ab(a, b, FREE_KEPLER, MUTUAL)
         return _ops_from_ab(a, b, FREE, KICK)
     raise KeyError(name)
 
@@ -245,6 +293,79 @@ def free_flow_state(q, w, tau, params):
 
 
 @jit
+def mutual_kick(q, w, x, tau, params):
+    """Exact flow of V2(q, r) for a time tau (q, r frozen): w += 2τ|q|²(0, τ_B), v += τ F/m.
+
+    ``x`` = (r, v) in space axes [m, m/s]; ``params`` the :data:`COUPLED` block.
+    """
+    i1 = params[COUPLED.INERTIA]
+    i2 = params[COUPLED.INERTIA + 1]
+    i3 = params[COUPLED.INERTIA + 2]
+    rb = rotate_inverse(q, (x[0], x[1], x[2]))  # r in body axes
+    r2 = rb[0] * rb[0] + rb[1] * rb[1] + rb[2] * rb[2]
+    k = 3.0 * params[COUPLED.MU] / (r2 * r2 * math.sqrt(r2))  # 3μ/|r|⁵
+    ir0 = i1 * rb[0]
+    ir1 = i2 * rb[1]
+    ir2 = i3 * rb[2]
+    # τ_B = 3μ/|r|⁵ r_B × I r_B (Arribas et al. eq. 20)
+    t0 = k * (rb[1] * ir2 - rb[2] * ir1)
+    t1 = k * (rb[2] * ir0 - rb[0] * ir2)
+    t2 = k * (rb[0] * ir1 - rb[1] * ir0)
+    # F_B = −∇V2 = −k I r_B − (k/2)(tr I − 5 r_Bᵀ I r_B/|r|²) r_B, so that r_B × F_B = −τ_B
+    c = 0.5 * k * ((i1 + i2 + i3) - 5.0 * (rb[0] * ir0 + rb[1] * ir1 + rb[2] * ir2) / r2)
+    fs = rotate(q, (-k * ir0 - c * rb[0], -k * ir1 - c * rb[1], -k * ir2 - c * rb[2]))
+    f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    w[1] += f * t0
+    w[2] += f * t1
+    w[3] += f * t2
+    sm = tau * params[COUPLED.INV_MASS]
+    x[3] += sm * fs[0]
+    x[4] += sm * fs[1]
+    x[5] += sm * fs[2]
+
+
+@jit_generic
+def apply_stage(torque, params, kind, tau, t, q, w, x, counters):
+    """Sub-flow ``kind`` (``KICK``, ``ROTOR``, ``FREE``) for a time ``tau`` on the state (q, w);
+    ``t`` is the clock of a ``KICK``'s torque, ``x`` unused. Counts kicks in ``counters[1]``,
+    free flows in ``counters[2]``."""
+    if kind == KICK:
+        # Exact flow of U: Q += 2τ q∘(0, τ_B), i.e. w += 2τ|q|²(0, τ_B).
+        # ω = g/I with g = ½ vec(w); the splittings take only models whose torque does not
+        # depend on ω (checked by attitude.splitting).
+        om = (0.5 * w[1] / params[0], 0.5 * w[2] / params[1], 0.5 * w[3] / params[2])
+        tq = torque(q, om, t, params)
+        f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        w[1] += f * tq[0]
+        w[2] += f * tq[1]
+        w[3] += f * tq[2]
+        counters[1] += 1
+    elif kind == ROTOR:
+        rotor_flow(q, w, tau, params)
+        counters[2] += 1
+    else:
+        free_flow_state(q, w, tau, params)
+        counters[2] += 1
+
+
+@jit_generic
+def apply_coupled_stage(torque, params, kind, tau, t, q, w, x, counters):
+    """Sub-flow ``kind`` (``FREE_KEPLER``, ``ROTOR_KEPLER``, ``MUTUAL``) for a time ``tau`` on
+    the coupled state (q, w) and x = (r, v); ``torque`` and ``t`` unused (V2 does not depend on
+    t). Counts as :func:`apply_stage`."""
+    if kind == MUTUAL:
+        mutual_kick(q, w, x, tau, params)
+        counters[1] += 1
+    else:  # the attitude's free flow and the orbit's Kepler drift, which commute
+        if kind == FREE_KEPLER:
+            free_flow_state(q, w, tau, params)
+        else:
+            rotor_flow(q, w, tau, params)
+        kepler_drift_state(x, params[COUPLED.MU], tau)
+        counters[2] += 1
+
+
+@jit
 def n_steps_for(span, dt):
     """Fewest equal steps no longer than dt (up to a relative 1e-9) covering |span|."""
     r = abs(span) / dt
@@ -290,14 +411,19 @@ def canonical_to_state(y, state):
 
 @jit_generic
 def composition_run(
-    torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
+    stage, torque, params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters
 ):
     """Run a composition method through the output times ``t_out``.
 
-    Starting from ``state`` = (q, w) at ``t_start``, each interval between consecutive times
-    (t_start, t_out[0], t_out[1], …) is covered by the fewest equal steps no longer than ``dt``;
-    the state at each output time is written to ``y_out[k]`` as (q, Q), and ``state`` holds the
-    last one on return (a later call continues from it: chunked runs are bit-for-bit identical).
+    ``stage`` applies one sub-flow (:func:`apply_stage`, or :func:`apply_coupled_stage` for
+    the coupled methods: passed in, so that an entry point compiles the sub-flows it runs only),
+    ``torque`` is the model of a ``KICK``.
+
+    Starting from ``state`` = (q, w) (coupled: (q, w, r, v)) at ``t_start``, each interval
+    between consecutive times (t_start, t_out[0], t_out[1], …) is covered by the fewest equal
+    steps no longer than ``dt``; the state at each output time is written to ``y_out[k]`` as
+    (q, Q) (coupled: (q, Q, r, v)), and ``state`` holds the last one on return (a later call
+    continues from it: chunked runs are bit-for-bit identical).
 
     ``counters`` (int64, :data:`N_COUNTERS`): steps, kick (torque) evaluations, free-flow
     evaluations; ``counters[3]`` the step at which the first interval resumes (0: from its
@@ -317,6 +443,8 @@ def composition_run(
     nops = kinds.shape[0]
     q = state[0:4]
     w = state[4:8]
+    x = state[COUPLED_STATE.R :]  # the orbit (r, v) of the coupled methods; empty otherwise
+    nx = x.shape[0]
     t_a = t_start
     budget = counters[4]
     taken = 0
@@ -347,38 +475,39 @@ def composition_run(
                         # Same flow at the same (q, t) as the next step's first stage: merged.
                         pend = tau
                         break
-                    kind = kinds[o]
-                    if kind == KICK:
-                        # Exact flow of U: Q += 2τ q∘(0, τ_B), i.e. w += 2τ|q|²(0, τ_B).
-                        # ω = g/I with g = ½ vec(w); the splittings take only models whose
-                        # torque does not depend on ω (checked by attitude.splitting).
-                        om = (
-                            0.5 * w[1] / params[0],
-                            0.5 * w[2] / params[1],
-                            0.5 * w[3] / params[2],
-                        )
-                        tq = torque(q, om, ts + toffs[o] * h, params)
-                        f = 2.0 * tau * (q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-                        w[1] += f * tq[0]
-                        w[2] += f * tq[1]
-                        w[3] += f * tq[2]
-                        counters[1] += 1
-                    elif kind == ROTOR:
-                        rotor_flow(q, w, tau, params)
-                        counters[2] += 1
-                    else:
-                        free_flow_state(q, w, tau, params)
-                        counters[2] += 1
+                    stage(torque, params, kinds[o], tau, ts + toffs[o] * h, q, w, x, counters)
                 # once per step: a NaN or inf anywhere in the state (a non-finite torque, an
                 # overflow) ends the run here, not at the next output time
-                if not math.isfinite(q[0] + q[1] + q[2] + q[3] + w[0] + w[1] + w[2] + w[3]):
+                total = q[0] + q[1] + q[2] + q[3] + w[0] + w[1] + w[2] + w[3]
+                for i in range(nx):
+                    total += x[i]
+                if not math.isfinite(total):
                     return NONFINITE, k
         state_to_canonical(state, y_out[k])
+        for i in range(nx):
+            y_out[k, COUPLED_STATE.R + i] = x[i]
         ok = True
-        for i in range(8):
+        for i in range(COUPLED_STATE.R + nx):
             if not math.isfinite(y_out[k, i]):
                 ok = False
         if not ok:
             return NONFINITE, k
         t_a = t_b
     return SUCCESS, m
+
+
+@jit
+def _no_torque(q, w, t, params):
+    """The torque of a ``KICK``, which the coupled methods do not have."""
+    return 0.0, 0.0, 0.0
+
+
+@jit
+def coupled_composition(params, kinds, coefs, toffs, state, t_start, t_out, dt, y_out, counters):
+    """:func:`composition_run` of the coupled methods: ``params`` the :data:`COUPLED` block,
+    ``state`` (q, w, r, v) (:data:`COUPLED_STATE`), rows of ``y_out`` (q, Q, r, v) [m, m/s],
+    space axes."""
+    return composition_run(
+        apply_coupled_stage, _no_torque, params, kinds, coefs, toffs, state, t_start, t_out,
+        dt, y_out, counters,
+    )  # fmt: skip

@@ -165,35 +165,51 @@ def lookup_method(method: str) -> tuple[Callable[..., RunResult], dict[str, Any]
 
 
 def pick(
-    method: str, potential: Any, craft: Any, formulation: Any, events: Any, output: str
+    method: str,
+    potential: Any,
+    craft: Any,
+    formulation: Any,
+    events: Any,
+    output: str,
+    software: Any = None,
 ) -> Plan:
-    """The method and runner of a single run (``craft``: the spacecraft with actuators or
-    flight software, else None); the formulation and streaming are filled in later."""
+    """The method and runner of a single run (``craft``: the spacecraft with actuators, flight
+    software or its orbit in the state, else None); the formulation and streaming are filled
+    in later."""
     requested = method
     method = choose_method(
         method, potential, spacecraft=craft, formulation=formulation, events=events
     )
     runner, extra = lookup_method(method)
     if craft is not None:
-        runner = _spacecraft_runner(craft, method, formulation, events, output, potential)
+        runner = _spacecraft_runner(craft, method, formulation, events, output, potential, software)
     return Plan(requested, method, runner, extra)
 
 
 def _spacecraft_runner(
-    craft: Any, method: str, formulation: Any, events: Any, output: str, pot: Any
+    craft: Any, method: str, formulation: Any, events: Any, output: str, pot: Any, software: Any
 ) -> Callable[..., RunResult]:
-    """The runner of a spacecraft with actuators (the methods that integrate the gyrostat)."""
-    from .. import _holds
+    """The runner of a spacecraft with actuators (the methods that integrate the gyrostat), or
+    carrying its orbit (those and, for a rigid body in its gravity gradient around a point
+    mass, the splittings)."""
+    from .. import _coupled_splitting, _holds
 
     if formulation != "canonical":
         raise AttitudeValueError(
             f"formulation: a spacecraft with actuators is integrated in canonical variables "
             f"(q, Q, h); got formulation={formulation!r}"
         )
-    if method not in _holds.SPACECRAFT_METHODS:
+    fixed_step = craft.coupled and method in _coupled_splitting.METHODS
+    if method not in _holds.SPACECRAFT_METHODS and not fixed_step:
+        also = ""
+        if method in _coupled_splitting.METHODS:
+            also = (
+                " (a rigid body without actuators carrying its orbit, mass= and a "
+                "NumericalOrbit, also by 'splitting' and 'nosquish')"
+            )
         raise AttitudeValueError(
             f"method: a spacecraft with actuators (a gyrostat driven by held commands) is "
-            f"integrated by {', '.join(repr(m) for m in _holds.SPACECRAFT_METHODS)}; "
+            f"integrated by {', '.join(repr(m) for m in _holds.SPACECRAFT_METHODS)}{also}; "
             f"{method!r} does not model wheels, magnetorquers or thrusters"
         )
     if events is not None:
@@ -206,6 +222,11 @@ def _spacecraft_runner(
             "output: a spacecraft with actuators returns the Dataset (its wheel states and "
             "commands are in it); use output='dataset'"
         )
+    if fixed_step:
+        _coupled_splitting.check_spacecraft(craft, pot, method, software)
+        if method == "splitting":
+            return _coupled_splitting.run_splitting
+        return _coupled_splitting.run_nosquish
     if method == "taylor":
         _holds.check_taylor(craft, pot)
         if craft.coupled:

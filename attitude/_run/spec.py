@@ -89,7 +89,7 @@ class RunSpec:
         body = body.body if isinstance(body, Spacecraft) else body
         body = body if isinstance(body, RigidBody) else RigidBody(body)
         pot = as_potential(potential).bind(body)
-        plan = _plan.pick(method, pot, craft, formulation, events, output)
+        plan = _plan.pick(method, pot, craft, formulation, events, output, software)
         method = plan.method
         if craft is None and commands is not None:
             raise AttitudeValueError(
