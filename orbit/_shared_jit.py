@@ -16,6 +16,8 @@ it), so the shared module lives here, and its name says that it is shared.
   in place (:mod:`orbit._numba_standins`: the same IR); numba's own are put back when it ends, so
   anyone else's numba code compiles as it would without the package.
 * ``ATTITUDE_CACHE_DIR=/path`` moves the package's cache out of the source tree.
+* A kernel called from Python is loaded or compiled under a lock file beside its cache index:
+  processes that start together on an empty cache compile it once, the others wait and load it.
 * Kernels that take another compiled function as an *argument* (the generic integrator loops)
   are :func:`jit_generic`: inlined into their callers and never cached on their own. A cached
   function compiled for a function-typed argument records that function's type, and so its
@@ -37,12 +39,19 @@ it), so the shared module lives here, and its name says that it is shared.
 from __future__ import annotations
 
 import ast
+import contextlib
 import functools
 import hashlib
 import os
 import sys
+import time
 import types
 from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no lock between processes
+    fcntl = None
 
 import numba
 from numba.core import types as nbtypes
@@ -312,6 +321,63 @@ class Kernel(CPUDispatcher):
     @property
     def _numba_type_(self):
         return nbtypes.Dispatcher(self.dispatcher)
+
+    def _compile_for_args(self, *args, **kws):
+        # A call from Python that finds no compiled overload: numba loads it from the disk cache
+        # or compiles it. Processes that start together on an empty cache (a pool's workers,
+        # test workers, two runs at once) would each compile the same driver; the lock makes
+        # the others wait for the first and load what it saved.
+        with _compile_lock(self):
+            return super()._compile_for_args(*args, **kws)
+
+
+#: Seconds a process waits for another one compiling the same kernel before it compiles too.
+COMPILE_LOCK_TIMEOUT = 900.0
+
+
+@contextlib.contextmanager
+def _compile_lock(dispatcher):
+    """An exclusive lock on ``<cache index>.lock`` beside ``dispatcher``'s cache index, held
+    while it is loaded or compiled (POSIX ``flock``; elsewhere, or without a disk cache, none).
+    Only calls from Python take it, never the compilation of a callee, so a process holds one
+    lock at a time and two processes cannot wait for each other."""
+    cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
+    fd = path = None
+    if fcntl is not None and cache_file is not None:
+        try:
+            path = cache_file._index_path + ".lock"
+            if path not in _HELD:  # (numba calls back in for literal arguments)
+                os.makedirs(cache_file._cache_path, exist_ok=True)
+                fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+        except (OSError, AttributeError):  # a read-only cache: numba does without one too
+            fd = None
+    if fd is not None:
+        deadline = time.monotonic() + COMPILE_LOCK_TIMEOUT
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:  # a stuck process: compile regardless
+                    os.close(fd)
+                    fd = None
+                    break
+                time.sleep(0.1)
+            except OSError:  # a file system without locks
+                os.close(fd)
+                fd = None
+                break
+    if fd is not None:
+        _HELD.add(path)
+    try:
+        yield
+    finally:
+        if fd is not None:
+            _HELD.discard(path)
+            os.close(fd)  # (releases the lock)
+
+
+_HELD: set[str] = set()  # the locks this process holds (another thread of it does not wait)
 
 
 def will_compile(dispatcher) -> bool:

@@ -1,7 +1,8 @@
 """Non-finite and overflowing states and torques, run in a child process with a deadline.
 
-``python tests/_nonfinite.py <integrator>`` runs the cases of one integrator and prints one JSON
-line per case, ``{"case": ..., "outcome": ...}``, flushing a ``{"start": case}`` line first: a
+``python tests/_nonfinite.py <integrator>...`` runs the cases of each integrator in turn (one
+process: one import) and prints one JSON line per case, ``{"integrator": ..., "case": ...,
+"outcome": ...}``, flushing a ``{"integrator": ..., "start": case}`` line first: a
 case that never returns (a compiled loop spinning on NaN) is named by the parent
 (tests/test_reliability.py::test_nonfinite_inputs_end_cleanly), which kills the child at its
 deadline and fails, instead of hanging the suite.
@@ -72,12 +73,15 @@ def _outcome(f) -> str:
     return "nonfinite"
 
 
+_CURRENT = [""]  # the integrator whose cases run
+
+
 def _emit(case: str, outcome: str) -> None:
-    print(json.dumps({"case": case, "outcome": outcome}), flush=True)
+    print(json.dumps({"integrator": _CURRENT[0], "case": case, "outcome": outcome}), flush=True)
 
 
 def _run(case: str, f) -> None:
-    print(json.dumps({"start": case}), flush=True)
+    print(json.dumps({"integrator": _CURRENT[0], "start": case}), flush=True)
     _emit(case, _outcome(f))
 
 
@@ -233,4 +237,6 @@ INTEGRATORS = {
 }
 
 if __name__ == "__main__":
-    INTEGRATORS[sys.argv[1]]()
+    for name in sys.argv[1:]:
+        _CURRENT[0] = name
+        INTEGRATORS[name]()

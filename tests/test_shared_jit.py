@@ -16,6 +16,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -95,3 +96,64 @@ def test_editing_a_module_recompiles_only_its_importers(tmp_path):
     _touch(tree / "orbit" / "_kepler_equation.py")  # imported by _kernels: both again
     both = _probe(tree, cache)
     assert both["ke"] and both["k"]
+
+
+# A process that compiles a kernel under its lock, told when to start (stdin), and one that
+# calls the same kernel meanwhile: the second waits and loads what the first saved.
+_LOCKER = textwrap.dedent(
+    """
+    import sys
+    from numba.core import event
+    from orbit import _kepler_equation as ke
+    from orbit._shared_jit import _compile_lock
+    n = []
+    class L(event.Listener):
+        def on_start(self, ev):
+            n.append(ev.data["dispatcher"].py_func.__qualname__)
+        def on_end(self, ev):
+            pass
+    event.register("numba:compile", L())
+    with _compile_lock(ke.reduce_angle):
+        print("locked", flush=True)
+        sys.stdin.readline()
+        ke.reduce_angle(7.0)  # this process holds the lock: no wait for itself
+    print(sorted(set(n)), flush=True)
+    """
+)
+_WAITER = textwrap.dedent(
+    """
+    from numba.core import event
+    from orbit import _kepler_equation as ke
+    n = []
+    class L(event.Listener):
+        def on_start(self, ev):
+            n.append(ev.data["dispatcher"].py_func.__qualname__)
+        def on_end(self, ev):
+            pass
+    event.register("numba:compile", L())
+    print("ready", flush=True)
+    ke.reduce_angle(7.0)
+    print(sorted(set(n)), flush=True)
+    """
+)
+
+
+def test_a_kernel_compiling_in_another_process_is_waited_for_and_loaded(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(_ROOT), ATTITUDE_CACHE_DIR=str(tmp_path / "cache"))
+    kw = dict(env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    locker = subprocess.Popen([sys.executable, "-c", _LOCKER], **kw)
+    waiter = None
+    try:
+        assert locker.stdout.readline().strip() == "locked"
+        waiter = subprocess.Popen([sys.executable, "-c", _WAITER], **kw)
+        assert waiter.stdout.readline().strip() == "ready"
+        time.sleep(1.0)  # the waiter is blocked on the lock (without it: compiling already)
+        assert waiter.poll() is None
+        out, _ = locker.communicate("go\n", timeout=300)
+        assert "reduce_angle" in out
+        wout, _ = waiter.communicate(timeout=300)
+        assert wout.strip() == "[]"  # loaded, not compiled
+    finally:
+        for p in (locker, waiter):
+            if p is not None and p.poll() is None:
+                p.kill()
