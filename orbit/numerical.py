@@ -27,6 +27,7 @@ import numpy as np
 from . import _force_kernels as _fk
 from . import _rk
 from . import _state_kernels as _sk
+from . import _taylor
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitTypeError, OrbitValueError
 from .gravity_field import POLAR_RADIUS, SphericalHarmonics
@@ -50,6 +51,7 @@ BLOCK = 86_400.0
 PAD = 4.0 * 3600.0
 
 _ROTATIONS = ("iers", "uniform")
+_METHODS = ("dop853", "taylor")
 
 
 class Impact(OrbitValueError):
@@ -195,11 +197,15 @@ class ForceModel:
 
 
 class _Integrator:
-    """One direction of the integration from the epoch, continued call after call."""
+    """One direction of the integration from the epoch, continued call after call: DOP853's
+    arrays (orbit._rk), or with ``rows`` the Taylor integrator's (orbit._taylor)."""
 
-    def __init__(self, direction: float) -> None:
+    def __init__(self, direction: float, rows: int | None = None) -> None:
         self.direction = direction
-        self.work, self.tstate, self.counters = _rk.new_state(6)
+        if rows is None:
+            self.work, self.tstate, self.counters = _rk.new_state(6)
+        else:
+            self.work, self.tstate, self.counters = _taylor.new_state(rows)
         self.impact: Impact | None = None
 
 
@@ -256,6 +262,7 @@ class NumericalOrbit(EphemerisOrbit):
         rtol: float = 1e-12,
         atol: float = 1e-9,
         max_step: float | None = None,
+        method: str = "dop853",
     ) -> None:
         if epoch is None:
             raise OrbitValueError(
@@ -291,12 +298,18 @@ class NumericalOrbit(EphemerisOrbit):
             raise OrbitValueError(f"mu: a positive gravitational parameter (km³/s²), got {mu_km}")
         if earth_rotation not in _ROTATIONS:
             raise OrbitValueError(f"earth_rotation: one of {_ROTATIONS}, got {earth_rotation!r}")
+        if not isinstance(method, str) or method.lower() not in _METHODS:
+            raise OrbitValueError(
+                f"method: 'dop853' (adaptive Runge–Kutta) or 'taylor' (adaptive Taylor series), "
+                f"got {method!r}"
+            )
+        method = method.lower()
         for name, x, lo in (("rtol", rtol, 1e-15), ("atol", atol, 1e-100)):
             if not (isinstance(x, (int, float)) and math.isfinite(x) and lo <= x <= 0.1):
                 raise OrbitValueError(f"{name}: a number in [{lo:g}, 0.1], got {x!r}")
         if max_step is None:
             max_step = 3600.0
-            if gravity is not None and gravity.degree >= 2:
+            if method == "dop853" and gravity is not None and gravity.degree >= 2:
                 vn = float(np.linalg.norm(v))
                 if vn > 0.0:
                     max_step = min(
@@ -306,6 +319,7 @@ class NumericalOrbit(EphemerisOrbit):
             raise OrbitValueError(f"max_step: seconds in (0, {PAD / 2:g}], got {max_step!r}")
         self._forces = ForceModel(ep, gravity, _bodies(third_bodies), mu_km * 1e9, earth_rotation)
         self._options = (float(rtol), float(atol), float(max_step))
+        self._method = method
         self._start(r, v)
 
     def _start(self, r: np.ndarray, v: np.ndarray) -> None:
@@ -328,8 +342,8 @@ class NumericalOrbit(EphemerisOrbit):
         else:
             self._h = 60.0
         self._mu_km = self._forces.mu * 1e-9
-        self._fwd = _Integrator(1.0)
-        self._bwd = _Integrator(-1.0)
+        self._fwd = self._integrator(1.0)
+        self._bwd = self._integrator(-1.0)
         self._nodes: dict[int, np.ndarray] = {0: self._y0.copy()}
         self._covered = (0, 0)
         #: A mark in the table's reserved word (orbit._state_kernels E_H + 1, else 0).
@@ -357,6 +371,7 @@ class NumericalOrbit(EphemerisOrbit):
         new._epoch = self._epoch
         new._forces = self._forces
         new._options = self._options
+        new._method = self._method
         new._start(r, v)
         return new
 
@@ -380,7 +395,13 @@ class NumericalOrbit(EphemerisOrbit):
 
     @property
     def source(self) -> str:
-        return f"numerical orbit: {self._forces.describe()}, DOP853 rtol={self._options[0]:g}"
+        name = "Taylor" if self._method == "taylor" else "DOP853"
+        return f"numerical orbit: {self._forces.describe()}, {name} rtol={self._options[0]:g}"
+
+    @property
+    def method(self) -> str:
+        """The integrator: ``"dop853"`` or ``"taylor"``."""
+        return self._method
 
     @property
     def time_span(self) -> tuple[float, float]:
@@ -398,6 +419,13 @@ class NumericalOrbit(EphemerisOrbit):
         )
 
     # -- the integration --------------------------------------------------------------------
+    def _integrator(self, direction: float) -> _Integrator:
+        if self._method == "taylor":
+            g = self._forces.gravity
+            n, m = (0, 0) if g is None else (g.degree, g.order)
+            return _Integrator(direction, _taylor.n_rows(n, m, len(self._forces.third_bodies)))
+        return _Integrator(direction)
+
     def _advance(self, it: _Integrator, t_out: np.ndarray) -> tuple[np.ndarray, int, float]:
         """Continue ``it`` through ``t_out`` (monotonic in its direction)."""
         rtol, atol, max_step = self._options
@@ -405,7 +433,8 @@ class NumericalOrbit(EphemerisOrbit):
         d = self._forces.cover(min(0.0, reach), max(0.0, reach))
         y_out = np.empty((t_out.size, 6))
         impact = np.zeros(6)
-        status, k, ti = _fk.run(
+        run = _taylor.run if self._method == "taylor" else _fk.run
+        status, k, ti = run(
             d, self._y0, 0.0, np.ascontiguousarray(t_out), y_out, it.work, it.tstate,
             it.counters, rtol, atol, it.direction * math.inf, max_step, 100_000_000, impact,
         )  # fmt: skip
@@ -500,7 +529,7 @@ class NumericalOrbit(EphemerisOrbit):
             if idx.size == 0:
                 continue
             order = idx[np.argsort(direction * tt[idx], kind="stable")]
-            it = _Integrator(direction)
+            it = self._integrator(direction)
             y, k, _ti = self._advance(it, tt[order])
             out[order[:k]] = y[:k]
             keep[order[k:]] = False
@@ -529,6 +558,7 @@ class NumericalOrbit(EphemerisOrbit):
                 "frame": "GCRS",
                 "source": self.source,
                 "status": "impact" if impact_time is not None else "success",
+                "method": self._method,
             },
         )
         if impact_time is not None:
