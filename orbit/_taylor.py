@@ -95,12 +95,18 @@ BODY = layout(
 
 def n_rows(n_max: int, m_max: int, n_bodies: int) -> int:
     """Rows of ``S`` for a field of degree ``n_max``, order ``m_max`` and ``n_bodies``."""
-    return ROWS.SIZE + BODY.SIZE * n_bodies + _tf.field_rows(n_max, m_max)
+    return ROWS.SIZE + BODY.SIZE * n_bodies + (_tf.FIELD_ROWS.SIZE if n_max > 0 else 0)
 
 
-def new_state(rows: int):
-    """Fresh persistent arrays ``(S, tstate, counters)``."""
-    return np.zeros((rows, PMAX + 1)), np.zeros(5), np.zeros(5, dtype=np.int64)
+def new_state(n_max: int, m_max: int, n_bodies: int):
+    """Fresh persistent arrays ``(S, F, tstate, counters)`` (``F``: the field's planes,
+    :mod:`orbit._taylor_field`)."""
+    return (
+        np.zeros((n_rows(n_max, m_max, n_bodies), PMAX + 1)),
+        _tf.new_field_state(n_max, PMAX),
+        np.zeros(5),
+        np.zeros(5, dtype=np.int64),
+    )
 
 
 @jit
@@ -244,7 +250,7 @@ def _short(S, a, b, k):
 
 
 @jit
-def _acceleration_order(d, S, k, f0, nb):
+def _acceleration_order(d, S, F, k, f0, nb):
     """Order k of the acceleration (GCRS, m/s²) from the orders ≤ k of r."""
     nmax = int(d[FORCES.N_MAX])
     mu = d[FORCES.MU]
@@ -275,7 +281,7 @@ def _acceleration_order(d, S, k, f0, nb):
         S[ROWS.XI, k] = cauchy(S, ROWS.CO, X, k) + cauchy(S, ROWS.SI, Y, k)
         S[ROWS.YI, k] = cauchy(S, ROWS.CO, Y, k) - cauchy(S, ROWS.SI, X, k)
         S[ROWS.ZI, k] = S[Z, k]
-        gx, gy, gz = field_order(d, S, k, f0, ROWS.XI, ROWS.YI, ROWS.ZI, R2)
+        gx, gy, gz = field_order(d, S, F, k, f0, ROWS.XI, ROWS.YI, ROWS.ZI, R2)
         S[ROWS.GX, k] = gx
         S[ROWS.GY, k] = gy
         S[ROWS.HZ, k] = gz
@@ -319,7 +325,7 @@ def _acceleration_order(d, S, k, f0, nb):
 
 
 @jit
-def coefficients(d, S, t, p, direction):
+def coefficients(d, S, F, t, p, direction):
     """The Taylor coefficients (orders 0..p, rows 0..5 of ``S``) of the solution through the
     state in row ``ROWS.NOW`` at time t; returns how far (s, in ``direction``) the tables'
     polynomials of this step reach."""
@@ -335,7 +341,7 @@ def coefficients(d, S, t, p, direction):
     for i in range(6):
         S[i, 0] = S[ROWS.NOW, i]
     for k in range(p):
-        ax, ay, az = _acceleration_order(d, S, k, f0, nb)
+        ax, ay, az = _acceleration_order(d, S, F, k, f0, nb)
         inv = 1.0 / (k + 1.0)
         S[ROWS.X, k + 1] = S[ROWS.VX, k] * inv
         S[ROWS.Y, k + 1] = S[ROWS.VY, k] * inv
@@ -375,13 +381,13 @@ def dense_eval(S, p, tau, out):
 
 
 @jit
-def taylor_step(d, S, tstate, counters, rtol, atol, t_stop, max_step):
+def taylor_step(d, S, F, tstate, counters, rtol, atol, t_stop, max_step):
     """One Taylor step from (``tstate[0]``, ``S[ROWS.NOW]``) toward ``t_stop``; returns a status
     (SUCCESS, NONFINITE or STEP_TOO_SMALL). The step's polynomials stay in rows 0..5."""
     p = int(tstate[3])
     t = tstate[0]
     direction = 1.0 if t_stop >= t else -1.0
-    reach = coefficients(d, S, t, p, direction)
+    reach = coefficients(d, S, F, t, p, direction)
     counters[1] += p
     h_abs = _radius(S, p, rtol, atol) * tstate[4]
     if not h_abs <= min(max_step, reach):  # also a NaN radius
@@ -431,10 +437,10 @@ def crossing(d, S, tstate, out):
 
 
 @jit
-def run(d, y0, t0, t_out, y_out, S, tstate, counters, rtol, atol, t_stop, max_step, max_steps,
+def run(d, y0, t0, t_out, y_out, S, F, tstate, counters, rtol, atol, t_stop, max_step, max_steps,
         impact):  # fmt: skip
     """Integrate the orbit through the output times ``t_out``: the arguments and returns of
-    :func:`orbit._force_kernels.run` (``S`` in place of DOP853's ``work``), from ``(t0, y0)`` on
+    :func:`orbit._force_kernels.run` (``S`` and ``F`` in place of DOP853's ``work``), from ``(t0, y0)`` on
     the first call (``counters[3] == 0``), else continuing bit for bit from the stored state.
     Steps never cross ``t_stop`` (±inf: they do not depend on the outputs asked for).
 
@@ -473,7 +479,7 @@ def run(d, y0, t0, t_out, y_out, S, tstate, counters, rtol, atol, t_stop, max_st
             return SUCCESS, k, math.nan
         if counters[0] >= max_steps:
             return TOO_MANY_STEPS, k, math.nan
-        status = taylor_step(d, S, tstate, counters, rtol, atol, t_stop, max_step)
+        status = taylor_step(d, S, F, tstate, counters, rtol, atol, t_stop, max_step)
         if status != SUCCESS:
             return status, k, math.nan
         if _fk.inside(d, tstate[0], y):

@@ -200,12 +200,13 @@ class _Integrator:
     """One direction of the integration from the epoch, continued call after call: DOP853's
     arrays (orbit._rk), or with ``rows`` the Taylor integrator's (orbit._taylor)."""
 
-    def __init__(self, direction: float, rows: int | None = None) -> None:
+    def __init__(self, direction: float, taylor: tuple[int, int, int] | None = None) -> None:
         self.direction = direction
-        if rows is None:
+        if taylor is None:
             self.work, self.tstate, self.counters = _rk.new_state(6)
-        else:
-            self.work, self.tstate, self.counters = _taylor.new_state(rows)
+            self.field = None
+        else:  # (degree, order, number of third bodies)
+            self.work, self.field, self.tstate, self.counters = _taylor.new_state(*taylor)
         self.impact: Impact | None = None
 
 
@@ -423,7 +424,7 @@ class NumericalOrbit(EphemerisOrbit):
         if self._method == "taylor":
             g = self._forces.gravity
             n, m = (0, 0) if g is None else (g.degree, g.order)
-            return _Integrator(direction, _taylor.n_rows(n, m, len(self._forces.third_bodies)))
+            return _Integrator(direction, (n, m, len(self._forces.third_bodies)))
         return _Integrator(direction)
 
     def _advance(self, it: _Integrator, t_out: np.ndarray) -> tuple[np.ndarray, int, float]:
@@ -433,11 +434,18 @@ class NumericalOrbit(EphemerisOrbit):
         d = self._forces.cover(min(0.0, reach), max(0.0, reach))
         y_out = np.empty((t_out.size, 6))
         impact = np.zeros(6)
-        run = _taylor.run if self._method == "taylor" else _fk.run
-        status, k, ti = run(
-            d, self._y0, 0.0, np.ascontiguousarray(t_out), y_out, it.work, it.tstate,
-            it.counters, rtol, atol, it.direction * math.inf, max_step, 100_000_000, impact,
-        )  # fmt: skip
+        t_out = np.ascontiguousarray(t_out)
+        t_stop = it.direction * math.inf
+        if self._method == "taylor":
+            status, k, ti = _taylor.run(
+                d, self._y0, 0.0, t_out, y_out, it.work, it.field, it.tstate, it.counters,
+                rtol, atol, t_stop, max_step, 100_000_000, impact,
+            )  # fmt: skip
+        else:
+            status, k, ti = _fk.run(
+                d, self._y0, 0.0, t_out, y_out, it.work, it.tstate, it.counters, rtol, atol,
+                t_stop, max_step, 100_000_000, impact,
+            )  # fmt: skip
         if status == _fk.IMPACT:
             it.impact = Impact(ti, impact, self._epoch)
         elif status != _rk.SUCCESS:
