@@ -1,4 +1,4 @@
-"""Compiled adaptive Taylor-series integration of an Earth orbit (``NumericalOrbit(method="taylor")``).
+"""Compiled adaptive Taylor-series integration of an Earth orbit (``method="taylor"``).
 
 The equations are those the DOP853 path integrates (:mod:`orbit._force_kernels`): ṙ = v,
 v̇ = a(t, r) in the GCRS, a the Earth's point mass or spherical harmonics (evaluated in the
@@ -57,7 +57,7 @@ from . import _force_kernels as _fk
 from . import _gravity_field_kernels as _kg
 from . import _state_kernels as _sk
 from . import _taylor_field as _tf
-from ._force_kernels import FORCES, IMPACT, _LAGRANGE_DEN
+from ._force_kernels import _LAGRANGE_DEN, FORCES, IMPACT
 from ._layout import layout
 from ._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from ._shared_jit import jit
@@ -440,8 +440,9 @@ def crossing(d, S, tstate, out):
 def run(d, y0, t0, t_out, y_out, S, F, tstate, counters, rtol, atol, t_stop, max_step, max_steps,
         impact):  # fmt: skip
     """Integrate the orbit through the output times ``t_out``: the arguments and returns of
-    :func:`orbit._force_kernels.run` (``S`` and ``F`` in place of DOP853's ``work``), from ``(t0, y0)`` on
-    the first call (``counters[3] == 0``), else continuing bit for bit from the stored state.
+    :func:`orbit._force_kernels.run` (``S`` and ``F`` in place of DOP853's ``work``), from
+    ``(t0, y0)`` on the first call (``counters[3] == 0``), else continuing bit for bit from the
+    stored state.
     Steps never cross ``t_stop`` (±inf: they do not depend on the outputs asked for).
 
     Returns ``(status, n_done, t_impact)``.

@@ -4,7 +4,9 @@ The orbit obeys r̈ = a(t, r) in the GCRS, with a the Earth's attraction (a poin
 spherical harmonics of :class:`orbit.SphericalHarmonics` in the Earth-fixed frame, turned by the
 IAU 2006/2000A Earth orientation of astropy) plus the Sun's and the Moon's pull
 (:class:`orbit.ThirdBody`), integrated by the package's DOP853 stepper (:mod:`orbit._rk`,
-compiled with the force model of :mod:`orbit._force_kernels`).
+compiled with the force model of :mod:`orbit._force_kernels`) or, with ``method="taylor"``, by
+the orbit's Taylor-series integrator (:mod:`orbit._taylor`: the same force model expanded in
+series).
 
 It is an :class:`orbit.Orbit` like the others: positions, velocities, the orbital frame, usable
 as a given orbit by everything that takes one. Behind that interface is a Hermite table of the
@@ -25,9 +27,8 @@ from typing import Any
 import numpy as np
 
 from . import _force_kernels as _fk
-from . import _rk
+from . import _rk, _taylor
 from . import _state_kernels as _sk
-from . import _taylor
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitTypeError, OrbitValueError
 from .gravity_field import POLAR_RADIUS, SphericalHarmonics
@@ -234,12 +235,19 @@ class NumericalOrbit(EphemerisOrbit):
         ``"uniform"``: the Earth turns about the GCRS z axis at the rate of the Earth rotation
         angle from its value at the epoch (an idealised Earth, e.g. for conservation studies).
     rtol, atol : float
-        DOP853 tolerances (per component; positions in m, velocities in m/s).
+        DOP853: tolerances per component (positions in m, velocities in m/s). Taylor: ``rtol``
+        sets the order, p = ⌈−½ ln rtol + 1⌉ (16 at 1e-13), and both the step (Jorba & Zou
+        2005): relative to |r| and |v| per block, absolute below ``atol/rtol`` (m, m/s).
     max_step : float [s], optional
-        Largest step. Default: half the time the orbit takes to cross the field's shortest
-        wavelength, π |r0| / (degree |v0|) (at most an hour): DOP853's error estimate does not
-        see a harmonic the step strides over (a 70 × 70 field at 500 km: 40 s; left at an hour,
-        a day drifts 15 mm from Orekit's, tests/test_numerical.py).
+        Largest step. Default for DOP853: half the time the orbit takes to cross the field's
+        shortest wavelength, π |r0| / (degree |v0|) (at most an hour): DOP853's error estimate
+        does not see a harmonic the step strides over (a 70 × 70 field at 500 km: 40 s; left at
+        an hour, a day drifts 15 mm from Orekit's, tests/test_numerical.py). For Taylor an hour
+        (its series see every harmonic: their high orders set the step).
+    method : {"dop853", "taylor"}
+        The integrator: the package's DOP853 (:mod:`orbit._rk`) or the adaptive Taylor-series
+        method (:mod:`orbit._taylor`); every force model, both Earth rotations and the impact
+        work with both. Recorded in ``propagate``'s attrs.
 
     Examples
     --------
@@ -520,8 +528,9 @@ class NumericalOrbit(EphemerisOrbit):
         -------
         xarray.Dataset
             ``position`` (time, axis) [m] and ``velocity`` [m/s] in the GCRS; attrs ``epoch``,
-            ``frame``, ``source``, ``status`` (``"success"`` or ``"impact"``, then the samples
-            stop at the impact and ``impact_time`` [s] gives when).
+            ``frame``, ``source``, ``method`` (``"dop853"`` or ``"taylor"``), ``status``
+            (``"success"`` or ``"impact"``, then the samples stop at the impact and
+            ``impact_time`` [s] gives when).
         """
         import xarray as xr
 

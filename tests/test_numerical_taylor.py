@@ -37,7 +37,8 @@ def _earth_fixed(o, r):
 )
 def test_against_dop853_one_day_20x20(rotation, bodies):
     """One day at 500 km in EGM2008 20 × 20: Taylor (rtol 1e-13) against DOP853 (rtol 1e-13),
-    both tight (the issue: ≤ 1 mm; 7e-5 m measured)."""
+    both tight (the issue: ≤ 1 mm; 7.0e-5, 6.9e-5, 7.3e-5 m measured, DOP853's own error: the
+    Taylor orbit is 3e-6 m from Orekit's, below)."""
     g = orbit.SphericalHarmonics(20)
     t = np.arange(0.0, 86400.0 + 1.0, 300.0)
     kw = {"gravity": g, "earth_rotation": rotation, "third_bodies": bodies, "rtol": 1e-13}
@@ -58,39 +59,45 @@ def test_point_mass_is_kepler_over_ten_orbits():
     t = np.linspace(0.0, 10.0 * period, 501)
     r = o.propagate(t).position.values
     rel = np.linalg.norm(r - k.position(t) * 1e3, axis=1) / np.linalg.norm(r, axis=1)
-    assert np.max(rel) < 3e-13
+    assert np.max(rel) < 1e-13  # 2.5e-14 measured
 
 
 def test_zonal_field_conserves_energy_and_polar_momentum():
     field = orbit.SphericalHarmonics(8, 0)
-    o = _taylor(gravity=field, earth_rotation="uniform", rtol=1e-15)
+    o = _taylor(gravity=field, earth_rotation="uniform", rtol=1e-13)
     t = np.linspace(0.0, 86400.0, 289)
     ds = o.propagate(t)
     r, v = ds.position.values, ds.velocity.values
     energy = 0.5 * np.sum(v**2, axis=1) + field.potential(r)  # zonal: any longitude
     hz = np.cross(r, v)[:, 2]
-    assert np.max(np.abs(energy / energy[0] - 1.0)) < 1e-13
-    assert np.max(np.abs(hz / hz[0] - 1.0)) < 1e-13
+    assert np.max(np.abs(energy / energy[0] - 1.0)) < 5e-14  # 6.2e-15 measured
+    assert np.max(np.abs(hz / hz[0] - 1.0)) < 5e-14  # 3.3e-15
     assert np.ptp(np.cross(r, v)[:, 0]) > 1e-3 * np.linalg.norm(np.cross(r[0], v[0]))
 
 
 def test_tesseral_field_conserves_the_jacobi_integral():
     field = orbit.SphericalHarmonics(20)
-    o = _taylor(gravity=field, earth_rotation="uniform", rtol=1e-15)
+    o = _taylor(gravity=field, earth_rotation="uniform", rtol=1e-13)
     t = np.linspace(0.0, 86400.0, 289)
     ds = o.propagate(t)
     r, v = ds.position.values, ds.velocity.values
     u = field.potential(_earth_fixed(o, {"t": t, "r": r}))
     jacobi = 0.5 * np.sum(v**2, axis=1) + u - OMEGA * np.cross(r, v)[:, 2]
-    assert np.max(np.abs(jacobi / jacobi[0] - 1.0)) < 2e-13
+    # 7.8e-15 measured (DOP853 at the same rtol: 4.5e-13)
+    assert np.max(np.abs(jacobi / jacobi[0] - 1.0)) < 5e-14
     energy = 0.5 * np.sum(v**2, axis=1) + u
     assert np.ptp(energy / energy[0]) > 1e-9  # the energy alone is not conserved
 
 
-@pytest.mark.parametrize(("case", "bound"), [("A", 1e-3), ("B", 1e-3)])
+@pytest.mark.parametrize(
+    ("case", "bound"),
+    [("A", 2e-5), ("B", 2e-5), pytest.param("C", 2e-5, marks=pytest.mark.slow)],
+)
 def test_one_day_against_orekit(case, bound):
     """tests/test_numerical.py's Orekit reference (one day at 500 km, EGM2008 20 × 20; B with
-    the Sun and the Moon) reproduced by the Taylor integrator: 0.1 mm measured."""
+    the Sun and the Moon; C 70 × 70) reproduced by the Taylor integrator: 2.8e-6, 1.8e-6,
+    2.1e-6 m measured (Orekit's run converged to 4e-6 m; DOP853 at the same rtol: 1.1e-4,
+    1.1e-4, 3.7e-5 m)."""
     path = Path(__file__).resolve().parent / "data" / "orekit_numerical_orbit.npz"
     with np.load(path) as d:
         ref = {k: d[k] for k in d.files}
