@@ -1,5 +1,5 @@
-"""``orbit.NumericalOrbit`` (DOP853) against heyoka's Taylor integrator: one day under EGM2008
-20×20, time to 1e-9 relative accuracy, in one process.
+"""``orbit.NumericalOrbit`` (DOP853 and ``method="taylor"``) against heyoka's Taylor integrator:
+one day under EGM2008 20×20, time to 1e-9 relative accuracy, in one process.
 
 Run (heyoka is an optional peer, never a dependency: a scratch environment with heyoka and this
 package installed, ``pip install -e .``)::
@@ -13,7 +13,9 @@ The case is tests/test_numerical_heyoka.py's: epoch 2026-03-20T00:00:00 UTC, r0 
 Accuracy: error = max over the samples of |Δr| / |r0| against a reference, heyoka's Taylor
 integrator at tol 1e-15 with high accuracy (its own tol 1e-13 run is 3e-5 m from it, 4e-12
 relative; without heyoka: DOP853 at rtol 1e-15, flagged). For each method the cheapest setting
-with error ≤ 1e-9 (6.9 mm) is reported. DOP853 runs with atol = rtol (m, m/s: rtol governs both
+with error ≤ 1e-9 (6.9 mm) is reported. Our Taylor method's ``rtol`` sets its order as heyoka's
+tolerance does (p = ⌈−½ ln rtol + 1⌉) and its step from the series (Jorba & Zou), so its error
+moves in jumps too. DOP853 runs with atol = rtol (m, m/s: rtol governs both
 positions and velocities). heyoka's tolerance only sets its order (its step size follows from
 the Taylor coefficients), so its error moves in jumps; it runs in SI units and in units of
 (|r0|, the period / 2π) (its norm then weighs positions and velocities alike), in compact mode
@@ -21,10 +23,11 @@ the Taylor coefficients), so its error moves in jumps; it runs in SI units and i
 
 Times: wall time, best of ``--repeat`` after a warm-up (the machine may be shared: see the load
 printed). "core": the integrator alone on a prepared problem (heyoka: ``propagate_grid`` on a
-reset integrator; ours: the compiled driver ``orbit._force_kernels.run`` from a fresh state,
-the force tables built); "public": ``NumericalOrbit(...)`` then ``.propagate(t)`` (tables, the
-ERA of the epoch, the Dataset). Compilation apart: heyoka's ``taylor_adaptive`` construction
-(JIT of the expression; from a fresh cache directory unless ``--heyoka-cache``), and our first
+reset integrator; ours: the compiled driver ``orbit._force_kernels.run`` or
+``orbit._taylor.run`` from a fresh state, the force tables built); "public":
+``NumericalOrbit(...)`` then ``.propagate(t)`` (tables, the ERA of the epoch, the Dataset).
+Compilation apart: heyoka's ``taylor_adaptive`` construction (JIT of the expression; from a
+fresh cache directory unless ``--heyoka-cache``), and our first
 call in the process (numba: loaded from its disk cache, ``ATTITUDE_CACHE_DIR``, or compiled
 when that is empty: the script says which).
 """
@@ -103,14 +106,13 @@ def main(argv=None):
     t_first0 = time.perf_counter()
     import orbit
     from orbit import _force_kernels as _fk
-    from orbit.numerical import _Integrator
 
     t_import = time.perf_counter() - t_first0
     field = orbit.SphericalHarmonics(DEGREE)
     t = np.arange(0.0, DAY + 30.0, 60.0)
 
-    def make(rtol):
-        return orbit.NumericalOrbit(R0_KM, V0_KM_S, EPOCH, gravity=field,
+    def make(rtol, method="dop853"):
+        return orbit.NumericalOrbit(R0_KM, V0_KM_S, EPOCH, gravity=field, method=method,
                                     earth_rotation="uniform", rtol=rtol, atol=rtol)  # fmt: skip
 
     t0 = time.perf_counter()
@@ -137,19 +139,25 @@ def main(argv=None):
         return float(np.max(np.linalg.norm(r - ref, axis=1)) / r0)
 
     rows = []  # method, setting, error, steps, rhs, compile s, core s, public s
-    for rtol in (1e-10, 5e-11, 3e-11, 2e-11, 1.5e-11, 1e-11, 5e-12):
-        o = make(rtol)
+    ours = [("DOP853 (ours)", "dop853", r) for r in (1e-10, 5e-11, 3e-11, 2e-11, 1.5e-11, 1e-11,
+                                                     5e-12)]  # fmt: skip
+    ours += [("Taylor (ours)", "taylor", r) for r in (1e-8, 3e-9, 1e-9, 3e-10, 1e-10)]
+    for label, method, rtol in ours:
+        o = make(rtol, method)
         o._forces.cover(0.0, DAY)
 
         def core(o=o):
-            it = _Integrator(1.0)
+            it = o._integrator(1.0)
             y, _, _ = o._advance(it, t)
-            return y, it.counters
+            return y, it.counters, it.tstate
 
-        tc, (y, counters) = best_time(core, args.repeat)
-        tp, _ = best_time(lambda rtol=rtol: make(rtol).propagate(t), max(3, args.repeat // 4))
-        rows.append(("DOP853 (ours)", f"rtol={rtol:.1e}", error(y[:, :3]), int(counters[0]),
-                     int(counters[1]), None, tc, tp))  # fmt: skip
+        tc, (y, counters, tstate) = best_time(core, args.repeat)
+        tp, _ = best_time(lambda r=rtol, m=method: make(r, m).propagate(t),
+                          max(3, args.repeat // 4))  # fmt: skip
+        setting = f"rtol={rtol:.1e}" + (f" (order {tstate[3]:.0f})" if method == "taylor" else "")
+        # (Taylor: the "RHS evals" column counts the orders expanded, p per step)
+        rows.append((label, setting, error(y[:, :3]), int(counters[0]), int(counters[1]), None,
+                     tc, tp))  # fmt: skip
     n_acc = 20000
     rng = np.random.default_rng(1)
     u = rng.normal(size=(n_acc, 3))
@@ -225,11 +233,17 @@ def main(argv=None):
     for m, r in sorted(best.items(), key=lambda kv: kv[1][6]):
         ratio = f"{r[6] / hy_best:.2f}" if hy_best else "–"
         print(f"| {m} | {r[1]} | {r[2]:.2e} | {1e3 * r[6]:.2f} | {ratio} |")
-    ours = best.get("DOP853 (ours)")
-    if ours is not None:
+    dop = best.get("DOP853 (ours)")
+    if dop is not None:
         print(
-            f"\nours: {ours[4]} RHS evaluations x {1e9 * t_acc:.0f} ns per acceleration "
-            f"(20x20, measured alone) = {1e3 * ours[4] * t_acc:.2f} ms of {1e3 * ours[6]:.2f} ms"
+            f"\nours: {dop[4]} RHS evaluations x {1e9 * t_acc:.0f} ns per acceleration "
+            f"(20x20, measured alone) = {1e3 * dop[4] * t_acc:.2f} ms of {1e3 * dop[6]:.2f} ms"
+        )
+    tay = best.get("Taylor (ours)")
+    if tay is not None and dop is not None:
+        print(
+            f"Taylor (ours): {tay[3]} steps, {1e6 * tay[6] / tay[3]:.1f} us a step; "
+            f"{tay[6] / dop[6]:.2f}x DOP853's time"
         )
     state = "empty: compiled" if cold else "filled: loaded" if cache_dir else "default dir"
     print(

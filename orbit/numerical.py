@@ -4,7 +4,9 @@ The orbit obeys r̈ = a(t, r) in the GCRS, with a the Earth's attraction (a poin
 spherical harmonics of :class:`orbit.SphericalHarmonics` in the Earth-fixed frame, turned by the
 IAU 2006/2000A Earth orientation of astropy) plus the Sun's and the Moon's pull
 (:class:`orbit.ThirdBody`), integrated by the package's DOP853 stepper (:mod:`orbit._rk`,
-compiled with the force model of :mod:`orbit._force_kernels`).
+compiled with the force model of :mod:`orbit._force_kernels`) or, with ``method="taylor"``, by
+the orbit's Taylor-series integrator (:mod:`orbit._taylor`: the same force model expanded in
+series).
 
 It is an :class:`orbit.Orbit` like the others: positions, velocities, the orbital frame, usable
 as a given orbit by everything that takes one. Behind that interface is a Hermite table of the
@@ -25,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from . import _force_kernels as _fk
-from . import _rk
+from . import _rk, _taylor
 from . import _state_kernels as _sk
 from .ephemeris import EphemerisOrbit
 from .errors import OrbitTypeError, OrbitValueError
@@ -50,6 +52,7 @@ BLOCK = 86_400.0
 PAD = 4.0 * 3600.0
 
 _ROTATIONS = ("iers", "uniform")
+_METHODS = ("dop853", "taylor")
 
 
 class Impact(OrbitValueError):
@@ -195,11 +198,16 @@ class ForceModel:
 
 
 class _Integrator:
-    """One direction of the integration from the epoch, continued call after call."""
+    """One direction of the integration from the epoch, continued call after call: DOP853's
+    arrays (orbit._rk), or with ``rows`` the Taylor integrator's (orbit._taylor)."""
 
-    def __init__(self, direction: float) -> None:
+    def __init__(self, direction: float, taylor: tuple[int, int, int] | None = None) -> None:
         self.direction = direction
-        self.work, self.tstate, self.counters = _rk.new_state(6)
+        if taylor is None:
+            self.work, self.tstate, self.counters = _rk.new_state(6)
+            self.field = None
+        else:  # (degree, order, number of third bodies)
+            self.work, self.field, self.tstate, self.counters = _taylor.new_state(*taylor)
         self.impact: Impact | None = None
 
 
@@ -227,12 +235,19 @@ class NumericalOrbit(EphemerisOrbit):
         ``"uniform"``: the Earth turns about the GCRS z axis at the rate of the Earth rotation
         angle from its value at the epoch (an idealised Earth, e.g. for conservation studies).
     rtol, atol : float
-        DOP853 tolerances (per component; positions in m, velocities in m/s).
+        DOP853: tolerances per component (positions in m, velocities in m/s). Taylor: ``rtol``
+        sets the order, p = ⌈−½ ln rtol + 1⌉ (16 at 1e-13), and both the step (Jorba & Zou
+        2005): relative to |r| and |v| per block, absolute below ``atol/rtol`` (m, m/s).
     max_step : float [s], optional
-        Largest step. Default: half the time the orbit takes to cross the field's shortest
-        wavelength, π |r0| / (degree |v0|) (at most an hour): DOP853's error estimate does not
-        see a harmonic the step strides over (a 70 × 70 field at 500 km: 40 s; left at an hour,
-        a day drifts 15 mm from Orekit's, tests/test_numerical.py).
+        Largest step. Default for DOP853: half the time the orbit takes to cross the field's
+        shortest wavelength, π |r0| / (degree |v0|) (at most an hour): DOP853's error estimate
+        does not see a harmonic the step strides over (a 70 × 70 field at 500 km: 40 s; left at
+        an hour, a day drifts 15 mm from Orekit's, tests/test_numerical.py). For Taylor an hour
+        (its series see every harmonic: their high orders set the step).
+    method : {"dop853", "taylor"}
+        The integrator: the package's DOP853 (:mod:`orbit._rk`) or the adaptive Taylor-series
+        method (:mod:`orbit._taylor`); every force model, both Earth rotations and the impact
+        work with both. Recorded in ``propagate``'s attrs.
 
     Examples
     --------
@@ -256,6 +271,7 @@ class NumericalOrbit(EphemerisOrbit):
         rtol: float = 1e-12,
         atol: float = 1e-9,
         max_step: float | None = None,
+        method: str = "dop853",
     ) -> None:
         if epoch is None:
             raise OrbitValueError(
@@ -291,12 +307,18 @@ class NumericalOrbit(EphemerisOrbit):
             raise OrbitValueError(f"mu: a positive gravitational parameter (km³/s²), got {mu_km}")
         if earth_rotation not in _ROTATIONS:
             raise OrbitValueError(f"earth_rotation: one of {_ROTATIONS}, got {earth_rotation!r}")
+        if not isinstance(method, str) or method.lower() not in _METHODS:
+            raise OrbitValueError(
+                f"method: 'dop853' (adaptive Runge–Kutta) or 'taylor' (adaptive Taylor series), "
+                f"got {method!r}"
+            )
+        method = method.lower()
         for name, x, lo in (("rtol", rtol, 1e-15), ("atol", atol, 1e-100)):
             if not (isinstance(x, (int, float)) and math.isfinite(x) and lo <= x <= 0.1):
                 raise OrbitValueError(f"{name}: a number in [{lo:g}, 0.1], got {x!r}")
         if max_step is None:
             max_step = 3600.0
-            if gravity is not None and gravity.degree >= 2:
+            if method == "dop853" and gravity is not None and gravity.degree >= 2:
                 vn = float(np.linalg.norm(v))
                 if vn > 0.0:
                     max_step = min(
@@ -306,6 +328,7 @@ class NumericalOrbit(EphemerisOrbit):
             raise OrbitValueError(f"max_step: seconds in (0, {PAD / 2:g}], got {max_step!r}")
         self._forces = ForceModel(ep, gravity, _bodies(third_bodies), mu_km * 1e9, earth_rotation)
         self._options = (float(rtol), float(atol), float(max_step))
+        self._method = method
         self._start(r, v)
 
     def _start(self, r: np.ndarray, v: np.ndarray) -> None:
@@ -328,8 +351,8 @@ class NumericalOrbit(EphemerisOrbit):
         else:
             self._h = 60.0
         self._mu_km = self._forces.mu * 1e-9
-        self._fwd = _Integrator(1.0)
-        self._bwd = _Integrator(-1.0)
+        self._fwd = self._integrator(1.0)
+        self._bwd = self._integrator(-1.0)
         self._nodes: dict[int, np.ndarray] = {0: self._y0.copy()}
         self._covered = (0, 0)
         #: A mark in the table's reserved word (orbit._state_kernels E_H + 1, else 0).
@@ -357,6 +380,7 @@ class NumericalOrbit(EphemerisOrbit):
         new._epoch = self._epoch
         new._forces = self._forces
         new._options = self._options
+        new._method = self._method
         new._start(r, v)
         return new
 
@@ -380,7 +404,13 @@ class NumericalOrbit(EphemerisOrbit):
 
     @property
     def source(self) -> str:
-        return f"numerical orbit: {self._forces.describe()}, DOP853 rtol={self._options[0]:g}"
+        name = "Taylor" if self._method == "taylor" else "DOP853"
+        return f"numerical orbit: {self._forces.describe()}, {name} rtol={self._options[0]:g}"
+
+    @property
+    def method(self) -> str:
+        """The integrator: ``"dop853"`` or ``"taylor"``."""
+        return self._method
 
     @property
     def time_span(self) -> tuple[float, float]:
@@ -398,6 +428,13 @@ class NumericalOrbit(EphemerisOrbit):
         )
 
     # -- the integration --------------------------------------------------------------------
+    def _integrator(self, direction: float) -> _Integrator:
+        if self._method == "taylor":
+            g = self._forces.gravity
+            n, m = (0, 0) if g is None else (g.degree, g.order)
+            return _Integrator(direction, (n, m, len(self._forces.third_bodies)))
+        return _Integrator(direction)
+
     def _advance(self, it: _Integrator, t_out: np.ndarray) -> tuple[np.ndarray, int, float]:
         """Continue ``it`` through ``t_out`` (monotonic in its direction)."""
         rtol, atol, max_step = self._options
@@ -405,10 +442,18 @@ class NumericalOrbit(EphemerisOrbit):
         d = self._forces.cover(min(0.0, reach), max(0.0, reach))
         y_out = np.empty((t_out.size, 6))
         impact = np.zeros(6)
-        status, k, ti = _fk.run(
-            d, self._y0, 0.0, np.ascontiguousarray(t_out), y_out, it.work, it.tstate,
-            it.counters, rtol, atol, it.direction * math.inf, max_step, 100_000_000, impact,
-        )  # fmt: skip
+        t_out = np.ascontiguousarray(t_out)
+        t_stop = it.direction * math.inf
+        if self._method == "taylor":
+            status, k, ti = _taylor.run(
+                d, self._y0, 0.0, t_out, y_out, it.work, it.field, it.tstate, it.counters,
+                rtol, atol, t_stop, max_step, 100_000_000, impact,
+            )  # fmt: skip
+        else:
+            status, k, ti = _fk.run(
+                d, self._y0, 0.0, t_out, y_out, it.work, it.tstate, it.counters, rtol, atol,
+                t_stop, max_step, 100_000_000, impact,
+            )  # fmt: skip
         if status == _fk.IMPACT:
             it.impact = Impact(ti, impact, self._epoch)
         elif status != _rk.SUCCESS:
@@ -483,8 +528,9 @@ class NumericalOrbit(EphemerisOrbit):
         -------
         xarray.Dataset
             ``position`` (time, axis) [m] and ``velocity`` [m/s] in the GCRS; attrs ``epoch``,
-            ``frame``, ``source``, ``status`` (``"success"`` or ``"impact"``, then the samples
-            stop at the impact and ``impact_time`` [s] gives when).
+            ``frame``, ``source``, ``method`` (``"dop853"`` or ``"taylor"``), ``status``
+            (``"success"`` or ``"impact"``, then the samples stop at the impact and
+            ``impact_time`` [s] gives when).
         """
         import xarray as xr
 
@@ -500,7 +546,7 @@ class NumericalOrbit(EphemerisOrbit):
             if idx.size == 0:
                 continue
             order = idx[np.argsort(direction * tt[idx], kind="stable")]
-            it = _Integrator(direction)
+            it = self._integrator(direction)
             y, k, _ti = self._advance(it, tt[order])
             out[order[:k]] = y[:k]
             keep[order[k:]] = False
@@ -529,6 +575,7 @@ class NumericalOrbit(EphemerisOrbit):
                 "frame": "GCRS",
                 "source": self.source,
                 "status": "impact" if impact_time is not None else "success",
+                "method": self._method,
             },
         )
         if impact_time is not None:
