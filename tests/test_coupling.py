@@ -97,6 +97,22 @@ def test_one_way_equals_coupled_when_nothing_acts_back():
     assert np.abs(one_way.q.values - coupled.q.values).max() < 1e-12
 
 
+def test_one_way_equals_coupled_to_round_off_at_the_taylor_limit():
+    # Two integrations with their own steps (the coupled state's Taylor and the orbit's own
+    # Taylor), both at rtol 1e-15: a sphere exerts no force back, so they are one trajectory,
+    # to the rounding of a few thousand steps (measured 3.8e-15 of |r| over three orbits).
+    o = _orbit(method="taylor", rtol=1e-15, atol=1e-20)
+    sph = np.array([10.0, 10.0, 10.0])
+    sc = Spacecraft(RigidBody(sph), orbit=o, mass=50.0)
+    q0, Q0 = _state(sph)
+    t = np.linspace(0.0, 17_500.0, 31)
+    coupled = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method="taylor",
+                                 rtol=1e-15, atol=1e-20)  # fmt: skip
+    alone = o.propagate(t)
+    assert np.abs(coupled.position.values - alone.position.values).max() / 7e6 < 1e-14
+    assert np.abs(coupled.velocity.values - alone.velocity.values).max() / 7.5e3 < 1e-14
+
+
 def _deep_space(mu=1e-20):
     """An orbit far from any pull (μ tiny): the thrust alone changes the velocity."""
     return orbit.NumericalOrbit([1e5, 0.0, 0.0], [0.0, 0.0, 0.0], EPOCH, mu=mu)
