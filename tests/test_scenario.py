@@ -344,3 +344,51 @@ def test_cubesat_scenario_mass_model_facets_and_inertia_agree():
     assert abs(tensor[0, 2] - 1.5e-4) < 1e-8 and tensor[0, 1] == tensor[1, 2] == 0.0
     tilt = 0.5 * np.degrees(np.arctan2(2 * tensor[0, 2], tensor[0, 0] - tensor[2, 2]))
     assert f"{tilt:.2f} deg about b2" in text.replace("\n# ", " ")
+
+
+NUMERICAL = """
+[scenario]
+epoch = "2026-03-20T00:00:00"
+[body]
+inertia = [1.25, 1.0, 0.75]
+inertia_unit = "kg m2"
+[initial_state]
+form = "canonical"
+q = [1.0, 0.0, 0.0, 0.0]
+Q = [0.0, 0.2, 0.1, 0.3]
+Q_unit = "kg m2 s-1"
+[orbit]
+type = "numerical"
+r0 = [7000.0, 0.0, 0.0]
+r0_unit = "km"
+v0 = [0.0, 7.5, 0.1]
+v0_unit = "km/s"
+degree = 4
+earth_rotation = "uniform"
+[potential]
+kind = "gravity_gradient"
+[time]
+stop = 60.0
+step = 10.0
+unit = "s"
+"""
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_numerical_orbit_method(method):
+    import orbit
+
+    text = NUMERICAL.replace("degree = 4", f'degree = 4\nmethod = "{method}"')
+    orb = scenario.loads(text).potential.orbit
+    same = orbit.NumericalOrbit([7000.0, 0.0, 0.0], [0.0, 7.5, 0.1], "2026-03-20T00:00:00",
+                                gravity=orbit.SphericalHarmonics(4), earth_rotation="uniform",
+                                method=method)  # fmt: skip
+    assert orb.method == method
+    t = np.linspace(0.0, 3600.0, 7)
+    np.testing.assert_array_equal(orb.position(t), same.position(t))
+
+
+def test_numerical_orbit_bad_method_names_the_key():
+    text = NUMERICAL.replace('earth_rotation = "uniform"', 'method = "rk4"')
+    with pytest.raises(ScenarioError, match=r"orbit.*method"):
+        scenario.loads(text)

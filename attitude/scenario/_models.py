@@ -74,6 +74,7 @@ def _orbit(
             "third_bodies",
             "earth_rotation",
             "rtol",
+            "method",
         ),
     }[kind]
     for k in ot:
@@ -260,6 +261,7 @@ def _numerical(r: _Reader, ot: Mapping[str, Any], epoch: str | None, mu_q: Any) 
             r0, v0, epoch.rstrip("Z"), gravity=gravity, third_bodies=tuple(bodies), mu=mu_q,
             earth_rotation=r.string(ot, "earth_rotation", "orbit", "iers"),
             rtol=r.number(ot, "rtol", "orbit", 1e-12),
+            method=r.string(ot, "method", "orbit", "dop853"),
         )  # fmt: skip
     except O.OrbitError as exc:
         raise _fail("orbit", str(exc)) from None

@@ -164,6 +164,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "third_bodies": None,
         "earth_rotation": None,
         "rtol": None,
+        "method": None,
     },
     "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
     "integrator": {
