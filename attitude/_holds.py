@@ -630,13 +630,36 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
         entry.spacecraft_diagnostics(t[i:j], y[i:j], params, sc, diag[i:j])
         # C-ordered copies of the (q, Q) columns and the rates: with wheels they are strided
         # views, without them not (two types: the kernel compiled twice)
-        entry.term_torques_at_rates(
-            t[i:j],
-            np.ascontiguousarray(y[i:j, :8]),
-            np.ascontiguousarray(diag[i:j, 0:3]),
-            params,
-            torques[i:j],
-        )
+        qQ = np.ascontiguousarray(y[i:j, :8])
+        rates = np.ascontiguousarray(diag[i:j, 0:3])
+        if orbit is not None and _has_live_environment(sc):
+            _torques_in_live_environment(entry, sc, params, t, y, i, qQ, rates, torques)
+        else:
+            entry.term_torques_at_rates(t[i:j], qQ, rates, params, torques[i:j])
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
     return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec,
             "orbit": orbit}  # fmt: skip
+
+
+def _has_live_environment(sc: np.ndarray) -> bool:
+    """Whether a coupled run's drag or radiation models read the environment at the integrated
+    state (their live words, written by the right-hand side)."""
+    from ._core import actuators as _ka
+    from ._core import coupled as _kc
+
+    return int(sc[int(sc[_ka.SC.COUPLED]) + _kc.COUPLED.N_ENV]) > 0
+
+
+def _torques_in_live_environment(entry, sc, params, t, y, i, qQ, rates, torques) -> None:
+    """The per-term torques of the samples ``i : i + len(qQ)`` of such a run: each sample's
+    environment into the live words, then its torques (a chunk at once would read the
+    environment the right-hand side last wrote, the same for every sample)."""
+    from ._core import actuators as _ka
+    from ._core import coupled as _kc
+
+    co = int(sc[_ka.SC.COUPLED])
+    iy = int(sc[co + _kc.COUPLED.IY])
+    for k in range(qQ.shape[0]):
+        _kc.live_environment(sc, co, params, t[i + k], y[i + k], iy)
+        entry.term_torques_at_rates(t[i + k : i + k + 1], qQ[k : k + 1], rates[k : k + 1], params,
+                                    torques[i + k : i + k + 1])  # fmt: skip

@@ -406,3 +406,31 @@ def test_facet_forces_are_the_sums_of_each_facets_force():
         np.testing.assert_allclose(_ke.drag_torque(q, t[k], pd, 0), td, rtol=1e-12, atol=1e-24)
         np.testing.assert_allclose(_ke.solar_torque(q, t[k], ps, 0), ts, rtol=1e-12, atol=1e-24)
     assert np.any(sun["shadow"] > 0.0)
+
+
+def test_recorded_drag_and_radiation_torques_follow_each_samples_environment():
+    # The drag and radiation models of a coupled run read the environment the right-hand side
+    # writes at the integrated state; the recorded torques must be evaluated at each sample's
+    # own (was: the last one written, the same for a whole chunk: the radiation torque on in
+    # shadow, off in sunlight). Truth: the same spacecraft on the same orbit given as a table
+    # (not coupled), whose torques come from the models' tables: zero in the same samples
+    # (umbra), and equal elsewhere to the small difference the coupling makes.
+    from attitude.facets import box_wing
+
+    o = orbit.NumericalOrbit([6622.60852, 1167.744565, 0.0], [-0.830622688, 4.71069535,
+                                                              6.035105174], EPOCH)  # fmt: skip
+    body = RigidBody([0.04226, 0.04057, 0.007975])
+    facets = box_wing([0.1, 0.1, 0.34], center=[0.0, 0.0, -0.015], specular=0.1, diffuse=0.2)
+    pot = attitude.SolarRadiation(o, facets) + attitude.AerodynamicDrag(o, facets, density=1e-11)
+    q0 = np.array([1.0, 0.0, 0.0, 0.0])
+    Q0 = momenta_from_angular_velocity(q0, [0.05, -0.04, 0.05], body.inertia)
+    t = np.arange(0.0, 3 * 3600.0 + 1.0, 60.0)
+    runs = [attitude.propagate(sc, q0, Q0, t, pot, rtol=1e-11, atol=1e-13)
+            for sc in (Spacecraft(body, orbit=o, mass=4.0), Spacecraft(body, orbit=o))]  # fmt: skip
+    (srp_c, drag_c), (srp_t, drag_t) = (ds.torque.values[:, :2].transpose(1, 0, 2) for ds in runs)
+    dark = np.linalg.norm(srp_t, axis=1) == 0.0
+    assert 20 < dark.sum() < len(t) - 20
+    assert np.array_equal(np.linalg.norm(srp_c, axis=1) == 0.0, dark)
+    scale = np.abs(srp_t).max()
+    assert np.abs(srp_c - srp_t).max() < 1e-3 * scale
+    assert np.abs(drag_c - drag_t).max() < 1e-3 * np.abs(drag_t).max()
