@@ -73,11 +73,15 @@ def check_spacecraft(craft: Any, potential: Any, method: str, software: Any = No
             "from no potential): use method='dop853'"
         )
     if not isinstance(potential, GravityGradient):
+        name = type(potential).__name__
+        why = (
+            "with no torque, nothing couples the two: give the orbit to a RigidBody instead"
+            if name == "TorqueFree"
+            else "drag, radiation and magnetic torques derive from no potential of the state"
+        )
         raise AttitudeValueError(
             f"potential: {what} in its GravityGradient(orbit) alone (the mutual potential to "
-            f"second order, whose flow is a kick); got {type(potential).__name__} (drag, "
-            "radiation and magnetic torques derive from no potential of the state): use "
-            "method='dop853'"
+            f"second order, whose flow is a kick); got {name} ({why}): use method='dop853'"
         )
     if orb.gravity is not None or orb.third_bodies:
         has = [repr(orb.gravity)] if orb.gravity is not None else []

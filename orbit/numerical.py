@@ -286,6 +286,15 @@ class NumericalOrbit(EphemerisOrbit):
         for name, x in (("r0", r), ("v0", v)):
             if x.shape != (3,) or not np.all(np.isfinite(x)):
                 raise OrbitValueError(f"{name}: three finite components, got {x!r}")
+        # An Earth orbit stays inside the Earth's Hill sphere (1.5e6 km) and below ~100 km/s:
+        # numbers beyond are most likely metres (m/s) given where km (km/s) are read.
+        for name, x, limit, unit in (("r0", r, 2e6, "km"), ("v0", v, 100.0, "km/s")):
+            if np.linalg.norm(x) > limit:
+                raise OrbitValueError(
+                    f"{name}: |{name}| = {np.linalg.norm(x):.4g} {unit}, more than {limit:g} "
+                    f"{unit}: no Earth orbit; plain numbers are read in {unit} (metres given? "
+                    f"divide by 1000, or pass an astropy Quantity with its unit)"
+                )
         fr = str(frame).upper()
         if fr in ("EME2000", "J2000"):
             from .frames import eme2000_to_gcrs
@@ -376,6 +385,15 @@ class NumericalOrbit(EphemerisOrbit):
         for name, x in (("r0", r), ("v0", v)):
             if x.shape != (3,) or not np.all(np.isfinite(x)):
                 raise OrbitValueError(f"{name}: three finite components, got {x!r}")
+        # An Earth orbit stays inside the Earth's Hill sphere (1.5e6 km) and below ~100 km/s:
+        # numbers beyond are most likely metres (m/s) given where km (km/s) are read.
+        for name, x, limit, unit in (("r0", r, 2e6, "km"), ("v0", v, 100.0, "km/s")):
+            if np.linalg.norm(x) > limit:
+                raise OrbitValueError(
+                    f"{name}: |{name}| = {np.linalg.norm(x):.4g} {unit}, more than {limit:g} "
+                    f"{unit}: no Earth orbit; plain numbers are read in {unit} (metres given? "
+                    f"divide by 1000, or pass an astropy Quantity with its unit)"
+                )
         new = object.__new__(NumericalOrbit)
         new._epoch = self._epoch
         new._forces = self._forces

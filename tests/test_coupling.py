@@ -174,6 +174,11 @@ def test_bad_input():
     with pytest.raises(attitude.AttitudeValueError, match="method"):
         attitude.propagate(sc2, q0, Q0, [0.0, 10.0], attitude.GravityGradient(field),
                            method="taylor")  # fmt: skip
+    # no actuators: the message says what carries the orbit, not what models wheels
+    with pytest.raises(attitude.AttitudeValueError, match=r"carrying its orbit.*'exact' does not"):
+        attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="exact")
+    with pytest.raises(attitude.AttitudeValueError, match=r"TorqueFree \(with no torque"):
+        attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="splitting", dt=1.0)
 
 
 def _plate(face_area, edge_area):

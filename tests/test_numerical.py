@@ -156,6 +156,8 @@ def test_oem_round_trip(tmp_path):
     [
         ({"epoch": None}, "epoch"),
         ({"r0": [3000.0, 0.0, 0.0]}, "r0"),
+        ({"r0": [7000e3, 0.0, 0.0]}, r"r0: .*metres given"),  # m read as km
+        ({"v0": [0.0, 7546.0, 0.0]}, r"v0: .*metres given"),
         ({"gravity": orbit.SphericalHarmonics(2), "mu": 398600.0}, "mu"),
         ({"earth_rotation": "fast"}, "earth_rotation"),
         ({"epoch": "1500-01-01T00:00:00"}, "epoch"),

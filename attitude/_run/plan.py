@@ -201,6 +201,14 @@ def _spacecraft_runner(
         )
     fixed_step = craft.coupled and method in _coupled_splitting.METHODS
     if method not in _holds.SPACECRAFT_METHODS and not fixed_step:
+        methods = ", ".join(repr(m) for m in _holds.SPACECRAFT_METHODS)
+        if craft.coupled and not craft.has_actuators:
+            raise AttitudeValueError(
+                f"method: a spacecraft carrying its orbit (mass= and a NumericalOrbit) is "
+                f"integrated by {methods}, and for a rigid body in its gravity gradient around a "
+                f"point-mass Earth also by 'splitting' and 'nosquish'; {method!r} does not "
+                "carry the orbit"
+            )
         also = ""
         if method in _coupled_splitting.METHODS:
             also = (
@@ -209,7 +217,7 @@ def _spacecraft_runner(
             )
         raise AttitudeValueError(
             f"method: a spacecraft with actuators (a gyrostat driven by held commands) is "
-            f"integrated by {', '.join(repr(m) for m in _holds.SPACECRAFT_METHODS)}{also}; "
+            f"integrated by {methods}{also}; "
             f"{method!r} does not model wheels, magnetorquers or thrusters"
         )
     if events is not None:
