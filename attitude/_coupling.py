@@ -24,6 +24,7 @@ from .errors import AttitudeValueError
 __all__ = [
     "N_ORBIT", "attach", "attach_software", "follow_path", "initial_orbit_state", "live_slots",
     "orbit_tokens", "orbit_variables", "reference_params", "run_orbit", "sample_orbit",
+    "total_energy",
 ]  # fmt: skip
 
 #: State variables the orbit adds: r (3), v (3), m.
@@ -191,6 +192,34 @@ def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:
         "mass": xr.Variable(("time",), np.ascontiguousarray(y[:, iy + 6]),
                             {"units": "kg", "long_name": "spacecraft mass"}),
     }  # fmt: skip
+
+
+def total_energy(sr: Any, energy: np.ndarray, y: np.ndarray) -> Any:
+    """The coupled system's total energy [J] around a point-mass Earth (None with a field or
+    third bodies, whose Earth turns under the orbit: no energy of the state is conserved).
+
+    ``energy`` (m,) is the attitude's T + U; the orbit adds m (|v|²/2 − μ/|r|) and, with the
+    gravity gradient, the part of the mutual potential to second order that U leaves out
+    because it does not depend on the attitude, −μ tr I/(2|r|³) (MacCullagh). Conserved
+    without drag, radiation, thrust or actuators doing work; ``y`` the state rows.
+    """
+    import xarray as xr
+
+    craft = sr.spacecraft
+    o = craft.orbit
+    if o.gravity is not None or o.third_bodies:
+        return None
+    mu = o.mu * 1e9
+    iy = 8 + len(craft.wheels)
+    r = y[:, iy : iy + 3]
+    v = y[:, iy + 3 : iy + 6]
+    rn = np.sqrt(np.einsum("ij,ij->i", r, r))
+    e = energy + y[:, iy + 6] * (0.5 * np.einsum("ij,ij->i", v, v) - mu / rn)
+    co = int(sr.sc[_ka.SC.COUPLED])
+    if sr.sc[co + _kc.COUPLED.GG] != 0.0:
+        e = e - mu * float(np.sum(craft.body.inertia)) / (2.0 * rn**3)
+    return xr.Variable(("time",), e, {"units": "J", "long_name": "total energy of orbit and "
+                                      "attitude (point-mass Earth)"})  # fmt: skip
 
 
 def sample_orbit(crafts: list, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:

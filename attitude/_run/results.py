@@ -135,9 +135,16 @@ def _finish(
         )  # fmt: skip
         ds = add_actuator_variables(ds, problem.spacecraft, y, d)
         if problem.spacecraft.coupled:
-            from .._coupling import orbit_variables
+            from .._coupling import orbit_variables, total_energy
 
             ds = ds.assign(orbit_variables(problem.spacecraft.spacecraft, y))
+            e = total_energy(problem.spacecraft, ds.energy.values, y)
+            if e is not None and len(e.values):
+                ds = ds.assign(total_energy=e)
+                scale = max(abs(float(e.values[0])), 1e-300)
+                ds.attrs["max_rel_total_energy_error"] = float(
+                    np.max(np.abs(e.values - e.values[0])) / scale
+                )
         return ds, None
     # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
     # buffer whose blocks become the Dataset's variables without copies.

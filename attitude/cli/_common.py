@@ -48,6 +48,7 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
         ("max_rel_Gz_error", "max |Gz - Gz0|/|G0| (conserved)"),
         ("max_rel_energy_variation", "max |H - H0|/|H0| (time-dependent potential: not conserved)"),
         ("max_rel_energy_work", "max |H - H0|/|H0| (actuators do work: not conserved)"),
+        ("max_rel_total_energy_error", "max |E - E0|/|E0|, E of orbit and attitude (total)"),
     ]
     return [f"{label} = {_fmt_attrs_number(attrs[k])}" for k, label in labels if k in attrs]
 
