@@ -131,6 +131,13 @@ class RunSpec:
         if on_chunk is not None and not callable(on_chunk):
             raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
         attrs = epoch_attrs(pot, epoch)
+        if craft is not None and craft.coupled:
+            # the NumericalOrbit's own integrator gives only the start and the environment
+            # tables: the run integrates the orbit with the attitude, by its own method
+            attrs["orbit"] = (
+                f"numerical orbit: {craft.orbit._forces.describe()}, propagated with the "
+                f"attitude by the run's method ({method})"
+            )
         span = np.array([tt[0], tt[-1]], dtype=np.float64)  # only the ends matter to models
         pot = for_span(pot, span)
         evset = None
