@@ -261,7 +261,7 @@ class NumericalOrbit(EphemerisOrbit):
         self,
         r0: Any,
         v0: Any,
-        epoch: Any,
+        epoch: Any = None,
         gravity: SphericalHarmonics | None = None,
         third_bodies: Sequence[ThirdBody | str] = (),
         frame: str = "GCRS",
