@@ -21,7 +21,7 @@ from ._validation import as_float_array
 from .actuators.magnetorquers import Magnetorquer, magnetorquer_record
 from .actuators.thrusters import Thruster, thruster_record
 from .actuators.wheels import ReactionWheel, wheel_record
-from .body import RigidBody
+from .body import SI_INERTIA, RigidBody
 from .errors import AttitudeTypeError, AttitudeValueError
 
 __all__ = ["Spacecraft"]
@@ -72,7 +72,8 @@ class Spacecraft:
         The spacecraft's mass (kg), propellant included. With an :class:`orbit.NumericalOrbit`
         the orbit and the attitude are propagated together (:mod:`attitude._core.coupled`):
         the gravity gradient's back-reaction and the thrusters' force act on the orbit, and
-        the thrusters' propellant (``Thruster(..., isp=...)``) lowers the mass.
+        the thrusters' propellant (``Thruster(..., isp=...)``) lowers the mass. Such a run is
+        in SI: a body given in plain numbers is read in kg m² (``body.units`` says so).
 
     Raises
     ------
@@ -133,6 +134,10 @@ class Spacecraft:
                 raise AttitudeValueError(f"mass: a positive number of kilograms, got {m!r}")
             mass = m
         s(self, "mass", mass)
+        if self.coupled and b.units is None:
+            # its orbit's forces are SI (kg, m, s): a body in plain numbers is in kg m² here,
+            # and its results say so
+            s(self, "body", RigidBody(b.inertia, units=SI_INERTIA))
         from .potentials import check_field
 
         check_field(field)  # an unknown name is refused with or without magnetorquers

@@ -58,6 +58,8 @@ def test_coupled_gravity_gradient_conserves_energy_and_momentum(method):
     ds = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method=method,
                             rtol=1e-14 if method == "taylor" else 1e-13, atol=1e-14)  # fmt: skip
     assert ds.attrs["method"] == method
+    # a body in plain numbers is in kg m² on a coupled run (SI forces): its results say so
+    assert sc.body.units == "kg m^2" and ds.energy.attrs["units"] == "J"
     # the orbit went with the attitude, by the run's method (not the NumericalOrbit's own)
     assert ds.attrs["orbit"].endswith(f"with the attitude by the run's method ({method})")
     energy, L, spin = _invariants(ds, INERTIA, MASS, o.mu * 1e9)
