@@ -390,5 +390,8 @@ def test_numerical_orbit_method(method):
 
 def test_numerical_orbit_bad_method_names_the_key():
     text = NUMERICAL.replace('earth_rotation = "uniform"', 'method = "rk4"')
-    with pytest.raises(ScenarioError, match=r"orbit.*method"):
+    with pytest.raises(ScenarioError, match=r"^orbit\.method: .*'taylor'"):
         scenario.loads(text)
+    bodies = NUMERICAL.replace("degree = 4", 'degree = 4\nthird_bodies = ["pluto"]')
+    with pytest.raises(ScenarioError, match=r"^orbit\.third_bodies: 'sun' or 'moon'"):
+        scenario.loads(bodies)

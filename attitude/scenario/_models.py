@@ -264,7 +264,19 @@ def _numerical(r: _Reader, ot: Mapping[str, Any], epoch: str | None, mu_q: Any) 
             method=r.string(ot, "method", "orbit", "dop853"),
         )  # fmt: skip
     except O.OrbitError as exc:
-        raise _fail("orbit", str(exc)) from None
+        raise _fail(*_orbit_key(str(exc))) from None
+
+
+def _orbit_key(msg: str) -> tuple[str, str]:
+    """``orbit.<key>`` and the rest of an orbit error that starts with its parameter's name
+    (``body`` is a ``third_bodies`` entry, ``gravity``/``degree``/``order`` the field)."""
+    name, sep, rest = msg.partition(": ")
+    keys = {"body": "third_bodies", "gravity": "degree", "r0": "r0", "v0": "v0", "mu": "mu",
+            "degree": "degree", "order": "order", "rtol": "rtol", "method": "method",
+            "earth_rotation": "earth_rotation", "epoch": "epoch"}  # fmt: skip
+    if sep and name in keys:
+        return f"orbit.{keys[name]}", rest
+    return "orbit", msg
 
 
 def _model_names(r: _Reader, pt: Mapping[str, Any]) -> list[str]:
