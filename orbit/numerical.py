@@ -344,7 +344,13 @@ class NumericalOrbit(EphemerisOrbit):
         """Start from the state (r [km], v [km/s]) at the epoch: checks, node spacing, the
         integrators, the first nodes."""
         self._y0 = np.concatenate([r, v]) * 1e3
-        d = self._forces.cover(0.0, 0.0)
+        try:
+            d = self._forces.cover(0.0, 0.0)
+        except OrbitValueError as exc:  # the tables start with a day around the epoch
+            raise OrbitValueError(
+                f"epoch: the force model's tables cover whole days around the epoch, and "
+                f"{str(exc).partition(': ')[2]}; give an epoch a day or more inside that range"
+            ) from None
         inside = np.empty(1)
         _fk.surface_loop(d, np.zeros(1), self._y0[None, :3].copy(), inside)
         if inside[0] <= 0.0:

@@ -76,8 +76,10 @@ def check_dates(epoch: Any, t: Any, name: str = "t") -> None:
         j = jd + s / 86400.0
         if not (_JD_RANGE[0] <= j <= _JD_RANGE[1]):
             year = 2000.0 + (j - 2451545.0) / 365.25 if math.isfinite(j) else j
+            with quiet_erfa():  # (the epoch itself may be past ERFA's leap-second table)
+                iso = epoch.utc.isot[:19]
             raise OrbitValueError(
-                f"{name}: {s!r} s from the epoch {epoch.utc.isot[:19]} is the year {year:.6g}; "
+                f"{name}: {s!r} s from the epoch {iso} is the year {year:.6g}; "
                 f"dates are accepted from {DATE_RANGE[0]} to {DATE_RANGE[1]} (time scales, "
                 f"Earth orientation and the Sun are defined there): the run's {edge} is outside"
             )

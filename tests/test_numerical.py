@@ -193,3 +193,12 @@ def test_one_day_against_orekit(case, bound):
     ds = o.propagate(ref[f"{case}_t"])
     gap = np.linalg.norm(ds.position.values - ref[f"{case}_r"], axis=1)
     assert np.max(gap) < bound
+
+
+def test_epoch_at_the_end_of_the_dates_names_the_epoch_without_erfa_warnings():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # (was: ERFA's "dubious year" printed first)
+        with pytest.raises(orbit.OrbitValueError, match=r"^epoch: the force model's tables"):
+            orbit.NumericalOrbit(R0, V0, "2200-01-01T00:00:00")
