@@ -96,6 +96,21 @@ def test_zonal_field_coupled_conserves_energy_and_polar_momentum():
     assert np.ptp(L[:, 0]) / scale > 1e-4
 
 
+def test_info_prints_the_total_energy_of_a_coupled_run(tmp_path, capsys):
+    from attitude.cli import main
+
+    o = _orbit()
+    sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
+    q0, Q0 = _state()
+    ds = attitude.propagate(sc, q0, Q0, np.linspace(0.0, 600.0, 7), attitude.GravityGradient(o),
+                            rtol=1e-13, atol=1e-14)  # fmt: skip
+    attitude.io.write(ds, tmp_path / "c.nc")
+    assert main(["info", str(tmp_path / "c.nc")]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if "E of orbit and attitude" in x)
+    assert float(line.rsplit("=", 1)[1]) == pytest.approx(ds.attrs["max_rel_total_energy_error"],
+                                                          rel=1e-2)  # fmt: skip
+
+
 def test_taylor_and_dop853_agree():
     o = _orbit()
     sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
