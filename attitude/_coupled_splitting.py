@@ -42,7 +42,7 @@ from . import _interrupt
 from ._core import splitting as _ks
 from ._methods import STEP_BUDGET, RunResult
 from .errors import AttitudeValueError
-from .splitting import check_step_options, count_steps
+from .splitting import check_step_budget, check_step_options
 
 __all__ = ["METHODS", "check_spacecraft", "coupled_params", "run_nosquish", "run_splitting"]
 
@@ -168,12 +168,7 @@ def _run(
     check_spacecraft(craft, problem.potential, method, sr.software)
     dt, order = check_step_options(method, dt, order)
     t = np.ascontiguousarray(problem.t, dtype=np.float64)
-    n_total = count_steps(t, dt)
-    if n_total > max_steps:
-        raise AttitudeValueError(
-            f"dt: {dt:g} needs {n_total} steps over the output times, more than "
-            f"max_steps={max_steps}; use a larger dt or raise max_steps"
-        )
+    check_step_budget(t, dt, max_steps)
     params = coupled_params(craft.body.inertia, craft.mass, craft.orbit.mu * 1e9)
     tables = _ks.method_tables(method, order, coupled=True)
     size = _ks.COUPLED_STATE.SIZE  # (q, Q, r, v), then the mass in the spacecraft's rows

@@ -49,7 +49,10 @@ from ._core import splitting as _ks
 from ._methods import SAMPLE_BUDGET, Problem, RunResult
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["ORDERS", "check_step_options", "count_steps", "run_nosquish", "run_splitting"]
+__all__ = [
+    "ORDERS", "check_step_budget", "check_step_options", "count_steps", "run_nosquish",
+    "run_splitting",
+]  # fmt: skip
 
 #: Orders available for both methods.
 ORDERS = (2, 4, 6)
@@ -87,6 +90,17 @@ def count_steps(t: Any, dt: float) -> int:
     return total
 
 
+def check_step_budget(t: Any, dt: float, max_steps: int) -> None:
+    """Refuse, before any work, a run whose steps over the output times ``t``
+    (:func:`count_steps`) are more than ``max_steps``."""
+    n_total = count_steps(t, dt)
+    if n_total > max_steps:
+        raise AttitudeValueError(
+            f"dt: {dt:g} needs {n_total} steps over the output times, more than "
+            f"max_steps={max_steps}; use a larger dt or raise max_steps"
+        )
+
+
 def _run(
     name: str,
     problem: Problem,
@@ -107,12 +121,7 @@ def _run(
         )
     t = problem.t
     m = t.shape[0]
-    n_total = count_steps(t, dt)
-    if n_total > max_steps:
-        raise AttitudeValueError(
-            f"dt: {dt:g} needs {n_total} steps over the output times, more than "
-            f"max_steps={max_steps}; use a larger dt or raise max_steps"
-        )
+    check_step_budget(t, dt, max_steps)
     kinds, coefs, toffs = _ks.method_tables(name, order)
     if problem.events is not None:
         return _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chunk)

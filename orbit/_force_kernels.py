@@ -78,6 +78,15 @@ _LAGRANGE_DEN = np.array(
 )
 
 
+@jit(inline="always")
+def eop_window(d, t):
+    """The 8-node Lagrange window of the Earth-orientation table around t: (its first node
+    j0, t in node spacings from that node)."""
+    x = (t - d[FORCES.EO_T0]) / d[FORCES.EO_H]
+    j0 = min(max(int(math.floor(x)) - 3, 0), int(d[FORCES.EO_N]) - 8)  # noqa: RUF046
+    return j0, x - j0
+
+
 @jit
 def earth_rotation(d, t):
     """R(t), x_ITRS = R x_GCRS, as 9 numbers (row-major)."""
@@ -86,10 +95,7 @@ def earth_rotation(d, t):
     m0 = m4 = m8 = 1.0
     m1 = m2 = m3 = m5 = m6 = m7 = 0.0
     if n > 0:
-        h = d[FORCES.EO_H]
-        x = (t - d[FORCES.EO_T0]) / h
-        j0 = min(max(int(math.floor(x)) - 3, 0), n - 8)  # noqa: RUF046 (numba: float floor)
-        x -= j0
+        j0, x = eop_window(d, t)
         mo = int(d[FORCES.EO_M]) + 9 * j0
         do = int(d[FORCES.EO_DTH]) + j0
         m0 = m1 = m2 = m3 = m4 = m5 = m6 = m7 = m8 = 0.0

@@ -155,9 +155,7 @@ def _rotation_series(d, S, t, p, direction):
             for i in range(p + 1):
                 S[ROWS.M + e, i] = 0.0
         h = d[FORCES.EO_H]
-        x = (t - d[FORCES.EO_T0]) / h
-        j0 = min(max(int(math.floor(x)) - 3, 0), n - 8)  # noqa: RUF046 (numba: float floor)
-        x -= j0
+        j0, x = _fk.eop_window(d, t)
         mo = int(d[FORCES.EO_M]) + 9 * j0
         do = int(d[FORCES.EO_DTH]) + j0
         c = np.empty(_TABLE_DEGREE + 1)

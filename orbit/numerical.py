@@ -211,6 +211,25 @@ class _Integrator:
         self.impact: Impact | None = None
 
 
+def _state_vectors(r0: Any, v0: Any) -> tuple[np.ndarray, np.ndarray]:
+    """r0 [km] and v0 [km/s] as (3,) float arrays, checked: finite, and of an Earth orbit."""
+    r = np.asarray(_as_array(r0, "r0", "km"), dtype=np.float64)
+    v = np.asarray(_as_array(v0, "v0", "km / s"), dtype=np.float64)
+    for name, x in (("r0", r), ("v0", v)):
+        if x.shape != (3,) or not np.all(np.isfinite(x)):
+            raise OrbitValueError(f"{name}: three finite components, got {x!r}")
+    # An Earth orbit stays inside the Earth's Hill sphere (1.5e6 km) and below ~100 km/s:
+    # numbers beyond are most likely metres (m/s) given where km (km/s) are read.
+    for name, x, limit, unit in (("r0", r, 2e6, "km"), ("v0", v, 100.0, "km/s")):
+        if np.linalg.norm(x) > limit:
+            raise OrbitValueError(
+                f"{name}: |{name}| = {np.linalg.norm(x):.4g} {unit}, more than {limit:g} "
+                f"{unit}: no Earth orbit; plain numbers are read in {unit} (metres given? "
+                f"divide by 1000, or pass an astropy Quantity with its unit)"
+            )
+    return r, v
+
+
 class NumericalOrbit(EphemerisOrbit):
     """An Earth orbit propagated numerically under a gravity field and third bodies.
 
@@ -281,20 +300,7 @@ class NumericalOrbit(EphemerisOrbit):
         ep = as_epoch(epoch, "epoch", allow_none=False)
         check_dates(ep, np.zeros(1), "epoch")
         self._epoch = ep
-        r = np.asarray(_as_array(r0, "r0", "km"), dtype=np.float64)
-        v = np.asarray(_as_array(v0, "v0", "km / s"), dtype=np.float64)
-        for name, x in (("r0", r), ("v0", v)):
-            if x.shape != (3,) or not np.all(np.isfinite(x)):
-                raise OrbitValueError(f"{name}: three finite components, got {x!r}")
-        # An Earth orbit stays inside the Earth's Hill sphere (1.5e6 km) and below ~100 km/s:
-        # numbers beyond are most likely metres (m/s) given where km (km/s) are read.
-        for name, x, limit, unit in (("r0", r, 2e6, "km"), ("v0", v, 100.0, "km/s")):
-            if np.linalg.norm(x) > limit:
-                raise OrbitValueError(
-                    f"{name}: |{name}| = {np.linalg.norm(x):.4g} {unit}, more than {limit:g} "
-                    f"{unit}: no Earth orbit; plain numbers are read in {unit} (metres given? "
-                    f"divide by 1000, or pass an astropy Quantity with its unit)"
-                )
+        r, v = _state_vectors(r0, v0)
         fr = str(frame).upper()
         if fr in ("EME2000", "J2000"):
             from .frames import eme2000_to_gcrs
@@ -386,20 +392,7 @@ class NumericalOrbit(EphemerisOrbit):
         v0 : array_like or Quantity, shape (3,) [km/s]
             Velocity at the epoch.
         """
-        r = np.asarray(_as_array(r0, "r0", "km"), dtype=np.float64)
-        v = np.asarray(_as_array(v0, "v0", "km / s"), dtype=np.float64)
-        for name, x in (("r0", r), ("v0", v)):
-            if x.shape != (3,) or not np.all(np.isfinite(x)):
-                raise OrbitValueError(f"{name}: three finite components, got {x!r}")
-        # An Earth orbit stays inside the Earth's Hill sphere (1.5e6 km) and below ~100 km/s:
-        # numbers beyond are most likely metres (m/s) given where km (km/s) are read.
-        for name, x, limit, unit in (("r0", r, 2e6, "km"), ("v0", v, 100.0, "km/s")):
-            if np.linalg.norm(x) > limit:
-                raise OrbitValueError(
-                    f"{name}: |{name}| = {np.linalg.norm(x):.4g} {unit}, more than {limit:g} "
-                    f"{unit}: no Earth orbit; plain numbers are read in {unit} (metres given? "
-                    f"divide by 1000, or pass an astropy Quantity with its unit)"
-                )
+        r, v = _state_vectors(r0, v0)
         new = object.__new__(NumericalOrbit)
         new._epoch = self._epoch
         new._forces = self._forces
