@@ -633,7 +633,9 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
         qQ = np.ascontiguousarray(y[i:j, :8])
         rates = np.ascontiguousarray(diag[i:j, 0:3])
         if orbit is not None and _has_live_environment(sc):
-            _torques_in_live_environment(entry, sc, params, t, y, i, qQ, rates, torques)
+            # each sample's environment, not the one the right-hand side wrote last
+            entry.term_torques_in_live_environment(t[i:j], y[i:j], qQ, rates, params, sc,
+                                                   torques[i:j])  # fmt: skip
         else:
             entry.term_torques_at_rates(t[i:j], qQ, rates, params, torques[i:j])
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
@@ -648,18 +650,3 @@ def _has_live_environment(sc: np.ndarray) -> bool:
     from ._core import coupled as _kc
 
     return int(sc[int(sc[_ka.SC.COUPLED]) + _kc.COUPLED.N_ENV]) > 0
-
-
-def _torques_in_live_environment(entry, sc, params, t, y, i, qQ, rates, torques) -> None:
-    """The per-term torques of the samples ``i : i + len(qQ)`` of such a run: each sample's
-    environment into the live words, then its torques (a chunk at once would read the
-    environment the right-hand side last wrote, the same for every sample)."""
-    from ._core import actuators as _ka
-    from ._core import coupled as _kc
-
-    co = int(sc[_ka.SC.COUPLED])
-    iy = int(sc[co + _kc.COUPLED.IY])
-    for k in range(qQ.shape[0]):
-        _kc.live_environment(sc, co, params, t[i + k], y[i + k], iy)
-        entry.term_torques_at_rates(t[i + k : i + k + 1], qQ[k : k + 1], rates[k : k + 1], params,
-                                    torques[i + k : i + k + 1])  # fmt: skip

@@ -45,6 +45,8 @@ from __future__ import annotations
 
 import numba
 
+from attitude._core.actuators import SC
+from attitude._core.coupled import COUPLED, live_environment
 from attitude._core.diagnostics import samples_with
 from attitude._core.dynamics import (
     canonical_rhs_with,
@@ -275,6 +277,20 @@ def spacecraft_diagnostics(t, y, params, sc, out):
 def term_torques_at_rates(t, y, rates, params, out):
     """:func:`term_torques` at given body angular velocities ``rates`` (m, 3)."""
     term_torques_at_rates_with(term_torque, n_terms(params), t, y, rates, params, out)
+
+
+@jit
+def term_torques_in_live_environment(t, y, qQ, rates, params, sc, out):
+    """:func:`term_torques_at_rates` of a coupled run's samples whose drag and radiation models
+    read the environment at the integrated state: each sample's (``y`` its state row) is
+    written into their live words before its torques."""
+    co = int(sc[SC.COUPLED])
+    iy = int(sc[co + COUPLED.IY])
+    nt = n_terms(params)
+    for k in range(qQ.shape[0]):
+        live_environment(sc, co, params, t[k], y[k], iy)
+        term_torques_at_rates_with(term_torque, nt, t[k : k + 1], qQ[k : k + 1],
+                                   rates[k : k + 1], params, out[k : k + 1])  # fmt: skip
 
 
 # Other formulations (attitude.formulations) ----------------------------------------------------
