@@ -481,6 +481,6 @@ def test_recorded_drag_and_radiation_torques_follow_each_samples_environment():
     dark = np.linalg.norm(srp_t, axis=1) == 0.0
     assert 20 < dark.sum() < len(t) - 20
     assert np.array_equal(np.linalg.norm(srp_c, axis=1) == 0.0, dark)
-    scale = np.abs(srp_t).max()
-    assert np.abs(srp_c - srp_t).max() < 1e-3 * scale
+    # measured 1.0e-5 and 1.6e-4 of the largest torque: the coupled attitude differs by 5e-6
+    assert np.abs(srp_c - srp_t).max() < 1e-4 * np.abs(srp_t).max()
     assert np.abs(drag_c - drag_t).max() < 1e-3 * np.abs(drag_t).max()
