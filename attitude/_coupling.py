@@ -22,9 +22,9 @@ from ._core import potentials as _kp
 from .errors import AttitudeValueError
 
 __all__ = [
-    "N_ORBIT", "attach", "attach_software", "follow_path", "initial_orbit_state", "live_slots",
-    "orbit_tokens", "orbit_variables", "reference_params", "run_orbit", "sample_orbit",
-    "total_energy",
+    "N_ORBIT", "attach", "attach_events", "attach_software", "follow_path", "initial_orbit_state",
+    "live_slots", "orbit_tokens", "orbit_variables", "reference_params", "run_orbit",
+    "sample_orbit", "total_energy",
 ]  # fmt: skip
 
 #: State variables the orbit adds: r (3), v (3), m.
@@ -74,6 +74,16 @@ def attach_software(fw: np.ndarray, sc: np.ndarray, craft: Any) -> None:
     slots = _make_live(fw, craft.orbit.token, "software")
     sc[co + _kc.COUPLED.N_FSW] = len(slots)
     sc[co + _kc.COUPLED.FSW : co + _kc.COUPLED.FSW + len(slots)] = slots
+
+
+def attach_events(evd: np.ndarray, sc: np.ndarray, craft: Any) -> None:
+    """Turn the event data's copies of the orbit (eclipse, the Sun's direction, the orbit's
+    frames) into live orbits, which the events write from the state before they are evaluated
+    (listed in the spacecraft block)."""
+    co = int(sc[_ka.SC.COUPLED])
+    slots = _make_live(evd, craft.orbit.token, "events")
+    sc[co + _kc.COUPLED.N_EV] = len(slots)
+    sc[co + _kc.COUPLED.EV : co + _kc.COUPLED.EV + len(slots)] = slots
 
 
 def attach(params: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -> None:

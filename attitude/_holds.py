@@ -22,7 +22,7 @@ import numpy as np
 from orbit import _rk
 
 from ._core import holds as _kh
-from ._methods import SAMPLE_BUDGET, Problem, RunResult, dop853_call
+from ._methods import SAMPLE_BUDGET, EventBuffers, Problem, RunResult, dop853_call
 from ._validation import as_float_array
 from .errors import AttitudeError, AttitudeTypeError, AttitudeValueError
 
@@ -31,6 +31,7 @@ __all__ = [
     "SpacecraftRun",
     "check_taylor",
     "diagnostics",
+    "event_state_variables",
     "initial_state",
     "prepare",
     "run_dop853",
@@ -401,6 +402,7 @@ def _run(
     chunk: int | None,
     on_chunk: Callable[[int, np.ndarray], None] | None,
     stats: Callable[[], dict],
+    hold_driver: bool = False,
 ) -> RunResult:
     """The chunked run loop shared by both integrators (the step budget and Ctrl-C through
     :func:`attitude._methods.dop853_call`), answering the command source between calls."""
@@ -413,10 +415,28 @@ def _run(
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
+    evb = None if problem.events is None else EventBuffers(problem.events.n, n)
 
     def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
+        extra = ()
+        if hold_driver:  # its last argument: the event arrays (the record buffers can grow)
+            extra = (() if evb is None else evb.kernel_args(problem.events.data),)
         return kernel(
-            P, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax, src.ctl
+            P,
+            y0,
+            t0,
+            t_out,
+            y_o,
+            work,
+            tstate,
+            counters,
+            rtol,
+            atol,
+            t_end,
+            h,
+            nmax,
+            src.ctl,
+            *extra,
         )
 
     t0, t_end = float(t[0]), float(t[m - 1])
@@ -446,6 +466,9 @@ def _run(
             failure = _compiled_step_failure(src, problem)
             status = _rk.NONFINITE
             break
+        if status == _rk.EVENT_BUFFER_FULL:
+            evb.grow()
+            continue
         if status in (_kh.NEEDS_COMMANDS, _kh.RECORDS_FULL):
             try:
                 src.handle(status, work[y_row], float(tstate[0]), P[1])
@@ -480,16 +503,26 @@ def _run(
         )
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     t_event = None
-    if status == _rk.EVENT:  # the orbit reached the surface: the last row is the state there
+    records = None if evb is None else evb.records()
+    if status == _rk.EVENT:  # the last row is the state at the surface or the terminal event
         t_stop = None
         t_event = float(tstate[0])
-        msg = f"the orbit reached the Earth's surface (Impact) at t = {t_event!r} s"
-        st.update(status="event", event="impact", impact_time=t_event)
+        if not _terminal_event_at(problem.events, records, t_event):
+            msg = f"the orbit reached the Earth's surface (Impact) at t = {t_event!r} s"
+            st.update(status="event", event="impact", impact_time=t_event)
     if on_chunk is not None:
         last = max(done - 1, 0)
         return RunResult(y_chunk[:k][-1:].copy(), int(status), msg, st, first=last,
-                         t_stop=t_stop, t_event=t_event)  # fmt: skip
-    return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop, t_event=t_event)
+                         t_stop=t_stop, events=records, t_event=t_event)  # fmt: skip
+    return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop, events=records,
+                     t_event=t_event)  # fmt: skip
+
+
+def _terminal_event_at(events: Any, records: Any, t: float) -> bool:
+    """Whether the run stopped at one of its terminal events (else at the Earth's surface)."""
+    if records is None or not records.t.shape[0] or records.t[-1] != t:
+        return False
+    return bool(events.events[int(records.which[-1])].terminal)
 
 
 def run_dop853(
@@ -510,11 +543,8 @@ def run_dop853(
     (:func:`attitude._core.holds.record`).
     """
     sr: SpacecraftRun = problem.spacecraft
-    kernel = (
-        problem.entry.dop853_spacecraft
-        if sr.program is None
-        else problem.entry.dop853_spacecraft_fsw
-    )
+    name = "dop853_spacecraft" if sr.program is None else "dop853_spacecraft_fsw"
+    kernel = getattr(problem.entry, name if problem.events is None else f"{name}_events")
     work, tstate, counters = _rk.new_state(sr.n_state)
 
     def stats():
@@ -527,7 +557,7 @@ def run_dop853(
     return _run(
         problem, kernel, work, tstate, counters, _rk.WORK.Y, rtol=rtol, atol=atol,
         max_step=max_step, max_steps=max_steps, progress=progress, chunk=chunk,
-        on_chunk=on_chunk, stats=stats,
+        on_chunk=on_chunk, stats=stats, hold_driver=True,
     )  # fmt: skip
 
 
@@ -641,6 +671,34 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
     return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec,
             "orbit": orbit}  # fmt: skip
+
+
+def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    """The body rates (k, 3) at a spacecraft run's events (the gyrostat's ω), and for a run
+    carrying its orbit the orbit there: ``event_position``, ``event_velocity`` (GCRS, m, m/s)
+    and ``event_mass``."""
+    import xarray as xr
+
+    from ._core import actuators as _ka
+    from .quaternion import conjugate, multiply
+
+    sr: SpacecraftRun = problem.spacecraft
+    y = np.ascontiguousarray(records.y[:, : sr.n_state])
+    sc = sr.sc
+    # ω = M (g − ℓ), g = ½ vec(q̃∘Q), ℓ = Σ h_k a_k (attitude._core.actuators.state_rate)
+    g = 0.5 * multiply(conjugate(y[:, :4]), y[:, 4:8])[:, 1:]
+    nw = int(sc[_ka.SC.NW])
+    axes = np.array([sc[_ka.SC.WHEELS + k * _ka.WHEEL.SIZE :][:3] for k in range(nw)])
+    ell = y[:, 8 : 8 + nw] @ axes.reshape(nw, 3)
+    omega = (g - ell) @ sc[_ka.SC.MINV : _ka.SC.MINV + 9].reshape(3, 3).T
+    more: dict[str, Any] = {}
+    if sr.coupled:
+        from ._coupling import orbit_variables
+
+        for name, var in orbit_variables(sr.spacecraft, y).items():
+            attrs = {**var.attrs, "long_name": f"{var.attrs['long_name']} at the event"}
+            more[f"event_{name}"] = xr.Variable(("event", *var.dims[1:]), var.values, attrs)
+    return omega, more
 
 
 def _has_live_environment(sc: np.ndarray) -> bool:

@@ -109,7 +109,7 @@ class EventRecords:
     first: np.ndarray  # (n_events,) time of the first occurrence (NaN: none)
 
 
-class _EventBuffers:
+class EventBuffers:
     """Per-run event state and growable record buffers for the compiled events drivers."""
 
     def __init__(self, n_events: int, n_state: int = 8, capacity: int = 64):
@@ -120,6 +120,15 @@ class _EventBuffers:
         self.t = np.empty(capacity)
         self.k = np.empty((capacity, 2), dtype=np.int64)
         self.y = np.empty((capacity, n_state))
+        self.scr: np.ndarray | None = None
+
+    def kernel_args(self, evd: np.ndarray) -> tuple:
+        """The event arrays of a spacecraft run's hold driver
+        (:mod:`attitude._core.spacecraft_events`), with the locator's scratch."""
+        width = max(self.y.shape[1], self.evs.shape[0], 6)
+        if self.scr is None or self.scr.shape[1] != width:
+            self.scr = np.empty((7, width))
+        return (evd, self.evs, self.count, self.t, self.k, self.y, self.scr)
 
     def grow(self) -> None:
         n = self.t.shape[0]
@@ -330,7 +339,7 @@ def _run_dop853_events(
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, 8))
     work, tstate, counters = _rk.new_state(8)
-    buf = _EventBuffers(ev.n)
+    buf = EventBuffers(ev.n)
     done = 0
     status = _rk.SUCCESS
     last_y = y_out[:0]

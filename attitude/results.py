@@ -622,7 +622,12 @@ def _dataset(
 
 
 def add_event_variables(
-    ds: xr.Dataset, evset: Any, records: Any, body: RigidBody, status: int
+    ds: xr.Dataset,
+    evset: Any,
+    records: Any,
+    body: RigidBody,
+    status: int,
+    omega: np.ndarray | None = None,
 ) -> xr.Dataset:
     """The run's events as variables on an ``event`` dimension (docs/events.md).
 
@@ -631,15 +636,17 @@ def add_event_variables(
     ``event_direction`` (+1 rising, −1 falling), ``event_q``, ``event_Q``, ``event_omega`` (the
     state there); per detector ``detector_count`` and ``detector_first_time`` (NaN: none).
     Attrs ``status`` ("success" or "event": a terminal event ended the run) and
-    ``terminal_event`` (its label and time).
+    ``terminal_event`` (its label and time). ``omega`` (k, 3): the body rates at the events
+    when they are not those of the rigid body's (q, Q) (a spacecraft's wheels).
     """
     from orbit import _rk
 
     u = UnitSystem(body)
     k = records.t.shape[0]
-    y = records.y.reshape(k, 8)
-    g = 0.5 * _conj_mul_vec(y[:, :4], y[:, 4:])
-    omega = g / np.asarray(body.inertia, dtype=np.float64)
+    y = records.y.reshape(k, -1)[:, :8] if k else np.empty((0, 8))
+    if omega is None:
+        g = 0.5 * _conj_mul_vec(y[:, :4], y[:, 4:])
+        omega = g / np.asarray(body.inertia, dtype=np.float64)
     n = len(evset.labels)
 
     def var(dims, data, units, long_name, encoding=None):
@@ -686,8 +693,10 @@ def add_event_variables(
     }
     out = ds.assign_coords(coords).assign(new)
     out.attrs = dict(ds.attrs)
-    terminal = status == _rk.EVENT
-    out.attrs["status"] = "event" if terminal else "success"
+    impact = "impact_time" in ds.attrs  # the run's own stop (its attrs say so already)
+    terminal = status == _rk.EVENT and not impact
+    if not impact:
+        out.attrs["status"] = "event" if terminal else "success"
     if terminal and k:
         j = int(records.which[-1])
         out.attrs["terminal_event"] = f"{evset.labels[j]} at t = {float(records.t[-1])!r}"

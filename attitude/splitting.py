@@ -182,7 +182,7 @@ def _run(
 
 def _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chunk) -> RunResult:
     """:func:`_run` with events (each step whole; :mod:`attitude._core.events`)."""
-    from ._methods import _EventBuffers
+    from ._methods import EventBuffers
 
     ev = problem.events
     t = problem.t
@@ -194,7 +194,7 @@ def _run_events(problem, kinds, coefs, toffs, dt, order, progress, chunk, on_chu
     _ks.canonical_to_state(problem.y0, state)
     counters = np.zeros(_ks.N_COUNTERS, dtype=np.int64)
     counters[4] = _methods.STEP_BUDGET  # steps per compiled call: Ctrl-C acts in between
-    buf = _EventBuffers(ev.n)
+    buf = EventBuffers(ev.n)
     g0 = np.empty((1, ev.n))
     problem.entry.event_values(t[:1], problem.y0[None, :], problem.params, ev.data, g0)
     buf.evs[:, 0] = g0[0]

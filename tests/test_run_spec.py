@@ -102,5 +102,7 @@ def test_a_spacecraft_run_carries_its_preparation():
     s = spec(body=craft, method="dop853")
     assert s.problem.spacecraft is not None and s.problem.y0.shape == (9,)
     assert s.attrs["spacecraft"] == craft.describe()
-    with pytest.raises(AttitudeValueError, match=r"^events: not located yet"):
-        spec(body=craft, method="dop853", events=[lambda t, q, w: 1.0])
+    # events are located by DOP853 between the command boundaries, not by the Taylor series
+    assert spec(body=craft, method="dop853", events=[lambda t, q, w: 1.0]).problem.events.n == 1
+    with pytest.raises(AttitudeValueError, match=r"^events: .* by method='dop853'.*'taylor'"):
+        spec(body=craft, method="taylor", events=[lambda t, q, w: 1.0])

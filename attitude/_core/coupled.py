@@ -41,7 +41,8 @@ from .actuators import SC
 from .quat import rotate, rotate_inverse
 
 __all__ = [
-    "COUPLED", "MAX_SLOTS", "below_surface", "coupled_begin", "coupled_end", "coupled_software",
+    "COUPLED", "MAX_SLOTS", "below_surface", "coupled_begin", "coupled_end", "coupled_events",
+    "coupled_software",
 ]  # fmt: skip
 
 #: Most live orbit copies in a model's parameters.
@@ -71,6 +72,8 @@ COUPLED = layout(
     slots=Field(MAX_SLOTS, "", "their offsets in the model's parameters"),
     n_fsw=Field(1, "", "live orbit copies in the flight software's data"),
     fsw=Field(MAX_SLOTS, "", "their offsets in it"),
+    n_ev=Field(1, "", "live orbit copies in the event data"),
+    ev=Field(MAX_SLOTS, "", "their offsets in it"),
     n_env=Field(1, "", "environment models whose forces act on the orbit"),
     env=Field(MAX_ENV, "", "their blocks' offsets in the model's parameters"),
     env_kind=Field(MAX_ENV, "", "FORCE_DRAG or FORCE_SOLAR"),
@@ -97,6 +100,17 @@ def coupled_software(sc, co, fw, t, y):
     ax, ay, az = _fk.acceleration(sc[fo:], t, y[iy], y[iy + 1], y[iy + 2])
     for k in range(int(sc[co + COUPLED.N_FSW])):
         write_live(fw, int(sc[co + COUPLED.FSW + k]), y, iy, ax, ay, az)
+
+
+@jit
+def coupled_events(sc, co, evd, t, y):
+    """The state's orbit into the event data's live orbit copies (eclipse, Sun angle, the
+    orbit's frames), before an event function is evaluated at ``(t, y)``."""
+    iy = int(sc[co + COUPLED.IY])
+    fo = int(sc[co + COUPLED.FORCES])
+    ax, ay, az = _fk.acceleration(sc[fo:], t, y[iy], y[iy + 1], y[iy + 2])
+    for k in range(int(sc[co + COUPLED.N_EV])):
+        write_live(evd, int(sc[co + COUPLED.EV + k]), y, iy, ax, ay, az)
 
 
 @jit

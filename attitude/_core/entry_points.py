@@ -82,6 +82,11 @@ from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources 
     schedule_ctl,
     spacecraft_member_begin,
 )
+from attitude._core.spacecraft_events import (
+    spacecraft_events_begin_with,
+    spacecraft_events_room,  # noqa: F401 (bound by name)
+    spacecraft_locate_with,
+)
 from attitude._core.splitting import apply_stage, composition_run
 from attitude._core.taylor_gyrostat import gyrostat_step_inline, taylor_holds_run  # noqa: F401
 from orbit._rk import dop853_run
@@ -242,6 +247,45 @@ dop853_spacecraft_fsw = rebind(
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary_inline",
+)
+
+
+@jit(inline="always")
+def spacecraft_events_begin(P, t, y, ev):
+    """The event hooks of the hold driver with the model's events
+    (:mod:`attitude._core.spacecraft_events`)."""
+    spacecraft_events_begin_with(event, P, t, y, ev)
+
+
+@jit(inline="always")
+def spacecraft_locate(rhs, P, work, tstate, counters, ev):
+    return spacecraft_locate_with(rhs, event, P, work, tstate, counters, ev)
+
+
+_EVENT_HOOKS = dict(
+    EV_BEGIN="spacecraft_events_begin", EV_ROOM="spacecraft_events_room",
+    EV_LOCATE="spacecraft_locate",
+)  # fmt: skip
+
+#: :data:`dop853_spacecraft` and :data:`dop853_spacecraft_fsw` with events (their last
+#: argument the event arrays, attitude._core.spacecraft_events).
+dop853_spacecraft_events = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_events",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="schedule_boundary",
+    **_EVENT_HOOKS,
+)
+dop853_spacecraft_fsw_events = rebind(
+    holds_run,
+    globals(),
+    "spacecraft_fsw_events",
+    options={"_nrt": REFCOUNT},
+    RHS="spacecraft_rhs",
+    BOUNDARY="fsw_boundary_inline",
+    **_EVENT_HOOKS,
 )
 
 #: The gyrostat's Taylor integration (:mod:`attitude._core.taylor_gyrostat`) with the flight
@@ -454,7 +498,7 @@ def _spacecraft_member(
         P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
         st, k = HOLDS(
             P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-            atol, t[m - 1], max_step, limit, CTL(i, src),
+            atol, t[m - 1], max_step, limit, CTL(i, src), (),
         )  # fmt: skip
         member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
 

@@ -291,7 +291,7 @@ def record(evs, ev_count, rec_t, rec_k, rec_y, j, sign, t, y):
         rec_t[i] = t
         rec_k[i, 0] = j
         rec_k[i, 1] = sign
-        for c in range(y.shape[0]):
+        for c in range(rec_y.shape[1]):  # (y may be a longer scratch row)
             rec_y[i, c] = y[c]
         ev_count[0] = i + 1
     ev_count[1] += 1
@@ -325,12 +325,14 @@ def _insert(ct, cj, cs, nc, t, j, sign, direction):
 # ---------------------------------------------------------------------------------------------
 # DOP853 with events
 @jit_generic
-def _locate_in_step(
-    rhs, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, work, tstate, counters, scr
+def locate_in_step(
+    rhs, at, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, work, tstate, counters, scr
 ):
-    """Find, refine and record the events of the step just accepted.
+    """Find, refine and record the events of the step just accepted (``at(event, j, t, y,
+    params, evd)``: g_j at a state of the integrated system, :func:`event_at` for eq. 7).
 
-    Returns (stopped, t_stop): a terminal event's root, where the run ends.
+    Returns (stopped, t_stop): a terminal event's root, where the run ends; the state there in
+    ``scr[0]``.
     """
     n = work.shape[1]
     n_ev = int(evd[EV.N])
@@ -358,7 +360,7 @@ def _locate_in_step(
             tb = t_old + h * (s / nsub)
             _interpolate(work, tstate, tb, yb)
         for j in range(n_ev):
-            gb[j] = event_at(event, j, tb, yb, params, evd)
+            gb[j] = at(event, j, tb, yb, params, evd)
         nc = 0
         for j in range(n_ev):
             ga = evs[j, EVS.G]
@@ -374,7 +376,7 @@ def _locate_in_step(
                     tr = tt
                     break
                 _interpolate(work, tstate, tt, yr)
-                zeroin_update(zs, event_at(event, j, tt, yr, params, evd))
+                zeroin_update(zs, at(event, j, tt, yr, params, evd))
             nc = _insert(ct, cj, cs, nc, tr, j, sign, direction)
         for c in range(nc):
             tr = ct[c]
@@ -506,8 +508,8 @@ def dop853_events_run(
         stopped = False
         t_stop = t
         if n_ev > 0:
-            stopped, t_stop = _locate_in_step(
-                rhs, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, work, tstate,
+            stopped, t_stop = locate_in_step(
+                rhs, event_at, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, work, tstate,
                 counters, scr,
             )  # fmt: skip
         # Serve every output time inside the step just taken (up to a terminal event).

@@ -37,6 +37,7 @@ import math
 from orbit._layout import Field, layout
 from orbit._rk import (
     EVENT,
+    EVENT_BUFFER_FULL,
     SUCCESS,
     TOO_MANY_STEPS,
     WORK,
@@ -70,6 +71,7 @@ HS = layout(
     ready=Field(1, "", "the caller wrote the commands asked for (BOUNDARY_NEEDS_COMMANDS)"),
     fail=Field(1, "", "why a command source stopped the run (STEP_FAILED)"),
     fail_n=Field(1, "", "a number about it"),
+    stop=Field(1, "", "1: the run stops at tstate[0] (the surface, a terminal event)"),
 )
 
 #: Statuses of a command source (:data:`BOUNDARY`).
@@ -165,29 +167,65 @@ def schedule_boundary(P, y, t, t_end, ctl):
 
 
 @jit(inline="always")
-def _impact(rhs, P, sc, work, tstate, counters, t_out, y_out, k, n):
-    """The last step took the orbit below the surface: the samples before the crossing, then
-    the state at it (bisection on the step's dense output) in row ``k``; returns
-    ``(EVENT, rows filled)`` with ``tstate[0]`` the crossing's time (``rhs``: the copy's
-    right-hand side; this function's own global RHS is never bound)."""
-    _dense_coefficients(rhs, P, work, tstate, counters)
-    hi = crossing(below_surface, sc, work, tstate, work[WORK.YT])
+def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop):
+    """The run stops inside the last step, at ``t_stop`` with the state ``y_stop`` (the orbit
+    reaches the surface, or a terminal event): the run's state moves there, the step's dense
+    output kept for the samples before it (:func:`_serve_stop`)."""
+    if counters[4] == 0:
+        _dense_coefficients(rhs, P, work, tstate, counters)
+    y = work[WORK.Y]
+    for i in range(n):
+        y[i] = y_stop[i]
+    tstate[0] = t_stop
+    hs[HS.STOP] = 1.0
+    return _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n)
+
+
+@jit(inline="always")
+def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n):
+    """The samples before the stop (the last step's dense output), then the state at the stop
+    in the next row: ``(EVENT, rows filled)``; ``(SUCCESS, rows)`` when this call's samples all
+    precede it (the next call serves the rest)."""
     m = t_out.shape[0]
-    while k < m and t_out[k] < hi:
+    while k < m and t_out[k] < tstate[0]:
         _interpolate(work, tstate, t_out[k], y_out[k])
         record(sc, y_out[k], n)
         k += 1
-    if k == m:  # every sample asked for precedes the crossing
+    if k == m:
         return SUCCESS, k
-    _interpolate(work, tstate, hi, y_out[k])
+    y = work[WORK.Y]
+    for i in range(n):
+        y_out[k, i] = y[i]
     record(sc, y_out[k], n)
-    tstate[0] = hi
     return EVENT, k + 1
+
+
+@jit(inline="always")
+def no_events_begin(P, t, y, ev):
+    """The event hooks of a copy of :func:`holds_run` without events (``ev = ()``)."""
+
+
+@jit(inline="always")
+def no_events_room(ev):
+    return True
+
+
+@jit(inline="always")
+def no_events_locate(rhs, P, work, tstate, counters, ev):
+    return False, tstate[0], work[WORK.Y]
 
 
 #: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
 #: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
 RHS = None
+#: The events of a copy (``ev`` its event arrays, :mod:`attitude._core.spacecraft_events`):
+#: ``EV_BEGIN(P, t0, y0, ev)`` their values at the start, ``EV_ROOM(ev)`` whether the record
+#: buffers hold one more step's occurrences, ``EV_LOCATE(rhs, P, work, tstate, counters, ev)
+#: -> (stopped, t_stop, y_stop)`` after each accepted step (a terminal event's time and the
+#: state there). Without events, these no-ops.
+EV_BEGIN = no_events_begin
+EV_ROOM = no_events_room
+EV_LOCATE = no_events_locate
 #: The command source ``boundary(P, y, t, t_end, ctl) -> status`` of a copy of
 #: :func:`holds_run`: :func:`schedule_boundary` (open loop), the flight software's tick
 #: (:mod:`attitude._core.fsw`), or a request for commands from Python (BOUNDARY_NEEDS_COMMANDS:
@@ -198,11 +236,16 @@ BOUNDARY = schedule_boundary
 
 @jit
 def holds_run(
-    P, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps, ctl
-):
+    P, y0, t0, t_out, y_out, work, tstate, counters, rtol, atol, t_end, max_step, max_steps, ctl,
+    ev,
+):  # fmt: skip
     """Integrate from the stored state through the output times ``t_out`` (forward in time),
     restarting at every hold boundary. Returns ``(status, n_done)`` as
-    :func:`orbit._rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``).
+    :func:`orbit._rk.dop853_run` (its layouts of ``work``, ``tstate``, ``counters``); ``EVENT``
+    at the Earth's surface or a terminal event (the state there in the row after the samples
+    before it, ``tstate[0]`` its time; when the samples of this call all precede it, the next
+    call serves the rest first), ``EVENT_BUFFER_FULL`` when the event records need room (call
+    again after growing them).
     """
     hs = ctl[0]
     sc = P[1]
@@ -220,8 +263,12 @@ def holds_run(
         hs[HS.NEXT] = 0.0
         hs[HS.PENDING] = 1.0
         hs[HS.HOLD_END] = math.nan
+        hs[HS.STOP] = 0.0
         counters[3] = 1
         counters[4] = 0
+        EV_BEGIN(P, t0, y, ev)
+    if hs[HS.STOP] != 0.0:  # found by the last call, before which its samples ended
+        return _serve_stop(sc, hs, work, tstate, t_out, y_out, 0, n)
     k = 0
     h_abs = tstate[1]
     while True:
@@ -266,6 +313,9 @@ def holds_run(
         if counters[0] >= max_steps:
             tstate[1] = h_abs
             return TOO_MANY_STEPS, k
+        if not EV_ROOM(ev):
+            tstate[1] = h_abs
+            return EVENT_BUFFER_FULL, k
         seg_end = hs[HS.SEG_END]
         status, h_abs = dop853_step(
             RHS, P, work, tstate, counters, h_abs, 1.0, seg_end, rtol, atol, max_step
@@ -273,6 +323,15 @@ def holds_run(
         if status != SUCCESS:
             return status, k
         if sc[SC.COUPLED] >= 0.0 and below_surface(sc, tstate[0], y):
-            return _impact(RHS, P, sc, work, tstate, counters, t_out, y_out, k, n)
+            # the surface, found by bisection on the step's dense output
+            _dense_coefficients(RHS, P, work, tstate, counters)
+            t_stop = crossing(below_surface, sc, work, tstate, work[WORK.YT])
+            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
+                         work[WORK.YT])  # fmt: skip
+        stopped, t_stop, y_stop = EV_LOCATE(RHS, P, work, tstate, counters, ev)
+        if stopped:
+            tstate[1] = h_abs
+            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
+                         y_stop)  # fmt: skip
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0

@@ -220,10 +220,11 @@ def _spacecraft_runner(
             f"integrated by {methods}{also}; "
             f"{method!r} does not model wheels, magnetorquers or thrusters"
         )
-    if events is not None:
+    if events is not None and method != "dop853":
         raise AttitudeValueError(
-            "events: not located yet for a spacecraft with actuators or a propagated orbit (a "
-            "propagated orbit stops at the surface by itself); run without events"
+            f"events: a spacecraft with actuators or carrying its orbit has its events located "
+            f"by method='dop853' (on the dense output of each step between command "
+            f"boundaries); got method={method!r}"
         )
     if output != "dataset":
         raise AttitudeValueError(

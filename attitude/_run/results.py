@@ -59,7 +59,15 @@ def build(spec: RunSpec, result: RunResult) -> xr.Dataset | Trajectory:
         for i in range(0, ds.sizes["time"], chunk):
             spec.on_chunk(ds.isel(time=slice(i, i + chunk)))
     if problem.events is not None:
-        ds = add_event_variables(ds, problem.events, result.events, problem.body, result.status)
+        omega = None
+        if problem.spacecraft is not None:  # the gyrostat's rates; a coupled run's orbit
+            from .._holds import event_state_variables
+
+            omega, more = event_state_variables(problem, result.events)
+            ds = ds.assign(more)
+        ds = add_event_variables(
+            ds, problem.events, result.events, problem.body, result.status, omega=omega
+        )
     sc_run = problem.spacecraft
     if sc_run is not None and sc_run.program is not None:
         ds = add_tick_variables(ds, sc_run)  # (streamed: on the last sample's Dataset)

@@ -135,8 +135,9 @@ def run_spacecraft_scenario(
     disp = sc.ensemble
     if sc.events:
         raise AttitudeValueError(
-            "events: not located for a spacecraft with actuators or flight software (as in "
-            "a single run); remove the [events] table or the [ensemble] table"
+            "events: located in single runs of a spacecraft with actuators or flight "
+            "software, not yet in its ensembles; remove the [events] table or the [ensemble] "
+            "table"
         )
     attrs = _attrs(sc, disp, kw)
     output = opts["output"]

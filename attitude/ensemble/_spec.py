@@ -48,7 +48,8 @@ ENSEMBLE_METHODS = ("dop853", "taylor")
 _NOT_FOR_SPACECRAFT = {
     "client": "Dask clusters run rigid-body ensembles only; run it locally (client=None)",
     "lazy": "a lazy Dask result is for rigid-body ensembles; run it eagerly (lazy=False)",
-    "events": "events are not located for a spacecraft with actuators (as in propagate)",
+    "events": "events are located in single runs of a spacecraft with actuators "
+    "(attitude.propagate), not yet in its ensembles",
     "nominal": "the pointing error of a spacecraft ensemble is the flight software's "
     "(error_angle per tick, from its guidance); attitude.ensemble.error_angle_percentiles",
     "reference": "the pointing error of a spacecraft ensemble is the flight software's "

@@ -249,8 +249,8 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
         if craft is not None and "events" in data:
             raise _fail(
                 "ensemble",
-                "events are not located for a spacecraft with actuators or flight software (as "
-                "in a single run); remove [events] or [ensemble]",
+                "events are located in single runs of a spacecraft with actuators or flight "
+                "software, not yet in its ensembles; remove [events] or [ensemble]",
             )
 
     # [events]
