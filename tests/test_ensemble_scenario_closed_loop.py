@@ -175,7 +175,7 @@ def test_without_inertia_error_the_members_share_the_spacecraft_and_its_software
         (
             ("[ensemble]", '[events.fast]\ntype = "rate_exceeds"\nrate = 0.1\n'
                            'rate_unit = "deg/s"\n\n[ensemble]'),
-            "ensemble: events are not located",
+            "ensemble: events are located in single runs .* not yet in its ensembles",
         ),
     ],
 )  # fmt: skip
