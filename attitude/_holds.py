@@ -415,12 +415,13 @@ def _run(
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
-    evb = None if problem.events is None else EventBuffers(problem.events.n, n)
+    evb = EventBuffers(0 if problem.events is None else problem.events.n, n)
+    evd = _no_events() if problem.events is None else problem.events.data
 
     def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
         extra = ()
         if hold_driver:  # its last argument: the event arrays (the record buffers can grow)
-            extra = (() if evb is None else evb.kernel_args(problem.events.data),)
+            extra = (evb.kernel_args(evd),)
         return kernel(
             P,
             y0,
@@ -503,7 +504,7 @@ def _run(
         )
     t_stop = None if status == _rk.SUCCESS else float(tstate[0])
     t_event = None
-    records = None if evb is None else evb.records()
+    records = None if problem.events is None else evb.records()
     if status == _rk.EVENT:  # the last row is the state at the surface or the terminal event
         t_stop = None
         t_event = float(tstate[0])
@@ -516,6 +517,15 @@ def _run(
                          t_stop=t_stop, events=records, t_event=t_event)  # fmt: skip
     return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop, events=records,
                      t_event=t_event)  # fmt: skip
+
+
+def _no_events() -> np.ndarray:
+    """The event data of a run without events (attitude._core.events: none)."""
+    from ._core import events as _kev
+
+    evd = np.zeros(_kev.EV.SIZE)
+    evd[_kev.EV.NSUB] = 1.0
+    return evd
 
 
 def _terminal_event_at(events: Any, records: Any, t: float) -> bool:
@@ -543,8 +553,8 @@ def run_dop853(
     (:func:`attitude._core.holds.record`).
     """
     sr: SpacecraftRun = problem.spacecraft
-    name = "dop853_spacecraft" if sr.program is None else "dop853_spacecraft_fsw"
-    kernel = getattr(problem.entry, name if problem.events is None else f"{name}_events")
+    entry = problem.entry
+    kernel = entry.dop853_spacecraft if sr.program is None else entry.dop853_spacecraft_fsw
     work, tstate, counters = _rk.new_state(sr.n_state)
 
     def stats():

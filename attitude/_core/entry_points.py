@@ -228,28 +228,6 @@ def spacecraft_rhs(t, y, P, dydt):
     spacecraft_rhs_with(torque, t, y, P, dydt)
 
 
-#: DOP853 through held commands (:func:`attitude._core.holds.holds_run`) on the gyrostat.
-dop853_spacecraft = rebind(
-    holds_run,
-    globals(),
-    "spacecraft",
-    options={"_nrt": REFCOUNT},
-    RHS="spacecraft_rhs",
-    BOUNDARY="schedule_boundary",
-)
-
-
-#: The same, the commands from the flight software at its ticks (attitude._core.fsw).
-dop853_spacecraft_fsw = rebind(
-    holds_run,
-    globals(),
-    "spacecraft_fsw",
-    options={"_nrt": REFCOUNT},
-    RHS="spacecraft_rhs",
-    BOUNDARY="fsw_boundary_inline",
-)
-
-
 @jit(inline="always")
 def spacecraft_events_begin(P, t, y, ev):
     """The event hooks of the hold driver with the model's events
@@ -267,21 +245,25 @@ _EVENT_HOOKS = dict(
     EV_LOCATE="spacecraft_locate",
 )  # fmt: skip
 
-#: :data:`dop853_spacecraft` and :data:`dop853_spacecraft_fsw` with events (their last
-#: argument the event arrays, attitude._core.spacecraft_events).
-dop853_spacecraft_events = rebind(
+#: DOP853 through held commands (:func:`attitude._core.holds.holds_run`) on the gyrostat, its
+#: events as data (its last argument the event arrays, none for a run without events: one
+#: compiled driver for both).
+dop853_spacecraft = rebind(
     holds_run,
     globals(),
-    "spacecraft_events",
+    "spacecraft",
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
     BOUNDARY="schedule_boundary",
     **_EVENT_HOOKS,
 )
-dop853_spacecraft_fsw_events = rebind(
+
+
+#: The same, the commands from the flight software at its ticks (attitude._core.fsw).
+dop853_spacecraft_fsw = rebind(
     holds_run,
     globals(),
-    "spacecraft_fsw_events",
+    "spacecraft_fsw",
     options={"_nrt": REFCOUNT},
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary_inline",

@@ -222,7 +222,8 @@ RHS = None
 #: ``EV_BEGIN(P, t0, y0, ev)`` their values at the start, ``EV_ROOM(ev)`` whether the record
 #: buffers hold one more step's occurrences, ``EV_LOCATE(rhs, P, work, tstate, counters, ev)
 #: -> (stopped, t_stop, y_stop)`` after each accepted step (a terminal event's time and the
-#: state there). Without events, these no-ops.
+#: state there). The single runs' copies bind attitude._core.spacecraft_events (events as data:
+#: none is an empty set); the ensemble members', these no-ops (``ev = ()``).
 EV_BEGIN = no_events_begin
 EV_ROOM = no_events_room
 EV_LOCATE = no_events_locate

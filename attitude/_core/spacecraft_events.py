@@ -1,11 +1,13 @@
 """Events of a spacecraft run: the gyrostat through held commands, its orbit given or in the state.
 
-The hooks of :func:`attitude._core.holds.holds_run` (``EV_BEGIN``, ``EV_ROOM``, ``EV_LOCATE``)
-for a run with events, written against the event function ``event(j, t, q, ω, evd)`` of the
-entry points (:mod:`attitude._core.events`: the built-in ones, or a user module's). The event
-arrays travel as one tuple ``ev = (evd, evs, ev_count, rec_t, rec_k, rec_y, scr)`` (layouts in
-:mod:`attitude._core.events`; ``scr`` (7, max(n, n_events, 6)) the locator's scratch, allocated by
-the caller: the hold driver compiles without reference counting).
+The hooks of :func:`attitude._core.holds.holds_run` (``EV_BEGIN``, ``EV_ROOM``, ``EV_LOCATE``),
+written against the event function ``event(j, t, q, ω, evd)`` of the entry points
+(:mod:`attitude._core.events`: the built-in ones, or a user module's). The event arrays travel
+as one tuple ``ev = (evd, evs, ev_count, rec_t, rec_k, rec_y, scr)`` (layouts in
+:mod:`attitude._core.events`; ``scr`` (7, max(n, n_events, 6)) the locator's scratch, allocated
+by the caller: the hold driver compiles without reference counting). Events are data: a run
+without events passes ``evd`` with n = 0 (nothing is evaluated, not even the dense output) to
+the same compiled driver.
 
 At a state y = (q, Q, h[, r, v, m]) an event sees the attitude q and the gyrostat's body rates
 ω = M (g − ℓ) (:func:`attitude._core.actuators.state_rate`), and, when the orbit is in the
@@ -19,6 +21,7 @@ continuous and only the commands jump.
 
 from __future__ import annotations
 
+from orbit._rk import WORK
 from orbit._shared_jit import jit_generic
 
 from .actuators import SC, state_rate
@@ -58,6 +61,8 @@ def spacecraft_events_room(ev):
 def spacecraft_locate_with(rhs, event, P, work, tstate, counters, ev):
     """The events of the step just accepted: ``(stopped, t_stop, state at t_stop)``."""
     evd, evs, ev_count, rec_t, rec_k, rec_y, scr = ev
+    if evd[EV.N] == 0.0:  # a run without events: not even the dense output
+        return False, tstate[0], work[WORK.Y]
     stopped, t_stop = locate_in_step(
         rhs, spacecraft_event_at, event, P, evd, evs, ev_count, rec_t, rec_k, rec_y, work,
         tstate, counters, scr,
