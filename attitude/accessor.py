@@ -6,6 +6,7 @@
 >>> ds.attitude.matrix()             # DataArray (time, row, col): x_S = R x_B
 >>> ds.attitude.angle_between(other) # DataArray (time,) in rad
 >>> ds.attitude.relative_to(frames.lvlh(orbit), degrees=True)  # pointing errors (Dataset)
+>>> ds.attitude.propagated_orbit()   # the orbit a spacecraft carried (orbit.EphemerisOrbit)
 """
 
 from __future__ import annotations
@@ -226,6 +227,7 @@ class AttitudeAccessor:
                 )
         t = self.quantity("time")
         t = t.to_value("s") if tu not in ("1", "") else np.asarray(t.value)
+        frame, on_run = self._on_propagated_orbit(frame, t)
         q = self._q()
         wu = str(ds["omega"].attrs.get("units", "1"))
         w = np.asarray(ds["omega"].values, dtype=np.float64)
@@ -281,11 +283,54 @@ class AttitudeAccessor:
         for c in ("component", "axis"):
             if c in ds.coords:
                 coords[c] = ds[c].variable
-        return xr.Dataset(
-            data,
-            coords=coords,
-            attrs={"frame": frame.describe(), "euler_sequence": seq},
-        )
+        attrs = {"frame": frame.describe(), "euler_sequence": seq}
+        if on_run:
+            attrs["frame_orbit"] = "the run's propagated orbit (position, velocity)"
+        return xr.Dataset(data, coords=coords, attrs=attrs)
+
+    def _on_propagated_orbit(self, frame: Any, t: np.ndarray) -> tuple[Any, bool]:
+        """A frame on the orbit a spacecraft carried (a NumericalOrbit starting where the run
+        did) is evaluated on the run's propagated orbit, which thrust, drag and the gravity
+        gradient moved away from it; (frame, whether it was)."""
+        from orbit import NumericalOrbit
+
+        ds = self._ds
+        if not isinstance(frame.orbit, NumericalOrbit) or not all(
+            v in ds for v in ("position", "velocity")
+        ):
+            return frame, False
+        r0 = np.asarray(ds["position"].values[0], dtype=np.float64)
+        start = 1e3 * np.asarray(frame.orbit.position(np.array([t[0]])), dtype=np.float64)[0]
+        if np.linalg.norm(start - r0) > 1e-3:  # another orbit (e.g. a target satellite's)
+            return frame, False
+        return frame.with_orbit(self.propagated_orbit()), True
+
+    def propagated_orbit(self) -> Any:
+        """The orbit a spacecraft carried (``mass=`` and a NumericalOrbit), as propagated with
+        its attitude: an :class:`orbit.EphemerisOrbit` through the run's ``position`` and
+        ``velocity`` samples (at a sample it is the sample).
+
+        Returns
+        -------
+        orbit.EphemerisOrbit
+            Usable wherever an orbit is (frames, ``GravityGradient``, a later run).
+        """
+        from orbit import EphemerisOrbit
+
+        ds = self._ds
+        if not all(v in ds for v in ("position", "velocity")):
+            raise AttitudeValueError(
+                "ds: no propagated orbit (position, velocity); only a spacecraft carrying its "
+                "orbit (Spacecraft(..., mass=..., orbit=NumericalOrbit(...))) has one"
+            )
+        if "member" in ds["position"].dims:
+            raise AttitudeValueError("ds: an ensemble; select a member first (ds.isel(member=i))")
+        if ds.sizes["time"] < 2:
+            raise AttitudeValueError("ds: one sample; an orbit needs at least two")
+        t = self.quantity("time").to_value("s")
+        r = self.quantity("position").to_value("km")
+        v = self.quantity("velocity").to_value("km / s")
+        return EphemerisOrbit(t, r, v, self.epoch, source="the run's propagated orbit")
 
     # -- orbit --------------------------------------------------------------------------------
     @property

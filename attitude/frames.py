@@ -210,6 +210,35 @@ class Frame:
         new._offset = multiply(self._offset, r / np.linalg.norm(r))
         return new
 
+    def with_orbit(self, orbit: Any) -> Frame:
+        """The same frame on another orbit (e.g. a run's propagated orbit,
+        ``ds.attitude.propagated_orbit()``), its offset kept.
+
+        Parameters
+        ----------
+        orbit : orbit.Orbit
+            Any orbit the frame's constructor accepts.
+
+        Returns
+        -------
+        Frame
+        """
+        if self.orbit is None:
+            raise AttitudeValueError(
+                f"orbit: the frame {self.describe()!r} has no orbit to replace"
+            )
+        import copy
+
+        new = copy.copy(self)
+        new.orbit = _check_orbit(orbit, "orbit")
+        if hasattr(new, "_cache"):
+            new._cache = None
+        if new.needs_epoch and getattr(new.orbit, "epoch", None) is None:
+            raise AttitudeValueError(
+                f"orbit: the frame {self.describe()!r} needs an orbit with an epoch"
+            )
+        return new
+
     # -- compiled-layer data ------------------------------------------------------------------
     def kernel_data(self, start: float = 0.0, stop: float = 0.0) -> np.ndarray:
         """The float64 array :func:`attitude._core.frames.frame_eval` reads.

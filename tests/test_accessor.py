@@ -175,3 +175,40 @@ def test_orbit_views_on_gravity_gradient_run():
     np.testing.assert_allclose(ds.omega.values[0], w0, rtol=1e-12)
     # and it librates: the attitude moves away from its initial value relative to the frame
     assert np.max((_scipy(rel).inv() * rel0).magnitude()) > 0.01  # measured 0.05 rad
+
+
+def test_frames_of_a_coupled_run_are_on_its_propagated_orbit():
+    # A spacecraft carrying its orbit, pushed along +y body for ten minutes (Δv = 12 m/s): the
+    # VNC frame of the run's own orbit (x = v̂, y = ĥ) written out from the Dataset's position
+    # and velocity is what relative_to(vnc(o)) measures against, not the frame of o alone.
+    import orbit
+    from attitude import CommandSchedule, RigidBody, Spacecraft, frames
+    from attitude.actuators import Thruster
+    from attitude.quaternion import conjugate, from_matrix, multiply
+
+    o = orbit.NumericalOrbit([7000.0, 0.0, 0.0], [0.0, 7.546, 0.1], "2026-03-20T00:00:00")
+    th = Thruster([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 2.0)
+    sc = Spacecraft(RigidBody([10.0, 12.0, 14.0]), thrusters=[th], orbit=o, mass=100.0)
+    t = np.linspace(0.0, 6000.0, 101)
+    ds = propagate(sc, [1.0, 0, 0, 0], np.zeros(4), t, method="dop853", rtol=1e-12, atol=1e-12,
+                   commands=CommandSchedule([0.0, 600.0], thrust=[[1.0], [0.0]]))  # fmt: skip
+    rel = ds.attitude.relative_to(frames.vnc(o))
+    assert rel.attrs["frame_orbit"].startswith("the run's propagated orbit")
+    r, v = ds.position.values, ds.velocity.values
+    x = v / np.linalg.norm(v, axis=1)[:, None]
+    y = np.cross(r, v)
+    y /= np.linalg.norm(y, axis=1)[:, None]
+    R = np.stack([x, y, np.cross(x, y)], axis=-1)  # reference → space, columns the axes
+    q_br = multiply(conjugate(from_matrix(R)), ds.q.values)
+    want = 2.0 * np.arctan2(np.linalg.norm(q_br[:, 1:], axis=1), np.abs(q_br[:, 0]))
+    np.testing.assert_allclose(rel.error_angle.values, want, rtol=0, atol=1e-12)
+    # the frame of the orbit alone is another one after the burn
+    alone = frames.vnc(o).evaluate(t)[0]
+    gap = 2.0 * np.arcsin(np.minimum(1.0, np.linalg.norm(
+        multiply(conjugate(alone), from_matrix(R))[:, 1:], axis=1)))  # fmt: skip
+    assert gap[0] < 1e-12 and gap[-1] > 1e-2  # 0.028 rad
+    # the same frame on another orbit (a target's, starting elsewhere) is left as it is
+    other = orbit.NumericalOrbit([7100.0, 0.0, 0.0], [0.0, 7.49, 0.1], "2026-03-20T00:00:00")
+    assert "frame_orbit" not in ds.attitude.relative_to(frames.vnc(other)).attrs
+    po = ds.attitude.propagated_orbit()
+    np.testing.assert_allclose(po.position(t[50]) * 1e3, r[50], rtol=0, atol=1e-6)

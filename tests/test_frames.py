@@ -302,3 +302,22 @@ def test_frame_errors():
     eph = orbit.EphemerisOrbit.from_orbit(o, 0.0, 600.0, 60.0)
     with pytest.raises(attitude.AttitudeValueError, match="table"):
         frames.lvlh(eph).quaternion([0.0, 1000.0])
+
+
+def test_with_orbit_is_the_frame_built_on_that_orbit():
+    a = orbit.KeplerOrbit(7000.0, 0.01, 0.9, 0.3, 0.2, epoch="2024-03-20T12:00:00")
+    b = orbit.KeplerOrbit(7300.0, 0.02, 1.2, 0.1, 0.5, epoch="2024-03-20T12:00:00")
+    turn = aq.from_euler([0.1, -0.2, 0.3], "321")
+    t = np.linspace(0.0, 5000.0, 11)
+    for make in (frames.lvlh, frames.sun_pointing):
+        moved = make(a).offset(turn).with_orbit(b)
+        want = make(b).offset(turn).evaluate(t)
+        got = moved.evaluate(t)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
+        assert moved.orbit is b and make(a).orbit is a
+    with pytest.raises(attitude.AttitudeValueError, match="no orbit to replace"):
+        frames.inertial().with_orbit(b)
+    undated = orbit.KeplerOrbit(7300.0, 0.02, 1.2, 0.1, 0.5)
+    with pytest.raises(attitude.AttitudeValueError, match="needs an orbit with an epoch"):
+        frames.sun_pointing(a).with_orbit(undated)
