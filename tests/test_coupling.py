@@ -19,6 +19,7 @@ from attitude.quaternion import rotate, to_matrix
 EPOCH = "2026-03-20T00:00:00"
 INERTIA = np.array([1e9, 1e9, 2e7])  # a long bar: its spin and its orbit trade momentum
 MASS = 1e5
+Q_ID = np.array([1.0, 0.0, 0.0, 0.0])
 
 
 def _orbit(**kw):
@@ -348,6 +349,26 @@ def test_coupled_run_stops_at_impact():
     r = ds.position.values
     assert np.all(np.linalg.norm(r[:-1], axis=1) > 6.3567e6)
     np.testing.assert_allclose(r[:-1], alone.position.values, rtol=0, atol=1e-3)
+
+
+def test_ensemble_member_stops_at_impact_on_its_last_sample():
+    # The ballistic arc of test_coupled_run_stops_at_impact as an ensemble: a member's rows are
+    # the shared samples' times, so it ends at its last sample before the surface (not the
+    # state at the surface filed under the next sample's time); its stop time is the single
+    # run's impact time.
+    from attitude.ensemble import propagate_ensemble
+
+    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH)
+    crafts = [Spacecraft(RigidBody([10.0, 12.0, 14.0]), orbit=o, mass=100.0)] * 2
+    t = np.linspace(0.0, 3600.0, 361)
+    kw = dict(method="dop853", rtol=1e-12, atol=1e-12)
+    one = attitude.propagate(crafts[0], Q_ID, np.zeros(4), t, **kw)
+    ens = propagate_ensemble(crafts, np.tile(Q_ID, (2, 1)), np.zeros((2, 4)), t, **kw)
+    n = one.sizes["time"] - 1  # the samples before the impact
+    assert list(ens.member_status.values) == [4, 4]  # terminal_event
+    assert np.all(ens.member_t_stop.values == one.attrs["impact_time"])
+    p = ens.position.values[0]
+    assert np.array_equal(p[:n], one.position.values[:n]) and np.all(np.isnan(p[n:]))
 
 
 def test_ensemble_members_are_their_single_runs():

@@ -442,6 +442,9 @@ def ensemble_events_serial(
 # entry point would compile a second copy of it: numba's copy for callers, without the CPython
 # wrapper.)
 
+#: A member's rows are the shared samples' times: a member that reaches the Earth's surface
+#: ends at its last sample before it (its status and stop time say where).
+_SAMPLES_ONLY = False
 _holds_schedule_inline = rebind(
     holds_run,
     globals(),
@@ -449,6 +452,7 @@ _holds_schedule_inline = rebind(
     options={"inline": "always"},
     RHS="spacecraft_rhs",
     BOUNDARY="schedule_boundary",
+    STOP_ROW="_SAMPLES_ONLY",
 )
 _holds_fsw_inline = rebind(
     holds_run,
@@ -457,6 +461,7 @@ _holds_fsw_inline = rebind(
     options={"inline": "always"},
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary",
+    STOP_ROW="_SAMPLES_ONLY",
 )
 
 

@@ -167,7 +167,7 @@ def schedule_boundary(P, y, t, t_end, ctl):
 
 
 @jit(inline="always")
-def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop):
+def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop, stop_row):
     """The run stops inside the last step, at ``t_stop`` with the state ``y_stop`` (the orbit
     reaches the surface, or a terminal event): the run's state moves there, the step's dense
     output kept for the samples before it (:func:`_serve_stop`)."""
@@ -178,19 +178,22 @@ def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_
         y[i] = y_stop[i]
     tstate[0] = t_stop
     hs[HS.STOP] = 1.0
-    return _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n)
+    return _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n, stop_row)
 
 
 @jit(inline="always")
-def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n):
+def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n, stop_row):
     """The samples before the stop (the last step's dense output), then the state at the stop
-    in the next row: ``(EVENT, rows filled)``; ``(SUCCESS, rows)`` when this call's samples all
-    precede it (the next call serves the rest)."""
+    in the next row (``stop_row``; else the samples end there: an ensemble member's rows are
+    on the samples' times): ``(EVENT, rows filled)``; ``(SUCCESS, rows)`` when this call's
+    samples all precede it (the next call serves the rest)."""
     m = t_out.shape[0]
     while k < m and t_out[k] < tstate[0]:
         _interpolate(work, tstate, t_out[k], y_out[k])
         record(sc, y_out[k], n)
         k += 1
+    if not stop_row:
+        return EVENT, k
     if k == m:
         return SUCCESS, k
     y = work[WORK.Y]
@@ -224,6 +227,10 @@ RHS = None
 #: -> (stopped, t_stop, y_stop)`` after each accepted step (a terminal event's time and the
 #: state there). The single runs' copies bind attitude._core.spacecraft_events (events as data:
 #: none is an empty set); the ensemble members', these no-ops (``ev = ()``).
+#: Whether the state at a stop gets a row of its own after the samples before it (a single
+#: run: the Dataset's last sample, at the stop's time) or not (an ensemble member: its rows are
+#: the shared samples' times; its status and ``tstate[0]`` say where it stopped).
+STOP_ROW = True
 EV_BEGIN = no_events_begin
 EV_ROOM = no_events_room
 EV_LOCATE = no_events_locate
@@ -269,7 +276,7 @@ def holds_run(
         counters[4] = 0
         EV_BEGIN(P, t0, y, ev)
     if hs[HS.STOP] != 0.0:  # found by the last call, before which its samples ended
-        return _serve_stop(sc, hs, work, tstate, t_out, y_out, 0, n)
+        return _serve_stop(sc, hs, work, tstate, t_out, y_out, 0, n, STOP_ROW)
     k = 0
     h_abs = tstate[1]
     while True:
@@ -328,11 +335,11 @@ def holds_run(
             _dense_coefficients(RHS, P, work, tstate, counters)
             t_stop = crossing(below_surface, sc, work, tstate, work[WORK.YT])
             return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
-                         work[WORK.YT])  # fmt: skip
+                         work[WORK.YT], STOP_ROW)  # fmt: skip
         stopped, t_stop, y_stop = EV_LOCATE(RHS, P, work, tstate, counters, ev)
         if stopped:
             tstate[1] = h_abs
             return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
-                         y_stop)  # fmt: skip
+                         y_stop, STOP_ROW)  # fmt: skip
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0
