@@ -76,12 +76,20 @@ def attach_software(fw: np.ndarray, sc: np.ndarray, craft: Any) -> None:
     sc[co + _kc.COUPLED.FSW : co + _kc.COUPLED.FSW + len(slots)] = slots
 
 
-def attach_events(evd: np.ndarray, sc: np.ndarray, craft: Any) -> None:
+def attach_events(evd: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -> None:
     """Turn the event data's copies of the orbit (eclipse, the Sun's direction, the orbit's
-    frames) into live orbits, which the events write from the state before they are evaluated
-    (listed in the spacecraft block)."""
+    frames; the tables marked with ``tokens``, default the spacecraft's orbit's mark) into live
+    orbits, which the events write from the state before they are evaluated (listed in the
+    spacecraft block)."""
     co = int(sc[_ka.SC.COUPLED])
-    slots = _make_live(evd, craft.orbit.token, "events")
+    slots: list[int] = []
+    for token in tokens or (craft.orbit.token,):
+        slots += _make_live(evd, token, "events")
+    if len(slots) > _kc.MAX_SLOTS:
+        raise AttitudeValueError(
+            f"events: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run whose "
+            "orbit is propagated with the attitude"
+        )
     sc[co + _kc.COUPLED.N_EV] = len(slots)
     sc[co + _kc.COUPLED.EV : co + _kc.COUPLED.EV + len(slots)] = slots
 

@@ -110,7 +110,8 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         )
         new["wheel_limit"] = var(
             ("time", "wheel"),
-            r["flags"].astype(np.int8),
+            # (0 on a member's rows after it ended, NaN elsewhere: no flag to cast)
+            np.nan_to_num(r["flags"], nan=0.0).astype(np.int8),
             None,
             "limits acting on the wheel command",
             flag_masks=np.array([m for m, _ in WHEEL_LIMIT_FLAGS], dtype=np.int8),

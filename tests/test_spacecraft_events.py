@@ -130,3 +130,51 @@ def test_closed_loop_event_leaves_the_run_unchanged():
     err = 2.0 * np.arctan2(np.linalg.norm(plain.q.values[:, 1:], axis=1), np.abs(plain.q[:, 0]))
     assert err[n - 1] > 40.0 * math.pi / 180.0 > err[n]
     assert ds.attrs["status"] == "event" and ds.time.values[-1] == te
+
+
+@pytest.mark.parametrize("terminal", [False, True])
+def test_ensemble_members_locate_their_own_events(terminal):
+    # Three wheel torques: |ω| reaches the rate at t* = rate (I₃ − J) / u_k (the closed form of
+    # the first test) in each member; a terminal event ends the member on its last sample before
+    # it (its rows are the shared samples' times), status terminal_event.
+    from attitude.ensemble import propagate_ensemble
+
+    body = RigidBody([10.0, 10.0, 8.0], units="kg m2")
+    J, rate, us = 0.05, 1e-3, np.array([0.01, 0.02, 0.005])
+    craft = Spacecraft(body, [ReactionWheel([0, 0, 1], J)])
+    cmds = [CommandSchedule([0.0], wheel_torque=[[u]]) for u in us]
+    t = np.linspace(0.0, 10.0, 11)
+    ens = propagate_ensemble(craft, np.tile(Q_ID, (3, 1)), np.zeros((3, 4)), t, commands=cmds,
+                             rtol=1e-12, atol=1e-15,
+                             events=[RateExceeds(rate, terminal=terminal)])  # fmt: skip
+    np.testing.assert_allclose(ens.event_first_time.values[:, 0], rate * (8.0 - J) / us,
+                               rtol=0, atol=1e-12)  # fmt: skip
+    assert list(ens.event_count.values[:, 0]) == [1, 1, 1]
+    assert list(ens.detector_label.values) == ["rate_exceeds"]
+    if terminal:
+        assert list(ens.member_status.values) == [4, 4, 4]
+        last = np.sum(~np.isnan(ens.q.values[:, :, 0]), axis=1)  # samples kept: t < t*
+        assert list(last) == [1, 1, 2]
+    else:
+        assert list(ens.member_status.values) == [0, 0, 0] and not np.isnan(ens.q.values).any()
+
+
+def test_ensemble_of_coupled_members_sees_each_propagated_orbit():
+    # Burns of 0, 1 and 2 N: each member's eclipse times are its single run's, bit for bit
+    # (the same driver, its own orbit written into its own event data).
+    from attitude.ensemble import propagate_ensemble
+
+    o = orbit.NumericalOrbit([7000.0, 0.0, 0.0], [0.0, 7.546, 0.1], EPOCH)
+    th = Thruster([0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 2.0)
+    crafts = [Spacecraft(RigidBody([10.0, 12.0, 14.0]), thrusters=[th], orbit=o, mass=100.0)] * 3
+    cmds = [CommandSchedule([0.0, 600.0], thrust=[[f], [0.0]]) for f in (0.0, 0.5, 1.0)]
+    t = np.linspace(0.0, 6000.0, 61)
+    events = [EclipseEntry(o), EclipseExit(o)]
+    kw = dict(rtol=1e-12, atol=1e-12, events=events)
+    ens = propagate_ensemble(crafts, np.tile(Q_ID, (3, 1)), np.zeros((3, 4)), t, commands=cmds,
+                             **kw)  # fmt: skip
+    firsts = ens.event_first_time.values
+    for k in range(3):
+        one = attitude.propagate(crafts[k], Q_ID, np.zeros(4), t, commands=cmds[k], **kw)
+        assert np.array_equal(firsts[k], one.detector_first_time.values)
+    assert firsts[2, 0] - firsts[0, 0] > 5.0  # the burn moved the eclipse

@@ -83,6 +83,7 @@ from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources 
     spacecraft_member_begin,
 )
 from attitude._core.spacecraft_events import (
+    member_events,
     spacecraft_events_begin_with,
     spacecraft_events_room,  # noqa: F401 (bound by name)
     spacecraft_locate_with,
@@ -453,6 +454,7 @@ _holds_schedule_inline = rebind(
     RHS="spacecraft_rhs",
     BOUNDARY="schedule_boundary",
     STOP_ROW="_SAMPLES_ONLY",
+    **_EVENT_HOOKS,
 )
 _holds_fsw_inline = rebind(
     holds_run,
@@ -462,6 +464,7 @@ _holds_fsw_inline = rebind(
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary",
     STOP_ROW="_SAMPLES_ONLY",
+    **_EVENT_HOOKS,
 )
 
 
@@ -472,8 +475,8 @@ CTL = schedule_ctl
 
 @jit(nogil=True, _nrt=REFCOUNT)
 def _spacecraft_member(
-    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
-    max_step, max_steps, budget,
+    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
+    atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """Member ``i`` under its command source for at most ``budget`` steps: the body of the
     parallel loops below, one copy per source (``HOLDS``, the hold driver inlined, and ``CTL``,
@@ -485,7 +488,7 @@ def _spacecraft_member(
         P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
         st, k = HOLDS(
             P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-            atol, t[m - 1], max_step, limit, CTL(i, src), (),
+            atol, t[m - 1], max_step, limit, CTL(i, src), member_events(i, evsrc),
         )  # fmt: skip
         member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
 
@@ -504,27 +507,27 @@ spacecraft_fsw_member = rebind(
 
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
 def spacecraft_schedule_parallel(
-    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
-    max_step, max_steps, budget,
+    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
+    atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members under open-loop schedules (DOP853 through held commands), in parallel over
     members (``prange``), each for at most ``budget`` steps."""
     for i in numba.prange(y0.shape[0]):
         spacecraft_schedule_member(
             numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
-            status, n_done, rtol, atol, max_step, max_steps, budget,
+            evsrc, status, n_done, rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip
 
 
 @parallel_jit(nogil=True, _nrt=REFCOUNT)
 def spacecraft_fsw_parallel(
-    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done, rtol, atol,
-    max_step, max_steps, budget,
+    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
+    atol, max_step, max_steps, budget,
 ):  # fmt: skip
     """All members under their flight software (DOP853 through its ticks), in parallel over
     members (``prange``), each for at most ``budget`` steps."""
     for i in numba.prange(y0.shape[0]):
         spacecraft_fsw_member(
             numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
-            status, n_done, rtol, atol, max_step, max_steps, budget,
+            evsrc, status, n_done, rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip

@@ -132,13 +132,13 @@ def ensemble_method(method: str, potentials: Any, *, crafts: Any = None, events:
                 if choose_method(AUTO, p, spacecraft=c, events=events) != "taylor":
                     return "dop853"
         return "taylor"
-    if method != "taylor" or crafts is not None:
-        return method
-    if events is not None:
+    if method == "taylor" and events is not None:
         raise AttitudeValueError(
             "events: method='taylor' does not locate events (neither does "
             "propagate(method='taylor')); use method='dop853' for an ensemble with events"
         )
+    if method != "taylor" or crafts is not None:
+        return method
     from ..taylor import check_potential
 
     for p in potentials:

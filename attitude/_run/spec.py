@@ -195,7 +195,9 @@ class RunSpec:
             sc_run.sc = _coupling.follow_path(sc_run.sc, getattr(pot, "orbit", None))
             _coupling.attach(problem.params, sc_run.sc, craft, _coupling.orbit_tokens(craft, pot))
             if evset is not None:  # (built for this run: its data is its own)
-                _coupling.attach_events(evset.data, sc_run.sc, craft)
+                _coupling.attach_events(
+                    evset.data, sc_run.sc, craft, _coupling.orbit_tokens(craft, pot)
+                )
         _check_initial_state(problem)
         if method == "dop853" or method.startswith("scipy:"):
             # the fixed-step methods count their steps themselves; "exact" takes none

@@ -19,6 +19,7 @@ from orbit import _rk
 from .. import _interrupt
 from .._core import ensemble as _ke
 from .._core import entry_points as _builtin_entry_points
+from .._core import events as _kev
 from .._core import fsw as _kf
 from .._core import spacecraft_ensemble as _kse
 from .._core import taylor as _kt
@@ -242,8 +243,6 @@ def _entry(setup: _Setup) -> Any:
 
 def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget):
     """:func:`_compute_chunk` with events: per member and event, the count and first time."""
-    from .._core import events as _kev
-
     ev = setup.events
     evs = np.zeros((y0.shape[0], ev.n, _kev.EVS.SIZE))
     fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
@@ -422,7 +421,7 @@ def craft_results(members, bounds, t, entry, rtol, atol, max_step, max_steps, th
     def compute(start: int, stop: int) -> tuple:
         blk = members.block(start, stop)
         out = compute_craft_chunk(blk, t, entry, members.method, fsw, rtol, atol, max_step,
-                                  max_steps, threads, n_terms)  # fmt: skip
+                                  max_steps, threads, n_terms, members.events)  # fmt: skip
         return out, blk, float(blk["projection"])
 
     return _each(bounds, compute)
@@ -443,6 +442,9 @@ def craft_arrays(members: Any, c: int, m: int, fill: float) -> dict[str, Any]:
         "n_done": np.full(c, m, dtype=np.int64),
         "t_stop": np.zeros(c),
     }
+    if members.events is not None:
+        out["event_count"] = np.zeros((c, members.events.n), dtype=np.int64)
+        out["event_first"] = np.full((c, members.events.n), np.nan)
     if members.program is not None:
         k = members.tick_times().shape[0]
         out["records"] = np.full((c, k + 1, members.program.rec_width), fill)
@@ -508,6 +510,32 @@ def _diagnostics(blk, t, y_out, n_done, entry, n_terms):
     return diag, torques, act, wheels
 
 
+def _member_events(blk: dict[str, Any], sc: np.ndarray, n: int, events: Any) -> tuple:
+    """The chunk's event arrays (:func:`attitude._core.spacecraft_events.member_events`): each
+    member its own copy of the event data (none: an empty set), its copies of a carried orbit
+    made live orbits its state writes (listed in its block ``sc``)."""
+    c = blk["y0"].shape[0]
+    if events is None:
+        evd = np.zeros((c, _kev.EV.SIZE))
+        evd[:, _kev.EV.NSUB] = 1.0
+        n_ev = 0
+    else:
+        evd = np.ascontiguousarray(np.tile(events.data, (c, 1)))
+        n_ev = events.n
+        for r, run in enumerate(blk["runs"]):
+            if run.coupled:
+                from .._coupling import attach_events, orbit_tokens
+
+                member_sc = sc[blk["sc_at"][r] : blk["sc_at"][r + 1]]
+                tokens = orbit_tokens(run.spacecraft, blk["potential"])
+                attach_events(evd[r], member_sc, run.spacecraft, tokens)
+    width = max(n, n_ev, 6)
+    return (
+        evd, np.zeros((c, n_ev, _kev.EVS.SIZE)), np.zeros((c, 2), dtype=np.int64),
+        np.empty(0), np.empty((0, 2), dtype=np.int64), np.empty((0, n)), np.empty((c, 7, width)),
+    )  # fmt: skip
+
+
 def compute_craft_chunk(
     blk: dict[str, Any],
     t: np.ndarray,
@@ -520,6 +548,7 @@ def compute_craft_chunk(
     max_steps: int,
     threads: int | None,
     n_terms: int,
+    events: Any = None,
 ) -> dict[str, Any]:
     """Integrate the members of a chunk (:meth:`CraftMembers.block` arrays) through ``t`` and
     compute their diagnostics; the chunk's results.
@@ -537,6 +566,7 @@ def compute_craft_chunk(
     n_done = np.zeros(c, dtype=np.int64)
     sc = blk["sc0"].copy()
     src = blk["src"]
+    evsrc = None
     with _numba_threads(threads):
         n_threads = 1
         if not JIT_DISABLED:
@@ -556,10 +586,12 @@ def compute_craft_chunk(
         else:
             fn = entry.spacecraft_fsw_parallel if fsw else entry.spacecraft_schedule_parallel
             extra = ()
+            evsrc = _member_events(blk, sc, n, events)
         while True:
+            args = (src,) if method == "taylor" else (src, evsrc)
             fn(
                 blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate, counters,
-                src, status, n_done, rtol, atol, max_step, max_steps, budget, *extra,
+                *args, status, n_done, rtol, atol, max_step, max_steps, budget, *extra,
             )  # fmt: skip
             _interrupt.check()
             waiting = status == _kse.RECORDS_WAIT
@@ -580,6 +612,9 @@ def compute_craft_chunk(
         "n_done": n_done,
         "t_stop": tstate[:, 0].copy(),
     }
+    if events is not None:
+        out["event_count"] = evsrc[1][:, :, _kev.EVS.COUNT].astype(np.int64)
+        out["event_first"] = evsrc[1][:, :, _kev.EVS.FIRST].copy()
     if fsw:
         fs, fs_at = src[3], src[4]
         out["records"] = src[6]

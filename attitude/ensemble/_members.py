@@ -460,6 +460,7 @@ class CraftMembers:
         self.method = method
         self._runs: dict[tuple[int, int, int], Any] = {}
         self.extra_vars: Any = None  # (start, stop) -> {name: (dims, values, attrs)}, or None
+        self.events: Any = None  # attitude.events.EventSet located in every member, or None
         first = None
         for i, (c, cmd, sw) in enumerate(self._distinct()):
             struct = _Structure.of(c, sw)

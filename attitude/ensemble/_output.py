@@ -148,31 +148,9 @@ class _Assembler(_Totals):
             **{k: v.variable for k, v in tm.coords.items()},
         }
         if self.events is not None:
-            from ..results import instant_attrs, time_unit
-
-            # an instant on the time axis, encoded as `time` (docs/results.md)
-            when = instant_attrs(time_unit(tm["time"]), self.attrs.get("epoch"))
-            data_vars["event_count"] = xr.Variable(
-                ("member", "detector"),
-                arr(out["event_count"], np.int64),
-                {"units": "1", "long_name": "occurrences of each event"},
-            )
-            data_vars["event_first_time"] = xr.Variable(
-                ("member", "detector"),
-                arr(out["event_first"]),
-                {**when, "long_name": "time of the first occurrence (NaN: none)"},
-            )
-            n = len(self.events.labels)
-            coords["detector"] = (
-                "detector",
-                np.arange(n, dtype=np.int64),
-                {"long_name": "index of the event detector (labels in detector_label)"},
-            )
-            coords["detector_label"] = (
-                "detector",
-                np.array(self.events.labels),
-                {"long_name": "event name"},
-            )
+            more, more_coords = event_variables(self.events, out, tm["time"], self.attrs, arr)
+            data_vars.update(more)
+            coords.update(more_coords)
         return xr.Dataset(data_vars, coords=coords, attrs=dict(self.attrs))
 
     def _columns(self, out, lazy):
@@ -233,6 +211,37 @@ class _Assembler(_Totals):
         self._count(out["counters"], True, upd)
 
 
+def event_variables(events: Any, out: dict, time: Any, attrs: dict, arr: Any = np.asarray):
+    """The per-member event variables (``event_count``, ``event_first_time`` on (member,
+    detector)) and the detector coordinates, from a chunk's ``out``."""
+    from ..results import instant_attrs, time_unit
+
+    # an instant on the time axis, encoded as `time` (docs/results.md)
+    when = instant_attrs(time_unit(time), attrs.get("epoch"))
+    data_vars = {
+        "event_count": xr.Variable(
+            ("member", "detector"),
+            arr(out["event_count"], np.int64),
+            {"units": "1", "long_name": "occurrences of each event"},
+        ),
+        "event_first_time": xr.Variable(
+            ("member", "detector"),
+            arr(out["event_first"]),
+            {**when, "long_name": "time of the first occurrence (NaN: none)"},
+        ),
+    }
+    n = len(events.labels)
+    coords = {
+        "detector": (
+            "detector",
+            np.arange(n, dtype=np.int64),
+            {"long_name": "index of the event detector (labels in detector_label)"},
+        ),
+        "detector_label": ("detector", np.array(events.labels), {"long_name": "event name"}),
+    }
+    return data_vars, coords
+
+
 class _CraftAssembler(_Totals):
     """:class:`_Assembler` of spacecraft members: a chunk's Dataset by :func:`chunk_dataset`,
     the totals, the invariant maxima of :func:`member_invariant_attrs`."""
@@ -243,7 +252,12 @@ class _CraftAssembler(_Totals):
 
     def dataset(self, start: int, out: dict, blk: dict) -> xr.Dataset:
         plan = self.plan
-        return chunk_dataset(self.members, start, blk, out, plan.stored_t, plan.keep, self.attrs)
+        ds = chunk_dataset(self.members, start, blk, out, plan.stored_t, plan.keep, self.attrs)
+        events = self.members.events
+        if events is None:
+            return ds
+        more, coords = event_variables(events, out, ds["time"], self.attrs)
+        return ds.assign_coords(coords).assign(more)
 
     def account(self, out: dict, ds: xr.Dataset) -> None:
         """Add a chunk to the totals (a Taylor run counts no right-hand sides), and its

@@ -133,12 +133,6 @@ def run_spacecraft_scenario(
     ``propagate_ensemble`` the runner, passed in: this module is below it)."""
 
     disp = sc.ensemble
-    if sc.events:
-        raise AttitudeValueError(
-            "events: located in single runs of a spacecraft with actuators or flight "
-            "software, not yet in its ensembles; remove the [events] table or the [ensemble] "
-            "table"
-        )
     attrs = _attrs(sc, disp, kw)
     output = opts["output"]
     percentiles = opts["percentiles"]
@@ -152,6 +146,7 @@ def run_spacecraft_scenario(
         every=disp.every if opts["every"] is None else opts["every"],
         percentiles=percentiles if percentiles is not None else disp.percentiles,
         commands=sc.commands,
+        events=sc.events,
         seed=disp.seed,
         _member_vars=lambda start, stop: member_vars(disp, start, stop),
         **kw,

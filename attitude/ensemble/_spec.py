@@ -48,8 +48,6 @@ ENSEMBLE_METHODS = ("dop853", "taylor")
 _NOT_FOR_SPACECRAFT = {
     "client": "Dask clusters run rigid-body ensembles only; run it locally (client=None)",
     "lazy": "a lazy Dask result is for rigid-body ensembles; run it eagerly (lazy=False)",
-    "events": "events are located in single runs of a spacecraft with actuators "
-    "(attitude.propagate), not yet in its ensembles",
     "nominal": "the pointing error of a spacecraft ensemble is the flight software's "
     "(error_angle per tick, from its guidance); attitude.ensemble.error_angle_percentiles",
     "reference": "the pointing error of a spacecraft ensemble is the flight software's "
@@ -143,12 +141,12 @@ class EnsembleSpec:
         )  # fmt: skip
         if _source is None and is_spacecraft_ensemble(body, commands, software):
             # spacecraft with actuators or flight software (docs/ensemble.md)
-            refused = {"client": client, "lazy": lazy, "events": events, "nominal": nominal,
+            refused = {"client": client, "lazy": lazy, "nominal": nominal,
                        "reference": reference, "boresight": boresight}  # fmt: skip
             for name, value in refused.items():
                 if value is not None and value is not False:
                     raise AttitudeValueError(f"{name}: {_NOT_FOR_SPACECRAFT[name]}")
-            spec._crafts(body, q0, Q0, potential, epoch, commands, software, seed)
+            spec._crafts(body, q0, Q0, potential, epoch, commands, software, seed, events)
             spec.members.extra_vars = _member_vars  # (start, stop) -> more per-member variables
             return spec
         if seed is not None:
@@ -244,7 +242,7 @@ class EnsembleSpec:
                 )
 
     # -- spacecraft ----------------------------------------------------------------------------
-    def _crafts(self, body, q0, Q0, potential, epoch, commands, software, seed) -> None:
+    def _crafts(self, body, q0, Q0, potential, epoch, commands, software, seed, events) -> None:
         """The spacecraft members (each prepared as its single run), the method, the attrs."""
         from pathlib import Path
 
@@ -294,10 +292,17 @@ class EnsembleSpec:
         first = crafts[0] if isinstance(crafts, list) else crafts
         pot = as_potential(potential).bind(first.body)
         every = crafts if isinstance(crafts, list) else [crafts]
-        self.method = method = ensemble_method(self.requested, (pot,), crafts=every)
+        self.method = method = ensemble_method(self.requested, (pot,), crafts=every, events=events)
         span = np.array([tt[0], tt[-1]], dtype=np.float64)
         run_attrs = epoch_attrs(pot, epoch)
         pot = for_span(pot, span)
+        if events is not None:
+            self.events = _events(events, tt, pot, epoch)
+            run_attrs["events"] = self.events.describe()
+            if self.events.epoch is not None and "epoch" not in run_attrs:
+                from orbit.timescales import format_epoch
+
+                run_attrs["epoch"] = format_epoch(self.events.epoch)
         if pot._user_terms() and method == "taylor":
             from ..taylor import check_potential
 
@@ -325,6 +330,7 @@ class EnsembleSpec:
             )
         elif seed is not None:
             run_attrs["ensemble_seed"] = np.int64(seed)
+        members.events = self.events
         self.members, self.potential, self.run_attrs = members, pot, run_attrs
         self.out_path = None if self.path is None else Path(self.path)
 

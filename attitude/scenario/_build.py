@@ -246,12 +246,6 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
                 "('samples' or 'final'); take the statistics from the file afterwards "
                 "(attitude.ensemble.error_angle_percentiles, settling_times)",
             )
-        if craft is not None and "events" in data:
-            raise _fail(
-                "ensemble",
-                "events are located in single runs of a spacecraft with actuators or flight "
-                "software, not yet in its ensembles; remove [events] or [ensemble]",
-            )
 
     # [events]
     events = None
