@@ -609,3 +609,17 @@ def test_info_summarises_a_propagated_orbit(tmp_path, capsys):
     assert "propagated with the attitude" in line
     # 600 s to 720 s of the burn at 1 N, isp 220 s: 0.0556 kg
     assert "(0.0556" in r.stdout and "kg of propellant" in r.stdout
+
+
+def test_a_reader_that_goes_away_ends_the_command_quietly(monkeypatch, capsys):
+    # `attitude info out.nc | head`: writing to the closed pipe raises BrokenPipeError, which
+    # ends the command with the shell's SIGPIPE status and no "failed" message.
+    import attitude.cli as cli
+
+    def closed(args):
+        print("file        out.nc")
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(cli, "cmd_info", closed)
+    assert main(["info", "out.nc"]) == 141
+    assert capsys.readouterr().err == ""

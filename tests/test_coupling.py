@@ -227,6 +227,27 @@ def test_bad_input():
         attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="splitting", dt=1.0)
 
 
+def test_a_coupled_run_has_the_epoch_of_the_orbit_it_carries():
+    # Torque-free (no orbit in the model): the run's time origin is the carried orbit's epoch,
+    # and an epoch= or an event orbit of another date is refused before any work.
+    from attitude.events import EclipseEntry
+
+    o = _orbit()
+    sc = Spacecraft(RigidBody(INERTIA), orbit=o, mass=MASS)
+    q0, Q0 = _state()
+    ds = attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="dop853")
+    assert ds.attrs["epoch"] == "2026-03-20T00:00:00.000000Z"
+    assert ds.time.attrs["units"].startswith("seconds since 2026-03-20")
+    with pytest.raises(
+        attitude.AttitudeValueError, match=r"^epoch: .*\(spacecraft\.orbit\.epoch\)"
+    ):
+        attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="dop853", epoch="2026-03-21")
+    other = orbit.KeplerOrbit(7000.0, 0.001, 0.5, 0.1, 0.0, epoch="2026-03-21T00:00:00")
+    with pytest.raises(attitude.AttitudeValueError, match=r"^events: .*one time origin"):
+        attitude.propagate(sc, q0, Q0, [0.0, 10.0], method="dop853",
+                           events=[EclipseEntry(other)])  # fmt: skip
+
+
 def _plate(face_area, edge_area):
     """A thin plate: faces ±x (area face_area), edges ±y (edge_area), centres at the centre of
     mass (no torque), C_D = 2.2."""

@@ -199,8 +199,11 @@ def test_bad_closed_loop_ensemble_input_is_refused_before_any_work():
         propagate_ensemble(c.body, q0, Q0, t, seed=3)
     with pytest.raises(AttitudeValueError, match="every member needs the same structure"):
         propagate_ensemble([c, rigid], q0, Q0, t, software=software())
-    with pytest.raises(AttitudeValueError, match="events"):
+    with pytest.raises(AttitudeTypeError, match=r"^events\[0\]: expected an attitude.events"):
         propagate_ensemble(c, q0, Q0, t, software=software(), events=[object()])
+    with pytest.raises(AttitudeValueError, match=r"^events: method='taylor' does not locate"):
+        propagate_ensemble(c, q0, Q0, t, software=software(), method="taylor",
+                           events=[attitude.events.RateExceeds(1.0)])  # fmt: skip
 
 
 def test_closed_loop_statistics_of_pointing_error_and_settling_time():

@@ -404,6 +404,20 @@ def test_event_table_errors_name_the_key(edit, key):
         scenario.loads(text)
 
 
+def test_event_tables_the_run_cannot_serve_name_their_key():
+    # A method that does not locate events names integrator.method; an event that needs a date
+    # in a scenario without one names the event and says where the date goes.
+    from attitude import scenario
+
+    taylor = _SCENARIO.replace("[integrator]", '[integrator]\nmethod = "taylor"', 1)
+    with pytest.raises(scenario.ScenarioError, match=r"^integrator\.method: events are located"):
+        scenario.loads(taylor)
+    free = (ROOT / "scenarios/paper_torque_free.toml").read_text()
+    sun = free + '\n[events.sun]\ntype = "angle_to_sun"\nangle = 30\nangle_unit = "deg"\n'
+    with pytest.raises(scenario.ScenarioError, match=r"^events\.sun: .*\[scenario\]"):
+        scenario.loads(sun)
+
+
 def test_ensemble_event_percentiles_on_the_shipped_scenario(tmp_path):
     """scenarios/ensemble_paper_keplerian.toml: time until the attitude has drifted 20° from
     the nominal initial one, over 1000 dispersed members: percentiles, bit-identical whatever

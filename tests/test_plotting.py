@@ -240,3 +240,19 @@ def test_a_run_that_propagated_its_orbit_gets_the_orbit_panel(tmp_path):
     ax = fig.axes[labels.index("height [km]")]
     h = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
     assert 380.0 < h.min() and h.max() < 430.0  # 400 km above the equator's ellipsoid
+
+
+def test_event_names_stay_inside_the_panel():
+    # A terminal event is the run's last instant: its name goes left of its line, inside the
+    # panel (it was drawn outside, over the legend); an event inside the run, right of it.
+    from attitude.plotting._common import Event, mark_events
+
+    fig, ax = plt.subplots()
+    ax.set_xlim(0.0, 10.0)
+    mark_events([ax], [Event(5.0, "middle", 1), Event(10.0, "last", -1)], TimeAxis(1.0, "s", None))
+    fig.canvas.draw()
+    box = ax.get_window_extent()
+    for text in ax.texts:
+        ext = text.get_window_extent()
+        assert box.x0 <= ext.x0 and ext.x1 <= box.x1, text.get_text()
+    plt.close(fig)

@@ -130,7 +130,9 @@ class RunSpec:
             )
         if on_chunk is not None and not callable(on_chunk):
             raise AttitudeTypeError("on_chunk: expected a callable on_chunk(ds_chunk)")
-        attrs = epoch_attrs(pot, epoch)
+        attrs = epoch_attrs(
+            pot, epoch, craft.orbit if craft is not None and craft.coupled else None
+        )
         if craft is not None and craft.coupled:
             # the NumericalOrbit's own integrator gives only the start and the environment
             # tables: the run integrates the orbit with the attitude, by its own method
@@ -226,8 +228,10 @@ def for_span(pot: Potential, span: np.ndarray) -> Potential:
     return pot.prepare(span)
 
 
-def epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
-    """Attrs ``epoch`` (UTC ISO 8601) and the orbit's description; checks the epochs agree."""
+def epoch_attrs(pot: Potential, epoch: Any, carried: Any = None) -> dict[str, Any]:
+    """Attrs ``epoch`` (UTC ISO 8601) and the orbit's description; checks the epochs agree
+    (the model's orbit's, and ``carried``, the orbit a spacecraft propagates with its
+    attitude: one run has one time origin)."""
     from orbit.errors import OrbitError
     from orbit.timescales import as_epoch, format_epoch, same_epoch
 
@@ -243,8 +247,18 @@ def epoch_attrs(pot: Potential, epoch: Any) -> dict[str, Any]:
             f"{format_epoch(orbit_epoch)} (potential.orbit.epoch); one run has one time origin: "
             "leave epoch=None to use the orbit's, or build the orbit with the same epoch"
         )
-    out: dict[str, Any] = {}
     e = run_epoch if run_epoch is not None else orbit_epoch
+    if carried is not None:
+        if e is not None and not same_epoch(e, carried.epoch):
+            which = "the run's epoch" if run_epoch is not None else "the potential's orbit's epoch"
+            raise AttitudeValueError(
+                f"epoch: {which} {format_epoch(e)} differs from the epoch "
+                f"{format_epoch(carried.epoch)} of the orbit the spacecraft carries "
+                "(spacecraft.orbit.epoch); one run has one time origin: leave epoch=None and "
+                "build the orbits with the same epoch"
+            )
+        e = carried.epoch
+    out: dict[str, Any] = {}
     if e is not None:
         out["epoch"] = format_epoch(e)
     if orbit is not None and hasattr(orbit, "describe"):

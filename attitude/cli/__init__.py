@@ -16,7 +16,7 @@ import sys
 import warnings
 
 from .._progress import Progress
-from ._common import EXIT_BAD_INPUT, EXIT_FAILURE, BadInput, _show_warning
+from ._common import EXIT_BAD_INPUT, EXIT_BROKEN_PIPE, EXIT_FAILURE, BadInput, _show_warning
 from ._figures import cmd_export, cmd_plot, cmd_view
 from ._info import cmd_info
 from ._parser import build_parser
@@ -95,6 +95,14 @@ def _run_command(args: argparse.Namespace) -> int:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
             return int(globals()[f"cmd_{args.command}"](args))  # (a test may patch one)
+    except BrokenPipeError:
+        # the reader of the output went away (`attitude info out.nc | head`): stop quietly, as
+        # a command killed by SIGPIPE does (and let nothing flush to the closed pipe at exit)
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError):  # no real stdout (a test's capture)
+            pass
+        return EXIT_BROKEN_PIPE
     except Exception as exc:
         if _interrupt.requested():  # an error caused by the interrupt (e.g. numba's compiler
             raise KeyboardInterrupt from None  # stopped midway): report the interrupt

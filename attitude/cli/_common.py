@@ -11,6 +11,8 @@ from typing import Any
 import numpy as np
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+#: The status of a command whose output's reader went away (128 + SIGPIPE, as the shell's).
+EXIT_BROKEN_PIPE = 141
 
 
 class BadInput(Exception):

@@ -294,7 +294,7 @@ class EnsembleSpec:
         every = crafts if isinstance(crafts, list) else [crafts]
         self.method = method = ensemble_method(self.requested, (pot,), crafts=every, events=events)
         span = np.array([tt[0], tt[-1]], dtype=np.float64)
-        run_attrs = epoch_attrs(pot, epoch)
+        run_attrs = epoch_attrs(pot, epoch, first.orbit if first.coupled else None)
         pot = for_span(pot, span)
         if events is not None:
             self.events = _events(events, tt, pot, epoch)

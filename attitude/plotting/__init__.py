@@ -185,11 +185,11 @@ def plot_result(
         PANELS[name](ax, ctx)
         ax.grid(alpha=0.3)
     tv = ctx.t
+    axes[-1].set_xlim(float(np.nanmin(tv)), float(np.nanmax(tv)))
     shaded = shade_eclipses(axes, ctx.shadow, axis)
     mark_events(axes, ctx.events, axis)
     moded = mark_modes(axes, d, axis)
     axes[-1].set_xlabel(axis.text)
-    axes[-1].set_xlim(float(np.nanmin(tv)), float(np.nanmax(tv)))
     notes = []
     if shaded:
         notes.append("grey: the Earth's shadow (light: penumbra, dark: umbra)")

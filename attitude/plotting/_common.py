@@ -137,16 +137,20 @@ def mark_events(axes: list, events: list[Event], axis: TimeAxis, *, names: bool 
     if not names:
         return
     top = axes[0]
+    lo, hi = top.get_xlim()
     seen: set[str] = set()
     for e in events:
         if e.name in seen and len(events) > 6:
             continue
         seen.add(e.name)
         arrow = "↑" if e.direction > 0 else "↓"
+        x = e.t / axis.scale
+        # beside the line, inside the panel (a terminal event is the run's last instant)
+        right = x > lo + 0.97 * (hi - lo)
         top.annotate(
-            f"{e.name} {arrow}", (e.t / axis.scale, 1.0), xycoords=("data", "axes fraction"),
-            xytext=(2, -2), textcoords="offset points", rotation=90, va="top", ha="left",
-            fontsize=7, color=colors[e.name],
+            f"{e.name} {arrow}", (x, 1.0), xycoords=("data", "axes fraction"),
+            xytext=(-2 if right else 2, -2), textcoords="offset points", rotation=90, va="top",
+            ha="right" if right else "left", fontsize=7, color=colors[e.name],
         )  # fmt: skip
 
 

@@ -250,7 +250,8 @@ def _build(data: dict[str, Any], text: str, default_name: str, path: Path | None
     # [events]
     events = None
     if "events" in data:
-        events = _events(r, r.table("events"), orbit)
+        events = _events(r, r.table("events"), orbit, epoch)
+        _check_event_method(method, craft is not None)
 
     return Scenario(
         name=name,
@@ -527,7 +528,21 @@ def _initial(r: _Reader, it, form, frame, body, orbit, t0) -> tuple[np.ndarray, 
     return q, C.momenta_from_angular_velocity(q, omega, body)
 
 
-def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:
+def _check_event_method(method: str, spacecraft: bool) -> None:
+    """The [integrator] method of a scenario with [events]: one that locates them."""
+    from .._run.plan import EVENT_METHODS
+
+    allowed = ("auto", "dop853") if spacecraft else ("auto", *EVENT_METHODS)
+    if method not in allowed:
+        what = "a spacecraft's events are" if spacecraft else "events are"
+        raise _fail(
+            "integrator.method",
+            f"{what} located by {', '.join(repr(m) for m in allowed[1:])} ('auto' picks one); "
+            f"got {method!r}: change the method or remove [events]",
+        )
+
+
+def _events(r: _Reader, table: dict[str, Any], orbit: Any, epoch: Any = None) -> list:
     """The ``[events.<name>]`` subtables as attitude.events objects (errors name the key)."""
     from .. import events as E
 
@@ -593,4 +608,10 @@ def _events(r: _Reader, table: dict[str, Any], orbit: Any) -> list:
             raise
         except (ValueError, TypeError) as exc:
             raise _fail(where, str(exc)) from None
+        if out[-1].needs_epoch and epoch is None and getattr(orbit, "epoch", None) is None:
+            raise _fail(
+                where,
+                f"{typ} needs a date (the Sun's position, the Earth's rotation): add epoch = "
+                "'2024-03-20T12:00:00' to [scenario] (or give the [orbit] an epoch)",
+            )
     return out
