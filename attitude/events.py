@@ -152,6 +152,10 @@ class Event:
     def _describe(self) -> str:
         return self.kind
 
+    def _passes(self) -> str:
+        """How g's quantity passes its threshold in this event's direction."""
+        return {"rising": ">", "falling": "<"}.get(self.direction, "crosses")
+
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.describe()}>"
 
@@ -256,7 +260,10 @@ class PointingExceeds(Event):
 
     def _describe(self) -> str:
         ax = "attitude" if self.axis is None else f"axis {np.round(self.axis, 12).tolist()}"
-        return f"{ax} error from {self.frame.describe()} > {math.degrees(self.angle):.6g} deg"
+        return (
+            f"{ax} error from {self.frame.describe()} {self._passes()} "
+            f"{math.degrees(self.angle):.6g} deg"
+        )
 
     def _numbers(self, ctx, at):
         frame_at = at + 6
@@ -288,7 +295,7 @@ class RateExceeds(Event):
         self.rate = r
 
     def _describe(self) -> str:
-        return f"|omega| > {self.rate:.6g} rad/s"
+        return f"|omega| {self._passes()} {self.rate:.6g} rad/s"
 
     def _numbers(self, ctx, at):
         return [self.rate], []

@@ -514,3 +514,12 @@ def test_event_kernels_run_with_jit_disabled(tmp_path):
     nojit = np.load(path)
     exact = [math.pi / 6, 5 * math.pi / 6, 1.0 / 0.3]
     np.testing.assert_allclose(nojit, [exact, exact], rtol=0, atol=1e-9)
+
+
+def test_descriptions_say_which_way_the_threshold_is_passed():
+    rate = [events.RateExceeds(0.1, direction=d).describe() for d in ("rising", "falling", "both")]
+    assert rate == ["rate_exceeds: |omega| > 0.1 rad/s (rising)",
+                    "rate_exceeds: |omega| < 0.1 rad/s (falling)",
+                    "rate_exceeds: |omega| crosses 0.1 rad/s (both)"]  # fmt: skip
+    err = events.PointingExceeds(frames.inertial(), None, math.radians(20), direction="falling")
+    assert " < 20 deg (falling)" in err.describe()
