@@ -52,14 +52,9 @@ def live_slots(a: np.ndarray, token: float) -> list[int]:
     return [int(o) for o in hits if o >= 0 and a[o + _sk.TYPE] == _sk.TYPE_EPHEMERIS]
 
 
-def _make_live(a: np.ndarray, token: float, what: str) -> list[int]:
+def _make_live(a: np.ndarray, token: float) -> list[int]:
     """Turn the copies of the orbit's table in ``a`` into live orbits; their offsets."""
     slots = live_slots(a, token)
-    if len(slots) > _kc.MAX_SLOTS:
-        raise AttitudeValueError(
-            f"{what}: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run whose "
-            "orbit is propagated with the attitude"
-        )
     for o in slots:
         a[o + _sk.TYPE] = _sk.TYPE_LIVE
         a[o + _sk.T_MIN] = -np.inf
@@ -67,13 +62,29 @@ def _make_live(a: np.ndarray, token: float, what: str) -> list[int]:
     return slots
 
 
+def _attach_live(
+    a: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any, what: str, n_at: int, list_at: int
+) -> None:
+    """Turn the copies in ``a`` of the orbit tables marked with ``tokens`` (default the
+    spacecraft's orbit's mark) into live orbits, listed in the spacecraft block's coupled block:
+    their number at ``n_at``, their offsets from ``list_at``."""
+    co = int(sc[_ka.SC.COUPLED])
+    slots: list[int] = []
+    for token in tokens or (craft.orbit.token,):
+        slots += _make_live(a, token)
+    if len(slots) > _kc.MAX_SLOTS:
+        raise AttitudeValueError(
+            f"{what}: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run whose "
+            "orbit is propagated with the attitude"
+        )
+    sc[co + n_at] = len(slots)
+    sc[co + list_at : co + list_at + len(slots)] = slots
+
+
 def attach_software(fw: np.ndarray, sc: np.ndarray, craft: Any) -> None:
     """Turn the flight software's copies of the orbit (guidance, sensors) into live orbits,
     which the tick writes from the state (listed in the spacecraft block)."""
-    co = int(sc[_ka.SC.COUPLED])
-    slots = _make_live(fw, craft.orbit.token, "software")
-    sc[co + _kc.COUPLED.N_FSW] = len(slots)
-    sc[co + _kc.COUPLED.FSW : co + _kc.COUPLED.FSW + len(slots)] = slots
+    _attach_live(fw, sc, craft, None, "software", _kc.COUPLED.N_FSW, _kc.COUPLED.FSW)
 
 
 def attach_events(evd: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -> None:
@@ -81,17 +92,7 @@ def attach_events(evd: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = Non
     frames; the tables marked with ``tokens``, default the spacecraft's orbit's mark) into live
     orbits, which the events write from the state before they are evaluated (listed in the
     spacecraft block)."""
-    co = int(sc[_ka.SC.COUPLED])
-    slots: list[int] = []
-    for token in tokens or (craft.orbit.token,):
-        slots += _make_live(evd, token, "events")
-    if len(slots) > _kc.MAX_SLOTS:
-        raise AttitudeValueError(
-            f"events: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run whose "
-            "orbit is propagated with the attitude"
-        )
-    sc[co + _kc.COUPLED.N_EV] = len(slots)
-    sc[co + _kc.COUPLED.EV : co + _kc.COUPLED.EV + len(slots)] = slots
+    _attach_live(evd, sc, craft, tokens, "events", _kc.COUPLED.N_EV, _kc.COUPLED.EV)
 
 
 def attach(params: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -> None:
@@ -99,17 +100,8 @@ def attach(params: np.ndarray, sc: np.ndarray, craft: Any, tokens: Any = None) -
     the spacecraft's orbit's mark) into live orbits and list them in the spacecraft block
     ``sc`` (its coupled block); the mutual potential's force on when the model has a gravity
     gradient, the drag and radiation models' forces listed."""
+    _attach_live(params, sc, craft, tokens, "potential", _kc.COUPLED.N_SLOTS, _kc.COUPLED.SLOTS)
     co = int(sc[_ka.SC.COUPLED])
-    slots: list[int] = []
-    for token in tokens or (craft.orbit.token,):
-        slots += _make_live(params, token, "potential")
-    if len(slots) > _kc.MAX_SLOTS:
-        raise AttitudeValueError(
-            f"potential: {len(slots)} copies of the orbit; at most {_kc.MAX_SLOTS} in a run "
-            "whose orbit is propagated with the attitude"
-        )
-    sc[co + _kc.COUPLED.N_SLOTS] = len(slots)
-    sc[co + _kc.COUPLED.SLOTS : co + _kc.COUPLED.SLOTS + len(slots)] = slots
     blocks = _term_blocks(params)
     gg = any(k == _kp.KIND_GRAVITY_GRADIENT for _, k in blocks)
     sc[co + _kc.COUPLED.GG] = 1.0 if gg else 0.0

@@ -423,22 +423,9 @@ def _run(
         if hold_driver:  # its last argument: the event arrays (the record buffers can grow)
             extra = (evb.kernel_args(evd),)
         return kernel(
-            P,
-            y0,
-            t0,
-            t_out,
-            y_o,
-            work,
-            tstate,
-            counters,
-            rtol,
-            atol,
-            t_end,
-            h,
-            nmax,
-            src.ctl,
+            P, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax, src.ctl,
             *extra,
-        )
+        )  # fmt: skip
 
     t0, t_end = float(t[0]), float(t[m - 1])
     done = 0
