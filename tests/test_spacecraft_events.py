@@ -102,6 +102,33 @@ def test_impact_with_events_and_in_chunks():
     np.testing.assert_array_equal(got.q.values, ds.q.values)
 
 
+@pytest.mark.parametrize("terminal", [False, True])
+def test_events_of_the_step_that_reaches_the_surface(terminal):
+    # The arc's last step (about 30 s) ends at the surface, 297.87 s: an event at 297.5 s in it
+    # is located (a terminal one stops the run there, not at the surface); one at 297.9 s,
+    # below the surface, is not.
+    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH)
+    sc = Spacecraft(RigidBody([10.0, 12.0, 14.0]), orbit=o, mass=100.0)
+    t = np.linspace(0.0, 3600.0, 361)
+
+    def before(t, q, omega):
+        return t - 297.5
+
+    def after(t, q, omega):
+        return t - 297.9
+
+    events = [attitude.events.Custom(before, terminal=terminal), attitude.events.Custom(after)]
+    ds = attitude.propagate(sc, Q_ID, np.zeros(4), t, method="dop853", rtol=1e-12, atol=1e-12,
+                            events=events)  # fmt: skip
+    assert list(ds.detector_count.values) == [1, 0]
+    assert abs(float(ds.event_time[0]) - 297.5) < 1e-9
+    if terminal:
+        assert ds.attrs["status"] == "event" and "impact_time" not in ds.attrs
+        assert ds.time.values[-1] == ds.event_time.values[0]
+    else:
+        assert ds.attrs["event"] == "impact" and 297.8 < ds.attrs["impact_time"] < 297.9
+
+
 def _closed_loop():
     """Basilisk's scenarioAttitudeFeedbackRW (the shipped scenario), two minutes of it."""
     sc = attitude.scenario.load(SCENARIOS / "rw_inertial_pointing.toml")

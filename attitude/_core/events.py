@@ -329,7 +329,8 @@ def locate_in_step(
     rhs, at, event, params, evd, evs, ev_count, rec_t, rec_k, rec_y, work, tstate, counters, scr
 ):
     """Find, refine and record the events of the step just accepted (``at(event, j, t, y,
-    params, evd)``: g_j at a state of the integrated system, :func:`event_at` for eq. 7).
+    params, evd)``: g_j at a state of the integrated system, :func:`event_at` for eq. 7), up
+    to ``tstate[0]`` (the step's end, or where it was cut short, its state in the work row).
 
     Returns (stopped, t_stop): a terminal event's root, where the run ends; the state there in
     ``scr[0]``.
@@ -358,6 +359,8 @@ def locate_in_step(
                 yb[i] = work[WORK.Y, i]
         else:
             tb = t_old + h * (s / nsub)
+            if direction * (t_new - tb) <= 0.0:  # a step cut short (at the Earth's surface)
+                continue
             _interpolate(work, tstate, tb, yb)
         for j in range(n_ev):
             gb[j] = at(event, j, tb, yb, params, evd)

@@ -330,13 +330,18 @@ def holds_run(
         )
         if status != SUCCESS:
             return status, k
-        if sc[SC.COUPLED] >= 0.0 and below_surface(sc, tstate[0], y):
-            # the surface, found by bisection on the step's dense output
+        impact = sc[SC.COUPLED] >= 0.0 and below_surface(sc, tstate[0], y)
+        if impact:
+            # the surface, found by bisection on the step's dense output, ends the step: the
+            # events are located up to it (a terminal one before it stops the run there)
             _dense_coefficients(RHS, P, work, tstate, counters)
-            t_stop = crossing(below_surface, sc, work, tstate, work[WORK.YT])
-            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
-                         work[WORK.YT], STOP_ROW)  # fmt: skip
+            tstate[0] = crossing(below_surface, sc, work, tstate, work[WORK.YT])
+            for i in range(n):
+                y[i] = work[WORK.YT, i]
         stopped, t_stop, y_stop = EV_LOCATE(RHS, P, work, tstate, counters, ev)
+        if impact and not stopped:
+            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, tstate[0],
+                         y, STOP_ROW)  # fmt: skip
         if stopped:
             tstate[1] = h_abs
             return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
