@@ -205,3 +205,23 @@ def test_ensemble_of_coupled_members_sees_each_propagated_orbit():
         one = attitude.propagate(crafts[k], Q_ID, np.zeros(4), t, commands=cmds[k], **kw)
         assert np.array_equal(firsts[k], one.detector_first_time.values)
     assert firsts[2, 0] - firsts[0, 0] > 5.0  # the burn moved the eclipse
+
+
+def test_many_occurrences_grow_the_record_buffers():
+    # The wheel torque flips sign every 5 s: |ω| = u (t − 10k)/(I₃ − J) rises and falls in each
+    # 10 s period and passes `rate` twice, 140 times in 700 s (the records start with room for
+    # 64): every crossing at its closed form, in order.
+    body = RigidBody([10.0, 10.0, 8.0], units="kg m2")
+    J, u, rate = 0.05, 0.01, 3e-3
+    craft = Spacecraft(body, [ReactionWheel([0, 0, 1], J)])
+    flips = np.arange(0.0, 700.0, 5.0)
+    cmd = CommandSchedule(flips, wheel_torque=u * (1 - 2 * (np.arange(flips.size) % 2))[:, None])
+    t = np.linspace(0.0, 700.0, 71)
+    ds = attitude.propagate(craft, Q_ID, np.zeros(4), t, commands=cmd, rtol=1e-12, atol=1e-15,
+                            events=[RateExceeds(rate, direction="both")])  # fmt: skip
+    dt = rate * (8.0 - J) / u
+    start = 10.0 * np.arange(70)
+    want = np.sort(np.concatenate([start + dt, start + 10.0 - dt]))
+    assert ds.sizes["event"] == 140
+    np.testing.assert_allclose(ds.event_time.values, want, rtol=0, atol=1e-10)
+    assert list(ds.event_direction.values[:4]) == [1, -1, 1, -1]
