@@ -73,7 +73,6 @@ def main(argv: list[str] | None = None) -> int:
         with _interrupt.handling(then_ignore=argv is None):
             code = _run_command(args)
             _interrupt.check()  # a request that was swallowed after the last check
-            return code
     except KeyboardInterrupt:
         written = getattr(args, "_written", None)
         if written is not None:
@@ -86,6 +85,21 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     finally:
         _interrupt.clear()
+    if argv is None:  # the command, done: its files are closed; skip the interpreter's teardown
+        _exit_after_atexit(code)
+    return code
+
+
+def _exit_after_atexit(code: int) -> None:
+    """End the command's process with ``code`` once the ``atexit`` functions have run (logging
+    flushed, worker pools joined), without the interpreter's teardown of every module: freeing
+    numba's compiled libraries and LLVM engines took 0.5 s of each run of the README's main job
+    (2.95 s against 2.45 s, measured in turn)."""
+    import atexit
+
+    with contextlib.suppress(Exception):
+        atexit._run_exitfuncs()
+    _exit_now(code)
 
 
 def _run_command(args: argparse.Namespace) -> int:
