@@ -205,7 +205,7 @@ def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n, stop_row):
 
 @jit(inline="always")
 def no_events_begin(P, t, y, ev):
-    """The event hooks of a copy of :func:`holds_run` without events (``ev = ()``)."""
+    """The event hooks of the template :func:`holds_run` (never compiled itself): none."""
 
 
 @jit(inline="always")
@@ -221,16 +221,16 @@ def no_events_locate(rhs, P, work, tstate, counters, ev):
 #: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
 #: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
 RHS = None
-#: The events of a copy (``ev`` its event arrays, :mod:`attitude._core.spacecraft_events`):
-#: ``EV_BEGIN(P, t0, y0, ev)`` their values at the start, ``EV_ROOM(ev)`` whether the record
-#: buffers hold one more step's occurrences, ``EV_LOCATE(rhs, P, work, tstate, counters, ev)
-#: -> (stopped, t_stop, y_stop)`` after each accepted step (a terminal event's time and the
-#: state there). The single runs' copies bind attitude._core.spacecraft_events (events as data:
-#: none is an empty set); the ensemble members', these no-ops (``ev = ()``).
 #: Whether the state at a stop gets a row of its own after the samples before it (a single
 #: run: the Dataset's last sample, at the stop's time) or not (an ensemble member: its rows are
 #: the shared samples' times; its status and ``tstate[0]`` say where it stopped).
 STOP_ROW = True
+#: The events of a copy (``ev`` its event arrays, :mod:`attitude._core.spacecraft_events`):
+#: ``EV_BEGIN(P, t0, y0, ev)`` their values at the start, ``EV_ROOM(ev)`` whether the record
+#: buffers hold one more step's occurrences, ``EV_LOCATE(rhs, P, work, tstate, counters, ev)
+#: -> (stopped, t_stop, y_stop)`` after each accepted step (a terminal event's time and the
+#: state there). Every copy of the entry points binds attitude._core.spacecraft_events' (events
+#: as data: none is an empty set); these no-ops are the template's.
 EV_BEGIN = no_events_begin
 EV_ROOM = no_events_room
 EV_LOCATE = no_events_locate
