@@ -54,6 +54,9 @@ def test_a_failed_run_raises_with_its_partial():
         results.build(s, failed)
     assert err.value.partial.sizes["time"] == 4 and err.value.time == 0.75
     assert np.array_equal(err.value.partial.q.values, good.y[:4, :4])
+    # how a run ended is on every Dataset: a complete one says so; a partial one does not
+    assert results.build(s, good).attrs["status"] == "success"
+    assert "status" not in err.value.partial.attrs
 
 
 def test_finished_samples_are_handed_out_in_chunks_when_not_streamed():

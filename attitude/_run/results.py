@@ -71,6 +71,9 @@ def build(spec: RunSpec, result: RunResult) -> xr.Dataset | Trajectory:
     sc_run = problem.spacecraft
     if sc_run is not None and sc_run.program is not None:
         ds = add_tick_variables(ds, sc_run)  # (streamed: on the last sample's Dataset)
+    if isinstance(ds, xr.Dataset) and result.status in (_rk.SUCCESS, _rk.EVENT):
+        # how the run ended, on every run ("event": a terminal event, or the Earth's surface)
+        ds.attrs.setdefault("status", "success" if result.status == _rk.SUCCESS else "event")
     if result.status not in (_rk.SUCCESS, _rk.EVENT):
         n = result.first + result.y.shape[0]
         t_fail = result.t_stop
