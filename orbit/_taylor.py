@@ -63,7 +63,10 @@ from ._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from ._shared_jit import jit
 from ._taylor_field import cauchy, field_order, power_order
 
-__all__ = ["PMAX", "ROWS", "dense_eval", "n_rows", "new_state", "order_from_tolerance", "run"]
+__all__ = [
+    "PMAX", "ROWS", "dense_eval", "jorba_zou_factor", "jorba_zou_order", "n_rows", "new_state",
+    "order_from_tolerance", "run",
+]  # fmt: skip
 
 #: Highest order (rtol ≥ 1e-15 gives p ≤ 19).
 PMAX = 24
@@ -110,10 +113,24 @@ def new_state(n_max: int, m_max: int, n_bodies: int):
 
 
 @jit
-def order_from_tolerance(rtol):
-    """Jorba & Zou's order p = ⌈−½ ln ε + 1⌉ (eq. 3.8), clipped to [2, PMAX]."""
+def jorba_zou_order(rtol, pmax):
+    """Jorba & Zou's order p = ⌈−½ ln ε + 1⌉ (eq. 3.8), clipped to [2, pmax] (the attitude's
+    Taylor method shares it, with its own pmax)."""
     p = int(math.ceil(-0.5 * math.log(rtol) + 1.0))  # noqa: RUF046 (numba: float ceil)
-    return min(max(p, 2), PMAX)
+    return min(max(p, 2), pmax)
+
+
+@jit
+def jorba_zou_factor(p):
+    """Jorba & Zou's step factor exp(−2 − 0.7/(p − 1)) of order p (their safety factor
+    exp(−0.7/(p − 1)))."""
+    return math.exp(-2.0 - 0.7 / (p - 1.0))
+
+
+@jit
+def order_from_tolerance(rtol):
+    """:func:`jorba_zou_order` up to this module's PMAX."""
+    return jorba_zou_order(rtol, PMAX)
 
 
 @jit(inline="always")
@@ -455,7 +472,7 @@ def run(d, y0, t0, t_out, y_out, S, F, tstate, counters, rtol, atol, t_stop, max
         tstate[2] = t0
         p = order_from_tolerance(rtol)
         tstate[3] = p
-        tstate[4] = math.exp(-2.0 - 0.7 / (p - 1.0))
+        tstate[4] = jorba_zou_factor(p)
         counters[3] = 1
         counters[4] = 0
     p = int(tstate[3])

@@ -190,15 +190,17 @@ def _powers(S, F, k, f0, pl, m1):
         im[k, m] = c2
 
 
+@jit(inline="always")
+def _combination_planes(F, pl):
+    """The planes of X1ₘ, Y1ₘ, X3ₘ, Y3ₘ, X4ₘ, Y4ₘ (rows: orders)."""
+    return (F[pl + PLANES.X1], F[pl + PLANES.Y1], F[pl + PLANES.X3], F[pl + PLANES.Y3],
+            F[pl + PLANES.X4], F[pl + PLANES.Y4])  # fmt: skip
+
+
 @jit
 def _combinations(d, F, k, nmax, mmax, pl):
     """Order k of X1ₘ .. Y4ₘ, the linear combinations of the Bₙₘ over n (module docstring)."""
-    x1 = F[pl + PLANES.X1]
-    y1 = F[pl + PLANES.Y1]
-    x3 = F[pl + PLANES.X3]
-    y3 = F[pl + PLANES.Y3]
-    x4 = F[pl + PLANES.X4]
-    y4 = F[pl + PLANES.Y4]
+    x1, y1, x3, y3, x4, y4 = _combination_planes(F, pl)
     m1 = mmax + 1
     co = int(d[FORCES.C])
     so = int(d[FORCES.S])
@@ -236,12 +238,7 @@ def _products(F, k, pl, m1):
     their sums over m."""
     re = F[pl + PLANES.RE]
     im = F[pl + PLANES.IM]
-    x1 = F[pl + PLANES.X1]
-    y1 = F[pl + PLANES.Y1]
-    x3 = F[pl + PLANES.X3]
-    y3 = F[pl + PLANES.Y3]
-    x4 = F[pl + PLANES.X4]
-    y4 = F[pl + PLANES.Y4]
+    x1, y1, x3, y3, x4, y4 = _combination_planes(F, pl)
     acc = F[pl + PLANES.ACC]
     for i in range(2, 6):
         for m in range(m1):

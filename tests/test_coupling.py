@@ -124,13 +124,18 @@ def test_taylor_and_dop853_agree():
     assert np.max(np.abs(a.q - b.q)) < 1e-9
 
 
+def _sphere(o):
+    """A 50 kg sphere carrying ``o`` (no gravity-gradient torque, no force back): its inertia,
+    the spacecraft and an initial state."""
+    sph = np.array([10.0, 10.0, 10.0])
+    return (sph, Spacecraft(RigidBody(sph), orbit=o, mass=50.0), *_state(sph))
+
+
 def test_one_way_equals_coupled_when_nothing_acts_back():
     # A sphere feels no gravity-gradient torque and exerts no force back: the coupled orbit is
     # the NumericalOrbit's own (to the integrators' tolerances).
     o = _orbit(gravity=orbit.SphericalHarmonics(4), rtol=1e-13)
-    sph = np.array([10.0, 10.0, 10.0])
-    sc = Spacecraft(RigidBody(sph), orbit=o, mass=50.0)
-    q0, Q0 = _state(sph)
+    sph, sc, q0, Q0 = _sphere(o)
     t = np.linspace(0.0, 5400.0, 91)
     coupled = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method="dop853",
                                  rtol=1e-13, atol=1e-13)  # fmt: skip
@@ -148,9 +153,7 @@ def test_one_way_equals_coupled_to_round_off_at_the_taylor_limit():
     # Taylor), both at rtol 1e-15: a sphere exerts no force back, so they are one trajectory,
     # to the rounding of a few thousand steps (measured 3.8e-15 of |r| over three orbits).
     o = _orbit(method="taylor", rtol=1e-15, atol=1e-20)
-    sph = np.array([10.0, 10.0, 10.0])
-    sc = Spacecraft(RigidBody(sph), orbit=o, mass=50.0)
-    q0, Q0 = _state(sph)
+    _, sc, q0, Q0 = _sphere(o)
     t = np.linspace(0.0, 17_500.0, 31)
     coupled = attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(o), method="taylor",
                                  rtol=1e-15, atol=1e-20)  # fmt: skip

@@ -122,9 +122,12 @@ def test_backwards_and_orbit_interface():
     assert isinstance(o, orbit.Orbit)
 
 
-def test_impact_stops_the_run(tmp_path):
-    # A ballistic arc from 200 km: it comes down within the hour.
-    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH)
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_impact_stops_the_run(method):
+    # A ballistic arc from 200 km over a 4 × 4 field: it comes down within the hour (the
+    # Taylor series where DOP853 does).
+    kw = {"gravity": orbit.SphericalHarmonics(4)}
+    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH, method=method, **kw)
     t = np.linspace(0.0, 3600.0, 361)
     ds = o.propagate(t)
     assert ds.attrs["status"] == "impact"
@@ -132,12 +135,17 @@ def test_impact_stops_the_run(tmp_path):
     assert ds.time.values[-1] <= ti < 3600.0
     with pytest.raises(orbit.Impact) as exc:
         o.position(3600.0)
+    assert exc.value.time == ti
     state = exc.value.state
     d = o._forces.cover(0.0, ti)
     g = np.empty(1)
     _fk.surface_loop(d, np.array([ti]), state[None, :3].copy(), g)
     assert abs(g[0]) < 1e-12
     assert np.all(o.radius(np.linspace(0.0, ds.time.values[-1], 5)) > 6356.0)
+    if method == "taylor":  # the same surface crossing as DOP853 at a tight tolerance
+        ref = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH, rtol=1e-13,
+                                   atol=1e-12, **kw).propagate(t)  # fmt: skip
+        assert abs(ref.attrs["impact_time"] - ti) < 1e-6
 
 
 def test_oem_round_trip(tmp_path):

@@ -1,6 +1,7 @@
 """orbit.NumericalOrbit(method="taylor"): the orbit's Taylor-series integrator (orbit/_taylor.py,
 orbit/_taylor_field.py) against DOP853, Kepler, Orekit, the conserved quantities of a uniformly
-turning Earth, and the interface DOP853's orbit has (tables, impact, refusals)."""
+turning Earth, and the interface DOP853's orbit has (tables, refusals; the impact in
+tests/test_numerical.py, for both methods)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,6 @@ import numpy as np
 import pytest
 
 import orbit
-from orbit import _force_kernels as _fk
 
 EPOCH = "2026-03-20T00:00:00"
 INC = math.radians(51.6)
@@ -135,27 +135,6 @@ def test_backwards_matches_dop853():
     b = _taylor(gravity=g, rtol=1e-13).propagate(t)
     assert np.array_equal(b.position.values[3], np.array(R0) * 1e3)
     assert np.max(np.abs(a.position.values - b.position.values)) < 1e-5
-
-
-def test_impact_stops_the_run():
-    # tests/test_numerical.py's ballistic arc from 200 km.
-    kw = {"gravity": orbit.SphericalHarmonics(4)}
-    o = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH, method="taylor", **kw)
-    t = np.linspace(0.0, 3600.0, 361)
-    ds = o.propagate(t)
-    assert ds.attrs["status"] == "impact"
-    ti = ds.attrs["impact_time"]
-    assert ds.time.values[-1] <= ti < 3600.0
-    with pytest.raises(orbit.Impact) as exc:
-        o.position(3600.0)
-    assert exc.value.time == ti
-    state = exc.value.state
-    g = np.empty(1)
-    _fk.surface_loop(o._forces.cover(0.0, ti), np.array([ti]), state[None, :3].copy(), g)
-    assert abs(g[0]) < 1e-12
-    ref = orbit.NumericalOrbit([6578.0, 0, 0], [0.5, 3.0, 0.0], EPOCH, rtol=1e-13, atol=1e-12,
-                               **kw).propagate(t)  # fmt: skip
-    assert abs(ref.attrs["impact_time"] - ti) < 1e-6
 
 
 @pytest.mark.parametrize("method", ["rk4", "Taylor series", 3, None])

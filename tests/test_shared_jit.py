@@ -27,15 +27,10 @@ pytestmark = pytest.mark.skipif(sj.JIT_DISABLED, reason="kernels not compiled")
 
 _ROOT = Path(sj.__file__).resolve().parent.parent
 
-# orbit._kernels imports orbit._kepler_equation, not the reverse: mean_anomaly (of the first)
-# is keyed on both sources, reduce_angle (of the second) on its own.
-_PROBE = textwrap.dedent(
+#: The start of each child script: ``compiled``, the functions numba compiles in it.
+_LISTEN = textwrap.dedent(
     """
-    import json, sys
-    import numpy as np
     from numba.core import event
-    from orbit._shared_jit import will_compile
-    from orbit import _kepler_equation as ke, _kernels as k
     compiled = []
     class L(event.Listener):
         def on_start(self, ev):
@@ -43,6 +38,16 @@ _PROBE = textwrap.dedent(
         def on_end(self, ev):
             pass
     event.register("numba:compile", L())
+    """
+)
+# orbit._kernels imports orbit._kepler_equation, not the reverse: mean_anomaly (of the first)
+# is keyed on both sources, reduce_angle (of the second) on its own.
+_PROBE = _LISTEN + textwrap.dedent(
+    """
+    import json, sys
+    import numpy as np
+    from orbit._shared_jit import will_compile
+    from orbit import _kepler_equation as ke, _kernels as k
     out = {"ke": will_compile(ke.reduce_angle), "k": will_compile(k.mean_anomaly)}
     ke.reduce_angle(7.0)
     k.mean_anomaly(np.array([7e6, 0.1, 0.5, 0.2, 0.3, 0.4, 1.0, 0.0, 1e-3, 0.0]), 10.0)
@@ -100,40 +105,24 @@ def test_editing_a_module_recompiles_only_its_importers(tmp_path):
 
 # A process that compiles a kernel under its lock, told when to start (stdin), and one that
 # calls the same kernel meanwhile: the second waits and loads what the first saved.
-_LOCKER = textwrap.dedent(
+_LOCKER = _LISTEN + textwrap.dedent(
     """
     import sys
-    from numba.core import event
     from orbit import _kepler_equation as ke
     from orbit._shared_jit import _compile_lock
-    n = []
-    class L(event.Listener):
-        def on_start(self, ev):
-            n.append(ev.data["dispatcher"].py_func.__qualname__)
-        def on_end(self, ev):
-            pass
-    event.register("numba:compile", L())
     with _compile_lock(ke.reduce_angle):
         print("locked", flush=True)
         sys.stdin.readline()
         ke.reduce_angle(7.0)  # this process holds the lock: no wait for itself
-    print(sorted(set(n)), flush=True)
+    print(sorted(set(compiled)), flush=True)
     """
 )
-_WAITER = textwrap.dedent(
+_WAITER = _LISTEN + textwrap.dedent(
     """
-    from numba.core import event
     from orbit import _kepler_equation as ke
-    n = []
-    class L(event.Listener):
-        def on_start(self, ev):
-            n.append(ev.data["dispatcher"].py_func.__qualname__)
-        def on_end(self, ev):
-            pass
-    event.register("numba:compile", L())
     print("ready", flush=True)
     ke.reduce_angle(7.0)
-    print(sorted(set(n)), flush=True)
+    print(sorted(set(compiled)), flush=True)
     """
 )
 

@@ -90,6 +90,7 @@ from orbit import _state_kernels as _SK
 from orbit._layout import Field, Gap, layout
 from orbit._rk import NONFINITE, STEP_TOO_SMALL, SUCCESS, TOO_MANY_STEPS
 from orbit._shared_jit import jit
+from orbit._taylor import jorba_zou_factor, jorba_zou_order
 
 from .fma import fma as F
 from .potentials import (
@@ -151,7 +152,6 @@ RECIPROCALS = np.array([1.0 / (k + 1.0) for k in range(PMAX + 1)])
 WORK_ROWS = PMAX + 2
 
 _EPS = 2.220446049250313e-16
-_SAFETY_EXP = 0.7  # Jorba & Zou's safety factor exp(−0.7/(p − 1))
 
 
 def new_state():
@@ -161,16 +161,15 @@ def new_state():
 
 @jit
 def order_from_tolerance(rtol):
-    """Jorba & Zou's order p = ⌈−½ ln ε + 1⌉ (eq. 3.8), clipped to [2, PMAX]."""
-    p = int(math.ceil(-0.5 * math.log(rtol) + 1.0))  # noqa: RUF046 (numba: float ceil)
-    return min(max(p, 2), PMAX)
+    """Jorba & Zou's order (eq. 3.8, :func:`orbit._taylor.jorba_zou_order`) up to PMAX."""
+    return jorba_zou_order(rtol, PMAX)
 
 
 @jit
 def set_order(tstate, p):
     """Store the order p and Jorba & Zou's step factor exp(−2 − 0.7/(p − 1)) in ``tstate``."""
     tstate[3] = p
-    tstate[4] = math.exp(-2.0 - _SAFETY_EXP / (p - 1.0))
+    tstate[4] = jorba_zou_factor(p)
 
 
 @jit
