@@ -416,7 +416,12 @@ def _run(
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
     evb = EventBuffers(0 if problem.events is None else problem.events.n, n)
-    evd = _no_events() if problem.events is None else problem.events.data
+    if problem.events is None:
+        from ._core.spacecraft_events import no_events
+
+        evd = no_events()
+    else:
+        evd = problem.events.data
 
     def entry(params, y0, t0, t_out, y_o, work, tstate, counters, rtol, atol, t_end, h, nmax):
         extra = ()
@@ -504,15 +509,6 @@ def _run(
                          t_stop=t_stop, events=records, t_event=t_event)  # fmt: skip
     return RunResult(y_out[:done], int(status), msg, st, t_stop=t_stop, events=records,
                      t_event=t_event)  # fmt: skip
-
-
-def _no_events() -> np.ndarray:
-    """The event data of a run without events (attitude._core.events: none)."""
-    from ._core import events as _kev
-
-    evd = np.zeros(_kev.EV.SIZE)
-    evd[_kev.EV.NSUB] = 1.0
-    return evd
 
 
 def _terminal_event_at(events: Any, records: Any, t: float) -> bool:
@@ -676,18 +672,15 @@ def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, d
     and ``event_mass``."""
     import xarray as xr
 
-    from ._core import actuators as _ka
-    from .quaternion import conjugate, multiply
-
     sr: SpacecraftRun = problem.spacecraft
     y = np.ascontiguousarray(records.y[:, : sr.n_state])
-    sc = sr.sc
-    # ω = M (g − ℓ), g = ½ vec(q̃∘Q), ℓ = Σ h_k a_k (attitude._core.actuators.state_rate)
-    g = 0.5 * multiply(conjugate(y[:, :4]), y[:, 4:8])[:, 1:]
-    nw = int(sc[_ka.SC.NW])
-    axes = np.array([sc[_ka.SC.WHEELS + k * _ka.WHEEL.SIZE :][:3] for k in range(nw)])
-    ell = y[:, 8 : 8 + nw] @ axes.reshape(nw, 3)
-    omega = (g - ell) @ sc[_ka.SC.MINV : _ka.SC.MINV + 9].reshape(3, 3).T
+    # the samples' own diagnostics kernel (its ω; an event is recorded after a step, so a
+    # coupled run's live orbit copies hold a state for its energy, which is not used)
+    diag = np.empty((y.shape[0], 13))
+    if y.shape[0]:
+        _diagnostics_entry(problem).spacecraft_diagnostics(
+            np.ascontiguousarray(records.t), y, problem.params, sr.fresh_block(), diag
+        )
     more: dict[str, Any] = {}
     if sr.coupled:
         from ._coupling import orbit_variables
@@ -695,7 +688,7 @@ def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, d
         for name, var in orbit_variables(sr.spacecraft, y).items():
             attrs = {**var.attrs, "long_name": f"{var.attrs['long_name']} at the event"}
             more[f"event_{name}"] = xr.Variable(("event", *var.dims[1:]), var.values, attrs)
-    return omega, more
+    return diag[:, 0:3].copy(), more
 
 
 def _has_live_environment(sc: np.ndarray) -> bool:

@@ -21,12 +21,22 @@ continuous and only the commands jump.
 
 from __future__ import annotations
 
+import numpy as np
+
 from orbit._rk import WORK
 from orbit._shared_jit import jit, jit_generic
 
 from .actuators import SC, state_rate
 from .coupled import COUPLED, coupled_events
 from .events import EV, EVS, locate_in_step, reset_state
+
+
+def no_events() -> np.ndarray:
+    """The event data of a run without events (n = 0, one sample a step): what the drivers
+    get in its place."""
+    evd = np.zeros(EV.SIZE)
+    evd[EV.NSUB] = 1.0
+    return evd
 
 
 @jit_generic

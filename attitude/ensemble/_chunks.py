@@ -516,8 +516,9 @@ def _member_events(blk: dict[str, Any], sc: np.ndarray, n: int, events: Any) -> 
     made live orbits its state writes (listed in its block ``sc``)."""
     c = blk["y0"].shape[0]
     if events is None:
-        evd = np.zeros((c, _kev.EV.SIZE))
-        evd[:, _kev.EV.NSUB] = 1.0
+        from .._core.spacecraft_events import no_events
+
+        evd = np.ascontiguousarray(np.tile(no_events(), (c, 1)))
         n_ev = 0
     else:
         evd = np.ascontiguousarray(np.tile(events.data, (c, 1)))
