@@ -377,6 +377,7 @@ class Spacecraft:
             head = _kc.COUPLED.pack(
                 iy=8 + nw, forces=co + _kc.COUPLED.SIZE, pred=co + _kc.COUPLED.SIZE + forces.size,
                 mu=self.orbit.mu * 1e9, inertia=self.body.inertia, omega_earth=OMEGA_EARTH,
+                field_step=self.orbit.field_step if self.orbit.perturbed else 0.0,
             )  # fmt: skip
             path[_sk.E_H + 1] = 0.0  # (not the orbit's mark: this copy stays a table)
             sc[_ka.SC.COUPLED] = co

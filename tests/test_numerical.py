@@ -172,6 +172,8 @@ def test_oem_round_trip(tmp_path):
         ({"frame": "ITRS"}, "frame"),
         ({"third_bodies": ["pluto"]}, "body"),
         ({"gravity": "EGM2008"}, "gravity"),
+        ({"field_step": -1.0}, "field_step"),
+        ({"field_step": float("nan")}, "field_step"),
     ],
 )
 def test_bad_input(kwargs, match):

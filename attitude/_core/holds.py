@@ -60,7 +60,7 @@ from .actuators import (
     thruster_base,
     thrusters_off_at,
 )
-from .coupled import below_surface
+from .coupled import below_surface, field_due, field_reset, field_sample, field_step_end
 
 HS = layout(
     "hold driver state",
@@ -72,6 +72,7 @@ HS = layout(
     fail=Field(1, "", "why a command source stopped the run (STEP_FAILED)"),
     fail_n=Field(1, "", "a number about it"),
     stop=Field(1, "", "1: the run stops at tstate[0] (the surface, a terminal event)"),
+    sample=Field(1, "", "1: the last step ended at a sample of the coupled orbit's field"),
 )
 
 #: Statuses of a command source (:data:`BOUNDARY`).
@@ -272,6 +273,9 @@ def holds_run(
         hs[HS.PENDING] = 1.0
         hs[HS.HOLD_END] = math.nan
         hs[HS.STOP] = 0.0
+        hs[HS.SAMPLE] = 0.0
+        if sc[SC.COUPLED] >= 0.0:
+            field_reset(sc, int(sc[SC.COUPLED]), t0)
         counters[3] = 1
         counters[4] = 0
         EV_BEGIN(P, t0, y, ev)
@@ -298,19 +302,26 @@ def holds_run(
                 break
             record(sc, y_out[k], n)
             k += 1
-        if hs[HS.PENDING] != 0.0:
+        if hs[HS.PENDING] != 0.0 or hs[HS.SAMPLE] != 0.0:
             t = tstate[0]
-            bs = BOUNDARY(P, y, t, t_end, ctl)
-            if bs == BOUNDARY_NEEDS_COMMANDS:
-                tstate[1] = h_abs
-                return NEEDS_COMMANDS, k
-            if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
-                tstate[1] = h_abs
-                return bs, k
-            RHS(t, y, P, f)
-            counters[1] += 1
-            counters[4] = 0
+            fresh = hs[HS.PENDING] != 0.0
+            if fresh:
+                bs = BOUNDARY(P, y, t, t_end, ctl)
+                if bs == BOUNDARY_NEEDS_COMMANDS:
+                    tstate[1] = h_abs
+                    return NEEDS_COMMANDS, k
+                if bs != BOUNDARY_DONE:  # the source's own status (RECORDS_FULL, STEP_FAILED)
+                    tstate[1] = h_abs
+                    return bs, k
+            if sc[SC.COUPLED] >= 0.0:  # the field's samples (attitude._core.coupled)
+                if field_sample(sc, int(sc[SC.COUPLED]), t, y, t - tstate[2]):
+                    fresh = True
+            if fresh:
+                RHS(t, y, P, f)
+                counters[1] += 1
+                counters[4] = 0
             hs[HS.PENDING] = 0.0
+            hs[HS.SAMPLE] = 0.0
             continue
         if k == m:
             tstate[1] = h_abs
@@ -325,8 +336,11 @@ def holds_run(
             tstate[1] = h_abs
             return EVENT_BUFFER_FULL, k
         seg_end = hs[HS.SEG_END]
+        step_end = seg_end
+        if sc[SC.COUPLED] >= 0.0:
+            step_end = field_step_end(sc, int(sc[SC.COUPLED]), seg_end)
         status, h_abs = dop853_step(
-            RHS, P, work, tstate, counters, h_abs, 1.0, seg_end, rtol, atol, max_step
+            RHS, P, work, tstate, counters, h_abs, 1.0, step_end, rtol, atol, max_step
         )
         if status != SUCCESS:
             return status, k
@@ -348,3 +362,5 @@ def holds_run(
                          y_stop, STOP_ROW)  # fmt: skip
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0
+        elif sc[SC.COUPLED] >= 0.0 and field_due(sc, int(sc[SC.COUPLED]), tstate[0]):
+            hs[HS.SAMPLE] = 1.0

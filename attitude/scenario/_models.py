@@ -75,6 +75,7 @@ def _orbit(
             "earth_rotation",
             "rtol",
             "method",
+            "field_step",
         ),
     }[kind]
     for k in ot:
@@ -262,6 +263,7 @@ def _numerical(r: _Reader, ot: Mapping[str, Any], epoch: str | None, mu_q: Any) 
             earth_rotation=r.string(ot, "earth_rotation", "orbit", "iers"),
             rtol=r.number(ot, "rtol", "orbit", 1e-12),
             method=r.string(ot, "method", "orbit", "dop853"),
+            field_step=float(r.value(ot, "field_step", "orbit", "time", default=1.0)),
         )  # fmt: skip
     except O.OrbitError as exc:
         raise _fail(*_orbit_key(str(exc))) from None
@@ -273,7 +275,8 @@ def _orbit_key(msg: str) -> tuple[str, str]:
     name, sep, rest = msg.partition(": ")
     keys = {"body": "third_bodies", "gravity": "degree", "r0": "r0", "v0": "v0", "mu": "mu",
             "degree": "degree", "order": "order", "rtol": "rtol", "method": "method",
-            "earth_rotation": "earth_rotation", "epoch": "epoch"}  # fmt: skip
+            "field_step": "field_step", "earth_rotation": "earth_rotation",
+            "epoch": "epoch"}  # fmt: skip
     if sep and name in keys:
         return f"orbit.{keys[name]}", rest
     return "orbit", msg

@@ -165,6 +165,7 @@ _TABLES: dict[str, dict[str, str | None]] = {
         "earth_rotation": None,
         "rtol": None,
         "method": None,
+        "field_step": "time",
     },
     "time": {"start": "time", "stop": "time", "step": "time", "count": None, "unit": None},
     "integrator": {
