@@ -79,6 +79,35 @@ def test_source_stamp_follows_imports():
     assert "attitude.cli" not in sj._imports("attitude._core.entry_points")
 
 
+def test_import_scan_finds_what_pythons_parser_finds():
+    # The cache keys read each module's imports with a regular expression; Python's own parser
+    # (every Import and ImportFrom node, relative ones resolved) finds the same package modules
+    # in every module of both packages.
+    import ast
+
+    names = []
+    for pkg in ("orbit", "attitude"):
+        for path in sorted((_ROOT / pkg).rglob("*.py")):
+            rel = path.relative_to(_ROOT).with_suffix("")
+            names.append(".".join(rel.parts[:-1] if rel.name == "__init__" else rel.parts))
+    assert len(names) > 150
+    for name in names:
+        path = sj._module_file(name)
+        base = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        found = set()
+        for node in ast.walk(ast.parse(path.read_bytes())):
+            if isinstance(node, ast.Import):
+                found.update(a.name for a in node.names)
+            elif isinstance(node, ast.ImportFrom):
+                up = base.split(".")[: len(base.split(".")) - node.level + 1] if node.level else []
+                mod = ".".join(up + ([node.module] if node.module else []))
+                for a in node.names:
+                    sub = f"{mod}.{a.name}"
+                    found.add(sub if sj._module_file(sub) is not None else mod)
+        expected = {m for m in found if sj._module_file(m) is not None}
+        assert sj._imports(name) == expected, name
+
+
 def test_editing_a_module_recompiles_only_its_importers(tmp_path):
     tree = tmp_path / "src"
     for pkg in ("orbit", "attitude"):
