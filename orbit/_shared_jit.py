@@ -99,6 +99,7 @@ def sources_fingerprint() -> bytes:
     return _FINGERPRINT[0]
 
 
+@functools.cache
 def _module_file(name: str) -> Path | None:
     """The source file of the package module ``name`` (``attitude._core.quat``), or None."""
     if name.split(".", 1)[0] not in ("orbit", "attitude"):
@@ -108,6 +109,12 @@ def _module_file(name: str) -> Path | None:
         if path.is_file():
             return path
     return None
+
+
+@functools.cache
+def _source(name: str) -> bytes:
+    """The source of the package module ``name`` (read once per process, as the keys are)."""
+    return _module_file(name).read_bytes()
 
 
 # Import statements at any indentation: ``from <dots><module> import <names>`` (the names in
@@ -131,7 +138,7 @@ def _imports(name: str) -> frozenset[str]:
     if path is None:
         return frozenset()
     base = name if path.name == "__init__.py" else name.rpartition(".")[0]
-    src = path.read_bytes()
+    src = _source(name)
     out = set()
     for m in _IMPORT.finditer(src):
         for item in _COMMENT.sub(b"", m.group(1)).split(b","):
@@ -169,7 +176,7 @@ def source_stamp(*roots: str) -> bytes:
     h = hashlib.sha256()
     for m in sorted(seen):
         h.update(m.encode())
-        h.update(_module_file(m).read_bytes())
+        h.update(_source(m))
     return h.digest()
 
 
