@@ -557,9 +557,12 @@ def test_sampled_field_is_fourth_order_and_off_for_long_steps():
         Q0 = momenta_from_angular_velocity(q0, [0.001, -0.01, 0.03], craft)
         ds = attitude.propagate(craft, q0, Q0, t, attitude.GravityGradient(o), software=fsw,
                                 method="dop853", rtol=1e-12)  # fmt: skip
+        # the Dataset says how its orbit was integrated
+        assert ("sampled every" in ds.attrs["orbit"]) == (h > 0.0)
         if h == 0.0:
             exact = ds.position.values
         else:
+            assert f"sampled every {h:g} s" in ds.attrs["orbit"]
             err[h] = np.linalg.norm(ds.position.values - exact, axis=1).max()
     for h in (2.0, 4.0):
         assert 12.0 < err[2 * h] / err[h] < 20.0  # 2⁴

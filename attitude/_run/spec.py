@@ -140,6 +140,12 @@ class RunSpec:
                 f"numerical orbit: {craft.orbit._forces.describe()}, propagated with the "
                 f"attitude by the run's method ({method})"
             )
+            if method == "dop853" and craft.orbit.perturbed and craft.orbit.field_step > 0.0:
+                # (attitude._core.coupled: sampled where the steps are short, exact elsewhere)
+                attrs["orbit"] += (
+                    f", the field beyond the point mass sampled every "
+                    f"{craft.orbit.field_step:g} s where the steps are shorter"
+                )
         span = np.array([tt[0], tt[-1]], dtype=np.float64)  # only the ends matter to models
         pot = for_span(pot, span)
         evset = None
