@@ -609,6 +609,16 @@ def test_info_summarises_a_propagated_orbit(tmp_path, capsys):
     assert "propagated with the attitude" in line
     # 600 s to 720 s of the burn at 1 N, isp 220 s: 0.0556 kg
     assert "(0.0556" in r.stdout and "kg of propellant" in r.stdout
+    # the attitude's energy is not conserved (the wheels and the thruster do work): its change
+    # and H0 are printed beside their ratio, which a body starting near rest makes large
+    line = next(x for x in r.stdout.splitlines() if "actuators do work" in x)
+    got = re.search(r"max \|H - H0\| = (\S+) J, H0 = (\S+) J\)$", line)
+    import xarray as xr
+
+    with xr.open_dataset(out) as ds:
+        E = ds.energy.values
+    assert float(got[1]) == pytest.approx(np.abs(E - E[0]).max(), rel=1e-2)
+    assert float(got[2]) == pytest.approx(E[0], rel=1e-2)
 
 
 def test_a_reader_that_goes_away_ends_the_command_quietly(monkeypatch, capsys):

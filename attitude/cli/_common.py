@@ -52,7 +52,22 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
         ("max_rel_energy_work", "max |H - H0|/|H0| (actuators do work: not conserved)"),
         ("max_rel_total_energy_error", "max |E - E0|/|E0|, E of orbit and attitude (total)"),
     ]
-    return [f"{label} = {_fmt_attrs_number(attrs[k])}" for k, label in labels if k in attrs]
+    lines = []
+    for k, label in labels:
+        if k not in attrs:
+            continue
+        line = f"{label} = {_fmt_attrs_number(attrs[k])}"
+        if k in ("max_rel_energy_variation", "max_rel_energy_work") and (
+            "max_abs_energy_change" in attrs
+        ):
+            # not conserved: the change itself, and H0 (a small H0 makes any ratio large)
+            unit = f" {attrs['energy_units']}" if attrs.get("energy_units") else ""
+            line += (
+                f" (max |H - H0| = {_fmt_attrs_number(attrs['max_abs_energy_change'])}{unit}, "
+                f"H0 = {_fmt_attrs_number(attrs['initial_energy'])}{unit})"
+            )
+        lines.append(line)
+    return lines
 
 
 def _process_age() -> float | None:

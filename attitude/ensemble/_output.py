@@ -618,4 +618,4 @@ def member_invariant_attrs(
         tr.max_dG = top(np.linalg.norm(G - G[:, :1], axis=-1) / scale_g)
         tr.max_dGz = top(np.abs(G[..., 2] - G[:, :1, 2]) / scale_g)
     tr.E0, tr.G0 = 1.0, np.array([1.0, 0.0, 0.0])  # (the maxima above are relative already)
-    return tr.attrs(potential_name, counts)
+    return tr.attrs(potential_name, counts, absolute=False)
