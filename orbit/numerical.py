@@ -274,8 +274,10 @@ class NumericalOrbit(EphemerisOrbit):
         from the cubic through the last four (their error ~ (ω h)⁴ times a term of frequency
         ω: 1e-13 m/s² for a 20 × 20 field in low orbit at 1 s); the attitude's steps, set by
         its control (0.1 s at 10 Hz), would otherwise evaluate them a dozen times a step.
-        0: at every evaluation of the right-hand side. This orbit's own ``propagate`` and
-        Taylor runs evaluate the field exactly.
+        0: at every evaluation of the right-hand side. Only steps of at most half the interval
+        sample (longer ones evaluate the field at every stage: they are few), so a flight
+        software ticking every P seconds samples with ``field_step >= 2 P``. This orbit's own
+        ``propagate`` and Taylor runs evaluate the field exactly.
 
     Examples
     --------
