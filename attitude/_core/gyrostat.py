@@ -47,7 +47,6 @@ from .actuators import (
 )
 from .coupled import coupled_begin, coupled_end
 from .environment import field_body
-from .potentials import KIND_TORQUE_FREE, MODEL
 from .quat import conj_mul, cross, mul_vec
 
 # Columns of the spacecraft diagnostics (per sample), after the 13 of
@@ -56,8 +55,9 @@ NDIAG = 13
 
 
 @jit_generic
-def spacecraft_rhs_with(torque, t, y, P, dydt):
-    """Eq. 7 of the gyrostat with the model's torque plus the actuators'; writes ``dydt``."""
+def spacecraft_rhs_with(torque, has_torque, t, y, P, dydt):
+    """Eq. 7 of the gyrostat with the model's torque plus the actuators'; writes ``dydt``.
+    ``has_torque(params)``: False where the model exerts none (its call is skipped)."""
     params = P[0]
     sc = P[1]
     co = int(sc[SC.COUPLED])
@@ -71,10 +71,10 @@ def spacecraft_rhs_with(torque, t, y, P, dydt):
     om = body_rate(sc, 0.5 * w[1], 0.5 * w[2], 0.5 * w[3], l0, l1, l2)
     # the model's torque at q as an array, as eq. 7's right-hand side gives it (a tuple compiled
     # every kernel of the model a second time: ~20 s of a fresh cache for a sum of models)
-    if params[MODEL.KIND] == KIND_TORQUE_FREE:  # (the generic switch costs 11 ns a call)
-        tau = (0.0, 0.0, 0.0)
-    else:
+    if has_torque(params):  # (the generic switch costs 11 ns a call: a torque-free hub skips it)
         tau = torque(y[0:4], om, t, params)
+    else:
+        tau = (0.0, 0.0, 0.0)
     ta = actuator_torque(sc, q, t)
     tau = (tau[0] + ta[0], tau[1] + ta[1], tau[2] + ta[2])
     a = mul_vec(q, om)
