@@ -44,7 +44,7 @@ from ._rk import (
 )
 from ._shared_jit import jit
 
-__all__ = ["FORCES", "IMPACT", "acceleration", "earth_rotation", "orbit_rhs", "run"]
+__all__ = ["FORCES", "IMPACT", "acceleration", "earth_rotation", "orbit_rhs", "point_mass", "run"]
 
 #: Status of :func:`run` when the orbit reached the Earth's surface (the others: orbit._rk).
 IMPACT = 6
@@ -125,16 +125,20 @@ def earth_rotation(d, t):
     )  # fmt: skip
 
 
+@jit(inline="always")
+def point_mass(d, x, y, z):
+    """−μ r/|r|³ (m/s²) at r (m): the field's central term."""
+    r2 = x * x + y * y + z * z
+    k = -d[FORCES.MU] / (r2 * math.sqrt(r2))
+    return k * x, k * y, k * z
+
+
 @jit
 def acceleration(d, t, x, y, z):
     """The gravitational acceleration (m/s², GCRS) at (x, y, z) (m, GCRS) at time ``t``."""
     nmax = int(d[FORCES.N_MAX])
     if nmax == 0:
-        r2 = x * x + y * y + z * z
-        k = -d[FORCES.MU] / (r2 * math.sqrt(r2))
-        ax = k * x
-        ay = k * y
-        az = k * z
+        ax, ay, az = point_mass(d, x, y, z)
     else:
         R = earth_rotation(d, t)
         xi = R[0] * x + R[1] * y + R[2] * z

@@ -110,14 +110,6 @@ def write_live(a, o, y, iy, ax, ay, az):
 
 
 @jit(inline="always")
-def point_mass(d, x, y, z):
-    """−μ r/|r|³ (m/s²) at r (m): the field's central term."""
-    r2 = x * x + y * y + z * z
-    k = -d[_fk.FORCES.MU] / (r2 * math.sqrt(r2))
-    return k * x, k * y, k * z
-
-
-@jit(inline="always")
 def gravity(sc, co, t, x, y, z):
     """The gravitational acceleration (m/s², GCRS) at r (m): the point mass exact, the field's
     other terms and the third bodies from the cubic through their last four samples once four
@@ -125,7 +117,7 @@ def gravity(sc, co, t, x, y, z):
     d = sc[int(sc[co + COUPLED.FORCES]) :]
     if sc[co + COUPLED.N_HIST] < 4.0:
         return _fk.acceleration(d, t, x, y, z)
-    ax, ay, az = point_mass(d, x, y, z)
+    ax, ay, az = _fk.point_mass(d, x, y, z)
     h = co + COUPLED.HIST_T
     s0 = t - sc[h]
     s1 = t - sc[h + 1]
@@ -185,7 +177,7 @@ def field_sample(sc, co, t, y, h_last):
     yy = y[iy + 1]
     z = y[iy + 2]
     ax, ay, az = _fk.acceleration(d, t, x, yy, z)
-    px, py, pz = point_mass(d, x, yy, z)
+    px, py, pz = _fk.point_mass(d, x, yy, z)
     ht = co + COUPLED.HIST_T
     ha = co + COUPLED.HIST_A
     for j in range(3, 0, -1):

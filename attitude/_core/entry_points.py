@@ -71,8 +71,7 @@ from attitude._core.fsw import fsw_boundary, fsw_boundary_inline  # noqa: F401 (
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
 from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
-    KIND_TORQUE_FREE,
-    MODEL,
+    builtin_exerts_torque,
     builtin_n_terms,
     builtin_potential,
     builtin_term_torque,
@@ -228,13 +227,7 @@ def composition_events(
 @jit(_nrt=REFCOUNT)
 def spacecraft_rhs(t, y, P, dydt):
     """The gyrostat's eq. 7 with the model's torque and the actuators' (``P = (params, sc)``)."""
-    spacecraft_rhs_with(torque, model_has_torque, t, y, P, dydt)
-
-
-@jit(inline="always")
-def model_has_torque(params):
-    """False for the torque-free model alone (the closed loop's drivers serve every model)."""
-    return params[MODEL.KIND] != KIND_TORQUE_FREE
+    spacecraft_rhs_with(torque, builtin_exerts_torque, t, y, P, dydt)
 
 
 @jit(inline="always")

@@ -220,6 +220,13 @@ def term_potential(q, t, params, base):
     return 0.0
 
 
+@jit(inline="always")
+def builtin_exerts_torque(params):
+    """Whether the built-in model (or sum) may exert a torque: all but the torque-free model
+    alone (a closed loop's driver, compiled for every model, skips its call)."""
+    return params[MODEL.KIND] != KIND_TORQUE_FREE
+
+
 @jit(_nrt=False)
 def builtin_n_terms(params):
     """Number of terms of the built-in part of a model (0 for a user-only model)."""
