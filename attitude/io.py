@@ -280,8 +280,7 @@ class StreamWriter:
                 self._static(name, var)
                 continue
             if var.dtype.kind in "UO":
-                v = nc.createVariable(name, str, var.dims)
-                v[:] = np.asarray(var.values, dtype=object)
+                v = _text_variable(nc, name, var, comp)
             elif along is not None:
                 v = nc.createVariable(
                     name, var.dtype, var.dims, chunksizes=self._chunks(var), **comp
@@ -314,9 +313,7 @@ class StreamWriter:
             if dim not in nc.dimensions:
                 nc.createDimension(dim, None if dim in UNLIMITED else size)
         if var.dtype.kind in "UO":
-            v = nc.createVariable(name, str, var.dims)
-            if var.size:
-                v[:] = np.asarray(var.values, dtype=object)
+            v = _text_variable(nc, name, var, self._filters())
         elif var.ndim and var.size:  # chunked: checksummed (the file's readers agree)
             v = nc.createVariable(name, var.dtype, var.dims, chunksizes=list(var.shape),
                                   **self._filters())  # fmt: skip
@@ -491,8 +488,7 @@ class _MemberWriter(StreamWriter):
         for name in [*ds.coords, *ds.data_vars]:
             var = ds[name].variable
             if var.dtype.kind in "UO":
-                v = nc.createVariable(name, str, var.dims)
-                v[:] = np.asarray(var.values, dtype=object)
+                v = _text_variable(nc, name, var, comp)
             elif "member" in var.dims:
                 chunks = self._chunks(var)
                 v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
@@ -535,8 +531,7 @@ class _MemberWriter(StreamWriter):
                 continue
             var = ds[name].variable
             if var.dtype.kind in "UO":
-                v = nc.createVariable(name, str, var.dims)
-                v[:] = np.asarray(var.values, dtype=object)
+                v = _text_variable(nc, name, var, comp)
             elif var.ndim and var.size:  # one checksummed chunk (or the writer's chunks)
                 chunks = self._chunks(var) if "member" in var.dims else list(var.shape)
                 v = nc.createVariable(name, var.dtype, var.dims, chunksizes=chunks, **comp)
@@ -545,6 +540,30 @@ class _MemberWriter(StreamWriter):
                 v = nc.createVariable(name, var.dtype, var.dims)
                 v[:] = var.values
             _set_attrs(v, _variable_attrs(ds, name))
+
+
+def _text_variable(nc: Any, name: str, var: xr.Variable, filters: dict[str, Any]) -> Any:
+    """Write a text variable (labels) as CF's character array, UTF-8 (``_Encoding``; a
+    ``{name}_strlen`` dimension), read back as strings by xarray and netCDF4; one chunk, with
+    ``filters`` (a checksum), as every static array.
+
+    Not as an HDF5 variable-length string: with the HDF5 of netCDF4's wheels (2.2.0) a process
+    that holds such a file open through xarray and opens it again through netCDF4 and xarray
+    crashes (a segmentation fault in the fill value's conversion, ``H5T__conv_vlen``).
+    """
+    values = np.asarray(var.values, dtype=str)
+    width = max([1, *(len(x.encode("utf-8")) for x in values.ravel())])
+    dim = f"{name}_strlen"
+    nc.createDimension(dim, width)
+    if values.size:
+        v = nc.createVariable(name, "S1", (*var.dims, dim), chunksizes=[*values.shape, width],
+                              **filters)  # fmt: skip
+    else:
+        v = nc.createVariable(name, "S1", (*var.dims, dim))
+    v._Encoding = "utf-8"
+    if values.size:
+        v[:] = values
+    return v
 
 
 def write(ds: xr.Dataset, path: str | os.PathLike, *, complevel: int = COMPLEVEL) -> Path:

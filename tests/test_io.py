@@ -80,6 +80,35 @@ def test_file_read_with_netcdf4_directly(heavy, tmp_path):
         assert nc.variables["omega"].coordinates == "axis_label"
 
 
+_REOPEN = """
+import sys, netCDF4, xarray as xr
+held = xr.open_dataset(sys.argv[1]).load()
+for _ in range(100):
+    with netCDF4.Dataset(sys.argv[1]) as nc:
+        nc.variables
+    xr.open_dataset(sys.argv[1]).load().close()
+print(list(held.axis_label.values))
+"""
+
+
+def test_a_file_held_open_can_be_opened_again(heavy, tmp_path):
+    """The labels are character arrays, not HDF5 variable-length strings: with those, the HDF5
+    of netCDF4's wheels crashes a process that holds a file open through xarray and opens it
+    again through netCDF4 and xarray (a segmentation fault; this script, on such a file)."""
+    import subprocess
+    import sys
+
+    path = io.write(heavy, tmp_path / "h.nc")
+    with netCDF4.Dataset(path) as nc:
+        v = nc.variables["component_label"]
+        assert v.dtype == np.dtype("S1") and v.getncattr("_Encoding") == "utf-8"
+        assert v.dimensions == ("component", "component_label_strlen")
+    r = subprocess.run([sys.executable, "-c", _REOPEN, str(path)], capture_output=True,
+                       text=True, timeout=300)  # fmt: skip
+    assert r.returncode == 0, (r.returncode, r.stderr[-2000:])
+    assert r.stdout.split() == ["['x',", "'y',", "'z']"]
+
+
 def test_streaming_equals_in_memory(heavy, tmp_path):
     path = tmp_path / "s.nc"
     chunks = []

@@ -136,6 +136,8 @@ def _write_lazy(ds: xr.Dataset, path: Path, client: Any) -> None:
     try:
         # CF: coordinate variables have no _FillValue (xarray adds NaN to floats by default)
         enc = {c: {"_FillValue": None} for c in ds.coords if ds[c].dtype.kind == "f"}
+        # labels as character arrays (attitude.io._text_variable says why)
+        enc.update({c: {"dtype": "S1"} for c in ds.variables if ds[c].dtype.kind in "UO"})
         job = ds.to_netcdf(out.tmp, engine="netcdf4", format="NETCDF4", compute=False, encoding=enc)
         if client is not None:
             client.compute(job).result()

@@ -141,8 +141,9 @@ def estimate_bytes(one: xr.Dataset, n: int, extra: xr.Dataset | None = None) -> 
             if ds is extra and name in one.variables:
                 continue
             nbytes = int(var.dtype.itemsize * np.prod(var.shape, dtype=np.int64))
-            if var.dtype.kind in "UO":  # netCDF variable-length strings
-                nbytes = sum(len(str(x)) + 16 for x in np.asarray(var.values).ravel())
+            if var.dtype.kind in "UO":  # a character array (attitude.io), and its dimension
+                text = [len(str(x).encode("utf-8")) for x in np.asarray(var.values).ravel()]
+                nbytes = max([1, *text]) * len(text) + VARIABLE_OVERHEAD
             total += VARIABLE_OVERHEAD + sum(len(str(v)) + len(k) for k, v in var.attrs.items())
             total += nbytes * n if "member" in var.dims else nbytes
     return int(total)
