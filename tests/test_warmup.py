@@ -101,9 +101,16 @@ _PROBE = textwrap.dedent(
             pass
     event.register("numba:compile", L())
     sc = scenario.loads(open(sys.argv[1]).read())
-    ds = sc.run()
+    if sc.ensemble is None:
+        ds = sc.run()
+    else:
+        from attitude import io
+        from attitude.ensemble import run_scenario
+        run_scenario(sc, "ensemble.nc")
+        ds = io.read("ensemble.nc")
     print(json.dumps({"compiled": names, "n": int(ds.sizes["time"]),
-                      "wheels": int(ds.sizes.get("wheel", 0))}))
+                      "wheels": int(ds.sizes.get("wheel", 0)),
+                      "members": int(ds.sizes.get("member", 0))}))
     """
 )
 
@@ -127,6 +134,11 @@ def test_a_second_closed_loop_configuration_compiles_nothing(tmp_path):
     b = _probe(_B, tmp_path, "b")
     assert b["wheels"] == 3 and b["n"] == a["n"]  # it ran, with its wheels
     assert b["compiled"] == []
+    # and an ensemble of it (DOP853 members run the single run's compiled driver)
+    ens = _B + '\n[ensemble]\nsize = 3\nseed = 7\nrate_error = 0.01\nrate_error_unit = "deg/s"\n'
+    e = _probe(ens, tmp_path, "e")
+    assert e["wheels"] == 3 and e["n"] == a["n"] and e["members"] == 3
+    assert e["compiled"] == []
 
 
 def test_order_compiles_each_kind_first():

@@ -67,7 +67,7 @@ from attitude._core.formulations import (
     euler_equations_rhs_with,
     schwab_rhs_with,
 )
-from attitude._core.fsw import fsw_boundary, fsw_boundary_inline  # noqa: F401 (bound by name)
+from attitude._core.fsw import fsw_boundary_inline  # noqa: F401 (bound by name)
 from attitude._core.gyrostat import spacecraft_diagnostics_row, spacecraft_rhs_with
 from attitude._core.holds import holds_run, schedule_boundary  # noqa: F401 (bound by name)
 from attitude._core.potentials import (
@@ -77,14 +77,7 @@ from attitude._core.potentials import (
     builtin_term_torque,
     builtin_torque,
 )
-from attitude._core.spacecraft_ensemble import (  # noqa: F401 (the ctl sources bound by name)
-    fsw_ctl,
-    member_stop,
-    schedule_ctl,
-    spacecraft_member_begin,
-)
 from attitude._core.spacecraft_events import (
-    member_events,
     spacecraft_events_begin_with,
     spacecraft_events_room,  # noqa: F401 (bound by name)
     spacecraft_locate_with,
@@ -254,7 +247,7 @@ dop853_spacecraft = rebind(
     holds_run,
     globals(),
     "spacecraft",
-    options={"_nrt": REFCOUNT},
+    options={"_nrt": REFCOUNT, "nogil": True},
     RHS="spacecraft_rhs",
     BOUNDARY="schedule_boundary",
     **_EVENT_HOOKS,
@@ -266,7 +259,7 @@ dop853_spacecraft_fsw = rebind(
     holds_run,
     globals(),
     "spacecraft_fsw",
-    options={"_nrt": REFCOUNT},
+    options={"_nrt": REFCOUNT, "nogil": True},
     RHS="spacecraft_rhs",
     BOUNDARY="fsw_boundary_inline",
     **_EVENT_HOOKS,
@@ -432,103 +425,4 @@ def ensemble_events_serial(
         ensemble_events_member(
             i, params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
             rtol, atol, max_step, max_steps, budget,
-        )  # fmt: skip
-
-
-# Ensembles of spacecraft with actuators (attitude.ensemble; layout in
-# attitude._core.spacecraft_ensemble). The hold driver is inlined into a member function, one
-# per command source, whose members run the single run's driver (the same source, statement
-# for statement) on their own rows; the parallel loop calls it, as ensemble_parallel calls
-# ensemble_member. (Inlined into the prange loop itself, numba's parfor passes went through
-# the whole driver: ~4 s more of a cold compile for each. A compiled call of the single run's
-# entry point would compile a second copy of it: numba's copy for callers, without the CPython
-# wrapper.)
-
-#: A member's rows are the shared samples' times: a member that reaches the Earth's surface
-#: ends at its last sample before it (its status and stop time say where).
-_SAMPLES_ONLY = False
-_holds_schedule_inline = rebind(
-    holds_run,
-    globals(),
-    "spacecraft_inline",
-    options={"inline": "always"},
-    RHS="spacecraft_rhs",
-    BOUNDARY="schedule_boundary",
-    STOP_ROW="_SAMPLES_ONLY",
-    **_EVENT_HOOKS,
-)
-_holds_fsw_inline = rebind(
-    holds_run,
-    globals(),
-    "spacecraft_fsw_inline",
-    options={"inline": "always"},
-    RHS="spacecraft_rhs",
-    BOUNDARY="fsw_boundary",
-    STOP_ROW="_SAMPLES_ONLY",
-    **_EVENT_HOOKS,
-)
-
-
-#: The template's hold driver and command source (each copy below rebinds both).
-HOLDS = _holds_schedule_inline
-CTL = schedule_ctl
-
-
-@jit(nogil=True, _nrt=REFCOUNT)
-def _spacecraft_member(
-    i, params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
-    atol, max_step, max_steps, budget,
-):  # fmt: skip
-    """Member ``i`` under its command source for at most ``budget`` steps: the body of the
-    parallel loops below, one copy per source (``HOLDS``, the hold driver inlined, and ``CTL``,
-    the member's command source)."""
-    m = t.shape[0]
-    runs, k0, limit = spacecraft_member_begin(i, status, n_done, work, tstate, counters,
-                                              max_steps, budget)  # fmt: skip
-    if runs:
-        P = (params[i], sc[sc_at[i] : sc_at[i + 1]])
-        st, k = HOLDS(
-            P, y0[i], t[0], t[k0:], y_out[i, k0:], work[i], tstate[i], counters[i], rtol,
-            atol, t[m - 1], max_step, limit, CTL(i, src), member_events(i, evsrc),
-        )  # fmt: skip
-        member_stop(i, st, k + k0, limit, max_steps, y_out, status, n_done)
-
-
-#: A member under its open-loop schedule (DOP853 through held commands).
-spacecraft_schedule_member = rebind(
-    _spacecraft_member, globals(), "schedule",
-    HOLDS="_holds_schedule_inline", CTL="schedule_ctl",
-)  # fmt: skip
-#: A member under its flight software (DOP853 through its ticks).
-spacecraft_fsw_member = rebind(
-    _spacecraft_member, globals(), "fsw",
-    HOLDS="_holds_fsw_inline", CTL="fsw_ctl",
-)  # fmt: skip
-
-
-@parallel_jit(nogil=True, _nrt=REFCOUNT)
-def spacecraft_schedule_parallel(
-    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
-    atol, max_step, max_steps, budget,
-):  # fmt: skip
-    """All members under open-loop schedules (DOP853 through held commands), in parallel over
-    members (``prange``), each for at most ``budget`` steps."""
-    for i in numba.prange(y0.shape[0]):
-        spacecraft_schedule_member(
-            numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
-            evsrc, status, n_done, rtol, atol, max_step, max_steps, budget,
-        )  # fmt: skip
-
-
-@parallel_jit(nogil=True, _nrt=REFCOUNT)
-def spacecraft_fsw_parallel(
-    params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, evsrc, status, n_done, rtol,
-    atol, max_step, max_steps, budget,
-):  # fmt: skip
-    """All members under their flight software (DOP853 through its ticks), in parallel over
-    members (``prange``), each for at most ``budget`` steps."""
-    for i in numba.prange(y0.shape[0]):
-        spacecraft_fsw_member(
-            numba.int64(i), params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
-            evsrc, status, n_done, rtol, atol, max_step, max_steps, budget,
         )  # fmt: skip

@@ -73,6 +73,7 @@ HS = layout(
     fail_n=Field(1, "", "a number about it"),
     stop=Field(1, "", "1: the run stops at tstate[0] (the surface, a terminal event)"),
     sample=Field(1, "", "1: the last step ended at a sample of the coupled orbit's field"),
+    samples_only=Field(1, "", "1: no row of its own at a stop (an ensemble member)"),
 )
 
 #: Statuses of a command source (:data:`BOUNDARY`).
@@ -168,7 +169,7 @@ def schedule_boundary(P, y, t, t_end, ctl):
 
 
 @jit(inline="always")
-def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop, stop_row):
+def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop):
     """The run stops inside the last step, at ``t_stop`` with the state ``y_stop`` (the orbit
     reaches the surface, or a terminal event): the run's state moves there, the step's dense
     output kept for the samples before it (:func:`_serve_stop`)."""
@@ -179,21 +180,22 @@ def _stop(rhs, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_
         y[i] = y_stop[i]
     tstate[0] = t_stop
     hs[HS.STOP] = 1.0
-    return _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n, stop_row)
+    return _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n)
 
 
 @jit(inline="always")
-def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n, stop_row):
+def _serve_stop(sc, hs, work, tstate, t_out, y_out, k, n):
     """The samples before the stop (the last step's dense output), then the state at the stop
-    in the next row (``stop_row``; else the samples end there: an ensemble member's rows are
-    on the samples' times): ``(EVENT, rows filled)``; ``(SUCCESS, rows)`` when this call's
-    samples all precede it (the next call serves the rest)."""
+    in the next row (unless ``hs[HS.SAMPLES_ONLY]``: an ensemble member's rows are on the
+    samples' times, its status and ``tstate[0]`` say where it stopped): ``(EVENT, rows
+    filled)``; ``(SUCCESS, rows)`` when this call's samples all precede it (the next call
+    serves the rest)."""
     m = t_out.shape[0]
     while k < m and t_out[k] < tstate[0]:
         _interpolate(work, tstate, t_out[k], y_out[k])
         record(sc, y_out[k], n)
         k += 1
-    if not stop_row:
+    if hs[HS.SAMPLES_ONLY] != 0.0:
         return EVENT, k
     if k == m:
         return SUCCESS, k
@@ -222,10 +224,6 @@ def no_events_locate(rhs, P, work, tstate, counters, ev):
 #: The right-hand side ``rhs(t, y, P, dydt)`` of a copy of :func:`holds_run` (bound by the entry
 #: points with ``orbit._shared_jit.rebind``; the original here is never compiled).
 RHS = None
-#: Whether the state at a stop gets a row of its own after the samples before it (a single
-#: run: the Dataset's last sample, at the stop's time) or not (an ensemble member: its rows are
-#: the shared samples' times; its status and ``tstate[0]`` say where it stopped).
-STOP_ROW = True
 #: The events of a copy (``ev`` its event arrays, :mod:`attitude._core.spacecraft_events`):
 #: ``EV_BEGIN(P, t0, y0, ev)`` their values at the start, ``EV_ROOM(ev)`` whether the record
 #: buffers hold one more step's occurrences, ``EV_LOCATE(rhs, P, work, tstate, counters, ev)
@@ -280,7 +278,7 @@ def holds_run(
         counters[4] = 0
         EV_BEGIN(P, t0, y, ev)
     if hs[HS.STOP] != 0.0:  # found by the last call, before which its samples ended
-        return _serve_stop(sc, hs, work, tstate, t_out, y_out, 0, n, STOP_ROW)
+        return _serve_stop(sc, hs, work, tstate, t_out, y_out, 0, n)
     k = 0
     h_abs = tstate[1]
     while True:
@@ -354,12 +352,10 @@ def holds_run(
                 y[i] = work[WORK.YT, i]
         stopped, t_stop, y_stop = EV_LOCATE(RHS, P, work, tstate, counters, ev)
         if impact and not stopped:
-            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, tstate[0],
-                         y, STOP_ROW)  # fmt: skip
+            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, tstate[0], y)
         if stopped:
             tstate[1] = h_abs
-            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop,
-                         y_stop, STOP_ROW)  # fmt: skip
+            return _stop(RHS, P, sc, hs, work, tstate, counters, t_out, y_out, k, n, t_stop, y_stop)
         if tstate[0] == seg_end and seg_end < t_end:
             hs[HS.PENDING] = 1.0
         elif sc[SC.COUPLED] >= 0.0 and field_due(sc, int(sc[SC.COUPLED]), tstate[0]):

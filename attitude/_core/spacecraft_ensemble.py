@@ -6,8 +6,10 @@ open-loop schedule or the flight software as its command source) on its own rows
 below, from a fresh state: the same compiled code on the same numbers as
 ``propagate(spacecraft, ..., commands=... or software=...)``, so a member equals its single run
 bit for bit whatever runs beside it, however the members are chunked, on however many threads.
-The SIMD batches of the Taylor method (:mod:`attitude._core.gyrostat_batch`) use the same
-layout.
+With DOP853 it *is* the single run's compiled driver, called for each member from Python
+threads (:mod:`attitude.ensemble._chunks`, GIL released; ``hs[HS.SAMPLES_ONLY]`` keeps a
+member's rows on the shared samples). The SIMD batches of the Taylor method
+(:mod:`attitude._core.gyrostat_batch`) use the same layout.
 
 A call runs each member for at most ``budget`` steps (0: to its end) and leaves it ``RUNNING``
 (:mod:`attitude._core.ensemble`); the next call goes on bit for bit (the integrator, the hold
@@ -41,7 +43,7 @@ import math
 from orbit._rk import TOO_MANY_STEPS
 from orbit._shared_jit import jit
 
-from .ensemble import RUNNING, member_begin
+from .ensemble import RUNNING
 from .holds import RECORDS_FULL
 
 __all__ = [
@@ -49,7 +51,6 @@ __all__ = [
     "fsw_ctl",
     "member_stop",
     "schedule_ctl",
-    "spacecraft_member_begin",
 ]
 
 #: ``status`` of a member paused because its tick records are full (give it more rows).
@@ -90,12 +91,3 @@ def member_stop(i, st, k, limit, max_steps, y_out, status, n_done):
     for r in range(k, yo.shape[0]):
         for j in range(yo.shape[1]):
             yo[r, j] = math.nan
-
-
-@jit(inline="always")
-def spacecraft_member_begin(i, status, n_done, work, tstate, counters, max_steps, budget):
-    """:func:`attitude._core.ensemble.member_begin` of member ``i``, which may be waiting
-    for more tick-record rows (``RECORDS_WAIT``: given them, it goes on)."""
-    if status[i] == RECORDS_WAIT:
-        status[i] = RUNNING
-    return member_begin(i, status, n_done, work, tstate, counters, max_steps, budget)

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from orbit._rk import WORK
-from orbit._shared_jit import jit, jit_generic
+from orbit._shared_jit import jit_generic
 
 from .actuators import SC, state_rate
 from .coupled import COUPLED, coupled_events
@@ -78,13 +78,3 @@ def spacecraft_locate_with(rhs, event, P, work, tstate, counters, ev):
         tstate, counters, scr,
     )  # fmt: skip
     return stopped, t_stop, scr[0]
-
-
-@jit(inline="always")
-def member_events(i, evsrc):
-    """Member ``i``'s event arrays in an ensemble: ``evsrc = (evd (C, E), evs (C, n_events,
-    EVS.SIZE), ev_count (C, 2), rec_t (0,), rec_k (0, 2), rec_y (0, n), scr (C, 7, W))``, each
-    member its own event data (a coupled member writes its orbit there) and state; no records
-    (an ensemble keeps each event's count and first time)."""
-    evd, evs, ev_count, rec_t, rec_k, rec_y, scr = evsrc
-    return (evd[i], evs[i], ev_count[i], rec_t, rec_k, rec_y, scr[i])

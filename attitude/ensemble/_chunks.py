@@ -1,10 +1,10 @@
 """One chunk of members in compiled code: rigid bodies (:func:`_compute_chunk`, also the body of
 a Dask task) and spacecraft with actuators or flight software (:func:`compute_craft_chunk`: the
-single run's drivers in a parallel loop over members, :mod:`attitude._core.spacecraft_ensemble`,
-or SIMD batches for ``method="taylor"``, :mod:`attitude._core.gyrostat_batch`, then each
-member's diagnostics by the single run's own); the chunks computed here one after the other
-(:func:`local_results`), a failing chunk's members marked (:data:`CHUNK_FAILED`), and the
-failures named (:class:`_Failures`)."""
+single run's compiled drivers themselves, a member a call, on threads, or SIMD batches for
+``method="taylor"``, :mod:`attitude._core.gyrostat_batch`, then each member's diagnostics by the
+single run's own); the chunks computed here one after the other (:func:`local_results`), a
+failing chunk's members marked (:data:`CHUNK_FAILED`), and the failures named
+(:class:`_Failures`)."""
 
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ from .._core import ensemble as _ke
 from .._core import entry_points as _builtin_entry_points
 from .._core import events as _kev
 from .._core import fsw as _kf
+from .._core import holds as _kh
 from .._core import spacecraft_ensemble as _kse
 from .._core import taylor as _kt
 from .._core import taylor_gyrostat as _ktg
@@ -537,6 +538,91 @@ def _member_events(blk: dict[str, Any], sc: np.ndarray, n: int, events: Any) -> 
     )  # fmt: skip
 
 
+def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_steps, budget):
+    """Each member of a DOP853 chunk for at most ``budget`` steps through ``kernel``, the single
+    run's compiled hold driver (``propagate``'s own machine code: a member is its single run bit
+    for bit, and an ensemble after a single run compiles nothing), on ``n_threads`` threads
+    (the driver releases the GIL).
+
+    Member i's arguments are cut out of the chunk's arrays as
+    :mod:`attitude._core.spacecraft_ensemble` lays them out; its status and rows as
+    :func:`attitude._core.spacecraft_ensemble.member_stop` records them."""
+    blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done = arrays
+    params, sc_at, y0 = blk["params"], blk["sc_at"], blk["y0"]
+    t0, t_end = t[0], t[t.shape[0] - 1]
+    evd, evs, ev_count, rec_t, rec_k, rec_y, scr = evsrc
+
+    def rows(i):
+        """Member i's small arrays the driver writes (copies: rows of neighbouring members
+        written by two threads share cache lines, which costs a third of the speed), and its
+        large ones (views)."""
+        if len(src) == 8:  # the flight software's
+            hs, fw, fw_at, fs, fs_at, cmd, rec, rc = src
+            views = (hs[i], fs[fs_at[i] : fs_at[i + 1]], cmd[i], rc[i])
+        else:
+            hs, hold_t, hold_u, hold_at, zero = src
+            views = (hs[i],)
+        own = (sc[sc_at[i] : sc_at[i + 1]], tstate[i], counters[i], evd[i], evs[i],
+               ev_count[i], *views)  # fmt: skip
+        copies = tuple(a.copy() for a in own)
+        sc_i, ts, cn, evd_i, evs_i, evc = copies[:6]
+        if len(src) == 8:
+            hs_i, fs_i, cmd_i, rc_i = copies[6:]
+            ctl = (hs_i, fw[fw_at[i, 0] : fw_at[i, 1]], fs_i, cmd_i, rec[i], rc_i)
+        else:
+            a, b = hold_at[i], hold_at[i + 1]
+            ctl = (copies[6], hold_t[a:b], hold_u[a:b], zero)
+        ev = (evd_i, evs_i, evc, rec_t, rec_k, rec_y, scr[i])
+        return own, copies, (params[i], sc_i), ts, cn, ctl, ev
+
+    def member(i):
+        st0 = status[i]
+        if st0 not in (_ke.RUNNING, _ke.NOT_STARTED, _kse.RECORDS_WAIT):
+            return
+        k0 = 0
+        if st0 == _ke.NOT_STARTED:
+            work[i] = 0.0
+            tstate[i] = 0.0
+            counters[i] = 0
+        else:
+            k0 = int(n_done[i])
+        own, copies, P, ts, cn, ctl, ev = rows(i)
+        limit = max_steps
+        if budget > 0 and cn[0] + budget < max_steps:
+            limit = int(cn[0] + budget)
+        st, k = kernel(P, y0[i], t0, t[k0:], y_out[i, k0:], work[i], ts, cn, rtol, atol, t_end,
+                       max_step, limit, ctl, ev)  # fmt: skip
+        for a, b in zip(own, copies, strict=True):
+            a[...] = b
+        k += k0
+        n_done[i] = k
+        if st == _rk.TOO_MANY_STEPS and limit < max_steps:
+            status[i] = _ke.RUNNING
+        elif st == _kh.RECORDS_FULL:
+            status[i] = _kse.RECORDS_WAIT
+        else:
+            status[i] = st
+            y_out[i, k:] = np.nan
+
+    c = y0.shape[0]
+    blocks = iter(range(0, c, PARALLEL_CHUNK))  # next() under the GIL: each block once
+
+    def worker():
+        # consecutive members (their rows share cache lines) on one thread
+        for b in blocks:
+            for i in range(b, min(c, b + PARALLEL_CHUNK)):
+                member(i)
+
+    if n_threads <= 1:
+        worker()
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=n_threads) as pool:
+        for job in [pool.submit(worker) for _ in range(n_threads)]:
+            job.result()
+
+
 def compute_craft_chunk(
     blk: dict[str, Any],
     t: np.ndarray,
@@ -585,15 +671,19 @@ def compute_craft_chunk(
             if not JIT_DISABLED:
                 numba.set_parallel_chunksize(1)  # a group at a time (few and long)
         else:
-            fn = entry.spacecraft_fsw_parallel if fsw else entry.spacecraft_schedule_parallel
-            extra = ()
+            kernel = entry.dop853_spacecraft_fsw if fsw else entry.dop853_spacecraft
             evsrc = _member_events(blk, sc, n, events)
         while True:
-            args = (src,) if method == "taylor" else (src, evsrc)
-            fn(
-                blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate, counters,
-                *args, status, n_done, rtol, atol, max_step, max_steps, budget, *extra,
-            )  # fmt: skip
+            if method == "taylor":
+                fn(
+                    blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
+                    counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
+                    *extra,
+                )  # fmt: skip
+            else:
+                arrays = (blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done)
+                _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_steps,
+                                   budget)  # fmt: skip
             _interrupt.check()
             waiting = status == _kse.RECORDS_WAIT
             if waiting.any():

@@ -607,6 +607,7 @@ class CraftMembers:
             "potential": pot,
         }
         hs = np.zeros((c, _kh.HS.SIZE))
+        hs[:, _kh.HS.SAMPLES_ONLY] = 1.0  # rows on the shared samples only
         prog = self.program
         if prog is None:
             scheds = [(run.hold_t, run.hold_u) for run in runs]

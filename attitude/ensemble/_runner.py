@@ -6,8 +6,8 @@ their failures named, the totals, the output kept or written, the final attrs, t
 PropagationError that keeps the members done); what differs, because the compiled drivers do,
 is two small strategies: :func:`_bodies` (the rigid-body drivers of
 :mod:`attitude._core.ensemble`, here or as Dask tasks, the statistics-only output, lazy
-results) and :func:`_crafts` (the single run's spacecraft drivers in a parallel loop over
-members).
+results) and :func:`_crafts` (the single run's spacecraft drivers, a member a call, on
+threads).
 """
 
 from __future__ import annotations
@@ -106,7 +106,7 @@ def _bounds(n: int, csize: int) -> list[tuple[int, int]]:
 
 
 def _crafts(spec: EnsembleSpec) -> xr.Dataset:
-    """Spacecraft members: the single run's drivers in a parallel loop over members."""
+    """Spacecraft members: the single run's drivers, a member a call, on threads."""
     members, plan = spec.members, spec.plan
     n = members.n
     csize = spec.chunk_size or max(
