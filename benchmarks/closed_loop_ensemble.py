@@ -62,7 +62,9 @@ def main(n: int) -> None:
     from attitude.software import FlightSoftware
 
     print(f"1. settling: {n} members, dispersed inertia (5 %), rates, gains (10 %); 300 s at 1 Hz")
-    fs = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0))
+    fs = FlightSoftware(
+        1.0, guidance=frames.inertial(), control=MRPFeedback(100.0, 300.0), record_every=1
+    )  # every tick: the pointing error and the settling time at 1 Hz
     d = disperse_spacecraft(
         craft(), [1.0, 0, 0, 0], [0.0, 0.0, 0.0], n, software=fs, seed=1,
         attitude_error=math.radians(0.5), rate_error=math.radians(0.01), inertia_error=0.05,

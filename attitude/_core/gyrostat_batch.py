@@ -33,13 +33,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 from orbit import _state_kernels as _SK
 from orbit._layout import Field, layout
 from orbit._rk import SUCCESS, TOO_MANY_STEPS
-from orbit._shared_jit import jit, jit_generic, parallel_jit, rebind, slp_vectorized
+from orbit._shared_jit import jit, jit_generic, rebind, slp_vectorized
 
 from . import lanes as V
 from .actuators import (
@@ -96,7 +95,7 @@ from .taylor_gyrostat import (
     step_prepare,
 )
 
-__all__ = ["LANES", "fsw_parallel", "new_workspaces", "schedule_parallel"]
+__all__ = ["LANES", "fsw_group_run", "new_workspaces", "schedule_group_run"]
 
 # Per-lane constants of the recurrences (rows of ``cst``, one column per lane).
 GCONST = layout(
@@ -149,7 +148,7 @@ def n_constants(nw: int) -> int:
 
 def new_workspaces(groups: int, nw: int) -> tuple[np.ndarray, ...]:
     """The arrays of ``groups`` batch integrators: ``(cf, cst, lf, lint)``, one row each (made
-    by the caller: the parallel loop runs without numba's reference counting)."""
+    by the caller: the group runs without numba's reference counting)."""
     return (
         np.zeros((groups, WORK_ROWS, COL.SIZE + 2 * nw, LANES)),
         np.zeros((groups, GCONST.WHEEL + GWHEEL.SIZE * nw, LANES)),
@@ -491,7 +490,7 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
                    lint):  # fmt: skip
     """Members ``start..stop-1`` through one batch integrator of LANES lanes (the workspace
     ``cf, cst, lf, lint``: a row of :func:`new_workspaces`), each for at most ``budget``
-    steps. Inlined into the parallel loops (no reference counting: the views of the members'
+    steps. Inlined into the group runners (no reference counting: the views of the members'
     rows cost nothing there)."""
     m = t.shape[0]
     t_end = t[m - 1]
@@ -587,33 +586,31 @@ def gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src,
 fsw_group = rebind(gyrostat_group, globals(), "fsw", BOUNDARY="fsw_boundary", CTL="fsw_ctl")
 
 
-# No reference counting in the parallel loops (numba's _nrt=False): every array is made by the
-# caller, and each member's rows are views taken at every step and boundary.
-@parallel_jit(nogil=True, _nrt=False)
-def schedule_parallel(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
-                      n_done, rtol, atol, max_step, max_steps, budget, group, cf, cst, lf,
-                      lint):  # fmt: skip
-    """All members under open-loop schedules, ``group`` members per batch integrator (the
-    workspaces ``cf, cst, lf, lint`` of :func:`new_workspaces`, one per group), the groups in
-    parallel (``prange``)."""
+# No reference counting (numba's _nrt=False): every array is made by the caller, and each
+# member's rows are views taken at every step and boundary. One group a call, the groups on
+# Python threads (attitude.ensemble._chunks; the GIL released): inlined into a prange loop, the
+# group lost its writes to the hold state (numba's parfor passes; every member stopped at t0).
+@jit(nogil=True, _nrt=False)
+def schedule_group_run(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
+                       n_done, rtol, atol, max_step, max_steps, budget, group, cf, cst, lf, lint,
+                       g):  # fmt: skip
+    """Group ``g`` of the members under open-loop schedules: members ``g * group`` on, through
+    the batch integrator of the workspaces ``cf[g], cst[g], lf[g], lint[g]``
+    (:func:`new_workspaces`)."""
     c = y0.shape[0]
-    n_groups = (c + group - 1) // group
-    for g in numba.prange(n_groups):
-        start = g * group
-        gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status,
-                       n_done, rtol, atol, max_step, max_steps, budget, start,
-                       min(c, start + group), cf[g], cst[g], lf[g], lint[g])  # fmt: skip
+    start = g * group
+    gyrostat_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
+                   rtol, atol, max_step, max_steps, budget, start, min(c, start + group), cf[g],
+                   cst[g], lf[g], lint[g])  # fmt: skip
 
 
-@parallel_jit(nogil=True, _nrt=False)
-def fsw_parallel(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
-                 rtol, atol, max_step, max_steps, budget, group, cf, cst, lf,
-                 lint):  # fmt: skip
-    """All members under their flight software, in groups (as :func:`schedule_parallel`)."""
+@jit(nogil=True, _nrt=False)
+def fsw_group_run(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
+                  rtol, atol, max_step, max_steps, budget, group, cf, cst, lf, lint,
+                  g):  # fmt: skip
+    """Group ``g`` of the members under their flight software (as :func:`schedule_group_run`)."""
     c = y0.shape[0]
-    n_groups = (c + group - 1) // group
-    for g in numba.prange(n_groups):
-        start = g * group
-        fsw_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
-                  rtol, atol, max_step, max_steps, budget, start, min(c, start + group), cf[g],
-                  cst[g], lf[g], lint[g])  # fmt: skip
+    start = g * group
+    fsw_group(params, sc, sc_at, y0, t, y_out, work, tstate, counters, src, status, n_done,
+              rtol, atol, max_step, max_steps, budget, start, min(c, start + group), cf[g],
+              cst[g], lf[g], lint[g])  # fmt: skip

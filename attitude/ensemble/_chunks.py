@@ -9,6 +9,7 @@ failing chunk's members marked (:data:`CHUNK_FAILED`), and the failures named
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -604,14 +605,18 @@ def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_step
             status[i] = st
             y_out[i, k:] = np.nan
 
-    c = y0.shape[0]
-    blocks = iter(range(0, c, PARALLEL_CHUNK))  # next() under the GIL: each block once
+    _on_threads(n_threads, y0.shape[0], member, PARALLEL_CHUNK)
+
+
+def _on_threads(n_threads: int, n: int, body: Callable[[int], None], block: int = 1) -> None:
+    """``body(i)`` for i in 0..n-1 on ``n_threads`` threads (``body`` calls compiled code that
+    releases the GIL), ``block`` consecutive indices at a time to whichever thread is free."""
+    blocks = iter(range(0, n, block))  # next() under the GIL: each block once
 
     def worker():
-        # consecutive members (their rows share cache lines) on one thread
         for b in blocks:
-            for i in range(b, min(c, b + PARALLEL_CHUNK)):
-                member(i)
+            for i in range(b, min(n, b + block)):
+                body(i)
 
     if n_threads <= 1:
         worker()
@@ -664,22 +669,20 @@ def compute_craft_chunk(
         if method == "taylor":
             from .._core import gyrostat_batch as _kgb
 
-            fn = _kgb.fsw_parallel if fsw else _kgb.schedule_parallel
+            fn = _kgb.fsw_group_run if fsw else _kgb.schedule_group_run
             n_groups = max(1, min(4 * n_threads, c // TAYLOR_MIN_GROUP))
             group = -(-c // n_groups)
-            extra: tuple = (group, *_kgb.new_workspaces(-(-c // group), n - 8))
-            if not JIT_DISABLED:
-                numba.set_parallel_chunksize(1)  # a group at a time (few and long)
+            n_groups = -(-c // group)
+            spaces = _kgb.new_workspaces(n_groups, n - 8)
         else:
             kernel = entry.dop853_spacecraft_fsw if fsw else entry.dop853_spacecraft
             evsrc = _member_events(blk, sc, n, events)
         while True:
             if method == "taylor":
-                fn(
-                    blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
-                    counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
-                    *extra,
-                )  # fmt: skip
+                args = (blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
+                        counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
+                        group, *spaces)  # fmt: skip
+                _on_threads(n_threads, n_groups, lambda g, a=args: fn(*a, g))
             else:
                 arrays = (blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done)
                 _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_steps,
