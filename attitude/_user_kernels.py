@@ -310,7 +310,6 @@ def _module_source(
     if not cached:
         model = (
             "import functools\n\njit = functools.partial(jit, cache=False)\n"
-            "parallel_jit = functools.partial(parallel_jit, cache=False)\n"
             "rebind = functools.partial(rebind, cache=False)\n\n" + model
         )
     kinds = ", ".join(

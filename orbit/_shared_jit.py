@@ -1,7 +1,8 @@
 """The numba configuration shared by ``orbit`` and ``attitude``: the one place jitting is set up.
 
-Every compiled kernel in ``orbit`` and ``attitude`` is decorated with :func:`jit`,
-:func:`parallel_jit` or :func:`jit_generic` from this module. ``orbit`` is the bottom layer
+Every compiled kernel in ``orbit`` and ``attitude`` is decorated with :func:`jit` or
+:func:`jit_generic` from this module (no numba ``parallel``: ensembles run members on Python
+threads, the GIL released). ``orbit`` is the bottom layer
 (``attitude`` imports it, never the reverse; an import contract in pyproject.toml enforces
 it), so the shared module lives here, and its name says that it is shared.
 
@@ -66,7 +67,6 @@ __all__ = [
     "interpreted",
     "jit",
     "jit_generic",
-    "parallel_jit",
     "rebind",
     "slp_vectorized",
     "sources_fingerprint",
@@ -461,12 +461,6 @@ def jit_generic(func=None, /, **options):
     """
     options.setdefault("inline", "always")
     options["cache"] = False
-    return jit(func, **options)
-
-
-def parallel_jit(func=None, /, **options):
-    """Like :func:`jit` with ``parallel=True`` (for ``prange`` loops over independent members)."""
-    options.setdefault("parallel", True)
     return jit(func, **options)
 
 

@@ -8,9 +8,9 @@ are chunked, or on how many threads run the loop: bit for bit.
 
 :func:`member_run` is the member body; it calls the model's single-run entry points
 (``dop853_canonical`` and ``diagnostics`` of :mod:`attitude._core.entry_points`), so a member
-runs the very machine code of a single propagation. The drivers over it (``prange`` over
-members, and a serial GIL-free loop for Dask worker threads) are entry points too:
-``ensemble_member``, ``ensemble_parallel``, ``ensemble_serial``.
+runs the very machine code of a single propagation. The driver over it, a GIL-free loop over
+members (a block of them on each of a run's threads, or a Dask task's), is an entry point too:
+``ensemble_member``, ``ensemble_serial``.
 
 A member that fails keeps the samples it computed, with their diagnostics; the rest of its
 rows are NaN. A call runs each member for at most ``budget`` steps (0: no limit) and leaves it

@@ -43,8 +43,6 @@ work array, slices of the state and of ``params``) took ~40 % of a DOP853 run.
 
 from __future__ import annotations
 
-import numba
-
 from attitude._core.actuators import SC
 from attitude._core.coupled import COUPLED, live_environment
 from attitude._core.diagnostics import samples_with
@@ -85,7 +83,7 @@ from attitude._core.spacecraft_events import (
 from attitude._core.splitting import apply_stage, composition_run
 from attitude._core.taylor_gyrostat import gyrostat_step_inline, taylor_holds_run  # noqa: F401
 from orbit._rk import dop853_run
-from orbit._shared_jit import jit, parallel_jit, rebind
+from orbit._shared_jit import jit, rebind
 from orbit._state_kernels import orbit_sample as _any_orbit_sample
 
 # --- model: begin (replaced in user modules) ---
@@ -363,20 +361,6 @@ def ensemble_member(
     )  # fmt: skip
 
 
-@parallel_jit(nogil=True)
-def ensemble_parallel(
-    params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps, budget,
-):  # fmt: skip
-    """All members, in parallel over members (``prange``; its index, unsigned, as the serial
-    driver's ``int64``: one compiled member for both)."""
-    for i in numba.prange(y0.shape[0]):
-        ensemble_member(
-            numba.int64(i), params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-            rtol, atol, max_step, max_steps, budget,
-        )  # fmt: skip
-
-
 @jit(nogil=True, _nrt=REFCOUNT)
 def ensemble_serial(
     params, y0, t, y_out, diag, work, tstate, counters, status, n_done,
@@ -400,19 +384,6 @@ def ensemble_events_member(
         dop853_canonical_events, diagnostics, i, params, evd, evs, y0, t, y_out, diag, work,
         tstate, counters, status, n_done, rtol, atol, max_step, max_steps, budget,
     )  # fmt: skip
-
-
-@parallel_jit(nogil=True)
-def ensemble_events_parallel(
-    params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status, n_done,
-    rtol, atol, max_step, max_steps, budget,
-):  # fmt: skip
-    """All members with events, in parallel over members (``prange``)."""
-    for i in numba.prange(y0.shape[0]):
-        ensemble_events_member(
-            numba.int64(i), params, evd, evs, y0, t, y_out, diag, work, tstate, counters, status,
-            n_done, rtol, atol, max_step, max_steps, budget,
-        )  # fmt: skip
 
 
 @jit(nogil=True)

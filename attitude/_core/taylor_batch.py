@@ -41,13 +41,12 @@ from __future__ import annotations
 import math
 import sys
 
-import numba
 import numpy as np
 
 from orbit import _state_kernels as _SK
 from orbit._layout import Field, layout
 from orbit._rk import NONFINITE, SUCCESS, TOO_MANY_STEPS
-from orbit._shared_jit import jit, parallel_jit, slp_vectorized, specialise
+from orbit._shared_jit import jit, slp_vectorized, specialise
 
 from . import lanes as V
 from .dynamics import diagnostics_row, diagnostics_with
@@ -77,8 +76,8 @@ __all__ = [
     "LANES",
     "batch",
     "new_workspaces",
-    "taylor_ensemble_parallel",
     "taylor_ensemble_serial",
+    "taylor_group_run",
 ]
 
 _BATCHES: dict[int, object] = {}
@@ -655,20 +654,18 @@ def taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, r
             refill = True
 
 
-@parallel_jit(nogil=True)
-def taylor_ensemble_parallel(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol,
-                             atol, max_step, max_steps, orbit_tab, group, cf, cst, lts, lint,
-                             gst, budget):  # fmt: skip
-    """All members, ``group`` members per batch integrator (workspaces of
-    :func:`new_workspaces`, one per group), the groups in parallel (prange), each for at most
-    ``budget`` batch steps this call."""
+@jit(nogil=True, _nrt=False)
+def taylor_group_run(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
+                     max_step, max_steps, orbit_tab, group, cf, cst, lts, lint, gst, budget,
+                     g):  # fmt: skip
+    """Group ``g`` (members ``g * group`` on, ``group`` per batch integrator, the workspaces of
+    :func:`new_workspaces`) for at most ``budget`` batch steps this call, GIL released: the
+    groups of a chunk run on Python threads (attitude.ensemble._chunks)."""
     n = y0.shape[0]
-    n_groups = (n + group - 1) // group
-    for g in numba.prange(n_groups):
-        start = g * group
-        taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
-                     max_step, max_steps, orbit_tab, start, min(n, start + group), cf[g], cst[g],
-                     lts[g], lint[g], gst[g], budget)  # fmt: skip
+    start = g * group
+    return taylor_group(params, y0, t, y_out, diag, tstate, counters, status, n_done, rtol, atol,
+                        max_step, max_steps, orbit_tab, start, min(n, start + group), cf[g],
+                        cst[g], lts[g], lint[g], gst[g], budget)  # fmt: skip
 
 
 @jit(nogil=True)

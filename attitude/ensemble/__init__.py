@@ -2,7 +2,7 @@
 
 :func:`propagate_ensemble` integrates N members, each with its own adaptive DOP853 steps (or
 Taylor steps, ``method="taylor"``: four members per SIMD instruction), in parallel compiled
-code (a numba ``prange`` loop over members, or Dask tasks on a cluster), and returns one
+code (blocks of members on threads, the GIL released, or Dask tasks on a cluster), and returns one
 Dataset with a ``member`` dimension and the variables of :func:`attitude.propagate`. Members
 are processed in chunks; with ``path=`` every chunk is streamed to a netCDF4 file as soon as
 it is done, so memory is bounded by one chunk whatever N.

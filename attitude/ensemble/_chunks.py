@@ -8,7 +8,6 @@ failing chunk's members marked (:data:`CHUNK_FAILED`), and the failures named
 
 from __future__ import annotations
 
-import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -73,6 +72,38 @@ STATUS_FLAGS = {
 }
 
 
+def _on_blocks(n_threads: int, n: int, body: Callable[[int, int], None],
+               block: int = 8) -> None:  # fmt: skip
+    """``body(a, b)`` over the blocks ``a..b-1`` of ``block`` consecutive indices in 0..n-1, on
+    ``n_threads`` threads (``body`` calls compiled code that releases the GIL), each block to
+    whichever thread is free (a thread that gets less CPU, or slower members, does not hold
+    the others up at the end of a chunk)."""
+    blocks = iter(range(0, n, block))  # next() under the GIL: each block once
+
+    def worker():
+        for a in blocks:
+            body(a, min(n, a + block))
+
+    if n_threads <= 1:
+        worker()
+        return
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=n_threads) as pool:
+        for job in [pool.submit(worker) for _ in range(n_threads)]:
+            job.result()
+
+
+def _on_threads(n_threads: int, n: int, body: Callable[[int], None], block: int = 1) -> None:
+    """``body(i)`` for i in 0..n-1 as :func:`_on_blocks` runs its blocks."""
+
+    def run(a, b):
+        for i in range(a, b):
+            body(i)
+
+    _on_blocks(n_threads, n, run, block)
+
+
 def _compute_chunk(
     setup: _Setup,
     params: np.ndarray,
@@ -104,32 +135,23 @@ def _compute_chunk(
         "n_done": np.zeros(c, dtype=np.int64),
     }
     if setup.method == "taylor":
-        return _compute_chunk_taylor(setup, params, y0, out, parallel)
+        return _compute_chunk_taylor(setup, params, y0, out, threads if parallel else 1)
     work = np.empty((c, _rk.WORK_ROWS, 8))
     tstate = np.empty((c, 4))
     entry = _entry(setup)
     budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * max(1, threads) // max(1, c))
     if setup.events is not None:
-        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget)
-    fn = entry.ensemble_parallel if parallel else entry.ensemble_serial
+        return _compute_chunk_events(setup, entry, params, y0, out, work, tstate,
+                                      threads if parallel else 1, budget)  # fmt: skip
+    state = (work, tstate, out["counters"], out["status"], out["n_done"])
+    tail = (setup.rtol, setup.atol, setup.max_step, setup.max_steps, budget)
+
+    def block(a, b):  # members a..b-1 (their rows, views: the serial driver's types)
+        entry.ensemble_serial(params[a:b], y0[a:b], t, out["y"][a:b], out["diag"][a:b],
+                              *(x[a:b] for x in state), *tail)  # fmt: skip
+
     while True:
-        fn(
-            params,
-            y0,
-            t,
-            out["y"],
-            out["diag"],
-            work,
-            tstate,
-            out["counters"],
-            out["status"],
-            out["n_done"],
-            setup.rtol,
-            setup.atol,
-            setup.max_step,
-            setup.max_steps,
-            budget,
-        )
+        _on_blocks(threads if parallel else 1, c, block)
         _interrupt.check()
         if not np.any(out["status"] == _ke.RUNNING):
             break
@@ -177,7 +199,7 @@ def _failed(out: dict[str, Any], t: np.ndarray, exc: BaseException) -> dict[str,
 TAYLOR_MIN_GROUP = 32
 
 
-def _compute_chunk_taylor(setup, params, y0, out, parallel):
+def _compute_chunk_taylor(setup, params, y0, out, threads):
     """:func:`_compute_chunk` with ``method="taylor"``: members in SIMD batches
     (:mod:`attitude._core.taylor_batch`), in groups run in parallel."""
     from .._core import taylor_batch as _tb0
@@ -200,11 +222,6 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
         params, y0, setup.t, out["y"], out["diag"], tstate, out["counters"], out["status"],
         out["n_done"], setup.rtol, setup.atol, setup.max_step, setup.max_steps, orbit_tab,
     )  # fmt: skip
-    threads = 1
-    if parallel:
-        import numba
-
-        threads = numba.get_num_threads()
     # About 4 groups per thread, of equal size (balance), none below TAYLOR_MIN_GROUP; one
     # group on one thread.
     n_groups = 1 if threads == 1 else max(1, min(4 * threads, c // TAYLOR_MIN_GROUP))
@@ -218,11 +235,8 @@ def _compute_chunk_taylor(setup, params, y0, out, parallel):
         if threads == 1:
             _tb.taylor_ensemble_serial(*args, group, *ws, budget)
         else:
-            old = numba.set_parallel_chunksize(1)  # a group at a time (they are few and long)
-            try:
-                _tb.taylor_ensemble_parallel(*args, group, *ws, budget)
-            finally:
-                numba.set_parallel_chunksize(old)
+            _on_threads(threads, n_groups, lambda g: _tb.taylor_group_run(*args, group, *ws,
+                                                                          budget, g))  # fmt: skip
         _interrupt.check()
         if ws[4][:, _tb.GROUP.DONE].all():
             break
@@ -243,17 +257,21 @@ def _entry(setup: _Setup) -> Any:
     return entry_points(terms, user_events, potential=setup.user_potential)
 
 
-def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, parallel, budget):
+def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, threads, budget):
     """:func:`_compute_chunk` with events: per member and event, the count and first time."""
     ev = setup.events
     evs = np.zeros((y0.shape[0], ev.n, _kev.EVS.SIZE))
-    fn = entry.ensemble_events_parallel if parallel else entry.ensemble_events_serial
+    c = y0.shape[0]
+    state = (work, tstate, out["counters"], out["status"], out["n_done"])
+    tail = (setup.rtol, setup.atol, setup.max_step, setup.max_steps, budget)
+
+    def block(a, b):  # members a..b-1 (their rows, views: the serial driver's types)
+        entry.ensemble_events_serial(params[a:b], ev.data, evs[a:b], y0[a:b], setup.t,
+                                     out["y"][a:b], out["diag"][a:b], *(x[a:b] for x in state),
+                                     *tail)  # fmt: skip
+
     while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
-        fn(
-            params, ev.data, evs, y0, setup.t, out["y"], out["diag"], work, tstate,
-            out["counters"], out["status"], out["n_done"], setup.rtol, setup.atol,
-            setup.max_step, setup.max_steps, budget,
-        )  # fmt: skip
+        _on_blocks(threads, c, block)
         _interrupt.check()
         if not np.any(out["status"] == _ke.RUNNING):
             break
@@ -273,25 +291,18 @@ def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, 
 PARALLEL_CHUNK = 8
 
 
-@contextlib.contextmanager
-def _numba_threads(threads: int | None):
-    """Run the parallel driver with ``threads`` numba threads (restored afterwards)."""
+def thread_count(threads: int | None) -> int:
+    """The threads of a local run: ``threads``, else numba's count (the cores; 1 without the
+    JIT)."""
     from orbit._shared_jit import JIT_DISABLED
 
+    if threads is not None:
+        return int(threads)
     if JIT_DISABLED:
-        yield
-        return
+        return 1
     import numba
 
-    old = numba.get_num_threads()
-    old_chunk = numba.set_parallel_chunksize(PARALLEL_CHUNK)
-    if threads is not None:
-        numba.set_num_threads(int(threads))
-    try:
-        yield
-    finally:
-        numba.set_num_threads(old)
-        numba.set_parallel_chunksize(old_chunk)
+    return numba.get_num_threads()
 
 
 def _ranges(idx: list[int]) -> str:
@@ -396,19 +407,12 @@ def _each(bounds: list[tuple[int, int]], compute: Any):
 def local_results(setup, members, bounds, threads, direct=None):
     """Rigid-body chunks computed here with the parallel driver, one after the other: (out,
     inertia, projection) each (:func:`_each`)."""
-    from orbit._shared_jit import JIT_DISABLED
+    n = thread_count(threads)
 
     def compute(start: int, stop: int) -> tuple:
         params, y0, inertia, corr = members.block(start, stop)
         buf = {} if direct is None else direct.buffers(start, stop)
-        with _numba_threads(threads):
-            if JIT_DISABLED:
-                out = _compute_chunk(setup, params, y0, parallel=False, **buf)
-            else:
-                import numba
-
-                threads_n = numba.get_num_threads()
-                out = _compute_chunk(setup, params, y0, parallel=True, threads=threads_n, **buf)
+        out = _compute_chunk(setup, params, y0, parallel=n > 1, threads=n, **buf)
         return out, inertia, corr
 
     return _each(bounds, compute)
@@ -608,26 +612,6 @@ def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_step
     _on_threads(n_threads, y0.shape[0], member, PARALLEL_CHUNK)
 
 
-def _on_threads(n_threads: int, n: int, body: Callable[[int], None], block: int = 1) -> None:
-    """``body(i)`` for i in 0..n-1 on ``n_threads`` threads (``body`` calls compiled code that
-    releases the GIL), ``block`` consecutive indices at a time to whichever thread is free."""
-    blocks = iter(range(0, n, block))  # next() under the GIL: each block once
-
-    def worker():
-        for b in blocks:
-            for i in range(b, min(n, b + block)):
-                body(i)
-
-    if n_threads <= 1:
-        worker()
-        return
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(max_workers=n_threads) as pool:
-        for job in [pool.submit(worker) for _ in range(n_threads)]:
-            job.result()
-
-
 def compute_craft_chunk(
     blk: dict[str, Any],
     t: np.ndarray,
@@ -647,8 +631,6 @@ def compute_craft_chunk(
 
     Every member is run to its end, failed or not (``status``, ``n_done`` say how it ended; a
     failed member's rows after its last sample are NaN)."""
-    from orbit._shared_jit import JIT_DISABLED
-
     c, n = blk["y0"].shape
     m = t.shape[0]
     n_rec = blk["runs"][0].n_rec
@@ -659,41 +641,36 @@ def compute_craft_chunk(
     sc = blk["sc0"].copy()
     src = blk["src"]
     evsrc = None
-    with _numba_threads(threads):
-        n_threads = 1
-        if not JIT_DISABLED:
-            import numba
+    n_threads = thread_count(threads)
+    budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * n_threads // max(1, c))
+    if method == "taylor":
+        from .._core import gyrostat_batch as _kgb
 
-            n_threads = numba.get_num_threads()
-        budget = max(MIN_MEMBER_BUDGET, ENSEMBLE_STEP_BUDGET * n_threads // max(1, c))
+        fn = _kgb.fsw_group_run if fsw else _kgb.schedule_group_run
+        n_groups = max(1, min(4 * n_threads, c // TAYLOR_MIN_GROUP))
+        group = -(-c // n_groups)
+        n_groups = -(-c // group)
+        spaces = _kgb.new_workspaces(n_groups, n - 8)
+    else:
+        kernel = entry.dop853_spacecraft_fsw if fsw else entry.dop853_spacecraft
+        evsrc = _member_events(blk, sc, n, events)
+    while True:
         if method == "taylor":
-            from .._core import gyrostat_batch as _kgb
-
-            fn = _kgb.fsw_group_run if fsw else _kgb.schedule_group_run
-            n_groups = max(1, min(4 * n_threads, c // TAYLOR_MIN_GROUP))
-            group = -(-c // n_groups)
-            n_groups = -(-c // group)
-            spaces = _kgb.new_workspaces(n_groups, n - 8)
+            args = (blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
+                    counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
+                    group, *spaces)  # fmt: skip
+            _on_threads(n_threads, n_groups, lambda g, a=args: fn(*a, g))
         else:
-            kernel = entry.dop853_spacecraft_fsw if fsw else entry.dop853_spacecraft
-            evsrc = _member_events(blk, sc, n, events)
-        while True:
-            if method == "taylor":
-                args = (blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
-                        counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
-                        group, *spaces)  # fmt: skip
-                _on_threads(n_threads, n_groups, lambda g, a=args: fn(*a, g))
-            else:
-                arrays = (blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done)
-                _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_steps,
-                                   budget)  # fmt: skip
-            _interrupt.check()
-            waiting = status == _kse.RECORDS_WAIT
-            if waiting.any():
-                src = _grow_records(src, waiting)
-                continue
-            if not np.any(status == _ke.RUNNING):
-                break
+            arrays = (blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done)
+            _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_steps,
+                               budget)  # fmt: skip
+        _interrupt.check()
+        waiting = status == _kse.RECORDS_WAIT
+        if waiting.any():
+            src = _grow_records(src, waiting)
+            continue
+        if not np.any(status == _ke.RUNNING):
+            break
     diag, torques, act, wheels = _diagnostics(blk, t, y_out, n_done, entry, n_terms)
     out = {
         "rows": y_out,

@@ -111,7 +111,8 @@ def propagate_ensemble(
         Workers need ``attitude`` importable; the results are gathered chunk by chunk, in
         member order, and written by this process (no shared file system needed).
     threads : int, optional
-        Local run: number of numba threads of the parallel loop (default: numba's, all cores).
+        Local run: number of threads running members (default: numba's thread count, all
+        cores; at most that).
     progress : callable, optional
         ``progress(n_done, n_total, n_steps_done)`` after each chunk (members done so far).
     scheduler_timeout : float, optional

@@ -60,19 +60,6 @@ def _default_chunk(n: int, m: int, threads: int, method: str = "dop853") -> int:
     return max(1, min(want, max(cap, threads)))
 
 
-def _local_threads(threads: int | None) -> int:
-    """The threads of a local run: ``threads``, else numba's (1 without the JIT)."""
-    from orbit._shared_jit import JIT_DISABLED
-
-    if threads is not None:
-        return int(threads)
-    if JIT_DISABLED:
-        return 1
-    import numba
-
-    return numba.get_num_threads()
-
-
 def _run_attrs(spec: EnsembleSpec, csize: int, execution: str) -> dict[str, Any]:
     """The global attrs every ensemble records: the run's, the method, tolerances, sizes."""
     a: dict[str, Any] = {
@@ -110,10 +97,10 @@ def _crafts(spec: EnsembleSpec) -> xr.Dataset:
     members, plan = spec.members, spec.plan
     n = members.n
     csize = spec.chunk_size or max(
-        1, min(MAX_CRAFT_CHUNK, max(-(-n // 20), 16 * _local_threads(spec.threads)))
+        1, min(MAX_CRAFT_CHUNK, max(-(-n // 20), 16 * _chunks.thread_count(spec.threads)))
     )
     csize = min(csize, n)
-    attrs = _run_attrs(spec, csize, f"local threads ({_local_threads(spec.threads)})")
+    attrs = _run_attrs(spec, csize, f"local threads ({_chunks.thread_count(spec.threads)})")
     attrs.update(plan.attrs())
     if spec.attrs:
         attrs.update(spec.attrs)
@@ -161,7 +148,7 @@ def _bodies(spec: EnsembleSpec) -> xr.Dataset:
                 _check_picklable(user)
             n_threads = _dask._worker_threads(client)
         else:
-            n_threads = _local_threads(spec.threads)
+            n_threads = _chunks.thread_count(spec.threads)
         m = plan.kernel_t.shape[0]
         csize = spec.chunk_size or _default_chunk(n, m, n_threads, spec.method)
         csize = min(csize, n)
