@@ -8,7 +8,6 @@ failing chunk's members marked (:data:`CHUNK_FAILED`), and the failures named
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,6 +25,7 @@ from .._core import spacecraft_ensemble as _kse
 from .._core import taylor as _kt
 from .._core import taylor_gyrostat as _ktg
 from ..errors import AttitudeTypeError, AttitudeValueError
+from ._threads import PARALLEL_CHUNK, block_size, on_blocks, on_threads
 
 _N_DIAG = 13
 
@@ -70,118 +70,6 @@ STATUS_FLAGS = {
     _rk.EVENT_BUFFER_FULL: "event_buffer_full",
     CHUNK_FAILED: "chunk_task_failed",
 }
-
-
-_POOL: list[Any] = []  # [ThreadPoolExecutor, its size]: started once, reused by every chunk
-
-
-def _pool(n_threads: int) -> Any:
-    """The process's worker threads for chunks (at least ``n_threads`` of them; a chunk of a
-    few milliseconds would otherwise spend a tenth of its time starting threads)."""
-    from concurrent.futures import ThreadPoolExecutor
-
-    if not _POOL or _POOL[1] < n_threads:
-        if _POOL:
-            _POOL[0].shutdown(wait=False)
-        _POOL[:] = [ThreadPoolExecutor(n_threads, thread_name_prefix="attitude-ensemble"),
-                    n_threads]  # fmt: skip
-    return _POOL[0]
-
-
-def _on_blocks(
-    n_threads: int,
-    n: int,
-    body: Callable[[int, int], None],
-    block: int = 8,
-    more: Callable[[int, int], bool] | None = None,
-) -> None:
-    """``body(a, b)`` over the blocks ``a..b-1`` of ``block`` consecutive indices in 0..n-1, on
-    ``n_threads`` threads (``body`` calls compiled code that releases the GIL), each block to
-    whichever thread is free: a thread that gets less CPU, or slower members, does not hold the
-    others up. A block for which ``more(a, b)`` is true (members paused at their step budget)
-    goes back in the queue, so the threads never wait for each other before the last block.
-    An interrupt (:func:`attitude._interrupt.check` after each call, or Ctrl-C in the calling
-    thread) lets every thread finish its call and requeue nothing; it is raised here."""
-    import threading
-    from collections import deque
-
-    queue = deque((a, min(n, a + block)) for a in range(0, n, block))
-    cond = threading.Condition()
-    busy = [0]
-    stop: list[BaseException | None] = []
-
-    def worker():
-        while True:
-            with cond:
-                while not queue and busy[0] and not stop:
-                    cond.wait()
-                if stop or not queue:
-                    return
-                a, b = queue.popleft()
-                busy[0] += 1
-            again = False
-            try:
-                body(a, b)
-                again = more is not None and more(a, b)
-                _interrupt.check()  # between compiled calls, as a single run
-            except BaseException as exc:  # raised again by the calling thread
-                with cond:
-                    stop.append(exc)
-            finally:
-                with cond:
-                    busy[0] -= 1
-                    if again and not stop:
-                        queue.append((a, b))
-                    cond.notify_all()
-
-    if n_threads <= 1:
-        worker()
-        if stop:
-            raise stop[0]
-        return
-    from concurrent.futures import wait
-
-    jobs = [_pool(n_threads).submit(worker) for _ in range(n_threads)]
-    try:
-        # (a timeout: the signal may reach a worker thread, and this thread runs Python's
-        # handler only when it wakes)
-        while wait(jobs, timeout=0.05).not_done:
-            pass
-    except BaseException:  # Ctrl-C in this thread: the others end their calls, then it is raised
-        with cond:
-            stop.append(None)
-            cond.notify_all()
-        for job in jobs:
-            job.exception()
-        raise
-    errors = [e for e in stop if e is not None]
-    if errors:
-        raise errors[0]
-
-
-def _block_size(n: int, n_threads: int) -> int:
-    """Members per call of a serial driver: about 32 blocks a thread (the last call of a chunk
-    is short), at least :data:`PARALLEL_CHUNK` (each call costs a few microseconds of Python,
-    under the GIL)."""
-    return max(PARALLEL_CHUNK, -(-n // (32 * max(1, n_threads))))
-
-
-def _on_threads(
-    n_threads: int,
-    n: int,
-    body: Callable[[int], None],
-    block: int = 1,
-    more: Callable[[int], bool] | None = None,
-) -> None:
-    """``body(i)`` for i in 0..n-1 as :func:`_on_blocks` runs its blocks (``more(i)``: index i
-    needs another call)."""
-
-    def run(a, b):
-        for i in range(a, b):
-            body(i)
-
-    again = None if more is None else (lambda a, b: any(more(i) for i in range(a, b)))
-    _on_blocks(n_threads, n, run, block, again)
 
 
 def _compute_chunk(
@@ -231,11 +119,11 @@ def _compute_chunk(
                               *(x[a:b] for x in state), *tail)  # fmt: skip
 
     while True:
-        _on_blocks(
+        on_blocks(
             threads if parallel else 1,
             c,
             block,
-            _block_size(c, threads),
+            block_size(c, threads),
             lambda a, b: bool(np.any(out["status"][a:b] == _ke.RUNNING)),
         )
         _interrupt.check()
@@ -321,7 +209,7 @@ def _compute_chunk_taylor(setup, params, y0, out, threads):
         if threads == 1:
             _tb.taylor_ensemble_serial(*args, group, *ws, budget)
         else:
-            _on_threads(threads, n_groups,
+            on_threads(threads, n_groups,
                         lambda g: _tb.taylor_group_run(*args, group, *ws, budget, g),
                         more=lambda g: not ws[4][g, _tb.GROUP.DONE])  # fmt: skip
         _interrupt.check()
@@ -358,11 +246,11 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, threads, 
                                      *tail)  # fmt: skip
 
     while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
-        _on_blocks(
+        on_blocks(
             threads,
             c,
             block,
-            _block_size(c, threads),
+            block_size(c, threads),
             lambda a, b: bool(np.any(out["status"][a:b] == _ke.RUNNING)),
         )
         _interrupt.check()
@@ -377,11 +265,6 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, threads, 
 def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, np.ndarray]:
     """A chunk as a Dask task: the serial (GIL-free) driver; the worker threads parallelise."""
     return _compute_chunk(setup, params, y0, parallel=False)
-
-
-#: Members handed to a thread at a time by the parallel loop (dynamic scheduling: a thread that
-#: gets less CPU, or slower members, does not hold the others up at the end of a chunk).
-PARALLEL_CHUNK = 8
 
 
 def thread_count(threads: int | None) -> int:
@@ -702,7 +585,7 @@ def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_step
             status[i] = st
             y_out[i, k:] = np.nan
 
-    _on_threads(n_threads, y0.shape[0], member, PARALLEL_CHUNK,
+    on_threads(n_threads, y0.shape[0], member, PARALLEL_CHUNK,
                 more=lambda i: status[i] == _ke.RUNNING)  # fmt: skip
 
 
@@ -753,7 +636,7 @@ def compute_craft_chunk(
             args = (blk["params"], sc, blk["sc_at"], blk["y0"], t, y_out, work, tstate,
                     counters, src, status, n_done, rtol, atol, max_step, max_steps, budget,
                     group, *spaces)  # fmt: skip
-            _on_threads(n_threads, n_groups, lambda g, a=args: fn(*a, g),
+            on_threads(n_threads, n_groups, lambda g, a=args: fn(*a, g),
                         more=lambda g: bool(np.any(status[g * group : (g + 1) * group]
                                                    == _ke.RUNNING)))  # fmt: skip
         else:
