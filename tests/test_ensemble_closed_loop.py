@@ -99,7 +99,8 @@ def test_dispersed_members_equal_their_single_runs_bit_for_bit(method):
         _same(ds, two, names)
 
 
-@pytest.mark.slow  # (compiles the open-loop SIMD gyrostat lanes, ~15 s in a fresh cache)
+# (in the default suite: "auto" picks the Taylor lanes for open-loop spacecraft ensembles;
+# ~25 s in a fresh cache, the single-run Taylor driver included)
 def test_open_loop_taylor_ensemble_in_simd_lanes_equals_single_runs():
     """Open-loop wheel schedules with dispersed wheel inertias and torque limits (saturating):
     the Taylor SIMD lanes of gyrostats give each member's single run bit for bit."""
