@@ -534,17 +534,17 @@ def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_step
     evd, evs, ev_count, rec_t, rec_k, rec_y, scr = evsrc
 
     def rows(i):
-        """Member i's small arrays the driver writes (copies: rows of neighbouring members
-        written by two threads share cache lines, which costs a third of the speed), and its
-        large ones (views)."""
+        """Member i's arguments: copies of the small arrays the driver writes (the rows of
+        neighbouring members share cache lines, and two threads writing them slow each other
+        down), views of the large ones; and the arrays the copies go back to."""
         if len(src) == 8:  # the flight software's
             hs, fw, fw_at, fs, fs_at, cmd, rec, rc = src
-            views = (hs[i], fs[fs_at[i] : fs_at[i + 1]], cmd[i], rc[i])
+            held = (hs[i], fs[fs_at[i] : fs_at[i + 1]], cmd[i], rc[i])
         else:
             hs, hold_t, hold_u, hold_at, zero = src
-            views = (hs[i],)
+            held = (hs[i],)
         own = (sc[sc_at[i] : sc_at[i + 1]], tstate[i], counters[i], evd[i], evs[i],
-               ev_count[i], *views)  # fmt: skip
+               ev_count[i], *held)  # fmt: skip
         copies = tuple(a.copy() for a in own)
         sc_i, ts, cn, evd_i, evs_i, evc = copies[:6]
         if len(src) == 8:
