@@ -71,7 +71,7 @@ def spacecraft_rhs_with(torque, has_torque, t, y, P, dydt):
     om = body_rate(sc, 0.5 * w[1], 0.5 * w[2], 0.5 * w[3], l0, l1, l2)
     # the model's torque at q as an array, as eq. 7's right-hand side gives it (a tuple compiled
     # every kernel of the model a second time: ~20 s of a fresh cache for a sum of models)
-    if has_torque(params):  # (the generic switch costs 11 ns a call: a torque-free hub skips it)
+    if has_torque(params):  # (a torque-free hub skips the generic switch's call)
         tau = torque(y[0:4], om, t, params)
     else:
         tau = (0.0, 0.0, 0.0)

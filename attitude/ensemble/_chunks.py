@@ -25,7 +25,7 @@ from .._core import spacecraft_ensemble as _kse
 from .._core import taylor as _kt
 from .._core import taylor_gyrostat as _ktg
 from ..errors import AttitudeTypeError, AttitudeValueError
-from ._threads import PARALLEL_CHUNK, block_size, on_blocks, on_threads
+from ._threads import PARALLEL_CHUNK, block_size, on_blocks, on_threads, thread_count
 
 _N_DIAG = 13
 
@@ -118,17 +118,7 @@ def _compute_chunk(
         entry.ensemble_serial(params[a:b], y0[a:b], t, out["y"][a:b], out["diag"][a:b],
                               *(x[a:b] for x in state), *tail)  # fmt: skip
 
-    while True:
-        on_blocks(
-            threads if parallel else 1,
-            c,
-            block,
-            block_size(c, threads),
-            lambda a, b: bool(np.any(out["status"][a:b] == _ke.RUNNING)),
-        )
-        _interrupt.check()
-        if not np.any(out["status"] == _ke.RUNNING):
-            break
+    _serial_blocks(threads if parallel else 1, c, out["status"], block)
     out["t_stop"] = tstate[:, 0].copy()  # time each member's integration reached
     return out
 
@@ -245,40 +235,24 @@ def _compute_chunk_events(setup, entry, params, y0, out, work, tstate, threads, 
                                      out["y"][a:b], out["diag"][a:b], *(x[a:b] for x in state),
                                      *tail)  # fmt: skip
 
-    while True:  # members paused at their step budget go on bit for bit (Ctrl-C acts between)
-        on_blocks(
-            threads,
-            c,
-            block,
-            block_size(c, threads),
-            lambda a, b: bool(np.any(out["status"][a:b] == _ke.RUNNING)),
-        )
-        _interrupt.check()
-        if not np.any(out["status"] == _ke.RUNNING):
-            break
+    _serial_blocks(threads, c, out["status"], block)
     out["t_stop"] = tstate[:, 0].copy()
     out["event_count"] = evs[:, :, _kev.EVS.COUNT].astype(np.int64)
     out["event_first"] = evs[:, :, _kev.EVS.FIRST].copy()
     return out
 
 
+def _serial_blocks(threads: int, c: int, status: np.ndarray, block: Any) -> None:
+    """Members 0..c-1 through ``block(a, b)``, a serial driver over members a..b-1, on
+    ``threads`` threads; a block is called again while any of its members is paused at its step
+    budget (it goes on bit for bit; Ctrl-C acts between calls)."""
+    on_blocks(threads, c, block, block_size(c, threads),
+              lambda a, b: bool(np.any(status[a:b] == _ke.RUNNING)))  # fmt: skip
+
+
 def _chunk_task(setup: _Setup, params: np.ndarray, y0: np.ndarray) -> dict[str, np.ndarray]:
     """A chunk as a Dask task: the serial (GIL-free) driver; the worker threads parallelise."""
     return _compute_chunk(setup, params, y0, parallel=False)
-
-
-def thread_count(threads: int | None) -> int:
-    """The threads of a local run: ``threads``, else numba's count (the cores; 1 without the
-    JIT)."""
-    from orbit._shared_jit import JIT_DISABLED
-
-    if threads is not None:
-        return int(threads)
-    if JIT_DISABLED:
-        return 1
-    import numba
-
-    return numba.get_num_threads()
 
 
 def _ranges(idx: list[int]) -> str:
@@ -526,8 +500,10 @@ def _run_craft_members(kernel, arrays, n_threads, rtol, atol, max_step, max_step
     (the driver releases the GIL).
 
     Member i's arguments are cut out of the chunk's arrays as
-    :mod:`attitude._core.spacecraft_ensemble` lays them out; its status and rows as
-    :func:`attitude._core.spacecraft_ensemble.member_stop` records them."""
+    :mod:`attitude._core.spacecraft_ensemble` lays them out. Its start and end are the
+    bookkeeping of :func:`attitude._core.ensemble.member_begin` and
+    :func:`attitude._core.spacecraft_ensemble.member_stop`, here in Python: a compiled wrapper
+    calling the driver would compile a second copy of it."""
     blk, sc, src, evsrc, t, y_out, work, tstate, counters, status, n_done = arrays
     params, sc_at, y0 = blk["params"], blk["sc_at"], blk["y0"]
     t0, t_end = t[0], t[t.shape[0] - 1]

@@ -25,7 +25,7 @@ import xarray as xr
 from .._run.spec import PROJECTION_WARN
 from ..errors import AttitudeTypeError, PropagationError
 from ..io import COMPLEVEL, _MemberWriter
-from . import _chunks, _dask, _plan
+from . import _chunks, _dask, _plan, _threads
 from ._output import _Assembler, _concat, _CraftAssembler, _Direct, _open_result
 from ._percentile_store import _PercentileStore
 from ._spec import EnsembleSpec
@@ -97,10 +97,10 @@ def _crafts(spec: EnsembleSpec) -> xr.Dataset:
     members, plan = spec.members, spec.plan
     n = members.n
     csize = spec.chunk_size or max(
-        1, min(MAX_CRAFT_CHUNK, max(-(-n // 20), 16 * _chunks.thread_count(spec.threads)))
+        1, min(MAX_CRAFT_CHUNK, max(-(-n // 20), 16 * _threads.thread_count(spec.threads)))
     )
     csize = min(csize, n)
-    attrs = _run_attrs(spec, csize, f"local threads ({_chunks.thread_count(spec.threads)})")
+    attrs = _run_attrs(spec, csize, f"local threads ({_threads.thread_count(spec.threads)})")
     attrs.update(plan.attrs())
     if spec.attrs:
         attrs.update(spec.attrs)
@@ -148,7 +148,7 @@ def _bodies(spec: EnsembleSpec) -> xr.Dataset:
                 _check_picklable(user)
             n_threads = _dask._worker_threads(client)
         else:
-            n_threads = _chunks.thread_count(spec.threads)
+            n_threads = _threads.thread_count(spec.threads)
         m = plan.kernel_t.shape[0]
         csize = spec.chunk_size or _default_chunk(n, m, n_threads, spec.method)
         csize = min(csize, n)

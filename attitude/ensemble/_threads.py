@@ -11,7 +11,7 @@ from typing import Any
 
 from .. import _interrupt
 
-__all__ = ["PARALLEL_CHUNK", "block_size", "on_blocks", "on_threads"]
+__all__ = ["PARALLEL_CHUNK", "block_size", "on_blocks", "on_threads", "thread_count"]
 
 #: Fewest members handed to a thread at a time (each call costs a few microseconds of Python).
 PARALLEL_CHUNK = 8
@@ -126,3 +126,17 @@ def on_threads(
 
     again = None if more is None else (lambda a, b: any(more(i) for i in range(a, b)))
     on_blocks(n_threads, n, run, block, again)
+
+
+def thread_count(threads: int | None) -> int:
+    """The threads of a local run: ``threads``, else numba's count (the cores; 1 without the
+    JIT)."""
+    from orbit._shared_jit import JIT_DISABLED
+
+    if threads is not None:
+        return int(threads)
+    if JIT_DISABLED:
+        return 1
+    import numba
+
+    return numba.get_num_threads()
