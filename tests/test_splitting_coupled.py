@@ -10,6 +10,7 @@ Dataset, independently of the run."""
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 
@@ -34,8 +35,13 @@ def _orbit(**kw):
     return orbit.NumericalOrbit([7000.0, 0.0, 0.0], [0.0, 7.546, 0.1], EPOCH, **kw)
 
 
-ORBIT = _orbit()
-MU = ORBIT.mu * 1e9  # m³/s²
+@functools.cache
+def _the_orbit():
+    """The orbit of most tests, built on first use (it integrates when built: not at import)."""
+    return _orbit()
+
+
+MU = orbit.earth_mu() * 1e9  # m³/s² (the orbit's, a point-mass Earth)
 PERIOD = 2.0 * math.pi * math.sqrt(7.0e6**3 / MU)  # of the 7000 km circle, ~5830 s
 
 
@@ -49,12 +55,12 @@ def _state():
 def _run(n_orbits, per_orbit, steps_per_output, *, mass=MASS, **kw):
     """``propagate`` over ``n_orbits`` with ``per_orbit`` output samples an orbit and a step of
     1/``steps_per_output`` of their spacing."""
-    sc = Spacecraft(RigidBody(INERTIA), orbit=ORBIT, mass=mass)
+    sc = Spacecraft(RigidBody(INERTIA), orbit=_the_orbit(), mass=mass)
     q0, Q0 = _state()
     t = np.linspace(0.0, n_orbits * PERIOD, n_orbits * per_orbit + 1)
     kw.setdefault("method", "splitting")
     dt = t[1] / steps_per_output * (1.0 + 1e-12)  # (the step is then exactly t[1]/steps)
-    return attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(ORBIT), dt=dt, **kw)
+    return attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(_the_orbit()), dt=dt, **kw)
 
 
 def _invariants(ds, mass=MASS):
@@ -143,11 +149,11 @@ def test_energy_error_falls_as_h_to_the_order(order, steps, lo, hi):
 
 
 def _taylor_reference(n_orbits, per_orbit):
-    sc = Spacecraft(RigidBody(INERTIA), orbit=ORBIT, mass=MASS)
+    sc = Spacecraft(RigidBody(INERTIA), orbit=_the_orbit(), mass=MASS)
     q0, Q0 = _state()
     t = np.linspace(0.0, n_orbits * PERIOD, n_orbits * per_orbit + 1)
-    return attitude.propagate(sc, q0, Q0, t, attitude.GravityGradient(ORBIT), method="taylor",
-                              rtol=1e-15, atol=1e-15)  # fmt: skip
+    gg = attitude.GravityGradient(_the_orbit())
+    return attitude.propagate(sc, q0, Q0, t, gg, method="taylor", rtol=1e-15, atol=1e-15)
 
 
 def _errors(ds, ref):
@@ -200,8 +206,8 @@ def test_what_the_splitting_cannot_carry_is_refused_before_any_work(monkeypatch)
     monkeypatch.setattr(_ks, "coupled_composition", never)
     q0, Q0 = _state()
     t = [0.0, 60.0]
-    gg = attitude.GravityGradient(ORBIT)
-    sc = Spacecraft(RigidBody(INERTIA), orbit=ORBIT, mass=MASS)
+    gg = attitude.GravityGradient(_the_orbit())
+    sc = Spacecraft(RigidBody(INERTIA), orbit=_the_orbit(), mass=MASS)
 
     def refused(match, craft=sc, potential=gg, **kw):
         kw = {"method": "splitting", "dt": 10.0, **kw}
@@ -213,11 +219,11 @@ def test_what_the_splitting_cannot_carry_is_refused_before_any_work(monkeypatch)
     refused(r"^events: .* by method='dop853'", events=[attitude.events.RateExceeds(1.0)])
     refused(r"^formulation: ", formulation="schwab")
     wheel = ReactionWheel([0.0, 0.0, 1.0], 0.1, max_torque=0.1)
-    wheels = Spacecraft(RigidBody(INERTIA), wheels=[wheel], orbit=ORBIT, mass=MASS)
+    wheels = Spacecraft(RigidBody(INERTIA), wheels=[wheel], orbit=_the_orbit(), mass=MASS)
     refused(r"^spacecraft: .*without actuators only .* 1 wheel\(s\).*use method='dop853'", wheels)
     fsw = FlightSoftware(1.0, guidance=frames.inertial(), control=MRPFeedback(1.0, 10.0))
     refused(r"^software: .*without flight software.*use method='dop853'", software=fsw)
-    drag = attitude.AerodynamicDrag(ORBIT, [attitude.Facet(1.0, [1, 0, 0], [0, 0, 0])])
+    drag = attitude.AerodynamicDrag(_the_orbit(), [attitude.Facet(1.0, [1, 0, 0], [0, 0, 0])])
     refused(r"^potential: .*GravityGradient\(orbit\) alone.* got Sum.*dop853", potential=gg + drag)
     refused(r"^potential: .* got AerodynamicDrag", potential=drag)
     for kw in ({"gravity": orbit.SphericalHarmonics(2)}, {"third_bodies": ("moon",)}):
