@@ -670,7 +670,7 @@ def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, d
     """The body rates (k, 3) at a spacecraft run's events (the gyrostat's ω), and for a run
     carrying its orbit the orbit there: ``event_position``, ``event_velocity`` (GCRS, m, m/s)
     and ``event_mass``."""
-    import xarray as xr
+    from .results import _variable
 
     sr: SpacecraftRun = problem.spacecraft
     y = np.ascontiguousarray(records.y[:, : sr.n_state])
@@ -687,7 +687,7 @@ def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, d
 
         for name, var in orbit_variables(sr.spacecraft, y).items():
             attrs = {**var.attrs, "long_name": f"{var.attrs['long_name']} at the event"}
-            more[f"event_{name}"] = xr.Variable(("event", *var.dims[1:]), var.values, attrs)
+            more[f"event_{name}"] = _variable(("event", *var.dims[1:]), var.values, attrs)
     return diag[:, 0:3].copy(), more
 
 

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from .results import SI, UnitSystem, time_attrs
+from .results import SI, UnitSystem, _variable, time_attrs
 
 __all__ = ["WHEEL_LIMIT_FLAGS", "add_actuator_variables", "add_tick_variables", "tick_dataset"]
 
@@ -37,7 +37,7 @@ def _extended(ds: xr.Dataset, coords: dict, new: dict, drop: tuple = ()) -> xr.D
     old = {k: v for k, v in ds.variables.items() if k not in drop}
     names = [k for k in ds.coords if k not in drop]
     c = {k: old[k] for k in names}
-    c.update({k: xr.Variable(*spec) for k, spec in coords.items()})
+    c.update({k: _variable(d, np.asarray(v), dict(a)) for k, (d, v, a) in coords.items()})
     data = {k: v for k, v in old.items() if k not in c}
     data.update(new)
     return xr.Dataset(data, coords=c, attrs=dict(ds.attrs))
@@ -74,7 +74,7 @@ def add_actuator_variables(ds: xr.Dataset, run: Any, rows: np.ndarray, d: dict) 
         attrs = {"long_name": long_name, **extra}
         if units is not None:
             attrs = {"units": units, **attrs}
-        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+        return _variable(dims, np.ascontiguousarray(data), attrs)
 
     new: dict[str, xr.Variable] = {}
     coords: dict[str, Any] = {}
@@ -254,9 +254,7 @@ def actuator_constants(craft: Any) -> dict[str, xr.Variable]:
     u = UnitSystem(craft.body)
 
     def var(dims, data, units, long_name):
-        return xr.Variable(
-            dims, np.ascontiguousarray(data), {"units": units, "long_name": long_name}
-        )
+        return _variable(dims, np.ascontiguousarray(data), {"units": units, "long_name": long_name})
 
     nw, nm, nt = craft.counts
     out: dict[str, xr.Variable] = {}
@@ -296,7 +294,7 @@ def add_tick_variables(ds: xr.Dataset, run: Any, rec: np.ndarray | None = None) 
         attrs = {"long_name": long_name, **extra}
         if units is not None:
             attrs = {"units": units, **attrs}
-        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+        return _variable(dims, np.ascontiguousarray(data), attrs)
 
     n_modes = len(prog.mode_names)
     f = _kf.R.read(rec)  # the record's fields, a column or columns each

@@ -555,10 +555,22 @@ def _shallow_copy(v: xr.Variable) -> xr.Variable:
     return w
 
 
-def _variable(dims: tuple, data: np.ndarray, attrs: dict) -> xr.Variable:
+def _variable(dims: tuple | str, data: Any, attrs: dict) -> xr.Variable:
     """``xr.Variable(dims, data, attrs, fastpath=True)`` for a numpy array whose dims match its
     shape, without the constructor's checks (a fifth of its cost: the Dataset has twenty
-    variables); the public constructor on an xarray whose Variable is laid out otherwise."""
+    variables); the public constructor on an xarray whose Variable is laid out otherwise, or
+    for anything but a numeric or text array of as many dimensions as ``dims`` names.
+
+    Also what keeps a run from importing dask (0.3 s) when it is installed: the public
+    constructor imports ``dask.array`` to ask whether the data is one.
+    """
+    dims = (dims,) if isinstance(dims, str) else tuple(dims)
+    if (
+        not isinstance(data, np.ndarray)
+        or data.ndim != len(dims)
+        or data.dtype.kind not in "biufcUS"
+    ):
+        return xr.Variable(dims, data, attrs)
     if not _RAW_VARIABLES:
         return xr.Variable(dims, data, attrs, fastpath=True)
     v = _new_variable(xr.Variable)
@@ -607,7 +619,7 @@ def _dataset(
                 coord_vars[name] = _variable((dim,), values, dict(vattrs))
                 continue
             idx = PandasIndex(pd.Index(values), dim, coord_dtype=values.dtype)
-            cvar = idx.create_variables({name: xr.Variable((dim,), values, dict(vattrs))})[name]
+            cvar = idx.create_variables({name: _variable(dim, values, dict(vattrs))})[name]
             coord_vars[name] = cvar
             indexes[name] = idx
         variables = {**data_vars, **coord_vars}  # the public constructor's order
@@ -653,7 +665,7 @@ def add_event_variables(
         attrs = {"long_name": long_name, **(encoding or {})}
         if units is not None:
             attrs = {"units": units, **attrs}
-        return xr.Variable(dims, np.ascontiguousarray(data), attrs)
+        return _variable(dims, np.ascontiguousarray(data), attrs)
 
     when = instant_attrs(u.time, ds.attrs.get("epoch"))  # encoded as `time` (docs/results.md)
     new = {
@@ -683,13 +695,17 @@ def add_event_variables(
         ),
     }
     coords = {
-        "event": ("event", np.arange(k, dtype=np.int64), {"long_name": "event occurrence"}),
-        "detector": (
+        "event": _variable(
+            "event", np.arange(k, dtype=np.int64), {"long_name": "event occurrence"}
+        ),
+        "detector": _variable(
             "detector",
             np.arange(n, dtype=np.int64),
             {"long_name": "index of the event detector (labels in detector_label)"},
         ),
-        "detector_label": ("detector", np.array(evset.labels), {"long_name": "event name"}),
+        "detector_label": _variable(
+            "detector", np.array(evset.labels), {"long_name": "event name"}
+        ),
     }
     out = ds.assign_coords(coords).assign(new)
     out.attrs = dict(ds.attrs)

@@ -3,15 +3,23 @@ identical to what the public xarray constructor builds from the same pieces."""
 
 from __future__ import annotations
 
+import importlib.util
 import math
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
+import pytest
 import xarray as xr
 
 import orbit
 from attitude.canonical import project_state
 from attitude.potentials import GravityGradient
 from attitude.propagate import propagate
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _public(ds: xr.Dataset) -> xr.Dataset:
@@ -47,3 +55,32 @@ def test_direct_dataset_identical_to_public_constructor(tmp_path):
     a.component.attrs["note"] = "changed"
     b = propagate([1.0, 2.0, 3.0], q0, Q0, [0.0, 1.0])
     assert "note" not in b.component.attrs
+
+
+_NO_DASK = """
+import sys
+from attitude.cli import main
+for scen in sys.argv[2:]:
+    out = sys.argv[1] + "/" + scen.rsplit("/", 1)[-1] + ".nc"
+    assert main(["run", scen, "-o", out, "--stop", "60", "-q"]) == 0
+print(sorted(m for m in sys.modules if m.split(".")[:2] == ["dask", "array"]))
+"""
+
+
+def test_a_run_and_its_file_do_not_import_dask(tmp_path):
+    """xarray's public Variable constructor imports ``dask.array`` (0.3 s; installed with the
+    test extra) to ask whether the data is a dask array: every result variable is built
+    without it (attitude.results._variable), so the README's main job and a run with events
+    never import it, in a fresh process."""
+    if importlib.util.find_spec("dask") is None:
+        pytest.skip("dask is not installed: nothing to import")
+    scen = [
+        str(ROOT / "scenarios" / f"{n}.toml") for n in ("paper_keplerian", "lvlh_pointing_events")
+    ]
+    r = subprocess.run(
+        [sys.executable, "-c", _NO_DASK, str(tmp_path), *scen],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert r.stdout.strip().splitlines()[-1] == "[]"
