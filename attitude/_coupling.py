@@ -187,20 +187,23 @@ def orbit_tokens(craft: Any, potential: Any) -> tuple[float, ...]:
 
 
 def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:
-    """The Dataset variables of the propagated orbit: position, velocity (GCRS) and mass."""
+    """The Dataset variables of the propagated orbit: position, velocity (GCRS) and mass
+    (numpy arrays, built on xarray's fast path: its public one imports dask to ask)."""
     import xarray as xr
 
     iy = 8 + len(craft.wheels)
     frame = {"reference_frame": "GCRS"}
+
+    def var(dims, data, attrs):
+        return xr.Variable(dims, np.ascontiguousarray(data), attrs, fastpath=True)
+
     return {
-        "position": xr.Variable(("time", "axis"), np.ascontiguousarray(y[:, iy : iy + 3]),
-                                {"units": "m", "long_name": "position of the centre of mass",
-                                 **frame}),
-        "velocity": xr.Variable(("time", "axis"), np.ascontiguousarray(y[:, iy + 3 : iy + 6]),
-                                {"units": "m s-1", "long_name": "velocity of the centre of mass",
-                                 **frame}),
-        "mass": xr.Variable(("time",), np.ascontiguousarray(y[:, iy + 6]),
-                            {"units": "kg", "long_name": "spacecraft mass"}),
+        "position": var(("time", "axis"), y[:, iy : iy + 3],
+                        {"units": "m", "long_name": "position of the centre of mass", **frame}),
+        "velocity": var(("time", "axis"), y[:, iy + 3 : iy + 6],
+                        {"units": "m s-1", "long_name": "velocity of the centre of mass",
+                         **frame}),
+        "mass": var(("time",), y[:, iy + 6], {"units": "kg", "long_name": "spacecraft mass"}),
     }  # fmt: skip
 
 
@@ -228,8 +231,8 @@ def total_energy(sr: Any, energy: np.ndarray, y: np.ndarray) -> Any:
     co = int(sr.sc[_ka.SC.COUPLED])
     if sr.sc[co + _kc.COUPLED.GG] != 0.0:
         e = e - mu * float(np.sum(craft.body.inertia)) / (2.0 * rn**3)
-    return xr.Variable(("time",), e, {"units": "J", "long_name": "total energy of orbit and "
-                                      "attitude (point-mass Earth)"})  # fmt: skip
+    attrs = {"units": "J", "long_name": "total energy of orbit and attitude (point-mass Earth)"}
+    return xr.Variable(("time",), np.ascontiguousarray(e), attrs, fastpath=True)
 
 
 def sample_orbit(crafts: list, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:

@@ -60,9 +60,10 @@ def test_direct_dataset_identical_to_public_constructor(tmp_path):
 _NO_DASK = """
 import sys
 from attitude.cli import main
-for scen in sys.argv[2:]:
+for arg in sys.argv[2:]:
+    scen, stop = arg.rsplit(":", 1)
     out = sys.argv[1] + "/" + scen.rsplit("/", 1)[-1] + ".nc"
-    assert main(["run", scen, "-o", out, "--stop", "60", "-q"]) == 0
+    assert main(["run", scen, "-o", out, "--stop", stop, "-q"]) == 0
 print(sorted(m for m in sys.modules if m.split(".")[:2] == ["dask", "array"]))
 """
 
@@ -70,13 +71,13 @@ print(sorted(m for m in sys.modules if m.split(".")[:2] == ["dask", "array"]))
 def test_a_run_and_its_file_do_not_import_dask(tmp_path):
     """xarray's public Variable constructor imports ``dask.array`` (0.3 s; installed with the
     test extra) to ask whether the data is a dask array: every result variable is built
-    without it (attitude.results._variable), so the README's main job and a run with events
-    never import it, in a fresh process."""
+    without it (attitude.results._variable, xarray's fast path), so the README's main job, a
+    run with events and one with the orbit in the state never import it, in a fresh
+    process."""
     if importlib.util.find_spec("dask") is None:
         pytest.skip("dask is not installed: nothing to import")
-    scen = [
-        str(ROOT / "scenarios" / f"{n}.toml") for n in ("paper_keplerian", "lvlh_pointing_events")
-    ]
+    stops = {"paper_keplerian": 60, "lvlh_pointing_events": 60, "orbit_raising_burn": 0.01}
+    scen = [f"{ROOT / 'scenarios' / n}.toml:{stop}" for n, stop in stops.items()]
     r = subprocess.run(
         [sys.executable, "-c", _NO_DASK, str(tmp_path), *scen],
         capture_output=True, text=True, timeout=600,
