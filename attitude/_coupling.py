@@ -186,38 +186,31 @@ def orbit_tokens(craft: Any, potential: Any) -> tuple[float, ...]:
     return tuple(tokens)
 
 
-def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, Any]:
-    """The Dataset variables of the propagated orbit: position, velocity (GCRS) and mass
-    (numpy arrays, built on xarray's fast path: its public one imports dask to ask)."""
-    import xarray as xr
-
+def orbit_variables(craft: Any, y: np.ndarray) -> dict[str, tuple]:
+    """The Dataset variables of the propagated orbit, position, velocity (GCRS) and mass, as
+    ``(dims, data, attrs)`` (the caller builds them: attitude.results._variable)."""
     iy = 8 + len(craft.wheels)
     frame = {"reference_frame": "GCRS"}
-
-    def var(dims, data, attrs):
-        return xr.Variable(dims, np.ascontiguousarray(data), attrs, fastpath=True)
-
     return {
-        "position": var(("time", "axis"), y[:, iy : iy + 3],
-                        {"units": "m", "long_name": "position of the centre of mass", **frame}),
-        "velocity": var(("time", "axis"), y[:, iy + 3 : iy + 6],
-                        {"units": "m s-1", "long_name": "velocity of the centre of mass",
-                         **frame}),
-        "mass": var(("time",), y[:, iy + 6], {"units": "kg", "long_name": "spacecraft mass"}),
+        "position": (("time", "axis"), np.ascontiguousarray(y[:, iy : iy + 3]),
+                     {"units": "m", "long_name": "position of the centre of mass", **frame}),
+        "velocity": (("time", "axis"), np.ascontiguousarray(y[:, iy + 3 : iy + 6]),
+                     {"units": "m s-1", "long_name": "velocity of the centre of mass", **frame}),
+        "mass": (("time",), np.ascontiguousarray(y[:, iy + 6]),
+                 {"units": "kg", "long_name": "spacecraft mass"}),
     }  # fmt: skip
 
 
-def total_energy(sr: Any, energy: np.ndarray, y: np.ndarray) -> Any:
+def total_energy(sr: Any, energy: np.ndarray, y: np.ndarray) -> tuple | None:
     """The coupled system's total energy [J] around a point-mass Earth (None with a field or
     third bodies, whose Earth turns under the orbit: no energy of the state is conserved).
 
     ``energy`` (m,) is the attitude's T + U; the orbit adds m (|v|²/2 − μ/|r|) and, with the
     gravity gradient, the part of the mutual potential to second order that U leaves out
     because it does not depend on the attitude, −μ tr I/(2|r|³) (MacCullagh). Conserved
-    without drag, radiation, thrust or actuators doing work; ``y`` the state rows.
+    without drag, radiation, thrust or actuators doing work; ``y`` the state rows. Returns
+    ``(dims, data, attrs)`` as :func:`orbit_variables`.
     """
-    import xarray as xr
-
     craft = sr.spacecraft
     o = craft.orbit
     if o.gravity is not None or o.third_bodies:
@@ -232,7 +225,7 @@ def total_energy(sr: Any, energy: np.ndarray, y: np.ndarray) -> Any:
     if sr.sc[co + _kc.COUPLED.GG] != 0.0:
         e = e - mu * float(np.sum(craft.body.inertia)) / (2.0 * rn**3)
     attrs = {"units": "J", "long_name": "total energy of orbit and attitude (point-mass Earth)"}
-    return xr.Variable(("time",), np.ascontiguousarray(e), attrs, fastpath=True)
+    return ("time",), np.ascontiguousarray(e), attrs
 
 
 def sample_orbit(crafts: list, t: np.ndarray, rows: np.ndarray) -> dict[str, np.ndarray]:

@@ -685,9 +685,9 @@ def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, d
     if sr.coupled:
         from ._coupling import orbit_variables
 
-        for name, var in orbit_variables(sr.spacecraft, y).items():
-            attrs = {**var.attrs, "long_name": f"{var.attrs['long_name']} at the event"}
-            more[f"event_{name}"] = _variable(("event", *var.dims[1:]), var.values, attrs)
+        for name, (dims, data, attrs) in orbit_variables(sr.spacecraft, y).items():
+            attrs = {**attrs, "long_name": f"{attrs['long_name']} at the event"}
+            more[f"event_{name}"] = _variable(("event", *dims[1:]), data, attrs)
     return diag[:, 0:3].copy(), more
 
 

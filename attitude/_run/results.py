@@ -25,7 +25,13 @@ from .._core import diagnostics as _kd
 from .._methods import SAMPLE_BUDGET, Problem, RunResult
 from .._spacecraft_results import add_actuator_variables, add_tick_variables
 from ..errors import PropagationError
-from ..results import Trajectory, add_event_variables, build_dataset, dataset_from_samples
+from ..results import (
+    Trajectory,
+    _variable,
+    add_event_variables,
+    build_dataset,
+    dataset_from_samples,
+)
 from .spec import RunSpec
 
 __all__ = ["build", "finish_dataset"]
@@ -148,14 +154,14 @@ def _finish(
         if problem.spacecraft.coupled:
             from .._coupling import orbit_variables, total_energy
 
-            ds = ds.assign(orbit_variables(problem.spacecraft.spacecraft, y))
+            specs = orbit_variables(problem.spacecraft.spacecraft, y)
+            ds = ds.assign({k: _variable(*v) for k, v in specs.items()})
             e = total_energy(problem.spacecraft, ds.energy.values, y)
-            if e is not None and len(e.values):
-                ds = ds.assign(total_energy=e)
-                scale = max(abs(float(e.values[0])), 1e-300)
-                ds.attrs["max_rel_total_energy_error"] = float(
-                    np.max(np.abs(e.values - e.values[0])) / scale
-                )
+            if e is not None and len(e[1]):
+                ds = ds.assign(total_energy=_variable(*e))
+                v = e[1]
+                scale = max(abs(float(v[0])), 1e-300)
+                ds.attrs["max_rel_total_energy_error"] = float(np.max(np.abs(v - v[0])) / scale)
         return ds, None
     # Every per-sample variable in one compiled pass (attitude._core.diagnostics), into one
     # buffer whose blocks become the Dataset's variables without copies.

@@ -26,7 +26,7 @@ from orbit import _rk
 
 from .._spacecraft_results import actuator_constants, add_actuator_variables, add_tick_variables
 from ..body import RigidBody
-from ..results import build_dataset, instant_attrs, time_unit
+from ..results import _variable, build_dataset, instant_attrs, time_unit
 from ._chunks import _N_DIAG, STATUS_FLAGS
 from ._members import initial_state_vars
 
@@ -444,7 +444,8 @@ def chunk_dataset(
     if run0.coupled:  # each member carried its own orbit: its position, velocity, mass, r, f, p
         from .._coupling import orbit_variables, sample_orbit
 
-        flat = flat.assign(orbit_variables(run0.spacecraft, rows))
+        specs = orbit_variables(run0.spacecraft, rows)
+        flat = flat.assign({k: _variable(*v) for k, v in specs.items()})
         rm = rows.reshape(c, ms, rows.shape[1])
         per_member_orbit = sample_orbit([run.spacecraft for run in runs], t, rm)
     k_ticks = 0

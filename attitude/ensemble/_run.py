@@ -111,8 +111,8 @@ def propagate_ensemble(
         Workers need ``attitude`` importable; the results are gathered chunk by chunk, in
         member order, and written by this process (no shared file system needed).
     threads : int, optional
-        Local run: number of threads running members (default: numba's thread count, all
-        cores; at most that).
+        Local run: number of threads running members (default and largest: the cores,
+        numba's ``NUMBA_NUM_THREADS``).
     progress : callable, optional
         ``progress(n_done, n_total, n_steps_done)`` after each chunk (members done so far).
     scheduler_timeout : float, optional

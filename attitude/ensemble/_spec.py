@@ -336,7 +336,7 @@ class EnsembleSpec:
 
 
 def _max_threads() -> int:
-    """The most threads numba can run (NUMBA_NUM_THREADS, fixed when numba starts)."""
+    """The cores numba counts in this process (NUMBA_NUM_THREADS, fixed when numba starts)."""
     import numba
 
     return int(numba.config.NUMBA_NUM_THREADS)
@@ -348,9 +348,10 @@ def _check_threads(threads: Any) -> int:
 
     if not JIT_DISABLED and threads > _max_threads():
         raise AttitudeValueError(
-            f"threads: numba can run at most {_max_threads()} threads in this process "
-            f"(NUMBA_NUM_THREADS, set before numba starts), got {threads}; give at most "
-            f"{_max_threads()}, or set NUMBA_NUM_THREADS in the environment"
+            f"threads: at most {_max_threads()}, the cores of this process (NUMBA_NUM_THREADS): "
+            f"members are compiled code, and more threads than cores only wait for each other; "
+            f"got {threads}; give at most {_max_threads()}, or set NUMBA_NUM_THREADS in the "
+            f"environment"
         )
     return threads
 
