@@ -9,22 +9,44 @@ the run, and says how long numba compiled once it is done. The notices go to the
 object's ``note(text)`` (the tqdm bar of ``progress=True``, the command's progress line); a
 progress object with ``restart()`` is told to start its rate estimate again after a compilation
 (the time it took is not the run's pace).
+
+numba compiles on one core. While a closed-loop driver compiles, :func:`closed_loop_helper`
+compiles the flight software's kernels (the tick's sensors, estimator, guidance and frames) in a
+second process (:func:`_main`), which saves them to the disk cache; the run's
+own compilation reaches them later, waits for the helper if it is still at them (the kernels'
+lock files, :mod:`orbit._shared_jit`) and loads them. Set ``ATTITUDE_COMPILE_HELPER=0`` to
+compile in one process (``attitude warmup``'s workers do: they already fill the cores).
 """
 
 from __future__ import annotations
 
+import atexit
 import os
+import pickle
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 from orbit._shared_jit import will_compile
 
-__all__ = ["CLOSED_LOOP_COMPILE_CPU_S", "CompileWatch", "compile_estimate", "watch"]
+__all__ = [
+    "CLOSED_LOOP_COMPILE_CPU_S",
+    "CompileWatch",
+    "closed_loop_helper",
+    "closed_loop_items",
+    "compile_estimate",
+    "helper",
+    "helper_on",
+    "watch",
+]
 
-#: CPU seconds of a first closed-loop run's compilation: 61 s for `dop853` on the 2-core
-#: development machine at load 1.2 (38-39 s before the drivers carried the coupled orbit).
-CLOSED_LOOP_COMPILE_CPU_S = 60
+#: Seconds of a first closed-loop run's compilation on one core (`dop853`, 2-core development
+#: machine, load ~1.1: 70.8-73.8 s), and with the compile helper on the other (49.4-51.5 s).
+CLOSED_LOOP_COMPILE_CPU_S = 70
+CLOSED_LOOP_COMPILE_HELPED_S = 50
 
 
 def compile_estimate(cpu_seconds: float) -> float:
@@ -126,8 +148,148 @@ def watch(progress: Any, problem: Any, method: str) -> CompileWatch | None:
     sr = getattr(problem, "spacecraft", None)
     if progress is None or sr is None or sr.program is None:
         return None
+    from ._core import fsw
+
     driver = getattr(problem.entry, _DRIVERS.get(method, ""), None)
     if driver is None or not will_compile(driver):
         return None
-    estimate = compile_estimate(CLOSED_LOOP_COMPILE_CPU_S)
+    helped = helper_on() and will_compile(fsw.fsw_boundary.dispatcher)
+    estimate = compile_estimate(
+        CLOSED_LOOP_COMPILE_HELPED_S if helped else CLOSED_LOOP_COMPILE_CPU_S
+    )
     return CompileWatch(progress, "the closed-loop kernels", estimate)
+
+
+#: The helper's first lines: this package, from the tree this process imported it from.
+_BOOT = """\
+import importlib.util, os, sys
+here = sys.argv[1]
+spec = importlib.util.find_spec("attitude")
+if spec is None or os.path.dirname(os.path.realpath(spec.origin)) != here:
+    sys.path.insert(0, os.path.dirname(here))
+importlib.import_module("attitude._compiling")._main()
+"""
+
+#: The environment variable that turns the compile helper off ("0").
+HELPER_ENV = "ATTITUDE_COMPILE_HELPER"
+_HELPERS: list[subprocess.Popen] = []
+
+
+def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | None:
+    """Start a process that compiles ``items`` into the disk cache, one after the other.
+
+    Parameters
+    ----------
+    items : sequence of (str, str, tuple, bool)
+        (module, name, signature, from Python): the kernel ``module.name`` (an
+        ``orbit._shared_jit.jit`` kernel) for the numba types ``signature``, as Python calls it
+        if the last item is true, else as other kernels call it.
+
+    Returns
+    -------
+    subprocess.Popen or None
+        The process (ended with this one if still running), or None when the helper is off
+        (``ATTITUDE_COMPILE_HELPER=0``, one CPU) or could not start.
+    """
+    if not helper_on() or not items:
+        return None
+    try:
+        data = pickle.dumps(list(items))
+        proc = subprocess.Popen(
+            [sys.executable, "-c", _BOOT, str(Path(__file__).resolve().parent)],
+            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        # the items, then the pipe left open: the helper ends when it closes (this process
+        # ended, even killed), see _main
+        proc.stdin.write(len(data).to_bytes(8, "little") + data)
+        proc.stdin.flush()
+    except (OSError, pickle.PicklingError, ValueError):  # no helper: this process compiles all
+        return None
+    if not _HELPERS:
+        atexit.register(_end_helpers)
+    _HELPERS[:] = [p for p in _HELPERS if p.poll() is None]
+    _HELPERS.append(proc)
+    return proc
+
+
+def closed_loop_helper(
+    driver: Any, P: tuple, ctl: tuple, after: Sequence[tuple] = ()
+) -> subprocess.Popen | None:
+    """The helper of a closed-loop run whose ``driver`` will compile (:func:`closed_loop_items`
+    of its ``P``, ``ctl`` and ``after``); None when the driver or the software's kernels are
+    compiled already, or the helper is off."""
+    from ._core import fsw
+
+    if not helper_on():
+        return None
+    if not will_compile(driver) or not will_compile(fsw.fsw_boundary.dispatcher):
+        return None
+    return helper(closed_loop_items(P, ctl, after))
+
+
+def closed_loop_items(P: tuple, ctl: tuple, after: Sequence[tuple] = ()) -> list[tuple]:
+    """What the helper of a closed-loop run compiles: the flight software's boundary
+    (:func:`attitude._core.fsw.fsw_boundary`, the command source the drivers inline) for the
+    run's ``P`` and ``ctl``, which compiles the kernels the inlined tick calls (sensors,
+    estimator, frames, modes), then the items ``after`` (what the run compiles after its
+    driver)."""
+    from numba import typeof
+    from numba.core import types
+
+    y = types.Array(types.float64, 1, "C")  # (the state row of the driver's work array)
+    sig = (typeof(P), y, types.float64, types.float64, typeof(ctl))
+    return [("attitude._core.fsw", "fsw_boundary", sig, False), *after]
+
+
+def helper_on() -> bool:
+    """Whether runs start compile helpers: two CPUs or more, a Python interpreter to start
+    (not an application embedding one), and not ``ATTITUDE_COMPILE_HELPER=0``."""
+    python = Path(sys.executable or "").name.lower().startswith("python")  # (not embedded)
+    return python and os.environ.get(HELPER_ENV, "1") != "0" and _cpus() >= 2
+
+
+def _cpus() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - no affinity (macOS, Windows)
+        return os.cpu_count() or 1
+
+
+def _end_helpers() -> None:
+    for proc in _HELPERS:
+        try:
+            proc.stdin.close()  # (the helper stops: what it saved so far is whole)
+        except OSError:
+            pass
+        proc.wait()
+
+
+def _compile(items: Sequence[tuple[str, str, tuple, bool]]) -> None:
+    """In the helper: compile each item (loaded instead where another process saved it)."""
+    import importlib
+
+    from orbit._shared_jit import _compile_lock
+
+    for module, name, sig, from_python in items:
+        kernel = getattr(importlib.import_module(module), name)
+        if from_python:
+            with _compile_lock(kernel):
+                kernel.compile(sig)
+        else:
+            kernel.dispatcher.compile(sig)  # (under its lock: orbit._shared_jit._KernelCopy)
+
+
+def _main() -> None:
+    """The helper: the items from standard input, compiled while its other end is open."""
+    import threading
+
+    stdin = sys.stdin.buffer
+    items = pickle.loads(stdin.read(int.from_bytes(stdin.read(8), "little")))
+
+    def watch() -> None:
+        while os.read(0, 4096):  # (unbuffered: no lock held at the interpreter's exit)
+            pass  # until the run's process closes the pipe or ends
+        os._exit(0)  # (numba saves each cache file whole: nothing is left half-written)
+
+    threading.Thread(target=watch, daemon=True).start()
+    _compile(items)

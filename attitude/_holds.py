@@ -21,6 +21,7 @@ import numpy as np
 
 from orbit import _rk
 
+from . import _compiling
 from ._core import holds as _kh
 from ._methods import SAMPLE_BUDGET, EventBuffers, Problem, RunResult, dop853_call
 from ._validation import as_float_array
@@ -415,6 +416,8 @@ def _run(
     chunk = min(m, SAMPLE_BUDGET) if chunk is None else max(1, int(chunk))
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
+    if sr.program is not None:  # a driver about to compile: the software's kernels meanwhile
+        _compiling.closed_loop_helper(kernel, P, src.ctl, _diagnostics_kernels(problem))
     evb = EventBuffers(0 if problem.events is None else problem.events.n, n)
     if problem.events is None:
         from ._core.spacecraft_events import no_events
@@ -664,6 +667,26 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
         _kg.actuator_diagnostics(t[i:j], y[i:j], rec[i:j], sc, act[i:j], wheels[i:j])
     return {"diag": diag, "torques": torques, "actuators": act, "wheels": wheels, "records": rec,
             "orbit": orbit}  # fmt: skip
+
+
+def _diagnostics_kernels(problem: Problem) -> list[tuple[str, str, tuple, bool]]:
+    """What :func:`diagnostics` will compile, as items of :func:`attitude._compiling.helper`
+    (the arguments' numba types), for a run of the package's entry points whose orbit is not in
+    its state (a coupled run's diagnostics read the run's own orbit); else none."""
+    from numba import typeof
+    from numba.core import types
+
+    sr: SpacecraftRun = problem.spacecraft
+    entry = _diagnostics_entry(problem)
+    if sr.coupled or entry.__name__ != "attitude._core.entry_points":
+        return []
+    a1, a2, a3 = (types.Array(types.float64, d, "C") for d in (1, 2, 3))
+    params = typeof(problem.params)
+    return [
+        (entry.__name__, "spacecraft_diagnostics", (a1, a2, params, a1, a2), True),
+        (entry.__name__, "term_torques_at_rates", (a1, a2, a2, params, a3), True),
+        ("attitude._core.gyrostat", "actuator_diagnostics", (a1, a2, a2, a1, a3, a3), True),
+    ]
 
 
 def event_state_variables(problem: Problem, records: Any) -> tuple[np.ndarray, dict[str, Any]]:

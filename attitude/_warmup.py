@@ -97,9 +97,10 @@ def _order(paths: Sequence[Path]) -> tuple[list[Path], list[Path]]:
 def _run_one(path: str, outdir: str) -> tuple[str, int, float]:
     """In a worker: ``path``'s first :data:`SAMPLES` samples; the compilations it made."""
     from . import scenario
-    from ._compiling import _Compiles
+    from ._compiling import HELPER_ENV, _Compiles
     from ._times import TimeGrid
 
+    os.environ[HELPER_ENV] = "0"  # (the workers fill the cores already)
     compiles = _Compiles()
     warnings.simplefilter("ignore")  # (the scenarios' own warnings: said when they run)
     try:

@@ -17,8 +17,10 @@ it), so the shared module lives here, and its name says that it is shared.
   in place (:mod:`orbit._numba_standins`: the same IR); numba's own are put back when it ends, so
   anyone else's numba code compiles as it would without the package.
 * ``ATTITUDE_CACHE_DIR=/path`` moves the package's cache out of the source tree.
-* A kernel called from Python is loaded or compiled under a lock file beside its cache index:
-  processes that start together on an empty cache compile it once, the others wait and load it.
+* A kernel is loaded or compiled under a lock file beside its cache index, whether called from
+  Python or compiled as another kernel's callee: processes that start together on an empty
+  cache (or a run and its compile helper, :mod:`attitude._compiling`) compile it once, the
+  others wait and load it.
 * Kernels that take another compiled function as an *argument* (the generic integrator loops)
   are :func:`jit_generic`: inlined into their callers and never cached on their own. A cached
   function compiled for a function-typed argument records that function's type, and so its
@@ -55,6 +57,7 @@ except ImportError:  # pragma: no cover - Windows: no lock between processes
     fcntl = None
 
 import numba
+from numba.core import sigutils
 from numba.core import types as nbtypes
 from numba.core.registry import CPUDispatcher
 
@@ -340,6 +343,7 @@ class Kernel(CPUDispatcher):
             g = _copy(f, f.__globals__, "kernel")  # its own cache files
             opts = getattr(self, "_attitude_jit_options", {"nopython": True})
             d = numba.jit(**{**opts, "no_cpython_wrapper": True})(g)
+            d.__class__ = _KernelCopy
             self._kernel_dispatcher = d
         return d
 
@@ -356,6 +360,19 @@ class Kernel(CPUDispatcher):
             return super()._compile_for_args(*args, **kws)
 
 
+class _KernelCopy(CPUDispatcher):
+    """:attr:`Kernel.dispatcher`: numba's dispatcher, whose compilation (as the callee of
+    another kernel) waits for a process compiling the same kernel and loads what it saved,
+    instead of compiling it a second time (the lock of :func:`_compile_lock`)."""
+
+    def compile(self, sig):
+        args, _ = sigutils.normalize_signature(sig)
+        if tuple(args) in self.overloads:  # (every call site's typing asks again)
+            return super().compile(sig)
+        with _compile_lock(self):
+            return super().compile(sig)
+
+
 #: Seconds a process waits for another one compiling the same kernel before it compiles too.
 COMPILE_LOCK_TIMEOUT = 900.0
 
@@ -364,8 +381,8 @@ COMPILE_LOCK_TIMEOUT = 900.0
 def _compile_lock(dispatcher):
     """An exclusive lock on ``<cache index>.lock`` beside ``dispatcher``'s cache index, held
     while it is loaded or compiled (POSIX ``flock``; elsewhere, or without a disk cache, none).
-    Only calls from Python take it, never the compilation of a callee, so a process holds one
-    lock at a time and two processes cannot wait for each other."""
+    A process holds the locks of the kernels it is compiling, a chain of callers and callees:
+    the call graph has no cycle, so two processes cannot wait for each other."""
     cache_file = getattr(getattr(dispatcher, "_cache", None), "_cache_file", None)
     fd = path = None
     if fcntl is not None and cache_file is not None:

@@ -175,3 +175,49 @@ def test_a_kernel_compiling_in_another_process_is_waited_for_and_loaded(tmp_path
         for p in (locker, waiter):
             if p is not None and p.poll() is None:
                 p.kill()
+
+
+# The same as a callee: a process compiles reduce_angle as kernels call it, under its lock; the
+# other compiles a kernel that calls it, and waits for it instead of compiling it too.
+_CALLEE_LOCKER = _LISTEN + textwrap.dedent(
+    """
+    import sys
+    from numba.core import types
+    from orbit import _kepler_equation as ke
+    from orbit._shared_jit import _compile_lock
+    with _compile_lock(ke.reduce_angle.dispatcher):
+        print("locked", flush=True)
+        sys.stdin.readline()
+        ke.reduce_angle.dispatcher.compile((types.float64,))
+    print(sorted(set(compiled)), flush=True)
+    """
+)
+_CALLER = _LISTEN + textwrap.dedent(
+    """
+    from orbit import _kepler_equation as ke
+    print("ready", flush=True)
+    ke._kepler_E_reduced(7.0, 0.1)  # calls reduce_angle
+    print(sorted(set(compiled)), flush=True)
+    """
+)
+
+
+def test_a_callee_compiling_in_another_process_is_waited_for_and_loaded(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(_ROOT), ATTITUDE_CACHE_DIR=str(tmp_path / "cache"))
+    kw = dict(env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    locker = subprocess.Popen([sys.executable, "-c", _CALLEE_LOCKER], **kw)
+    caller = None
+    try:
+        assert locker.stdout.readline().strip() == "locked"
+        caller = subprocess.Popen([sys.executable, "-c", _CALLER], **kw)
+        assert caller.stdout.readline().strip() == "ready"
+        time.sleep(1.5)  # the caller is blocked on the callee's lock
+        assert caller.poll() is None
+        out, _ = locker.communicate("go\n", timeout=300)
+        assert "'reduce_angle__kernel'" in out
+        cout, _ = caller.communicate(timeout=300)
+        assert "_kepler_E_reduced" in cout and "reduce_angle" not in cout  # loaded
+    finally:
+        for p in (locker, caller):
+            if p is not None and p.poll() is None:
+                p.kill()

@@ -1,0 +1,181 @@
+"""attitude/_compiling.py: the compile helper of a first closed-loop run.
+
+While a closed-loop driver compiles, a second process compiles the flight software's kernels
+and the diagnostics into the disk cache; the run waits for what it has not finished and loads
+it. Truth: numba's compile events in fresh processes (what each one compiled), the types numba
+compiled the driver for (what the helper must compile for), and the process table (a helper
+never outlives its run).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from numba.core import types
+
+import attitude
+from attitude import _compiling, scenario
+from orbit._shared_jit import JIT_DISABLED
+
+ROOT = Path(__file__).resolve().parent.parent
+
+pytestmark = pytest.mark.skipif(JIT_DISABLED, reason="kernels not compiled")
+
+_LISTEN = textwrap.dedent(
+    """
+    import sys
+    from numba.core import event, types
+    compiled = []
+    class L(event.Listener):
+        def on_start(self, ev):
+            compiled.append(ev.data["dispatcher"].py_func.__qualname__)
+        def on_end(self, ev):
+            pass
+    event.register("numba:compile", L())
+    from attitude import _compiling
+    from orbit import _kepler_equation as ke
+    from orbit._shared_jit import will_compile
+    """
+)
+# Two kernels of orbit._kepler_equation: one as Python calls it, one as kernels call it.
+_ITEMS = """[("orbit._kepler_equation", "reduce_angle", (types.float64,), True),
+           ("orbit._kepler_equation", "_two_sum", (types.float64, types.float64), False)]"""
+
+
+def _env(tmp: Path) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT), ATTITUDE_CACHE_DIR=str(tmp / "cache"))
+    env.pop(_compiling.HELPER_ENV, None)
+    return env
+
+
+def test_what_the_helper_compiled_is_loaded_not_compiled(tmp_path):
+    script = _LISTEN + textwrap.dedent(
+        f"""
+        proc = _compiling.helper({_ITEMS})
+        assert proc.wait(timeout=300) == 0
+        print(will_compile(ke.reduce_angle), will_compile(ke._two_sum.dispatcher))
+        ke.reduce_angle(7.0)
+        print(sorted(compiled))
+        """
+    )
+    r = subprocess.run([sys.executable, "-c", script], env=_env(tmp_path), capture_output=True,
+                       text=True, timeout=600)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.split("\n")[:2] == ["False False", "[]"]
+
+
+def test_a_helper_ends_with_its_run_even_killed(tmp_path):
+    """A run killed while its helper compiles: the helper ends too (it reads the pipe the run
+    holds open), and its items are compiled again by whoever needs them next."""
+    many = ", ".join(
+        f'("orbit._kepler_equation", "{n}", (types.float64, types.float64), False)'
+        for n in ("_kepler_E_core", "_kepler_residual", "kepler_E", "_kepler_E_reduced")
+    )
+    script = _LISTEN + textwrap.dedent(
+        f"""
+        import time
+        proc = _compiling.helper([{many}])
+        print(proc.pid, flush=True)
+        time.sleep(600)
+        """
+    )
+    run = subprocess.Popen([sys.executable, "-c", script], env=_env(tmp_path),
+                           stdout=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        pid = int(run.stdout.readline())
+        time.sleep(0.5)
+        assert _alive(pid)  # (importing the package, or compiling)
+        run.send_signal(signal.SIGKILL)
+        run.wait()
+        deadline = time.monotonic() + 30.0
+        while _alive(pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(pid)
+    finally:
+        if run.poll() is None:
+            run.kill()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")  # (a zombie has ended; init reaps it)
+
+
+def test_off_by_the_environment_or_on_one_cpu(monkeypatch):
+    items = [("orbit._kepler_equation", "reduce_angle", (types.float64,), True)]
+    monkeypatch.setenv(_compiling.HELPER_ENV, "0")
+    assert _compiling.helper(items) is None
+    monkeypatch.delenv(_compiling.HELPER_ENV)
+    monkeypatch.setattr(_compiling, "_cpus", lambda: 1)
+    assert _compiling.helper(items) is None
+
+
+@pytest.mark.parametrize("method", ["dop853", "taylor"])
+def test_the_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch, method):
+    """The helper's items of a closed-loop run are the types numba compiled (or loaded) the
+    run's driver and diagnostics for: the boundary's P and ctl are the driver's arguments, its
+    state a row of the driver's C-ordered work array; the diagnostics' signatures are theirs."""
+    seen = []
+
+    def record(driver, P, ctl, after=()):
+        seen.append((driver, _compiling.closed_loop_items(P, ctl, after)))
+
+    monkeypatch.setattr(_compiling, "closed_loop_helper", record)
+    sc = scenario.load(ROOT / "scenarios" / "rw_inertial_pointing.toml")
+    attitude.propagate(sc.spacecraft, sc.q0, sc.Q0, np.linspace(0.0, 0.5, 6),
+                       software=sc.software, method=method)  # fmt: skip
+    ((driver, items),) = seen
+    (module, name, sig, from_python), *after = items
+    assert (module, name, from_python) == ("attitude._core.fsw", "fsw_boundary", False)
+    (args,) = driver.signatures
+    assert sig[0] == args[0] and sig[4] == args[13]  # P, ctl
+    assert args[5] == types.Array(types.float64, 2, "C")  # work: its rows are sig[1]
+    assert sig[1] == types.Array(types.float64, 1, "C") and sig[2:4] == (types.float64,) * 2
+    assert [n for _, n, _, _ in after] == [
+        "spacecraft_diagnostics",
+        "term_torques_at_rates",
+        "actuator_diagnostics",
+    ]
+    for module, name, s, from_python in after:
+        kernel = getattr(sys.modules[module], name)
+        assert from_python and tuple(s) in kernel.signatures, (name, kernel.signatures)
+
+
+@pytest.mark.slow
+def test_a_first_closed_loop_run_leaves_the_software_to_its_helper(tmp_path):
+    """Empty caches: the run itself compiles neither the tick's sensors and estimator nor the
+    diagnostics (the helper did), and writes the file a run without the helper writes."""
+    script = _LISTEN + textwrap.dedent(
+        """
+        from attitude import cli
+        assert cli.main(["run", sys.argv[1], "--stop", "0.5", "-o", sys.argv[2], "-q"]) == 0
+        print(sorted(set(compiled)))
+        """
+    )
+    scen = str(ROOT / "scenarios" / "rw_inertial_pointing.toml")
+    outs = []
+    for helper in ("1", "0"):
+        env = dict(_env(tmp_path / helper), **{_compiling.HELPER_ENV: helper})
+        out = tmp_path / f"{helper}.nc"
+        r = subprocess.run([sys.executable, "-c", script, scen, str(out)], env=env,
+                           capture_output=True, text=True, timeout=900)  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        outs.append((out, r.stdout))
+    with_helper, alone = (o for _, o in outs)
+    for name in ("sense_and_estimate__kernel", "spacecraft_diagnostics"):
+        assert name not in with_helper and name in alone, name
+    import xarray as xr
+
+    with xr.open_dataset(outs[0][0]) as a, xr.open_dataset(outs[1][0]) as b:
+        xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())
