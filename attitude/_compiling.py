@@ -40,7 +40,9 @@ __all__ = [
     "compile_estimate",
     "helper",
     "helper_on",
+    "open_loop_helper",
     "watch",
+    "where",
 ]
 
 #: Seconds of a first closed-loop run's compilation on one core (`dop853`, 2-core development
@@ -108,6 +110,8 @@ class CompileWatch:
         self._seen = 0  # compilations finished at the last report
         self._pending = False  # compiled since the last report, not yet said
         self._closed = False
+        self._t0 = time.perf_counter()
+        self._loaded = False  # said that another process compiled it
         self.note(f"compiling {what}, once (cached afterwards): ~{estimate:.0f} s")
 
     def note(self, text: str) -> None:
@@ -127,6 +131,18 @@ class CompileWatch:
         elif self._pending:  # a report without a compilation since: say how long it took
             self._pending = False
             self.note(f"compiled {self.what} in {c.seconds:.1f} s")
+        elif c.count == 0 and not self._loaded:
+            self._said_loaded()
+
+    def _said_loaded(self) -> None:
+        # Nothing compiled here: another process compiled it meanwhile (a test worker, a second
+        # run), and this one waited for its lock files and loaded it.
+        self._loaded = True
+        wait = time.perf_counter() - self._t0
+        self.note(f"loaded {self.what}, compiled by another process meanwhile, in {wait:.1f} s")
+        restart = getattr(self.progress, "restart", None)
+        if restart is not None:
+            restart()
 
     def __call__(self, done: int, total: int, t: float) -> None:
         self._check()
@@ -140,6 +156,8 @@ class CompileWatch:
         self._compiles.close()
         if self._pending or self._compiles.count > self._seen:
             self.note(f"compiled {self.what} in {self._compiles.seconds:.1f} s")
+        elif self._compiles.count == 0 and not self._loaded:
+            self._said_loaded()
 
 
 def watch(progress: Any, problem: Any, method: str) -> CompileWatch | None:
@@ -180,10 +198,11 @@ def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | 
 
     Parameters
     ----------
-    items : sequence of (str, str, tuple, bool)
+    items : sequence of (str or tuple, str, tuple, bool)
         (module, name, signature, from Python): the kernel ``module.name`` (an
         ``orbit._shared_jit.jit`` kernel) for the numba types ``signature``, as Python calls it
-        if the last item is true, else as other kernels call it.
+        if the last item is true, else as other kernels call it; ``module`` a module's name,
+        or ``(module, function, args)`` for the module that function returns (:func:`where`).
 
     Returns
     -------
@@ -241,6 +260,27 @@ def closed_loop_items(P: tuple, ctl: tuple, after: Sequence[tuple] = ()) -> list
     return [("attitude._core.fsw", "fsw_boundary", sig, False), *after]
 
 
+def where(module: Any) -> str | tuple | None:
+    """How the helper finds the compiled entry points ``module``: its name if importable, the
+    call that makes a specialised copy (:func:`attitude._core.models.entry_points`), or None
+    (a user's module)."""
+    name = module.__name__
+    if sys.modules.get(name) is module:
+        return name
+    args = vars(module).get("__entry_args__")
+    return None if args is None else ("attitude._core.models", "entry_points", args)
+
+
+def open_loop_helper(entry: Any, items: Sequence[tuple]) -> subprocess.Popen | None:
+    """The helper of a run without flight software: ``items`` (what it compiles after its
+    integrator) when the first of them will compile."""
+    if not items or not helper_on():
+        return None
+    if not will_compile(getattr(entry, items[0][1])):
+        return None
+    return helper(items)
+
+
 def helper_on() -> bool:
     """Whether runs start compile helpers: two CPUs or more, a Python interpreter to start
     (not an application embedding one), and not ``ATTITUDE_COMPILE_HELPER=0``."""
@@ -271,7 +311,11 @@ def _compile(items: Sequence[tuple[str, str, tuple, bool]]) -> None:
     from orbit._shared_jit import _compile_lock
 
     for module, name, sig, from_python in items:
-        kernel = getattr(importlib.import_module(module), name)
+        if isinstance(module, tuple):
+            home, make, args = module
+            kernel = getattr(getattr(importlib.import_module(home), make)(*args), name)
+        else:
+            kernel = getattr(importlib.import_module(module), name)
         if from_python:
             with _compile_lock(kernel):
                 kernel.compile(sig)

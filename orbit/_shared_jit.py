@@ -395,6 +395,7 @@ def _compile_lock(dispatcher):
             fd = None
     if fd is not None:
         deadline = time.monotonic() + COMPILE_LOCK_TIMEOUT
+        pause = 0.002  # (most waits are for a small kernel: a few ms)
         while True:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
@@ -404,7 +405,8 @@ def _compile_lock(dispatcher):
                     os.close(fd)
                     fd = None
                     break
-                time.sleep(0.1)
+                time.sleep(pause)
+                pause = min(0.1, 2.0 * pause)
             except OSError:  # a file system without locks
                 os.close(fd)
                 fd = None

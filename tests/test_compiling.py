@@ -152,6 +152,45 @@ def test_the_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch, met
         assert from_python and tuple(s) in kernel.signatures, (name, kernel.signatures)
 
 
+def test_the_main_jobs_diagnostics_compile_in_the_helper(tmp_path):
+    """The README's main job with empty caches: the run compiles its integrator, its helper the
+    diagnostics pass (a specialised copy of the entry points, made again from its arguments
+    there); the run loads it."""
+    script = _LISTEN + textwrap.dedent(
+        """
+        from attitude import cli
+        assert cli.main(["run", sys.argv[1], "-o", sys.argv[2], "-q"]) == 0
+        print(sorted(set(compiled)))
+        """
+    )
+    scen = str(ROOT / "scenarios" / "paper_keplerian.toml")
+    r = subprocess.run([sys.executable, "-c", script, scen, str(tmp_path / "o.nc")],
+                       env=_env(tmp_path), capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    compiled = r.stdout
+    assert "dop853_run__canonical__gravity_gradient_kepler_elliptic" in compiled
+    assert "samples__" not in compiled  # (the helper's)
+
+
+def test_the_open_loop_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch):
+    """The main job's item is the signature numba compiled (or loaded) its diagnostics pass
+    for, in the module the helper makes again from the arguments that made the run's."""
+    seen = []
+    monkeypatch.setattr(_compiling, "open_loop_helper", lambda e, items: seen.append((e, items)))
+    sc = scenario.load(ROOT / "scenarios" / "paper_keplerian.toml")
+    with pytest.warns(UserWarning, match="initial state projected"):  # (as the command says)
+        attitude.propagate(sc.body, sc.q0, sc.Q0, np.linspace(0.0, 60.0, 7),
+                           potential=sc.potential)  # fmt: skip
+    ((entry, items),) = seen
+    ((home, name, sig, from_python),) = items
+    assert name == "samples" and from_python
+    assert tuple(sig) in entry.samples.signatures, entry.samples.signatures
+    assert home == ("attitude._core.models", "entry_points", entry.__entry_args__)
+    from attitude._core import models
+
+    assert models.entry_points(*entry.__entry_args__) is entry  # (in the helper: its copy)
+
+
 @pytest.mark.slow
 def test_a_first_closed_loop_run_leaves_the_software_to_its_helper(tmp_path):
     """Empty caches: the run itself compiles neither the tick's sensors and estimator nor the

@@ -90,8 +90,16 @@ def entry_points(kind: int | None, orbit_data: Any = None, closed_loop: bool = F
     """The compiled entry points of a built-in model of kind ``kind`` (``KIND_*`` of
     :mod:`attitude._core.potentials`; a model with an orbit also gives the orbit's
     ``kernel_data()``): specialised to that model alone where there is a specialisation, else
-    (and for a ``closed_loop`` run) the generic module.
+    (and for a ``closed_loop`` run) the generic module. A specialised copy keeps the arguments
+    that made it (``__entry_args__``: another process makes the same copy from them).
     """
+    module = _entry_points(kind, orbit_data, closed_loop)
+    if module is not _generic and "__entry_args__" not in vars(module):
+        module.__entry_args__ = (kind, orbit_data, closed_loop)
+    return module
+
+
+def _entry_points(kind: int | None, orbit_data: Any, closed_loop: bool) -> Any:
     if closed_loop:
         return _generic
     if kind == _kp.KIND_TORQUE_FREE:

@@ -21,6 +21,7 @@ import xarray as xr
 from orbit import _rk
 from orbit._state_kernels import TYPE_EPHEMERIS
 
+from .. import _compiling
 from .._core import diagnostics as _kd
 from .._methods import SAMPLE_BUDGET, Problem, RunResult
 from .._spacecraft_results import add_actuator_variables, add_tick_variables
@@ -182,6 +183,23 @@ def _finish(
         attrs = {**attrs, "energy_note": "potential unknown: energy is the kinetic energy only"}
     ds = dataset_from_samples(t, buf, n_terms, problem.body, pot, attrs, orbit is not None)
     return ds, n_ok
+
+
+def samples_kernels(problem: Problem) -> list[tuple]:
+    """What :func:`_finish` will compile for a run without a spacecraft, as items of
+    :func:`attitude._compiling.helper` (the arguments' numba types); none for a user's module."""
+    from numba import typeof
+    from numba.core import types
+
+    home = _compiling.where(problem.entry)
+    if problem.spacecraft is not None or home is None:
+        return []
+    orbit = getattr(problem.potential, "orbit", None)
+    od = orbit.kernel_data() if orbit is not None else _NO_ORBIT
+    a1, a2 = types.Array(types.float64, 1, "C"), types.Array(types.float64, 2, "C")
+    i = types.int64
+    sig = (a1, a2, typeof(problem.params), typeof(od), types.boolean, a1, i, i)
+    return [(home, "samples", sig, True)]
 
 
 def _finite_prefix(buf: np.ndarray, n: int, n_terms: int) -> int | None:

@@ -18,7 +18,7 @@ from .. import _compiling
 from .._methods import RunResult
 from .._progress import ProgressBar
 from .._spacecraft_results import tick_dataset
-from .results import _OVERFLOW_MESSAGE, _DiagnosticsOverflow, _finish
+from .results import _OVERFLOW_MESSAGE, _DiagnosticsOverflow, _finish, samples_kernels
 from .spec import RunSpec
 
 __all__ = ["run"]
@@ -36,6 +36,8 @@ def run(spec: RunSpec) -> RunResult:
     compiling = _compiling.watch(options["progress"], problem, plan.method)
     if compiling is not None:
         options["progress"] = compiling
+    if problem.spacecraft is None:  # the diagnostics compile in a second process meanwhile
+        _compiling.open_loop_helper(problem.entry, samples_kernels(problem))
     try:
         if plan.streaming:
             result = _streamed(spec, options)
