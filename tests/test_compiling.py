@@ -152,24 +152,9 @@ def test_the_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch, met
         assert from_python and tuple(s) in kernel.signatures, (name, kernel.signatures)
 
 
-def test_the_main_jobs_diagnostics_compile_in_the_helper(tmp_path):
-    """The README's main job with empty caches: the run compiles its integrator, its helper the
-    diagnostics pass (a specialised copy of the entry points, made again from its arguments
-    there); the run loads it."""
-    script = _LISTEN + textwrap.dedent(
-        """
-        from attitude import cli
-        assert cli.main(["run", sys.argv[1], "-o", sys.argv[2], "-q"]) == 0
-        print(sorted(set(compiled)))
-        """
-    )
-    scen = str(ROOT / "scenarios" / "paper_keplerian.toml")
-    r = subprocess.run([sys.executable, "-c", script, scen, str(tmp_path / "o.nc")],
-                       env=_env(tmp_path), capture_output=True, text=True, timeout=600)  # fmt: skip
-    assert r.returncode == 0, r.stderr
-    compiled = r.stdout
-    assert "dop853_run__canonical__gravity_gradient_kepler_elliptic" in compiled
-    assert "samples__" not in compiled  # (the helper's)
+# The README's main job with empty caches, its diagnostics compiled by its helper, then a second
+# process that compiles nothing and writes the same file: tests/test_user_kernels.py
+# (test_main_job_compiles_nothing_in_a_second_process).
 
 
 def test_the_open_loop_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch):

@@ -281,8 +281,9 @@ def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
 
     Fresh, empty numba caches (``NUMBA_CACHE_DIR``, ``ATTITUDE_CACHE_DIR``): the first
     ``attitude run scenarios/paper_keplerian.toml`` compiles (the kernels of the gravity
-    gradient alone on an elliptic Kepler orbit, attitude._core.models); a second process loads
-    every one of them from the cache (numba's compile events: none) and writes the same file.
+    gradient alone on an elliptic Kepler orbit, attitude._core.models; its diagnostics pass
+    compiled by its helper process meanwhile); a second process loads every one of them from
+    the cache (numba's compile events: none) and writes the same file.
     """
     env = {
         **os.environ,
@@ -290,6 +291,7 @@ def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
         "ATTITUDE_CACHE_DIR": str(tmp_path / "attitude"),
         "PYTHONPATH": str(ROOT),
         "PYTHONWARNINGS": "ignore",
+        "ATTITUDE_COMPILE_HELPER": "1",  # (as in a user's shell: off in the suite's workers)
     }
     script = tmp_path / "main_job.py"
     script.write_text(MAIN_JOB)
@@ -305,6 +307,8 @@ def test_main_job_compiles_nothing_in_a_second_process(tmp_path):
 
     first = run(tmp_path / "first.nc")
     assert any(name.startswith("dop853_run__canonical") for name in first), first
+    # the diagnostics pass: compiled by the run's helper meanwhile (attitude/_compiling.py)
+    assert not any(name.startswith("samples__") for name in first), first
     second = run(tmp_path / "second.nc")
     assert second == []  # every kernel the job needs came from the cache
     import xarray as xr
