@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from compile_events import LISTEN
 from numba.core import types
 
 import attitude
@@ -29,17 +30,10 @@ ROOT = Path(__file__).resolve().parent.parent
 
 pytestmark = pytest.mark.skipif(JIT_DISABLED, reason="kernels not compiled")
 
-_LISTEN = textwrap.dedent(
+_LISTEN = LISTEN + textwrap.dedent(
     """
     import sys
-    from numba.core import event, types
-    compiled = []
-    class L(event.Listener):
-        def on_start(self, ev):
-            compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-        def on_end(self, ev):
-            pass
-    event.register("numba:compile", L())
+    from numba.core import types
     from attitude import _compiling
     from orbit import _kepler_equation as ke
     from orbit._shared_jit import will_compile

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
+from compile_events import LISTEN
 
 import orbit._shared_jit as sj
 
@@ -27,19 +28,7 @@ pytestmark = pytest.mark.skipif(sj.JIT_DISABLED, reason="kernels not compiled")
 
 _ROOT = Path(sj.__file__).resolve().parent.parent
 
-#: The start of each child script: ``compiled``, the functions numba compiles in it.
-_LISTEN = textwrap.dedent(
-    """
-    from numba.core import event
-    compiled = []
-    class L(event.Listener):
-        def on_start(self, ev):
-            compiled.append(ev.data["dispatcher"].py_func.__qualname__)
-        def on_end(self, ev):
-            pass
-    event.register("numba:compile", L())
-    """
-)
+_LISTEN = LISTEN  # (tests/compile_events.py)
 # orbit._kernels imports orbit._kepler_equation, not the reverse: mean_anomaly (of the first)
 # is keyed on both sources, reduce_angle (of the second) on its own.
 _PROBE = _LISTEN + textwrap.dedent(
@@ -132,92 +121,56 @@ def test_editing_a_module_recompiles_only_its_importers(tmp_path):
     assert both["ke"] and both["k"]
 
 
-# A process that compiles a kernel under its lock, told when to start (stdin), and one that
-# calls the same kernel meanwhile: the second waits and loads what the first saved.
+# A process that compiles reduce_angle under its lock, told when to start (stdin), and one that
+# needs it meanwhile: the second waits and loads what the first saved. Called from Python (the
+# kernel itself), or compiled as the callee of another kernel (its copy without the CPython
+# wrapper, what compiled code calls).
 _LOCKER = _LISTEN + textwrap.dedent(
-    """
-    import sys
-    from orbit import _kepler_equation as ke
-    from orbit._shared_jit import _compile_lock
-    with _compile_lock(ke.reduce_angle):
-        print("locked", flush=True)
-        sys.stdin.readline()
-        ke.reduce_angle(7.0)  # this process holds the lock: no wait for itself
-    print(sorted(set(compiled)), flush=True)
-    """
-)
-_WAITER = _LISTEN + textwrap.dedent(
-    """
-    from orbit import _kepler_equation as ke
-    print("ready", flush=True)
-    ke.reduce_angle(7.0)
-    print(sorted(set(compiled)), flush=True)
-    """
-)
-
-
-def test_a_kernel_compiling_in_another_process_is_waited_for_and_loaded(tmp_path):
-    env = dict(os.environ, PYTHONPATH=str(_ROOT), ATTITUDE_CACHE_DIR=str(tmp_path / "cache"))
-    kw = dict(env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    locker = subprocess.Popen([sys.executable, "-c", _LOCKER], **kw)
-    waiter = None
-    try:
-        assert locker.stdout.readline().strip() == "locked"
-        waiter = subprocess.Popen([sys.executable, "-c", _WAITER], **kw)
-        assert waiter.stdout.readline().strip() == "ready"
-        time.sleep(1.0)  # the waiter is blocked on the lock (without it: compiling already)
-        assert waiter.poll() is None
-        out, _ = locker.communicate("go\n", timeout=300)
-        assert "reduce_angle" in out
-        wout, _ = waiter.communicate(timeout=300)
-        assert wout.strip() == "[]"  # loaded, not compiled
-    finally:
-        for p in (locker, waiter):
-            if p is not None and p.poll() is None:
-                p.kill()
-
-
-# The same as a callee: a process compiles reduce_angle as kernels call it, under its lock; the
-# other compiles a kernel that calls it, and waits for it instead of compiling it too.
-_CALLEE_LOCKER = _LISTEN + textwrap.dedent(
     """
     import sys
     from numba.core import types
     from orbit import _kepler_equation as ke
     from orbit._shared_jit import _compile_lock
-    with _compile_lock(ke.reduce_angle.dispatcher):
+    kernel = ke.reduce_angle if sys.argv[1] == "python" else ke.reduce_angle.dispatcher
+    with _compile_lock(kernel):
         print("locked", flush=True)
         sys.stdin.readline()
-        ke.reduce_angle.dispatcher.compile((types.float64,))
+        kernel.compile((types.float64,))  # this process holds the lock: no wait for itself
     print(sorted(set(compiled)), flush=True)
     """
 )
-_CALLER = _LISTEN + textwrap.dedent(
+_WAITER = _LISTEN + textwrap.dedent(
     """
+    import sys
     from orbit import _kepler_equation as ke
     print("ready", flush=True)
-    ke._kepler_E_reduced(7.0, 0.1)  # calls reduce_angle
+    if sys.argv[1] == "python":
+        ke.reduce_angle(7.0)
+    else:
+        ke._kepler_E_reduced(7.0, 0.1)  # calls reduce_angle
     print(sorted(set(compiled)), flush=True)
     """
 )
 
 
-def test_a_callee_compiling_in_another_process_is_waited_for_and_loaded(tmp_path):
+@pytest.mark.parametrize("how", ["python", "callee"])
+def test_a_kernel_compiling_in_another_process_is_waited_for_and_loaded(tmp_path, how):
     env = dict(os.environ, PYTHONPATH=str(_ROOT), ATTITUDE_CACHE_DIR=str(tmp_path / "cache"))
     kw = dict(env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    locker = subprocess.Popen([sys.executable, "-c", _CALLEE_LOCKER], **kw)
-    caller = None
+    locker = subprocess.Popen([sys.executable, "-c", _LOCKER, how], **kw)
+    waiter = None
     try:
         assert locker.stdout.readline().strip() == "locked"
-        caller = subprocess.Popen([sys.executable, "-c", _CALLER], **kw)
-        assert caller.stdout.readline().strip() == "ready"
-        time.sleep(1.5)  # the caller is blocked on the callee's lock
-        assert caller.poll() is None
+        waiter = subprocess.Popen([sys.executable, "-c", _WAITER, how], **kw)
+        assert waiter.stdout.readline().strip() == "ready"
+        time.sleep(1.5)  # the waiter is blocked on the lock (without it: compiling already)
+        assert waiter.poll() is None
         out, _ = locker.communicate("go\n", timeout=300)
-        assert "'reduce_angle__kernel'" in out
-        cout, _ = caller.communicate(timeout=300)
-        assert "_kepler_E_reduced" in cout and "reduce_angle" not in cout  # loaded
+        assert "reduce_angle" in out
+        wout, _ = waiter.communicate(timeout=300)
+        assert "reduce_angle" not in wout  # loaded, not compiled
+        assert (wout.strip() == "[]") == (how == "python")  # (the caller: its own compiled)
     finally:
-        for p in (locker, caller):
+        for p in (locker, waiter):
             if p is not None and p.poll() is None:
                 p.kill()
