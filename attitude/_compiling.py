@@ -232,18 +232,21 @@ def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | 
 
 
 def closed_loop_helper(
-    driver: Any, P: tuple, ctl: tuple, after: Sequence[tuple] = ()
+    driver: Any, P: tuple, ctl: tuple, after: Sequence[tuple] = (), software: bool = True
 ) -> subprocess.Popen | None:
     """The helper of a closed-loop run whose ``driver`` will compile (:func:`closed_loop_items`
-    of its ``P``, ``ctl`` and ``after``); None when the driver or the software's kernels are
-    compiled already, or the helper is off."""
+    of its ``P``, ``ctl`` and ``after``; the diagnostics alone when not ``software``: the
+    Taylor driver reaches the software's kernels first, and would only wait for the helper
+    there); None when the driver is compiled already, or the helper is off."""
     from ._core import fsw
 
-    if not helper_on():
+    if not helper_on() or not will_compile(driver):
         return None
-    if not will_compile(driver) or not will_compile(fsw.fsw_boundary.dispatcher):
-        return None
-    return helper(closed_loop_items(P, ctl, after))
+    if software and will_compile(fsw.fsw_boundary.dispatcher):
+        return helper(closed_loop_items(P, ctl, after))
+    if after and will_compile(_kernel(after[0])):
+        return helper(after)
+    return None
 
 
 def closed_loop_items(P: tuple, ctl: tuple, after: Sequence[tuple] = ()) -> list[tuple]:
@@ -304,18 +307,23 @@ def _end_helpers() -> None:
         proc.wait()
 
 
-def _compile(items: Sequence[tuple[str, str, tuple, bool]]) -> None:
-    """In the helper: compile each item (loaded instead where another process saved it)."""
+def _kernel(item: tuple) -> Any:
+    """The kernel of a helper's item (as Python calls it)."""
     import importlib
 
+    module, name = item[:2]
+    if isinstance(module, tuple):
+        home, make, args = module
+        return getattr(getattr(importlib.import_module(home), make)(*args), name)
+    return getattr(importlib.import_module(module), name)
+
+
+def _compile(items: Sequence[tuple[str, str, tuple, bool]]) -> None:
+    """In the helper: compile each item (loaded instead where another process saved it)."""
     from orbit._shared_jit import _compile_lock
 
-    for module, name, sig, from_python in items:
-        if isinstance(module, tuple):
-            home, make, args = module
-            kernel = getattr(getattr(importlib.import_module(home), make)(*args), name)
-        else:
-            kernel = getattr(importlib.import_module(module), name)
+    for item in items:
+        kernel, sig, from_python = _kernel(item), item[2], item[3]
         if from_python:
             with _compile_lock(kernel):
                 kernel.compile(sig)

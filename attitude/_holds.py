@@ -417,7 +417,8 @@ def _run(
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
     if sr.program is not None:  # a driver about to compile: the software's kernels meanwhile
-        _compiling.closed_loop_helper(kernel, P, src.ctl, _diagnostics_kernels(problem))
+        after = _diagnostics_kernels(problem)
+        _compiling.closed_loop_helper(kernel, P, src.ctl, after, software=hold_driver)
     evb = EventBuffers(0 if problem.events is None else problem.events.n, n)
     if problem.events is None:
         from ._core.spacecraft_events import no_events

@@ -122,7 +122,8 @@ def test_the_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch, met
     state a row of the driver's C-ordered work array; the diagnostics' signatures are theirs."""
     seen = []
 
-    def record(driver, P, ctl, after=()):
+    def record(driver, P, ctl, after=(), software=True):
+        assert software == (method == "dop853")  # (the Taylor driver: the diagnostics alone)
         seen.append((driver, _compiling.closed_loop_items(P, ctl, after)))
 
     monkeypatch.setattr(_compiling, "closed_loop_helper", record)
