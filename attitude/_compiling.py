@@ -240,8 +240,8 @@ def closed_loop_helper(
     there); None when the driver is compiled already, or the helper is off."""
     from ._core import fsw
 
-    if not helper_on() or not will_compile(driver):
-        return None
+    if not helper_on() or not will_compile(driver) or not _on_disk(driver):
+        return None  # (without a disk cache the helper's work would stay in the helper)
     if software and will_compile(fsw.fsw_boundary.dispatcher):
         return helper(closed_loop_items(P, ctl, after))
     if after and will_compile(_kernel(after[0])):
@@ -279,16 +279,30 @@ def open_loop_helper(entry: Any, items: Sequence[tuple]) -> subprocess.Popen | N
     integrator) when the first of them will compile."""
     if not items or not helper_on():
         return None
-    if not will_compile(getattr(entry, items[0][1])):
+    kernel = getattr(entry, items[0][1])
+    if not will_compile(kernel) or not _on_disk(kernel):
         return None
     return helper(items)
 
 
+def _on_disk(kernel: Any) -> bool:
+    """Whether ``kernel`` has a disk cache (what the helper compiles reaches the run there)."""
+    return getattr(getattr(kernel, "_cache", None), "_cache_file", None) is not None
+
+
 def helper_on() -> bool:
     """Whether runs start compile helpers: two CPUs or more, a Python interpreter to start
-    (not an application embedding one), and not ``ATTITUDE_COMPILE_HELPER=0``."""
+    (not an application embedding one), lock files between processes (POSIX: elsewhere both
+    would compile the same kernels), and not ``ATTITUDE_COMPILE_HELPER=0``."""
+    from orbit import _shared_jit
+
     python = Path(sys.executable or "").name.lower().startswith("python")  # (not embedded)
-    return python and os.environ.get(HELPER_ENV, "1") != "0" and _cpus() >= 2
+    return (
+        python
+        and _shared_jit.fcntl is not None
+        and os.environ.get(HELPER_ENV, "1") != "0"
+        and _cpus() >= 2
+    )
 
 
 def _cpus() -> int:

@@ -106,13 +106,26 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")  # (a zombie has ended; init reaps it)
 
 
-def test_off_by_the_environment_or_on_one_cpu(monkeypatch):
+def test_off_by_the_environment_on_one_cpu_without_locks_or_a_disk_cache(monkeypatch):
+    import types as pytypes
+
+    import numba
+
+    import orbit._shared_jit as sj
+
     items = [("orbit._kepler_equation", "reduce_angle", (types.float64,), True)]
     monkeypatch.setenv(_compiling.HELPER_ENV, "0")
     assert _compiling.helper(items) is None
     monkeypatch.delenv(_compiling.HELPER_ENV)
-    monkeypatch.setattr(_compiling, "_cpus", lambda: 1)
-    assert _compiling.helper(items) is None
+    with monkeypatch.context() as m:
+        m.setattr(_compiling, "_cpus", lambda: 1)
+        assert _compiling.helper(items) is None
+    with monkeypatch.context() as m:  # (Windows: the two processes could not wait for each other)
+        m.setattr(sj, "fcntl", None)
+        assert _compiling.helper(items) is None
+    # a kernel without a disk cache will compile, but what a helper compiled would not reach it
+    entry = pytypes.SimpleNamespace(samples=numba.njit(lambda x: x))
+    assert _compiling.open_loop_helper(entry, [("m", "samples", (types.float64,), True)]) is None
 
 
 @pytest.mark.parametrize("method", ["dop853", "taylor"])
