@@ -102,8 +102,15 @@ class _Compiles:
 class CompileWatch:
     """A progress callable around another that reports the run's compilation (see module)."""
 
-    def __init__(self, progress: Callable[[int, int, float], None], what: str, estimate: float):
+    def __init__(
+        self,
+        progress: Callable[[int, int, float], None],
+        what: str,
+        estimate: float,
+        ready: Callable[[], bool] | None = None,
+    ):
         self.progress = progress
+        self._ready = ready  # whether what was announced is compiled (or loaded) in the process
         self.what = what
         self._note = getattr(progress, "note", None)
         self._compiles = _Compiles()
@@ -131,8 +138,11 @@ class CompileWatch:
         elif self._pending:  # a report without a compilation since: say how long it took
             self._pending = False
             self.note(f"compiled {self.what} in {c.seconds:.1f} s")
-        elif c.count == 0 and not self._loaded:
+        elif c.count == 0 and not self._loaded and self._is_ready():
             self._said_loaded()
+
+    def _is_ready(self) -> bool:
+        return self._ready is not None and self._ready()
 
     def _said_loaded(self) -> None:
         # Nothing compiled here: another process compiled it meanwhile (a test worker, a second
@@ -156,7 +166,7 @@ class CompileWatch:
         self._compiles.close()
         if self._pending or self._compiles.count > self._seen:
             self.note(f"compiled {self.what} in {self._compiles.seconds:.1f} s")
-        elif self._compiles.count == 0 and not self._loaded:
+        elif self._compiles.count == 0 and not self._loaded and self._is_ready():
             self._said_loaded()
 
 
@@ -175,7 +185,9 @@ def watch(progress: Any, problem: Any, method: str) -> CompileWatch | None:
     estimate = compile_estimate(
         CLOSED_LOOP_COMPILE_HELPED_S if helped else CLOSED_LOOP_COMPILE_CPU_S
     )
-    return CompileWatch(progress, "the closed-loop kernels", estimate)
+    return CompileWatch(
+        progress, "the closed-loop kernels", estimate, lambda: bool(driver.signatures)
+    )
 
 
 #: The helper's first lines: this package, from the tree this process imported it from.
@@ -208,7 +220,7 @@ def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | 
     -------
     subprocess.Popen or None
         The process (ended with this one if still running), or None when the helper is off
-        (``ATTITUDE_COMPILE_HELPER=0``, one CPU) or could not start.
+        (:func:`helper_on`) or could not start.
     """
     if not helper_on() or not items:
         return None
@@ -232,20 +244,26 @@ def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | 
 
 
 def closed_loop_helper(
-    driver: Any, P: tuple, ctl: tuple, after: Sequence[tuple] = (), software: bool = True
+    driver: Any,
+    P: tuple,
+    ctl: tuple,
+    after: Callable[[], list[tuple]] = list,
+    software: bool = True,
 ) -> subprocess.Popen | None:
-    """The helper of a closed-loop run whose ``driver`` will compile (:func:`closed_loop_items`
-    of its ``P``, ``ctl`` and ``after``; the diagnostics alone when not ``software``: the
-    Taylor driver reaches the software's kernels first, and would only wait for the helper
-    there); None when the driver is compiled already, or the helper is off."""
+    """The helper of a closed-loop run whose ``driver`` will compile: :func:`closed_loop_items`
+    of its ``P`` and ``ctl``, then ``after()`` (what the run compiles after its driver); the
+    latter alone when not ``software`` (the Taylor driver reaches the software's kernels first,
+    and would only wait for the helper there). None when the driver is compiled already, or
+    the helper is off."""
     from ._core import fsw
 
     if not helper_on() or not will_compile(driver) or not _on_disk(driver):
         return None  # (without a disk cache the helper's work would stay in the helper)
     if software and will_compile(fsw.fsw_boundary.dispatcher):
-        return helper(closed_loop_items(P, ctl, after))
-    if after and will_compile(_kernel(after[0])):
-        return helper(after)
+        return helper(closed_loop_items(P, ctl, after()))
+    items = after()
+    if items and will_compile(_kernel(items[0])):
+        return helper(items)
     return None
 
 
@@ -274,15 +292,12 @@ def where(module: Any) -> str | tuple | None:
     return None if args is None else ("attitude._core.models", "entry_points", args)
 
 
-def open_loop_helper(entry: Any, items: Sequence[tuple]) -> subprocess.Popen | None:
-    """The helper of a run without flight software: ``items`` (what it compiles after its
-    integrator) when the first of them will compile."""
-    if not items or not helper_on():
+def open_loop_helper(kernel: Any, items: Callable[[], list[tuple]]) -> subprocess.Popen | None:
+    """The helper of a run without flight software: ``items()`` (what it compiles after its
+    integrator, ``kernel`` the first of them) when ``kernel`` will compile."""
+    if not helper_on() or not will_compile(kernel) or not _on_disk(kernel):
         return None
-    kernel = getattr(entry, items[0][1])
-    if not will_compile(kernel) or not _on_disk(kernel):
-        return None
-    return helper(items)
+    return helper(items())
 
 
 def _on_disk(kernel: Any) -> bool:

@@ -417,8 +417,9 @@ def _run(
     y_out = np.empty((min(chunk, m) if on_chunk is not None else m, width))
     P = (problem.params, sr.fresh_block())
     if sr.program is not None:  # a driver about to compile: the software's kernels meanwhile
-        after = _diagnostics_kernels(problem)
-        _compiling.closed_loop_helper(kernel, P, src.ctl, after, software=hold_driver)
+        _compiling.closed_loop_helper(
+            kernel, P, src.ctl, lambda: _diagnostics_kernels(problem), software=hold_driver
+        )
     evb = EventBuffers(0 if problem.events is None else problem.events.n, n)
     if problem.events is None:
         from ._core.spacecraft_events import no_events
@@ -673,19 +674,20 @@ def diagnostics(problem: Problem, t: np.ndarray, rows: np.ndarray) -> dict[str, 
 def _diagnostics_kernels(problem: Problem) -> list[tuple[str, str, tuple, bool]]:
     """What :func:`diagnostics` will compile, as items of :func:`attitude._compiling.helper`
     (the arguments' numba types), for a run of the package's entry points whose orbit is not in
-    its state (a coupled run's diagnostics read the run's own orbit); else none."""
+    its state (a coupled run's diagnostics read the run's own orbit); none for a user's
+    module."""
     from numba import typeof
     from numba.core import types
 
     sr: SpacecraftRun = problem.spacecraft
-    entry = _diagnostics_entry(problem)
-    if sr.coupled or entry.__name__ != "attitude._core.entry_points":
+    home = _compiling.where(_diagnostics_entry(problem))
+    if sr.coupled or home is None:
         return []
     a1, a2, a3 = (types.Array(types.float64, d, "C") for d in (1, 2, 3))
     params = typeof(problem.params)
     return [
-        (entry.__name__, "spacecraft_diagnostics", (a1, a2, params, a1, a2), True),
-        (entry.__name__, "term_torques_at_rates", (a1, a2, a2, params, a3), True),
+        (home, "spacecraft_diagnostics", (a1, a2, params, a1, a2), True),
+        (home, "term_torques_at_rates", (a1, a2, a2, params, a3), True),
         ("attitude._core.gyrostat", "actuator_diagnostics", (a1, a2, a2, a1, a3, a3), True),
     ]
 

@@ -188,9 +188,15 @@ def test_compile_watch_says_how_long_after_the_compilation():
 
 def test_compile_watch_says_when_another_process_compiled_it():
     """Nothing compiled in this process (it waited for another one's lock files and loaded
-    what that one saved): said once, at the first report, and the pace starts again."""
+    what that one saved): said once, at the first report after what was announced is there,
+    and the pace starts again; a run stopped before that (an error, Ctrl-C while waiting)
+    says nothing of a load."""
+    ready = [False]
     report = _Report()
-    w = CompileWatch(report, "the kernels", 7)
+    w = CompileWatch(report, "the kernels", 7, lambda: ready[0])
+    w(1, 10, 0.0)  # (not there yet)
+    assert len(report.notes) == 1 and report.restarts == 0
+    ready[0] = True
     w(3, 10, 0.0)
     assert re.fullmatch(
         r"loaded the kernels, compiled by another process meanwhile, in \d+\.\d s",
@@ -200,6 +206,9 @@ def test_compile_watch_says_when_another_process_compiled_it():
     w(10, 10, 0.0)
     w.close()
     assert len(report.notes) == 2 and report.restarts == 1
+    stopped = _Report()
+    CompileWatch(stopped, "the kernels", 7, lambda: False).close()
+    assert len(stopped.notes) == 1
 
 
 def test_command_progress_time_left_from_the_first_report():

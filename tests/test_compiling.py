@@ -67,35 +67,47 @@ def test_what_the_helper_compiled_is_loaded_not_compiled(tmp_path):
 
 
 def test_a_helper_ends_with_its_run_even_killed(tmp_path):
-    """A run killed while its helper compiles: the helper ends too (it reads the pipe the run
-    holds open), and its items are compiled again by whoever needs them next."""
-    many = ", ".join(
-        f'("orbit._kepler_equation", "{n}", (types.float64, types.float64), False)'
-        for n in ("_kepler_E_core", "_kepler_residual", "kepler_E", "_kepler_E_reduced")
+    """A run killed while its helper works: the helper ends too (it reads the pipe the run held
+    open). Here the helper is held on a kernel's lock by a third process, which keeps it until
+    the test ends: only the pipe can end the helper in time (else it would wait up to 900 s)."""
+    locker = textwrap.dedent(
+        """
+        import sys
+        from orbit import _kepler_equation as ke
+        from orbit._shared_jit import _compile_lock
+        with _compile_lock(ke.reduce_angle):
+            print("locked", flush=True)
+            sys.stdin.readline()
+        """
     )
     script = _LISTEN + textwrap.dedent(
-        f"""
+        """
         import time
-        proc = _compiling.helper([{many}])
+        proc = _compiling.helper([("orbit._kepler_equation", "reduce_angle", (types.float64,),
+                                   True)])
         print(proc.pid, flush=True)
         time.sleep(600)
         """
     )
-    run = subprocess.Popen([sys.executable, "-c", script], env=_env(tmp_path),
-                           stdout=subprocess.PIPE, text=True)  # fmt: skip
+    kw = dict(env=_env(tmp_path), stdout=subprocess.PIPE, text=True)
+    hold = subprocess.Popen([sys.executable, "-c", locker], stdin=subprocess.PIPE, **kw)
+    run = None
     try:
+        assert hold.stdout.readline().strip() == "locked"
+        run = subprocess.Popen([sys.executable, "-c", script], **kw)
         pid = int(run.stdout.readline())
-        time.sleep(0.5)
-        assert _alive(pid)  # (importing the package, or compiling)
+        time.sleep(2.0)  # (the helper imports the package and waits for the lock)
+        assert _alive(pid)
         run.send_signal(signal.SIGKILL)
         run.wait()
-        deadline = time.monotonic() + 30.0
+        deadline = time.monotonic() + 10.0
         while _alive(pid) and time.monotonic() < deadline:
-            time.sleep(0.1)
+            time.sleep(0.05)
         assert not _alive(pid)
     finally:
-        if run.poll() is None:
-            run.kill()
+        for p in (run, hold):
+            if p is not None and p.poll() is None:
+                p.kill()
 
 
 def _alive(pid: int) -> bool:
@@ -107,8 +119,6 @@ def _alive(pid: int) -> bool:
 
 
 def test_off_by_the_environment_on_one_cpu_without_locks_or_a_disk_cache(monkeypatch):
-    import types as pytypes
-
     import numba
 
     import orbit._shared_jit as sj
@@ -124,8 +134,9 @@ def test_off_by_the_environment_on_one_cpu_without_locks_or_a_disk_cache(monkeyp
         m.setattr(sj, "fcntl", None)
         assert _compiling.helper(items) is None
     # a kernel without a disk cache will compile, but what a helper compiled would not reach it
-    entry = pytypes.SimpleNamespace(samples=numba.njit(lambda x: x))
-    assert _compiling.open_loop_helper(entry, [("m", "samples", (types.float64,), True)]) is None
+    uncached = numba.njit(lambda x: x)
+    items = [("m", "f", (types.float64,), True)]
+    assert _compiling.open_loop_helper(uncached, lambda: items) is None
 
 
 @pytest.mark.parametrize("method", ["dop853", "taylor"])
@@ -135,9 +146,9 @@ def test_the_helper_compiles_for_the_types_the_run_compiles_for(monkeypatch, met
     state a row of the driver's C-ordered work array; the diagnostics' signatures are theirs."""
     seen = []
 
-    def record(driver, P, ctl, after=(), software=True):
+    def record(driver, P, ctl, after=list, software=True):
         assert software == (method == "dop853")  # (the Taylor driver: the diagnostics alone)
-        seen.append((driver, _compiling.closed_loop_items(P, ctl, after)))
+        seen.append((driver, _compiling.closed_loop_items(P, ctl, after())))
 
     monkeypatch.setattr(_compiling, "closed_loop_helper", record)
     sc = scenario.load(ROOT / "scenarios" / "rw_inertial_pointing.toml")
@@ -169,19 +180,19 @@ def test_the_open_loop_helper_compiles_for_the_types_the_run_compiles_for(monkey
     """The main job's item is the signature numba compiled (or loaded) its diagnostics pass
     for, in the module the helper makes again from the arguments that made the run's."""
     seen = []
-    monkeypatch.setattr(_compiling, "open_loop_helper", lambda e, items: seen.append((e, items)))
+    monkeypatch.setattr(
+        _compiling, "open_loop_helper", lambda kernel, items: seen.append((kernel, items()))
+    )
     sc = scenario.load(ROOT / "scenarios" / "paper_keplerian.toml")
     with pytest.warns(UserWarning, match="initial state projected"):  # (as the command says)
         attitude.propagate(sc.body, sc.q0, sc.Q0, np.linspace(0.0, 60.0, 7),
                            potential=sc.potential)  # fmt: skip
-    ((entry, items),) = seen
+    ((kernel, items),) = seen
     ((home, name, sig, from_python),) = items
     assert name == "samples" and from_python
-    assert tuple(sig) in entry.samples.signatures, entry.samples.signatures
-    assert home == ("attitude._core.models", "entry_points", entry.__entry_args__)
-    from attitude._core import models
-
-    assert models.entry_points(*entry.__entry_args__) is entry  # (in the helper: its copy)
+    assert tuple(sig) in kernel.signatures, kernel.signatures
+    assert _compiling._kernel(items[0]) is kernel  # (the helper makes its module again)
+    assert home[:2] == ("attitude._core.models", "entry_points")
 
 
 @pytest.mark.slow

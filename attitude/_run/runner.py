@@ -37,7 +37,7 @@ def run(spec: RunSpec) -> RunResult:
     if compiling is not None:
         options["progress"] = compiling
     if problem.spacecraft is None:  # the diagnostics compile in a second process meanwhile
-        _compiling.open_loop_helper(problem.entry, samples_kernels(problem))
+        _compiling.open_loop_helper(problem.entry.samples, lambda: samples_kernels(problem))
     try:
         if plan.streaming:
             result = _streamed(spec, options)
