@@ -10,6 +10,7 @@ Pines' non-singular recursion (:mod:`orbit._gravity_field_kernels`).
 
 from __future__ import annotations
 
+import math
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -108,6 +109,11 @@ class SphericalHarmonics:
 
     def __repr__(self) -> str:
         return f"SphericalHarmonics({self.degree}, {self.order}, model={self.model!r})"
+
+    @property
+    def j2(self) -> float:
+        """The field's J₂ = −√5 C̄₂₀ (0 below degree 2): the oblateness term of its potential."""
+        return -math.sqrt(5.0) * float(self.C[2, 0]) if self.degree >= 2 else 0.0
 
     def _evaluate(self, r: Any, name: str) -> tuple[np.ndarray, np.ndarray, tuple]:
         pos = _positions(r, name)

@@ -79,7 +79,9 @@ def test_point_mass_and_j2_closed_forms():
     assert np.max(np.abs(f0.potential(pos) / (-f0.mu / r) - 1)) < 9e-16
 
     f2 = SphericalHarmonics(2, 0)  # J2 alone: J2 = −√5 C̄20
-    J2 = -np.sqrt(5.0) * f2.C[2, 0]
+    J2 = f2.j2
+    assert J2 == pytest.approx(1.0826261738522e-3, rel=1e-13)  # EGM2008's, as published
+    assert f0.j2 == SphericalHarmonics(1).j2 == 0.0  # no oblateness below degree 2
     x, y, z = pos.T
     k = 1.5 * J2 * f2.mu * f2.radius**2 / r**5
     zr = 5 * z**2 / r**2

@@ -140,6 +140,14 @@ class RunSpec:
                 f"numerical orbit: {craft.orbit._forces.describe()}, propagated with the "
                 f"attitude by the run's method ({method})"
             )
+            # what `attitude info` needs for the orbital energy of the samples (a semi-major
+            # axis that J2's short-period terms do not move)
+            field = craft.orbit.gravity
+            attrs["orbit_gm"] = craft.orbit._forces.mu
+            attrs["orbit_gm_units"] = "m3 s-2"
+            attrs["orbit_j2"] = 0.0 if field is None else field.j2
+            attrs["orbit_reference_radius"] = 0.0 if field is None else field.radius
+            attrs["orbit_reference_radius_units"] = "m"
             if method == "dop853" and craft.orbit.perturbed and craft.orbit.field_step > 0.0:
                 # (attitude._core.coupled: sampled where the steps are short, exact elsewhere)
                 attrs["orbit"] += (

@@ -216,8 +216,8 @@ def _wheel_lines(ds: Any) -> list[str]:
 
 
 def _orbit_lines(ds: Any) -> list[str]:
-    """A run that propagated its orbit with the attitude: its radius and two-body semi-major
-    axis at the start and the end, the mass used, and where it stopped at the surface."""
+    """A run that propagated its orbit with the attitude: its radius and semi-major axis at the
+    start and the end, the mass used, and where it stopped at the surface."""
     if "position" not in ds or "velocity" not in ds or ds.sizes.get("time", 0) < 1:
         return []
     from orbit import earth_mu
@@ -225,20 +225,42 @@ def _orbit_lines(ds: Any) -> list[str]:
     if "member" in ds.dims:
         return [f"propagated with the attitude, {ds.sizes['member']} members (position, "
                 "velocity, mass per member)"]  # fmt: skip
-    r = np.asarray(ds["position"].values, dtype=np.float64) * 1e-3
-    v = np.asarray(ds["velocity"].values, dtype=np.float64) * 1e-3
+    ends = [0, ds.sizes["time"] - 1]
+    r = np.asarray(ds["position"].isel(time=ends).values, dtype=np.float64)
+    v = np.asarray(ds["velocity"].isel(time=ends).values, dtype=np.float64)
     rn = np.linalg.norm(r, axis=1)
-    a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / earth_mu())
-    out = [
-        "propagated with the attitude (GCRS): radius "
-        f"{rn[0]:.3f} -> {rn[-1]:.3f} km, two-body semi-major axis {a[0]:.3f} -> {a[-1]:.3f} km"
-    ]
+    out = ["propagated with the attitude (GCRS): radius "
+           f"{rn[0] * 1e-3:.3f} -> {rn[-1] * 1e-3:.3f} km"]  # fmt: skip
+    gm = ds.attrs.get("orbit_gm")
+    a_osc = 1e-3 / (2.0 / rn - np.sum(v * v, axis=1) / (earth_mu() * 1e9 if gm is None else gm))
+    osculating = f"two-body semi-major axis {a_osc[0]:.3f} -> {a_osc[-1]:.3f} km"
+    if gm is None:  # (a file written before the field's constants were recorded)
+        out[0] += ", " + osculating
+    else:
+        a = _energy_semi_major_axis(r, v, gm, ds.attrs.get("orbit_j2", 0.0),
+                                    ds.attrs.get("orbit_reference_radius", 0.0))  # fmt: skip
+        out.append(f"energy semi-major axis {a[0] * 1e-3:.3f} -> {a[-1] * 1e-3:.3f} km "
+                   f"({(a[-1] - a[0]) * 1e-3:+.3f} km; {osculating})")  # fmt: skip
     m = np.asarray(ds["mass"].values, dtype=np.float64) if "mass" in ds else np.zeros(1)
     if m[0] != m[-1]:
         out.append(f"mass {m[0]:.6g} -> {m[-1]:.6g} kg ({m[0] - m[-1]:.6g} kg of propellant)")
     if ds.attrs.get("event") == "impact":
         out.append(f"reached the Earth's surface at t = {float(ds.attrs['impact_time']):.6g} s")
     return out
+
+
+def _energy_semi_major_axis(
+    r: np.ndarray, v: np.ndarray, gm: float, j2: float, radius: float
+) -> np.ndarray:
+    """a = −μ/(2ε) from the orbital energy per unit mass in the point mass and J₂ of the field,
+    ε = v²/2 − μ/r + μ J₂ R² P₂(z/r)/r³ (z along GCRS z, the pole to ~0.3°): constant in an
+    axisymmetric field, it moves only with thrust, drag and the smaller terms (tesseral, third
+    bodies), where the osculating two-body a swings by ~±10 km in LEO over each orbit.
+    r, v: (n, 3) [m, m/s]; returns (n,) [m]."""
+    rn = np.linalg.norm(r, axis=1)
+    s = r[:, 2] / rn
+    eps = 0.5 * np.sum(v * v, axis=1) - gm / rn + gm * j2 * radius**2 * (1.5 * s * s - 0.5) / rn**3
+    return -gm / (2.0 * eps)
 
 
 def _torque_budget(ds: Any) -> list[str]:
