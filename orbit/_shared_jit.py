@@ -208,6 +208,15 @@ def user_cache_dir() -> Path:
     return Path(os.environ.get("XDG_CACHE_HOME") or home / ".cache") / "attitude"
 
 
+def data_cache_dir() -> Path:
+    """Where parsed data files go (the IERS table): ``$ATTITUDE_CACHE_DIR/data``, else ``data``
+    in the platform's cache (:func:`user_cache_dir`)."""
+    root = os.environ.get("ATTITUDE_CACHE_DIR")
+    if root:
+        return Path(root).expanduser().resolve() / "data"
+    return user_cache_dir() / "data"
+
+
 def _install_cache_locators() -> None:
     from numba.core import caching
 

@@ -95,10 +95,54 @@ _TABLE: list[Any] = []
 def iers_table() -> Any:
     """The IERS table used for UT1 − UTC and polar motion (bundled IERS-A unless replaced)."""
     if not _TABLE:
-        from astropy.utils import iers
-
-        _TABLE.append(iers.IERS_A.open(iers.IERS_A_FILE))
+        _TABLE.append(_bundled_table())
     return _TABLE[0]
+
+
+def _bundled_table() -> Any:
+    """The bundled IERS-A table, parsed once per installation: astropy's reader of the 20 000
+    lines takes 0.4–1 s of every process that needs Earth orientation; the parsed table is kept
+    pickled in the cache (:func:`orbit._shared_jit.data_cache_dir`), keyed on the file, its size
+    and time and the astropy and pickle versions, and loads in ~10 ms."""
+    import hashlib
+    import os
+    import pickle
+    import sys
+    import tempfile
+
+    import astropy
+    from astropy.utils import iers
+
+    from ._shared_jit import data_cache_dir
+
+    src = os.path.realpath(iers.IERS_A_FILE)
+    try:
+        st = os.stat(src)
+    except OSError:
+        return iers.IERS_A.open(iers.IERS_A_FILE)  # (astropy says what is missing)
+    key = f"{src}|{st.st_size}|{st.st_mtime_ns}|{astropy.__version__}|{sys.version_info[:2]}"
+    path = data_cache_dir() / f"iers-a-{hashlib.sha256(key.encode()).hexdigest()[:16]}.pickle"
+    try:
+        with open(path, "rb") as fh:
+            table = pickle.load(fh)
+        if isinstance(table, iers.IERS_A):
+            return table
+    except Exception:  # (absent, unreadable or corrupt: parse the file again)
+        pass
+    table = iers.IERS_A.open(iers.IERS_A_FILE)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+        try:
+            with os.fdopen(fd, "wb") as fh:
+                pickle.dump(table, fh, protocol=pickle.HIGHEST_PROTOCOL)
+            os.replace(tmp, path)  # (whole or not at all: another process may be reading)
+        finally:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+    except OSError:
+        pass  # (a read-only cache: parse it again next time)
+    return table
 
 
 def set_iers_table(table: Any = None) -> None:

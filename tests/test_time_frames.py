@@ -50,6 +50,43 @@ def test_ut1_minus_utc_is_the_bundled_table_value():
     assert float(b["UT1_UTC"][i].value) == pytest.approx(table[60000.0], abs=2e-4)
 
 
+def _same_table(a, b):
+    assert a.colnames == b.colnames and a.meta == b.meta and len(a) == len(b)
+    for k in a.colnames:
+        x, y = np.ma.getdata(a[k]), np.ma.getdata(b[k])
+        xv, yv = np.asarray(getattr(x, "value", x)), np.asarray(getattr(y, "value", y))
+        assert np.array_equal(xv, yv, equal_nan=xv.dtype.kind == "f"), k
+        assert np.array_equal(np.ma.getmaskarray(a[k]), np.ma.getmaskarray(b[k])), k
+        assert getattr(a[k], "unit", None) == getattr(b[k], "unit", None), k
+
+
+def test_the_bundled_table_is_parsed_once_and_kept(tmp_path, monkeypatch):
+    """The parsed IERS-A table is kept in the cache: a later process loads it instead of
+    parsing the file again, and gets the same table; a corrupt copy is parsed again."""
+    monkeypatch.setenv("ATTITUDE_CACHE_DIR", str(tmp_path))
+    parsed = iers.IERS_A.open(iers.IERS_A_FILE)  # astropy's own reading of the file
+    first = ts._bundled_table()
+    (kept,) = (tmp_path / "data").glob("iers-a-*.pickle")
+    _same_table(first, parsed)
+
+    def no_parse(*a, **k):
+        raise AssertionError("parsed the file again")
+
+    with monkeypatch.context() as m:
+        m.setattr(iers.IERS_A, "open", no_parse)
+        again = ts._bundled_table()
+    _same_table(again, parsed)
+    t = Time([52000.0, 60000.25, float(parsed["MJD"][-1].value) - 3.5], format="mjd")
+    assert np.array_equal(again.ut1_utc(t).value, parsed.ut1_utc(t).value)
+    assert np.array_equal(np.stack(again.pm_xy(t)), np.stack(parsed.pm_xy(t)))
+
+    kept.write_bytes(b"not a pickle")
+    _same_table(ts._bundled_table(), parsed)  # parsed again, and kept again
+    with monkeypatch.context() as m:
+        m.setattr(iers.IERS_A, "open", no_parse)
+        _same_table(ts._bundled_table(), parsed)
+
+
 def test_prediction_range_works_offline_without_the_30_day_error(monkeypatch):
     """Dates in the table's prediction span: no download, no astropy 30-day ValueError."""
     tab = ts.iers_table()
