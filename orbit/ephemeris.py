@@ -51,6 +51,8 @@ __all__ = ["EphemerisOrbit", "check_tle", "position_derivative"]
 #: δ⁴/30 |r⁽⁵⁾| ~ 5e-12 km/s in LEO; SGP4's 1e-12 rad Kepler tolerance noise / δ ~ 4e-9 km/s;
 #: measured: interpolated positions within 8e-9 km of SGP4 at off-grid times, δ = 1 to 4 s).
 FD_STEP = 2.0
+#: astropy's TEME → GCRS rotation every hour, interpolated between (orbit.frames: 1e-13 rad).
+TEME_STEP = 3600.0
 #: Largest distance [km] between the Hermite tables built on an OEM's velocities and on the
 #: derivative of its positions, at the midpoints between states, before ``from_oem`` warns
 #: (1 mm: the interpolation error of a 60 s LEO table is 1e-8 of that).
@@ -483,7 +485,7 @@ class EphemerisOrbit(OrbitBase):
             from .frames import teme_to_gcrs_positions
 
             tabs = t_start + TimeDelta(tall, format="sec")
-            rg5 = teme_to_gcrs_positions(tabs, r).reshape(since.size, 5, 3)
+            rg5 = teme_to_gcrs_positions(tabs, r, step=TEME_STEP).reshape(since.size, 5, 3)
             rg = np.ascontiguousarray(rg5[:, 2])
             vg = (rg5[:, 0] - 8.0 * rg5[:, 1] + 8.0 * rg5[:, 3] - rg5[:, 4]) / (12.0 * FD_STEP)
             t = since + float((t_start - ep).sec)

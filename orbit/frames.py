@@ -6,7 +6,8 @@
   about 23 mas (ξ0 = −16.6 mas, η0 = −6.8 mas, dα0 = −14.6 mas; IERS Conventions 2010,
   Sect. 5.5.1): 0.8 m at 7000 km. :func:`eme2000_to_gcrs` applies it (ERFA ``bp06``).
 * TEME (the frame of SGP4 output) → GCRS: astropy's ``TEME`` → ``GCRS`` transformation
-  (:func:`teme_to_gcrs`), never by hand.
+  (:func:`teme_to_gcrs`), never by hand; for long tables its rotation every hour, interpolated
+  between (:func:`teme_to_gcrs_matrix`).
 * GCRS → ITRS (Earth-fixed) and WGS 84 geodetic coordinates: astropy, with the IERS policy of
   :mod:`orbit.timescales` (bundled tables, no network).
 """
@@ -29,6 +30,7 @@ __all__ = [
     "itrs_from_geodetic",
     "itrs_to_gcrs",
     "teme_to_gcrs",
+    "teme_to_gcrs_matrix",
     "teme_to_gcrs_positions",
 ]
 
@@ -84,8 +86,14 @@ def teme_to_gcrs(times: Any, r: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, 
     return np.ascontiguousarray(rg), np.ascontiguousarray(vg)
 
 
-def teme_to_gcrs_positions(times: Any, r: np.ndarray) -> np.ndarray:
-    """TEME positions [km], shape (n, 3), at ``times`` → GCRS positions [km] (astropy)."""
+def teme_to_gcrs_positions(times: Any, r: np.ndarray, step: float | None = None) -> np.ndarray:
+    """TEME positions [km], shape (n, 3), at ``times`` → GCRS positions [km] (astropy).
+
+    With ``step`` [s], astropy's rotation every ``step`` seconds, interpolated between
+    (:func:`teme_to_gcrs_matrix`)."""
+    if step is not None:
+        m = teme_to_gcrs_matrix(times, step=step)
+        return np.ascontiguousarray(np.einsum("nij,nj->ni", m, np.asarray(r, dtype=np.float64)))
     from astropy import units as u
     from astropy.coordinates import GCRS, TEME, CartesianRepresentation
 
@@ -93,6 +101,22 @@ def teme_to_gcrs_positions(times: Any, r: np.ndarray) -> np.ndarray:
     with offline_iers():
         g = TEME(rep, obstime=times).transform_to(GCRS(obstime=times))
         return np.ascontiguousarray(g.cartesian.xyz.to_value(u.km).T)
+
+
+def teme_to_gcrs_matrix(times: Any, step: float | None = None) -> np.ndarray:
+    """Rotation matrices R(t), shape (n, 3, 3), with x_GCRS = R x_TEME (astropy).
+
+    For positions astropy's TEME → GCRS chain (ITRS, CIRS) is a rotation: GMST82 and the Earth
+    rotation angle turn by the same angle to 1e-7 of a day's turn, so what is left, precession,
+    nutation and the equation of the equinoxes, changes over days. With ``step`` [s] astropy
+    gives R every ``step`` seconds only, interpolated between (degree-7 Lagrange): 1.1e-13 rad
+    from astropy's at every time over a day for steps of 600 to 7200 s (0.8 µm at 7000 km;
+    tests/test_time_frames.py), 50 times faster for a day's TLE table at 60 s.
+    """
+    from astropy.coordinates import GCRS, TEME
+
+    t1 = times.reshape(-1)
+    return _interpolated(t1, step, lambda t: _astropy_matrix(t, TEME, GCRS), earth_rotation=False)
 
 
 def gcrs_to_itrs(times: Any, r: np.ndarray, name: str = "t") -> np.ndarray:
@@ -107,10 +131,11 @@ def gcrs_to_itrs(times: Any, r: np.ndarray, name: str = "t") -> np.ndarray:
         return np.ascontiguousarray(it.cartesian.xyz.to_value(u.km).T)
 
 
-def _astropy_gcrs_to_itrs_matrix(times: Any) -> np.ndarray:
-    """R(t) from astropy: the images of two axis vectors (the third is their cross product)."""
+def _astropy_matrix(times: Any, source: Any, target: Any) -> np.ndarray:
+    """R(t) of astropy's geocentric ``source`` → ``target`` frame rotation (x_target = R
+    x_source): the images of two axis vectors (the third is their cross product)."""
     from astropy import units as u
-    from astropy.coordinates import GCRS, ITRS, CartesianRepresentation
+    from astropy.coordinates import CartesianRepresentation
     from astropy.time import Time
 
     t1 = times.reshape(-1)
@@ -120,7 +145,7 @@ def _astropy_gcrs_to_itrs_matrix(times: Any) -> np.ndarray:
     axes = np.repeat(np.eye(3)[:2], n, axis=0)  # (2n, 3): e1 × n, then e2 × n
     rep = CartesianRepresentation(axes.T * u.km)
     with offline_iers():
-        it = GCRS(rep, obstime=tt).transform_to(ITRS(obstime=tt))
+        it = source(rep, obstime=tt).transform_to(target(obstime=tt))
         cols = it.cartesian.xyz.to_value(u.km).T.reshape(2, n, 3)  # [axis j, time, comp]
     c1, c2 = cols[0], cols[1]
     out = np.empty((n, 3, 3))
@@ -128,6 +153,13 @@ def _astropy_gcrs_to_itrs_matrix(times: Any) -> np.ndarray:
     out[:, :, 1] = c2
     out[:, :, 2] = np.cross(c1, c2)
     return out
+
+
+def _astropy_gcrs_to_itrs_matrix(times: Any) -> np.ndarray:
+    """R(t), x_ITRS = R x_GCRS, from astropy at every time."""
+    from astropy.coordinates import GCRS, ITRS
+
+    return _astropy_matrix(times, GCRS, ITRS)
 
 
 def _earth_rotation_angle(times: Any) -> np.ndarray:
@@ -184,10 +216,16 @@ def gcrs_to_itrs_matrix(times: Any, name: str = "t", step: float | None = None) 
     day, tests/test_environment.py), 25 times faster for a day at 30 s.
     """
     check_iers_range(times, name)
-    t1 = times.reshape(-1)
+    return _interpolated(times.reshape(-1), step, _astropy_gcrs_to_itrs_matrix, earth_rotation=True)
+
+
+def _interpolated(t1: Any, step: float | None, exact: Any, earth_rotation: bool) -> np.ndarray:
+    """``exact(times)`` (n, 3, 3) at every time, or with ``step`` at nodes ``step`` apart and
+    interpolated between (degree-7 Lagrange); ``earth_rotation``: R = R3(θ) M with the Earth
+    rotation angle θ exact at every time and M interpolated."""
     n = len(t1)
     if step is None or n < 64:
-        return _astropy_gcrs_to_itrs_matrix(t1)
+        return exact(t1)
     from astropy.time import TimeDelta
 
     sec = np.asarray((t1 - t1[0]).sec, dtype=np.float64)
@@ -195,9 +233,11 @@ def gcrs_to_itrs_matrix(times: Any, name: str = "t", step: float | None = None) 
     nc = max(8, int(np.ceil((hi - lo) / step)) + 9)
     tc = lo - 4.0 * step + step * np.arange(nc, dtype=np.float64)
     if tc.size >= n:
-        return _astropy_gcrs_to_itrs_matrix(t1)
+        return exact(t1)
     coarse = t1[0] + TimeDelta(tc, format="sec")
-    rc = _astropy_gcrs_to_itrs_matrix(coarse)
+    rc = exact(coarse)
+    if not earth_rotation:
+        return _lagrange8(tc, rc, sec)
     mc = np.einsum("nji,njk->nik", _spin(_earth_rotation_angle(coarse)), rc)  # R3ᵀ R
     m = _lagrange8(tc, mc, sec)
     return np.einsum("nij,njk->nik", _spin(_earth_rotation_angle(t1)), m)

@@ -218,3 +218,26 @@ def test_earth_fixed_needs_an_epoch():
         atol=1e-9,
     )
     assert with_epoch.frame == "GCRS" and "2024-01-01T00:00:00" in with_epoch.describe()
+
+
+def test_teme_to_gcrs_rotation_interpolated_is_astropys():
+    """A day's TEME → GCRS of TLE-table times (five per minute) by astropy's rotation every
+    hour, interpolated: astropy's own transformation of every position to 1.1e-13 rad."""
+    from astropy.time import TimeDelta
+
+    from orbit.frames import teme_to_gcrs_matrix, teme_to_gcrs_positions
+
+    sec = (np.arange(0.0, 86401.0, 60.0)[:, None] + 2.0 * np.arange(-2.0, 3.0)).ravel()
+    times = Time("2026-03-20T00:00:00", scale="utc") + TimeDelta(sec, format="sec")
+    r = np.random.default_rng(5).normal(size=(sec.size, 3)) * 7000.0
+    want = teme_to_gcrs_positions(times, r)  # astropy, position by position
+    for step in (600.0, 3600.0):
+        got = teme_to_gcrs_positions(times, r, step=step)
+        err = np.linalg.norm(got - want, axis=1) / np.linalg.norm(want, axis=1)
+        assert np.max(err) < 2e-13, step
+    m = teme_to_gcrs_matrix(times[:50])  # astropy at every time: a rotation
+    assert np.max(np.abs(np.einsum("nij,nkj->nik", m, m) - np.eye(3))) < 4e-15
+    assert np.allclose(np.linalg.det(m), 1.0, atol=4e-15)
+    # not the identity: precession since J2000 turns TEME by ~0.37° about the pole in 2026
+    angle = np.degrees(np.arccos((np.trace(m[0]) - 1.0) / 2.0))
+    assert 0.3 < angle < 0.45
