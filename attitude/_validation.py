@@ -251,6 +251,22 @@ def as_quaternion(x: Any, name: str = "q", *, nonzero: bool = True) -> np.ndarra
     return arr
 
 
+def as_unit_quaternion(x: Any, name: str = "q", *, tol: float = 1e-6) -> np.ndarray:
+    """:func:`as_quaternion`, refusing any ``|q|`` off 1 by more than ``tol`` (where a non-unit
+    q would scale what is computed from it)."""
+    arr = as_quaternion(x, name)
+    dn = np.abs(np.linalg.norm(arr, axis=-1) - 1.0)
+    if np.any(dn > tol):
+        i = np.unravel_index(int(np.argmax(dn)), dn.shape) if dn.ndim else ()
+        where = f" at index {tuple(int(k) for k in i)}" if dn.ndim else ""
+        raise AttitudeValueError(
+            f"{name}: |{name}|{where} = {float(np.linalg.norm(arr[i])):.17g} is not 1 (off by "
+            f"{float(dn[i]):.3g} > {tol:g}); pass a unit quaternion "
+            "(attitude.quaternion.normalize) if that is what you mean"
+        )
+    return arr
+
+
 def as_vector(x: Any, name: str = "v", *, unit: Any = None) -> np.ndarray:
     """Convert to a finite ``(..., 3)`` float array."""
     return as_float_array(x, name, trailing=3, unit=unit)

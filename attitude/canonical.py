@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from ._validation import as_float_array, as_quaternion, as_rate, as_vector
+from ._validation import as_float_array, as_quaternion, as_rate, as_unit_quaternion, as_vector
 from .body import inertia_rows
 from .errors import AttitudeValueError, SingularityError
 from .quaternion import conjugate, multiply
@@ -57,7 +57,8 @@ def momenta_from_body_angular_momentum(q: Any, g: Any) -> np.ndarray:
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Unit quaternion (body → space).
+        Unit quaternion (body → space); one off 1 by more than 1e-6 is refused (its Q would
+        give the angular velocity scaled by ``|q|``).
     g : array_like or Quantity, shape (..., 3)
         Body-frame angular momentum (a Quantity is converted to kg m² s⁻¹, i.e. N m s: the
         unit of a body with units).
@@ -66,7 +67,7 @@ def momenta_from_body_angular_momentum(q: Any, g: Any) -> np.ndarray:
     -------
     Q : ndarray, shape (..., 4)
     """
-    q = as_quaternion(q, "q")
+    q = as_unit_quaternion(q, "q")  # (Q of a non-unit q gives ω scaled by |q|)
     g = as_vector(g, "g", unit="kg m2 / s")
     return 2.0 * multiply(q, _pure(g))
 
@@ -79,7 +80,8 @@ def momenta_from_angular_velocity(
     Parameters
     ----------
     q : array_like, shape (..., 4)
-        Unit quaternion (body → space).
+        Unit quaternion (body → space); one off 1 by more than 1e-6 is refused (its Q would
+        give the angular velocity scaled by ``|q|``).
     omega : array_like or Quantity, shape (..., 3)
         Body-frame angular velocity: rad per time unit, or a Quantity in any angular-rate unit
         (``deg/s``, ``cycle/min``...) for a body with units (converted to rad/s).

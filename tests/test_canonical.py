@@ -73,6 +73,25 @@ def test_angular_velocity_and_kinetic_energy():
     np.testing.assert_allclose(T, np.sum(w * w / I4, -1) / 8, rtol=1e-14)
 
 
+def test_momenta_of_a_non_unit_q_are_refused():
+    """Q = 2 q∘(0, I ω) of q = 1.5 (1, 0, 0, 0) gives back 1.5 ω once q is normalised: a
+    silently wrong state; |q| off 1 by more than 1e-6 is refused, naming q and the fix."""
+    body = RigidBody(I_PAPER)
+    w = np.array([0.0, 0.0, 1.0])
+    Q = 2.0 * qt.multiply(np.array([1.5, 0, 0, 0]), np.array([0.0, *(I_PAPER * w)]))
+    assert C.angular_velocity([1.0, 0, 0, 0], Q, I_PAPER)[2] == pytest.approx(1.5)  # the trap
+    for call in (
+        lambda q: C.momenta_from_angular_velocity(q, w, body),
+        lambda q: C.momenta_from_body_angular_momentum(q, I_PAPER * w),
+    ):
+        with pytest.raises(AttitudeValueError, match=r"^q: \|q\| = 1\.5 is not 1 .*normalize"):
+            call([1.5, 0.0, 0.0, 0.0])
+        with pytest.raises(AttitudeValueError, match=r"^q: \|q\| at index \(1,\) = 0\.5 "):
+            call([[1.0, 0.0, 0.0, 0.0], [0.0, 0.5, 0.0, 0.0]])
+        q = qt.normalize(np.array([1.0, 2.0, 3.0, 4.0])) * (1.0 + 9e-7)  # within 1e-6: taken
+        np.testing.assert_allclose(C.angular_velocity(q, call(q), I_PAPER), w, atol=3e-6)
+
+
 def test_omega_is_twice_conj_q_times_qdot():
     # Schwab eq. 15: ω' = 2 q̄∘q̇ with q̇ = ½ q∘(0, ω') (eq. 16), by finite differences of
     # the exact motion q(t) = q0∘exp(ω t/2) about a fixed body axis.
