@@ -265,6 +265,37 @@ def test_scenario_software_keys_that_would_be_ignored_are_errors(software, key):
         scenario.loads(text)
 
 
+_AFTER = 'condition = "after"\nthreshold = 60.0\nthreshold_unit = "s"\n'
+
+
+@pytest.mark.parametrize(
+    ("mode", "key", "example"),
+    [
+        ('condition = "rate_below"\nthreshold = 0.5', "threshold", "deg/s"),
+        ('condition = "pointing_within"\nthreshold = 5.0', "threshold", "deg"),
+        ('condition = "after"\nthreshold = 60.0', "threshold", "s"),
+        (_AFTER + 'guidance = "inertial"\nslew_rate = 1.0\nslew_accel = 0.1\n'
+         'slew_accel_unit = "deg/s2"', "slew_rate", "deg/s"),
+        (_AFTER + 'guidance = "inertial"\nslew_rate = 1.0\nslew_rate_unit = "deg/s"\n'
+         "slew_accel = 0.1", "slew_accel", "deg/s2"),
+    ],
+)  # fmt: skip
+def test_scenario_mode_angles_and_rates_without_units_are_errors(mode, key, example):
+    """A plain `threshold = 0.5` of `rate_below` was 0.5 rad/s (28.6 deg/s): a second mode
+    meant for 0.5 deg/s started at the first tick and the first never ran, in silence. Angles
+    and rates need their unit, as everywhere in a scenario; with it, the mode is taken."""
+    text = (_RW + '\n[software]\nperiod = 0.5\n\n[[software.modes]]\nname = "damp"\n'
+            'control = "rate_damping"\nC = 30.0\nC_unit = "N m s"\n\n[[software.modes]]\n'
+            'name = "next"\ncontrol = "rate_damping"\nC = 30.0\n' + mode + "\n")  # fmt: skip
+    with pytest.raises(
+        scenario.ScenarioError,
+        match=rf"software\.modes\[1\]\.{key}: needs a unit: add {key}_unit = '{example}'",
+    ):
+        scenario.loads(text)
+    sc = scenario.loads(text.replace(f"{key} = ", f'{key}_unit = "{example}"\n{key} = ', 1))
+    assert sc.software is not None
+
+
 def test_scenario_sensor_keys_without_units_and_bad_normals_are_errors():
     base = _RW + '\n[software]\nperiod = 0.5\ncontrol = "rate_damping"\nC = 30.0\n'
     with pytest.raises(scenario.ScenarioError, match=r"software\.sensors\[0\]\.seed_unit"):
@@ -547,7 +578,8 @@ def test_a_python_step_returning_bad_commands_stops_with_the_partial_result(valu
         ('\n[software]\nperiod = 0.5\nguidance = "lvhl"\ncontrol = "mrp_feedback"\n'
          "K = 3.5\nP = 30.0\n", "lvlh"),
         ("\n[[software.modes]]\nname = \"a\"\ncontrol = \"rate_damping\"\nC = 30.0\n"
-         '[[software.modes]]\nname = "b"\ncondition = "pointing_within"\nthreshold = 0.1\n'
+         '[[software.modes]]\nname = "b"\ncondition = "pointing_within"\nthreshold = 5.0\n'
+         'threshold_unit = "deg"\n'
          'condition_frame = "nadirr"\ncontrol = "rate_damping"\nC = 30.0\n', "nadir"),
     ],
 )  # fmt: skip

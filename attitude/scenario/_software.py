@@ -152,6 +152,22 @@ def _quantity(r: _Reader, t: Mapping[str, Any], key: str, where: str, unit: str)
         raise _fail(f"{where}.{key}_unit", f"{us!r} is not a unit of {unit}") from None
 
 
+#: What a condition's threshold is, by an example unit (a plain number would be SI: radians).
+_THRESHOLD_UNIT = {"rate_below": "deg/s", "rate_above": "deg/s", "after": "s",
+                   "pointing_within": "deg", "pointing_beyond": "deg"}  # fmt: skip
+
+
+def _needs_unit(t: Mapping[str, Any], key: str, where: str, example: str) -> None:
+    """Angles and rates need their unit, as everywhere in a scenario (a condition's threshold
+    too: a plain ``threshold = 0.5`` of ``rate_below`` was 0.5 rad/s, 28.6 deg/s)."""
+    if f"{key}_unit" not in t:
+        raise _fail(
+            f"{where}.{key}",
+            f"needs a unit: add {key}_unit = {example!r} (any unit of its kind; a plain number "
+            "would be read in SI, an angle in radians)",
+        )
+
+
 def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool) -> tuple:
     from .. import control as K
     from ..software import (
@@ -176,6 +192,7 @@ def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool)
             raise _fail(f"{where}.condition", "the first mode is where the software starts")
         if "threshold" not in t:
             raise _fail(f"{where}.threshold", f"missing (needed by condition = {c!r})")
+        _needs_unit(t, "threshold", where, _THRESHOLD_UNIT[c])
         if c in ("rate_below", "rate_above"):
             x = _quantity(r, t, "threshold", where, "rad / s")
             cond = (RateBelow if c == "rate_below" else RateAbove)(x)
@@ -195,9 +212,11 @@ def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool)
         q = r.array(t, "guidance_q", where, 4) if "guidance_q" in t else None
         guidance = _frame(g, orbit, f"{where}.guidance", q)
         if "slew_rate" in t:
+            _needs_unit(t, "slew_rate", where, "deg/s")
             rate = _quantity(r, t, "slew_rate", where, "rad / s")
             if "slew_accel" not in t:
                 raise _fail(f"{where}.slew_accel", "missing (a slew has rate and acceleration)")
+            _needs_unit(t, "slew_accel", where, "deg/s2")
             acc = _quantity(r, t, "slew_accel", where, "rad / s2")
             guidance = Slew(guidance, rate, acc)
     ctrl = r.string(t, "control", where, "none")
