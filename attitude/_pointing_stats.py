@@ -132,7 +132,7 @@ def pointing_lines(ds: Any, settle: Any = None) -> list[str]:
     )
     run = ds.attrs.get("n_ticks")
     if run is not None and int(run) > s["n_total"] and "member" not in ds.dims:
-        head += f" (of {int(run)} run: record_every=1 records every tick)"
+        head += f" (of {int(run)} ticks run: record_every=1 would record every one)"
     if not s["n"]:
         return [head, "no guided tick after the settling time"]
     big = max(s["max"], s["rms"])

@@ -676,6 +676,14 @@ def test_info_summarises_a_propagated_orbit(tmp_path, capsys):
     gauss = (a0**-0.5 - dv / np.sqrt(mu)) ** -2 - a0
     assert da == pytest.approx(a1 - a0, abs=2.0)  # (m: three decimals of km)
     assert da == pytest.approx(gauss, rel=0.01)
+    # the torque budget: the total is the external torque, the thruster's 1 N at 0.1 mm of
+    # lever arm (1e-4 N m); the wheels' is internal, and the torque-free model's zero row is left
+    rows = {
+        x.split()[-3]: float(x.split()[-2]) for x in lines if re.match(r"^\s+\w+\s+\S+\s+\S+$", x)
+    }
+    assert rows["total"] == pytest.approx(1e-4, rel=1e-3) and rows["thrusters"] == rows["total"]
+    assert rows["wheels"] > rows["total"] and "torque_free" not in r.stdout.split("torques")[1]
+    assert "(total: the external torque; the wheels' acts between wheels and body)" in r.stdout
     # the attitude's energy is not conserved (the wheels and the thruster do work): its change
     # and H0 are printed beside their ratio, which a body starting near rest makes large
     line = next(x for x in lines if "actuators do work" in x)

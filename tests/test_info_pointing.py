@@ -65,7 +65,7 @@ def test_info_prints_the_pointing_error(closed_loop_file, capsys):
     i = out.index("pointing    attitude error (error_angle) after t = 12 s")
     head, stats = out[i:].splitlines()[:2]
     want = _numpy_stats(closed_loop_file, 12.0)
-    assert f"{want['n']} of 61 recorded ticks (of 300 run" in head
+    assert f"{want['n']} of 61 recorded ticks (of 300 ticks run:" in head
     unit = stats.split()[2].rstrip(",")
     f = {"deg": 180 / math.pi, "arcsec": 3600 * 180 / math.pi}[unit]
     numbers = [float(x) for x in re.findall(r"(?<![\w/])\d[\d.e+-]*(?= |$)", stats)]

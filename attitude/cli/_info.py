@@ -280,9 +280,14 @@ def _torque_budget(ds: Any) -> list[str]:
         sq += np.sum(mag * mag, axis=0)
         n += mag.shape[0]
     unit = ds["torque"].attrs.get("units", "")
-    width = max((len(x) for x in labels), default=5)
+    # the torque-free model's own term is zero by definition: a row of zeros says nothing
+    rows = [j for j in range(n_model) if not (j < len(labels) and labels[j] == "torque_free"
+                                              and peak[j] == 0.0)]  # fmt: skip
+    width = max((len(labels[j]) for j in rows if j < len(labels)), default=5)
     out = [f"{'model':<{width}}  {'max |tau|':>11}  {'rms |tau|':>11}  [{unit}]"]
-    for j in range(n_model):
+    for j in rows:
         name = labels[j] if j < len(labels) else str(j)
         out.append(f"{name:<{width}}  {peak[j]:11.4g}  {np.sqrt(sq[j] / max(n, 1)):11.4g}")
+    if "wheels" in labels and "total" in labels:
+        out.append("(total: the external torque; the wheels' acts between wheels and body)")
     return out
