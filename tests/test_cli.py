@@ -687,13 +687,15 @@ def test_info_summarises_a_propagated_orbit(tmp_path, capsys):
     # the attitude's energy is not conserved (the wheels and the thruster do work): its change
     # and H0 are printed beside their ratio, which a body starting near rest makes large
     line = next(x for x in lines if "actuators do work" in x)
-    got = re.search(r"max \|H - H0\| = (\S+) J, H0 = (\S+) J\)$", line)
+    got = re.search(r"^\s*max \|H - H0\| = (\S+) J \(actuators do work: not conserved; H0 = "
+                    r"(\S+) J, relative (\S+)\)$", line)  # fmt: skip
     import xarray as xr
 
     with xr.open_dataset(out) as ds:
         E = ds.energy.values
     assert float(got[1]) == pytest.approx(np.abs(E - E[0]).max(), rel=1e-2)
     assert float(got[2]) == pytest.approx(E[0], rel=1e-2)
+    assert float(got[3]) == pytest.approx(np.abs(E - E[0]).max() / E[0], rel=1e-2)
 
 
 def test_a_reader_that_goes_away_ends_the_command_quietly(monkeypatch, capsys):

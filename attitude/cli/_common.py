@@ -60,11 +60,14 @@ def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
         if k in ("max_rel_energy_variation", "max_rel_energy_work") and (
             "max_abs_energy_change" in attrs
         ):
-            # not conserved: the change itself, and H0 (a small H0 makes any ratio large)
+            # not conserved: the change itself first, then H0 and the ratio (a body starting
+            # near rest makes any ratio large: 7.2e+05 for the orbit-raising burn)
             unit = f" {attrs['energy_units']}" if attrs.get("energy_units") else ""
-            line += (
-                f" (max |H - H0| = {_fmt_attrs_number(attrs['max_abs_energy_change'])}{unit}, "
-                f"H0 = {_fmt_attrs_number(attrs['initial_energy'])}{unit})"
+            why = label[label.index("(") + 1 : -1]
+            line = (
+                f"max |H - H0| = {_fmt_attrs_number(attrs['max_abs_energy_change'])}{unit} "
+                f"({why}; H0 = {_fmt_attrs_number(attrs['initial_energy'])}{unit}, relative "
+                f"{_fmt_attrs_number(attrs[k])})"
             )
         lines.append(line)
     return lines
