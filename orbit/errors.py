@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 __all__ = [
+    "BeyondHillSphereWarning",
     "OemVelocityWarning",
     "OrbitError",
     "OrbitTypeError",
@@ -32,6 +33,12 @@ class OrbitWarning(UserWarning):
 class PerigeeInsideEarthWarning(OrbitWarning):
     """An Earth orbit (mu = Earth's GM) whose perigee radius a (1 − e) is below the Earth's
     equatorial radius: the satellite would pass through the Earth."""
+
+
+class BeyondHillSphereWarning(OrbitWarning):
+    """An Earth orbit (mu = Earth's GM) whose perigee radius is beyond the Earth's Hill sphere
+    (1.5e6 km), where the Sun, not the Earth, governs the motion: most often a semi-major axis
+    given in metres where plain numbers are km."""
 
 
 class TLEAgeWarning(OrbitWarning):

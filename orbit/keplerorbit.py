@@ -22,7 +22,7 @@ from . import _kernels as _k
 from . import _state_kernels as _sk
 from ._shared_jit import interpreted
 from .base import OrbitBase
-from .errors import OrbitValueError, PerigeeInsideEarthWarning
+from .errors import BeyondHillSphereWarning, OrbitValueError, PerigeeInsideEarthWarning
 from .kepler import MAX_HYPERBOLIC_E, MAX_MEAN_ANOMALY, _as_array, _scalar
 
 __all__ = ["KeplerOrbit", "earth_mu"]
@@ -41,12 +41,26 @@ def earth_mu() -> float:
 EARTH_MU = 398600.4418
 EARTH_MU_RTOL = 1e-5
 EARTH_RADIUS = 6378.137
+#: The Earth's Hill sphere [km]: 1 au (m⊕ / 3 M☉)^(1/3).
+EARTH_HILL_RADIUS = 1.5e6
 
 
 def _check_perigee(a: float, e: float, mu: float) -> None:
-    """Warn (:class:`PerigeeInsideEarthWarning`) if an Earth orbit's perigee is inside the Earth."""
+    """Warn (:class:`PerigeeInsideEarthWarning`) if an Earth orbit's perigee is inside the Earth,
+    (:class:`BeyondHillSphereWarning`) if it is beyond the Earth's Hill sphere."""
     rp = a * (1.0 - e)  # also |a| (e − 1) for a hyperbola (a < 0)
-    if abs(mu - EARTH_MU) <= EARTH_MU_RTOL * EARTH_MU and rp < EARTH_RADIUS:
+    earth = abs(mu - EARTH_MU) <= EARTH_MU_RTOL * EARTH_MU
+    if earth and rp > EARTH_HILL_RADIUS:
+        warnings.warn(
+            BeyondHillSphereWarning(
+                f"perigee radius a (1 - e) = {rp:.4g} km: this Earth orbit lies beyond the "
+                f"Earth's Hill sphere ({EARTH_HILL_RADIUS:.2g} km), where the Sun governs the "
+                "motion. Plain numbers are km: for metres give a Quantity (a=7000e3 * u.m), or "
+                "give mu of another central body"
+            ),
+            stacklevel=3,
+        )
+    if earth and rp < EARTH_RADIUS:
         warnings.warn(
             PerigeeInsideEarthWarning(
                 f"perigee altitude {rp - EARTH_RADIUS:.1f} km: this Earth orbit's perigee radius "

@@ -14,7 +14,7 @@ import pytest
 from astropy import units as u
 
 import orbit
-from orbit.errors import OrbitWarning, PerigeeInsideEarthWarning
+from orbit.errors import BeyondHillSphereWarning, OrbitWarning, PerigeeInsideEarthWarning
 
 R_EARTH = 6378.137
 
@@ -62,3 +62,29 @@ def test_orbits_clear_of_the_earth_do_not_warn(make):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         make()
+
+
+@pytest.mark.parametrize(
+    ("make", "rp"),
+    [
+        (lambda: orbit.KeplerOrbit(7.0e6, 0.01, 1.0, 0.0, 0.0), 6.93e6),  # metres taken as km
+        (lambda: orbit.SecularJ2Orbit(7.0e6, 0.0, 1.0, 0.0, 0.0), 7.0e6),
+        (lambda: orbit.KeplerOrbit(-2.0e6, 2.0, 1.0, 0.0, 0.0), 2.0e6),  # hyperbola
+    ],
+)
+def test_an_earth_orbit_beyond_the_hill_sphere_warns(make, rp):
+    """a = 7.0e6 (an Orekit user's metres) is 7e6 km, beyond the Earth's Hill sphere,
+    1 au (m⊕/3M☉)^(1/3) = 1.5e6 km: a warning naming the perigee radius and the unit."""
+    with pytest.warns(BeyondHillSphereWarning) as rec:
+        make()
+    assert len(rec) == 1 and issubclass(rec[0].category, OrbitWarning)
+    msg = str(rec[0].message)
+    got = float(re.match(r"perigee radius a \(1 - e\) = (\S+) km", msg).group(1))
+    assert got == pytest.approx(rp, rel=1e-3) and "Plain numbers are km" in msg
+    hill = 1.495978707e8 * (3.986004418e14 / (3.0 * 1.32712440018e20)) ** (1.0 / 3.0)
+    assert hill == pytest.approx(orbit.keplerorbit.EARTH_HILL_RADIUS, rel=0.01)
+    with warnings.catch_warnings():  # the same numbers as metres, about the Moon: no warning
+        warnings.simplefilter("error")
+        orbit.KeplerOrbit(7.0e6 * u.m, 0.01, 1.0, 0.0, 0.0)
+        orbit.KeplerOrbit(4.0e5, 0.05, 1.0, 0.0, 0.0)  # beyond the Moon, inside the Hill sphere
+        orbit.KeplerOrbit(7.0e6, 0.01, 1.0, 0.0, 0.0, mu=1.32712440018e11)  # about the Sun
