@@ -276,6 +276,26 @@ def test_interrupted_run_leaves_old_file_or_none(sig, tmp_path):
             assert nc.getncattr("run_status") == "complete"
 
 
+def test_stop_takes_a_unit(tmp_path, capsys, monkeypatch):
+    """--stop 10min is 600 s on the run's axis, as 600 in a scenario counting seconds (the
+    paper's Keplerian case); a unit that is not a time, or a unit on a dimensionless
+    scenario's plain numbers, is refused naming --stop."""
+    monkeypatch.chdir(tmp_path)
+    for stop, name in (("10min", "a.nc"), ("600", "b.nc")):
+        assert main(["run", str(SCEN / "paper_keplerian.toml"), "-o", name, "--stop", stop,
+                     "-q"]) == 0  # fmt: skip
+    with netCDF4.Dataset("a.nc") as a, netCDF4.Dataset("b.nc") as b:
+        ta, tb = a.variables["time"][:].data, b.variables["time"][:].data
+        assert ta[-1] == 600.0 and np.array_equal(ta, tb)
+        assert np.array_equal(a.variables["q"][:].data, b.variables["q"][:].data)
+    capsys.readouterr()
+    assert main(["run", str(SCEN / "paper_keplerian.toml"), "-o", "c.nc", "--stop", "3 kg"]) == 2
+    assert "--stop 3 kg: expected a time" in capsys.readouterr().err
+    assert main(["run", str(SCEN / "paper_torque_free.toml"), "-o", "c.nc", "--stop", "1min"]) == 2
+    assert "--stop 1min: this scenario's times are plain numbers" in capsys.readouterr().err
+    assert not (tmp_path / "c.nc").exists()
+
+
 def test_info_plot_export(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     assert main(["run", str(SCEN / "paper_keplerian.toml"), "-o", "k.nc", "--stop", "600"]) == 0

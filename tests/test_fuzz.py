@@ -553,7 +553,7 @@ def mutated_scenario(draw, bases=None) -> tuple[str, list[str], dict[str, str]]:
         ("--rtol", ["1e-8", "0", "-1", "nan", "inf", "1e-300", "abc"]),
         ("--atol", ["1e-14", "0", "1e-250", "nan"]),
         ("--dt", ["0.01", "0", "-1", "1e-300", "inf"]),
-        ("--stop", ["1", "0", "-5", "1e300", "nan", "inf", "1e-300"]),
+        ("--stop", ["1", "0", "-5", "1e300", "nan", "inf", "1e-300", "10min", "3 kg", "1e9 yr"]),
         ("--method", ["dop853", "scipy:DOP853", "exact", "splitting", "rk99", "taylor"]),
         ("--formulation", ["canonical", "euler_angles", "bogus"]),
         ("--order", ["2", "4", "5", "x"]),

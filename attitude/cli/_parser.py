@@ -75,9 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--atol", type=float, help="absolute tolerance")
     r.add_argument(
         "--stop",
-        type=float,
         metavar="T",
-        help="stop at time T (in the scenario's time unit) instead of time.stop: a shorter run",
+        help="stop at time T instead of time.stop, a shorter run: a number in the scenario's "
+        "time unit, or with a unit (600s, 10min, 1.5h)",
     )
     r.add_argument(
         "--progress",

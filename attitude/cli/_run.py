@@ -236,15 +236,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     sc = S.load(args.scenario)
     _warn_unused_options(sc, args)
     if args.stop is not None:
-        if not math.isfinite(args.stop):
-            raise BadInput(f"--stop {args.stop}: must be a finite time")
-        stop = args.stop * sc.time_scale
+        stop, given = _stop_time(str(args.stop), sc)
         limit = stop * (1 + 1e-12) + 1e-300
         end = float(sc.t[-1])
         if stop > end * (1 + 1e-12) + 1e-300:
             unit = "" if sc.time_unit == "1" else f" {_time_unit_name(sc)}"
             _warn(
-                f"--stop {args.stop:g}: beyond the scenario's time span (time.stop = "
+                f"--stop {given}: beyond the scenario's time span (time.stop = "
                 f"{end / sc.time_scale:g}{unit}); the run ends at time.stop"
             )
         if isinstance(sc.t, TimeGrid):
@@ -252,7 +250,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         else:
             n_keep = int(np.count_nonzero(np.asarray(sc.t) <= limit))
         if n_keep < 2:
-            raise BadInput(f"--stop {args.stop:g}: leaves fewer than 2 output samples")
+            raise BadInput(f"--stop {given}: leaves fewer than 2 output samples")
         sc.t = sc.t.head(limit) if isinstance(sc.t, TimeGrid) else sc.t[sc.t <= limit]
     for name in ("rtol", "atol", "dt"):
         v = getattr(args, name)
@@ -314,6 +312,37 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not args.quiet:
         _summary(sc, info, startup, file=sys.stderr if args._to_stdout else sys.stdout)
     return EXIT_OK
+
+
+def _stop_time(spec: str, sc: Any) -> tuple[float, str]:
+    """``--stop``: a number in the scenario's time unit, or a time with its unit (``10min``,
+    ``1.5 h``); the time on the run's axis and the text as given."""
+    s = spec.strip()
+    try:
+        value = float(s) * sc.time_scale
+    except ValueError:
+        value = None
+    if value is None:
+        if sc.time_unit == "1":
+            raise BadInput(
+                f"--stop {s}: this scenario's times are plain numbers (a dimensionless body); "
+                "give a number"
+            )
+        from astropy import units as u
+
+        try:
+            q = u.Quantity(s)
+            value = float(q.to_value(u.s)) if q.unit != u.dimensionless_unscaled else math.nan
+        except (TypeError, ValueError, u.UnitsError):
+            value = math.nan
+        if math.isnan(value):
+            raise BadInput(
+                f"--stop {s}: expected a time, a number in the scenario's time unit "
+                f"({_time_unit_name(sc)}) or with its own unit (e.g. 600s, 10min, 1.5h)"
+            )
+    if not math.isfinite(value):
+        raise BadInput(f"--stop {s}: must be a finite time")
+    return value, s
 
 
 def _time_unit_name(sc: Any) -> str:
