@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 import astropy.units as u
 import numba
@@ -27,6 +28,8 @@ from attitude.software import FlightSoftware
 
 BODY = attitude.RigidBody([12.0, 10.0, 8.0], units="kg m2")
 Q_ID = [1.0, 0.0, 0.0, 0.0]
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _craft():
@@ -294,6 +297,33 @@ def test_scenario_mode_angles_and_rates_without_units_are_errors(mode, key, exam
         scenario.loads(text)
     sc = scenario.loads(text.replace(f"{key} = ", f'{key}_unit = "{example}"\n{key} = ', 1))
     assert sc.software is not None
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (("\nK = 3.5\n", "\nK = -3.5\n"), r"^software\.K: the gain must be a positive"),
+        (("\nP = 30.0\n", "\nP = [[1.0, 0.0], [0.0, 1.0]]\n"),
+         r"^software\.P: expected a number, 3 diagonal entries or a 3 x 3 matrix, got shape"),
+        (("\nP = 30.0\n", "\nP = [[1.0, 0.0], [0.0]]\n"),
+         r"^software\.P: expected finite numbers .*rows"),
+    ],
+)  # fmt: skip
+def test_scenario_law_errors_name_the_full_key(edit, message):
+    """A law's own error named its parameter alone ('K: ...'), and a 2 x 2 P got 'expected
+    finite numbers' without the shape: now the scenario key and what the law expects."""
+    text = (ROOT / "scenarios" / "rw_inertial_pointing.toml").read_text()
+    assert edit[0] in text
+    with pytest.raises(scenario.ScenarioError, match=message):
+        scenario.loads(text.replace(edit[0], edit[1], 1))
+
+
+def test_scenario_orbit_element_errors_name_the_element():
+    """'orbit: a: a hyperbolic orbit ...' (a doubled prefix) is now 'orbit.a: ...'."""
+    text = (ROOT / "scenarios" / "paper_keplerian.toml").read_text()
+    assert "e = 0.2\n" in text
+    with pytest.raises(scenario.ScenarioError, match=r"^orbit\.a: a hyperbolic orbit \(e = 1\.5"):
+        scenario.loads(text.replace("e = 0.2\n", "e = 1.5\n", 1))
 
 
 def test_scenario_sensor_keys_without_units_and_bad_normals_are_errors():

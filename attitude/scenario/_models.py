@@ -206,7 +206,7 @@ def _orbit(
     except ScenarioError:
         raise
     except ValueError as exc:
-        raise _fail("orbit", str(exc)) from None
+        raise _fail(*_orbit_key(str(exc))) from None
 
 
 def _numerical(r: _Reader, ot: Mapping[str, Any], epoch: str | None, mu_q: Any) -> Any:
@@ -276,7 +276,8 @@ def _orbit_key(msg: str) -> tuple[str, str]:
     keys = {"body": "third_bodies", "gravity": "degree", "r0": "r0", "v0": "v0", "mu": "mu",
             "degree": "degree", "order": "order", "rtol": "rtol", "method": "method",
             "field_step": "field_step", "earth_rotation": "earth_rotation",
-            "epoch": "epoch"}  # fmt: skip
+            "epoch": "epoch", "a": "a", "e": "e", "inc": "inc", "raan": "raan", "argp": "argp",
+            "f0": "f0", "M0": "M0", "t0": "t0", "j2": "j2", "radius": "radius"}  # fmt: skip
     if sep and name in keys:
         return f"orbit.{keys[name]}", rest
     return "orbit", msg

@@ -134,8 +134,14 @@ def _quantity(r: _Reader, t: Mapping[str, Any], key: str, where: str, unit: str)
 
     v = t[key]
     if isinstance(v, list):
-        if not all(_is_number(x) and math.isfinite(x) for x in v):
-            raise _fail(f"{where}.{key}", f"expected finite numbers, got {v!r}")
+        flat = v if not all(isinstance(x, list) for x in v) else [y for x in v for y in x]
+        if not all(_is_number(x) and math.isfinite(x) for x in flat) or (
+            flat is not v and len({len(x) for x in v}) != 1
+        ):
+            raise _fail(
+                f"{where}.{key}",
+                f"expected finite numbers (a number, an array or rows of equal length), got {v!r}",
+            )
         val: Any = np.array(v, dtype=np.float64)
     elif _is_number(v) and math.isfinite(v):
         val = float(v)
@@ -169,6 +175,17 @@ def _needs_unit(t: Mapping[str, Any], key: str, where: str, example: str) -> Non
 
 
 def _mode(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool) -> tuple:
+    """(condition, guidance, control, allocation, name) of a mode's table; an error of the laws
+    it builds names its key under ``where`` (``software.K``, not ``K``)."""
+    try:
+        return _mode_table(r, t, where, orbit, first)
+    except ScenarioError:
+        raise
+    except AttitudeError as exc:
+        raise ScenarioError(f"{where}.{exc}") from None
+
+
+def _mode_table(r: _Reader, t: Mapping[str, Any], where: str, orbit: Any, first: bool) -> tuple:
     from .. import control as K
     from ..software import (
         After,
