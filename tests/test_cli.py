@@ -79,6 +79,9 @@ def test_run_summary_of_a_terminal_event_run_and_its_timing(tmp_path):
     assert f"time span   0 .. {t_end:g} s (" in r.stdout
     info = cli("info", out, cwd=tmp_path, check=0).stdout
     assert f"time span   0 .. {t_end:g} s (" in info
+    # the terminal event's time as the events are listed (12 digits; the file keeps every bit)
+    assert f"run ended by shadow_out at t = {t_end:.12g}\n" in r.stdout
+    assert f"run ended by the terminal event shadow_out at t = {t_end:.12g}\n" in info
     m = re.search(r"MB\) in ([0-9.]+) s \(([0-9.]+) s of it start-up", r.stdout)
     assert m, r.stdout
     total, startup = float(m.group(1)), float(m.group(2))

@@ -38,6 +38,14 @@ def _fmt_attrs_number(x: Any) -> str:
         return str(x)
 
 
+def _terminal_event(text: str) -> str:
+    """The ``terminal_event`` attr ('shadow_out at t = 3666.3802822284633', the time kept to
+    the bit in the file) with its time to 12 digits, as the events are listed."""
+    import re
+
+    return re.sub(r"(at t = )([-+0-9.eE]+)", lambda m: f"{m[1]}{float(m[2]):.12g}", text)
+
+
 def _invariant_lines(attrs: dict[str, Any]) -> list[str]:
     # q.Q relative to |Q| (q.Q alone is in the momenta's units); files written before the
     # relative maximum existed show the absolute one

@@ -7,7 +7,16 @@ from typing import Any
 
 import numpy as np
 
-from ._common import _READ_ERRORS, EXIT_OK, BadInput, _invariant_lines, _open, _span, _unreadable
+from ._common import (
+    _READ_ERRORS,
+    EXIT_OK,
+    BadInput,
+    _invariant_lines,
+    _open,
+    _span,
+    _terminal_event,
+    _unreadable,
+)
 from ._run import _numerics, _statistics
 
 
@@ -158,7 +167,7 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
         if t.size > limit:
             out.append(f"... {t.size - limit} more (variables event_time, event_detector)")
     if a.get("terminal_event"):
-        out.append(f"run ended by the terminal event {a['terminal_event']}")
+        out.append(f"run ended by the terminal event {_terminal_event(a['terminal_event'])}")
     return out
 
 

@@ -20,6 +20,7 @@ from ._common import (
     _elapsed,
     _invariant_lines,
     _span,
+    _terminal_event,
     _timing,
     _warn,
 )
@@ -397,7 +398,7 @@ def _summary(sc: Any, a: dict[str, Any], startup: float, file: Any = None) -> No
     if a.get("events"):
         lines.append("events      " + "\n            ".join(str(a["events"]).split(" | ")))
         if a.get("terminal_event"):
-            lines.append(f"            run ended by {a['terminal_event']}")
+            lines.append(f"            run ended by {_terminal_event(a['terminal_event'])}")
     lines.append(f"output      {p} ({size:.2f} MB) {_timing(startup)}")
     print("\n".join(lines), file=file)
 
