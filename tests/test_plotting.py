@@ -240,6 +240,12 @@ def test_a_run_that_propagated_its_orbit_gets_the_orbit_panel(tmp_path):
     ax = fig.axes[labels.index("height [km]")]
     h = np.concatenate([ln.get_ydata() for ln in ax.get_lines()])
     assert 380.0 < h.min() and h.max() < 430.0  # 400 km above the equator's ellipsoid
+    # the thick line: the semi-major axis of the orbital energy above the equator, here a point
+    # mass's (J2 = 0): the two-body a of the initial state, conserved to the integration's error
+    (line,) = [ln for ln in ax.get_lines() if ln.get_label().startswith("energy semi-major")]
+    mu = 1e-9 * ds.attrs["orbit_gm"]
+    a0 = 1.0 / (2.0 / 6778.137 - 7.6686**2 / mu)
+    np.testing.assert_allclose(line.get_ydata(), a0 - 6378.137, rtol=0, atol=1e-6)
 
 
 def test_event_names_stay_inside_the_panel():

@@ -246,8 +246,11 @@ def _orbit_lines(ds: Any) -> list[str]:
     if gm is None:  # (a file written before the field's constants were recorded)
         out[0] += ", " + osculating
     else:
-        a = _energy_semi_major_axis(r, v, gm, ds.attrs.get("orbit_j2", 0.0),
-                                    ds.attrs.get("orbit_reference_radius", 0.0))  # fmt: skip
+        from orbit.j2 import energy_semi_major_axis
+
+        j2 = float(ds.attrs.get("orbit_j2", 0.0))
+        radius = 1e-3 * float(ds.attrs.get("orbit_reference_radius", 0.0))
+        a = 1e3 * energy_semi_major_axis(1e-3 * r, 1e-3 * v, 1e-9 * gm, j2, radius)
         out.append(f"energy semi-major axis {a[0] * 1e-3:.3f} -> {a[-1] * 1e-3:.3f} km "
                    f"({(a[-1] - a[0]) * 1e-3:+.3f} km; {osculating})")  # fmt: skip
     m = np.asarray(ds["mass"].values, dtype=np.float64) if "mass" in ds else np.zeros(1)
@@ -256,20 +259,6 @@ def _orbit_lines(ds: Any) -> list[str]:
     if ds.attrs.get("event") == "impact":
         out.append(f"reached the Earth's surface at t = {float(ds.attrs['impact_time']):.6g} s")
     return out
-
-
-def _energy_semi_major_axis(
-    r: np.ndarray, v: np.ndarray, gm: float, j2: float, radius: float
-) -> np.ndarray:
-    """a = −μ/(2ε) from the orbital energy per unit mass in the point mass and J₂ of the field,
-    ε = v²/2 − μ/r + μ J₂ R² P₂(z/r)/r³ (z along GCRS z, the pole to ~0.3°): constant in an
-    axisymmetric field, it moves only with thrust, drag and the smaller terms (tesseral, third
-    bodies), where the osculating two-body a swings by ~±10 km in LEO over each orbit.
-    r, v: (n, 3) [m, m/s]; returns (n,) [m]."""
-    rn = np.linalg.norm(r, axis=1)
-    s = r[:, 2] / rn
-    eps = 0.5 * np.sum(v * v, axis=1) - gm / rn + gm * j2 * radius**2 * (1.5 * s * s - 0.5) / rn**3
-    return -gm / (2.0 * eps)
 
 
 def _torque_budget(ds: Any) -> list[str]:

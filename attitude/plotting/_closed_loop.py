@@ -34,6 +34,9 @@ MODE_ALPHA = 0.10
 LIMIT_OFF_SCALE = 0.05
 #: A positive series spanning more than this ratio is drawn on a log scale.
 LOG_SPAN = 30.0
+#: The most decades a log axis shows below its top: a run starting exactly on its reference
+#: has an error of 1e-17 at t = 0, which would stretch the axis over 15 decades of nothing.
+MAX_DECADES = 8
 
 #: The closed-loop panels, in the figure's order.
 CLOSED_LOOP_PANELS = (
@@ -152,6 +155,7 @@ def _log_if_spanning(ax: Any, y: np.ndarray) -> bool:
     if pos.size and float(pos.max()) > LOG_SPAN * float(pos.min()):
         ax.set_yscale("log")
         lo, hi = np.floor(np.log10(pos.min())), np.ceil(np.log10(pos.max()))
+        lo = max(lo, hi - MAX_DECADES)  # (values below: off the bottom edge)
         ax.set_ylim(10.0**lo, 10.0**hi)  # whole decades: both ends labelled
         return True
     return False

@@ -317,9 +317,10 @@ def torque(ax: Any, ctx: PlotContext) -> None:
 
 @register_panel("orbit", needs=("position",))
 def orbit(ax: Any, ctx: PlotContext) -> None:
-    """A run that propagated its orbit: the height above the WGS 84 ellipsoid (thin) and its
-    mean over each orbital period (thick: the decay or the raise), the mass on the right when
-    it changes."""
+    """A run that propagated its orbit: the height above the WGS 84 ellipsoid (thin) and, thick,
+    the energy semi-major axis above the equator (:func:`orbit.j2.energy_semi_major_axis`: the
+    decay or the raise at every sample; files without the field's constants: the height's mean
+    over each orbital period), the mass on the right when it changes."""
     from orbit import earth_mu
     from orbit.frames import gcrs_to_itrs, geodetic_from_itrs
 
@@ -340,7 +341,18 @@ def orbit(ax: Any, ctx: PlotContext) -> None:
     a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / mu)  # km: two-body osculating
     period = 2.0 * np.pi * np.sqrt(np.abs(a) ** 3 / mu)
     ts = ctx.t_seconds
-    if ts.size > 2 and ts[-1] - ts[0] > float(np.median(period)):
+    gm = ds.attrs.get("orbit_gm")
+    if gm is not None:
+        # the energy semi-major axis above the equator: constant in the field's point mass and
+        # J2, it moves with thrust and drag alone, at every sample (docs/cli.md, info)
+        from orbit.j2 import energy_semi_major_axis
+
+        j2 = float(ds.attrs.get("orbit_j2", 0.0))
+        radius = 1e-3 * float(ds.attrs.get("orbit_reference_radius", 0.0))
+        a_e = energy_semi_major_axis(r, v, 1e-9 * float(gm), j2, radius)
+        ax.plot(ctx.t, a_e - 6378.137, color="tab:blue", lw=2.0,
+                label="energy semi-major axis - 6378 km")  # fmt: skip
+    elif ts.size > 2 and ts[-1] - ts[0] > float(np.median(period)):
         half = 0.5 * float(np.median(period))
         lo = np.searchsorted(ts, ts - half)
         hi = np.searchsorted(ts, ts + half)
