@@ -357,3 +357,23 @@ def test_gcrs_run_labelled_eme2000_is_rotated_by_the_frame_bias(tumbling, tmp_pa
     free = tumbling.drop_vars(["r", "f", "p"]).assign_attrs(orbit_frame="inertial")
     path = aem.write_aem(free, tmp_path / "f.aem", ref_frame_a="TOD")
     np.testing.assert_array_equal(aem.read(path).q.values, tumbling.q.values)
+
+
+def test_a_run_carrying_its_orbit_is_labelled_gcrf(tmp_path):
+    """A spacecraft carrying a NumericalOrbit integrates its attitude in the GCRS (the orbit's
+    position and velocity are GCRS): its AEM is labelled GCRF, and EME2000 only rotated by the
+    frame bias. (It had no orbit_frame, so the label was EME2000 without the rotation: 23 mas
+    off.)"""
+    import orbit
+    from attitude import RigidBody, Spacecraft, propagate
+
+    o = orbit.NumericalOrbit([6778.137, 0.0, 0.0], [0.0, 7.6686, 0.0], "2026-03-20T00:00:00")
+    sc = Spacecraft(RigidBody([1.0, 1.2, 1.4], units="kg m2"), orbit=o, mass=10.0)
+    ds = propagate(sc, [1.0, 0, 0, 0], [0.0, 0.0, 0.0, 0.02], np.linspace(0.0, 60.0, 7))
+    assert ds.attrs["orbit_frame"] == ds["position"].attrs["reference_frame"] == "GCRS"
+    path = aem.write_aem(ds, tmp_path / "c.aem")
+    assert "REF_FRAME_A          = GCRF" in path.read_text()
+    np.testing.assert_array_equal(aem.read(path).q.values, ds.q.values)
+    back = aem.read(aem.write_aem(ds, tmp_path / "e.aem", ref_frame_a="EME2000"))
+    angle = np.degrees(back.attitude.angle_between(ds).values) * 3.6e6  # mas
+    np.testing.assert_allclose(angle, 23.1, atol=0.1)  # the frame bias's angle

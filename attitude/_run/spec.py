@@ -140,6 +140,7 @@ class RunSpec:
                 f"numerical orbit: {craft.orbit._forces.describe()}, propagated with the "
                 f"attitude by the run's method ({method})"
             )
+            attrs["orbit_frame"] = "GCRS"  # (position and velocity's reference_frame)
             # what `attitude info` needs for the orbital energy of the samples (a semi-major
             # axis that J2's short-period terms do not move)
             field = craft.orbit.gravity
