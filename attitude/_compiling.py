@@ -210,11 +210,13 @@ def helper(items: Sequence[tuple[str, str, tuple, bool]]) -> subprocess.Popen | 
 
     Parameters
     ----------
-    items : sequence of (str or tuple, str, tuple, bool)
+    items : sequence of (str or tuple, str, tuple, bool or "call")
         (module, name, signature, from Python): the kernel ``module.name`` (an
         ``orbit._shared_jit.jit`` kernel) for the numba types ``signature``, as Python calls it
         if the last item is true, else as other kernels call it; ``module`` a module's name,
         or ``(module, function, args)`` for the module that function returns (:func:`where`).
+        With ``"call"`` last, ``module.name(*signature)`` is called instead (what it calls
+        compiles).
 
     Returns
     -------
@@ -260,11 +262,19 @@ def closed_loop_helper(
     if not helper_on() or not will_compile(driver) or not _on_disk(driver):
         return None  # (without a disk cache the helper's work would stay in the helper)
     if software and will_compile(fsw.fsw_boundary.dispatcher):
-        return helper(closed_loop_items(P, ctl, after()))
+        # the numerical orbit before the diagnostics: the run needs those only after its
+        # integration, and waits for them if the helper is still at them
+        return helper(closed_loop_items(P, ctl, [NUMERICAL_ORBIT_ITEM, *after()]))
     items = after()
     if items and will_compile(_kernel(items[0])):
-        return helper(items)
+        return helper([*items, NUMERICAL_ORBIT_ITEM])
     return None
+
+
+#: An item of a closed-loop run's helper, a call, not a kernel (:func:`_compile`): what a
+#: run on a numerical orbit compiles from Python before its driver
+#: (:func:`attitude._warmup.build_numerical_orbit_scenario`).
+NUMERICAL_ORBIT_ITEM = ("attitude._warmup", "build_numerical_orbit_scenario", (), "call")
 
 
 def closed_loop_items(P: tuple, ctl: tuple, after: Sequence[tuple] = ()) -> list[tuple]:
@@ -352,6 +362,9 @@ def _compile(items: Sequence[tuple[str, str, tuple, bool]]) -> None:
     from orbit._shared_jit import _compile_lock
 
     for item in items:
+        if item[3] == "call":  # a function that compiles what it calls
+            _kernel(item)(*item[2])
+            continue
         kernel, sig, from_python = _kernel(item), item[2], item[3]
         if from_python:
             with _compile_lock(kernel):

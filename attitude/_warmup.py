@@ -63,6 +63,92 @@ class WarmupReport:
         return sum(self.compiled.values())
 
 
+#: A closed-loop scenario carrying a numerical orbit (the Sun, the Moon, a field, a VNC
+#: guidance and initial frame, a thruster): building it compiles what such a run calls from
+#: Python before its driver (the orbit's own integrator for its start and tables, the Kepler
+#: elements' state, the frames' tables; 5.4 s after another closed-loop scenario).
+_NUMERICAL_ORBIT_SCENARIO = """
+[scenario]
+name = "warm"
+epoch = "2026-03-20T00:00:00"
+[body]
+inertia = [18.0, 22.0, 15.0]
+inertia_unit = "kg m2"
+[orbit]
+type = "numerical"
+a = 6878.137
+a_unit = "km"
+e = 0.001
+inc = 97.4
+inc_unit = "deg"
+raan = 30.0
+raan_unit = "deg"
+argp = 40.0
+argp_unit = "deg"
+f0 = 0.0
+f0_unit = "deg"
+degree = 2
+third_bodies = ["sun", "moon"]
+[spacecraft]
+mass = 150.0
+mass_unit = "kg"
+[[spacecraft.thrusters]]
+position = [-0.6, 0.0, 0.0]
+position_unit = "m"
+direction = [1.0, 0.0, 0.0]
+max_thrust = 1.0
+max_thrust_unit = "N"
+isp = 220.0
+isp_unit = "s"
+[software]
+period = 1.0
+period_unit = "s"
+guidance = "vnc"
+control = "rate_damping"
+C = 1.0
+C_unit = "N m s"
+[initial_state]
+form = "body_rates"
+frame = "vnc"
+q = [1.0, 0.0, 0.0, 0.0]
+omega = [0.0, 0.0, 0.0]
+omega_unit = "rad/s"
+[time]
+start = 0.0
+stop = 60.0
+unit = "s"
+count = 7
+"""
+
+
+def build_numerical_orbit_scenario() -> None:
+    """Build :data:`_NUMERICAL_ORBIT_SCENARIO`: the compile helper of a first closed-loop run
+    does (:data:`attitude._compiling.NUMERICAL_ORBIT_ITEM`), so that a
+    run on a numerical orbit after it compiles nothing."""
+    import numpy as np
+
+    from . import scenario
+
+    sc = scenario.loads(_NUMERICAL_ORBIT_SCENARIO)
+    o = sc.spacecraft.orbit
+    t = np.linspace(0.0, 60.0, 7)
+    o.to_state(t), o.radius(t), o.frame_quaternion(t)  # (the run's r, f, p and its frames)
+    # what the environment models and the sensors call from Python before a run: the tables of
+    # the field, the density and the Sun (with the shadow) over an orbit, a sensor's stream
+    import orbit
+
+    from .facets import Facet
+    from .potentials import AerodynamicDrag, MagneticDipole, SolarRadiation
+    from .sensors import Magnetometer
+    from .sensors._models import stream_state
+
+    kep = orbit.KeplerOrbit(6878.137, 0.001, 1.7, 0.5, 0.3, epoch="2026-03-20T00:00:00")
+    plates = [Facet(0.1, [1.0, 0.0, 0.0], [0.05, 0.0, 0.0])]
+    model = MagneticDipole(kep, [0.0, 0.0, 0.1]) + AerodynamicDrag(kep, plates)
+    (model + SolarRadiation(kep, plates)).prepare(np.linspace(0.0, 5700.0, 571))
+    stream_state(Magnetometer(1e-7, seed=1))
+
+
 def default_scenarios() -> list[Path]:
     """The scenarios shipped with the source tree, ``[]`` for an installed wheel without them."""
     root = Path(__file__).resolve().parent.parent / "scenarios"

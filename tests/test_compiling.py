@@ -222,3 +222,51 @@ def test_a_first_closed_loop_run_leaves_the_software_to_its_helper(tmp_path):
 
     with xr.open_dataset(outs[0][0]) as a, xr.open_dataset(outs[1][0]) as b:
         xr.testing.assert_identical(a.drop_attrs(), b.drop_attrs())
+
+
+def test_the_helper_of_a_closed_loop_run_builds_a_numerical_orbit(monkeypatch):
+    """An item of a first closed-loop run's helper builds a scenario on a numerical
+    orbit with environment models and a seeded sensor (attitude._warmup): what such runs
+    compile from Python before their driver (the orbit's own integrator, its tables and frames,
+    the environment tables, a sensor's stream; 5.4 s of a first orbit_raising_burn after
+    rw_inertial_pointing) is compiled meanwhile."""
+    from attitude import _warmup
+
+    _warm = _compiling.NUMERICAL_ORBIT_ITEM[1]
+    started = []
+    monkeypatch.setattr(_compiling, "helper", lambda items: started.append(list(items)))
+    monkeypatch.setattr(_compiling, "helper_on", lambda: True)
+    monkeypatch.setattr(_compiling, "will_compile", lambda kernel: True)
+    monkeypatch.setattr(_compiling, "_on_disk", lambda kernel: True)
+    diagnostics = [("orbit._kepler_equation", "reduce_angle", (types.float64,), True)]
+    for software in (True, False):
+        _compiling.closed_loop_helper(None, (), (), lambda: diagnostics, software)
+    with_software, taylor = started  # (the numerical orbit before the diagnostics if it can)
+    assert [x[1] for x in with_software] == ["fsw_boundary", _warm, "reduce_angle"]
+    assert taylor == [*diagnostics, _compiling.NUMERICAL_ORBIT_ITEM]
+    assert _compiling._kernel(_compiling.NUMERICAL_ORBIT_ITEM) is (
+        _warmup.build_numerical_orbit_scenario
+    )
+
+
+@pytest.mark.slow
+def test_after_one_closed_loop_run_the_others_compile_nothing(tmp_path):
+    """Empty caches, one closed-loop run with its helper; then each other shipped closed-loop
+    scenario, a numerical orbit's included, compiles nothing (numba's compile events)."""
+    script = _LISTEN + textwrap.dedent(
+        """
+        from attitude import cli
+        assert cli.main(["run", sys.argv[1], "--stop", sys.argv[3], "-o", sys.argv[2], "-q"]) == 0
+        print(sorted(set(compiled)))
+        """
+    )
+    env = dict(_env(tmp_path), **{_compiling.HELPER_ENV: "1"})
+    runs = [("rw_inertial_pointing", "60s"), ("orbit_raising_burn", "600s"),
+            ("cubesat_bdot", "600s"), ("nadir_wheels_dumping", "600s")]  # fmt: skip
+    for k, (name, stop) in enumerate(runs):
+        scen = str(ROOT / "scenarios" / f"{name}.toml")
+        r = subprocess.run([sys.executable, "-c", script, scen, str(tmp_path / f"{name}.nc"), stop],
+                           env=env, capture_output=True, text=True, timeout=900)  # fmt: skip
+        assert r.returncode == 0, r.stderr
+        if k:
+            assert r.stdout.strip().splitlines()[-1] == "[]", (name, r.stdout)
