@@ -122,31 +122,31 @@ count = 7
 
 
 def build_numerical_orbit_scenario() -> None:
-    """Build :data:`_NUMERICAL_ORBIT_SCENARIO`: the compile helper of a first closed-loop run
-    does (:data:`attitude._compiling.NUMERICAL_ORBIT_ITEM`), so that a
-    run on a numerical orbit after it compiles nothing."""
+    """Build :data:`_NUMERICAL_ORBIT_SCENARIO` and evaluate its orbit, prepare environment
+    models over an orbit and seed a sensor: what runs of these kinds call from Python before
+    their driver. The compile helper of a first closed-loop run does
+    (:data:`attitude._compiling.NUMERICAL_ORBIT_ITEM`), so that such runs after it compile
+    nothing."""
     import numpy as np
 
-    from . import scenario
-
-    sc = scenario.loads(_NUMERICAL_ORBIT_SCENARIO)
-    o = sc.spacecraft.orbit
-    t = np.linspace(0.0, 60.0, 7)
-    o.to_state(t), o.radius(t), o.frame_quaternion(t)  # (the run's r, f, p and its frames)
-    # what the environment models and the sensors call from Python before a run: the tables of
-    # the field, the density and the Sun (with the shadow) over an orbit, a sensor's stream
     import orbit
 
+    from . import scenario
     from .facets import Facet
     from .potentials import AerodynamicDrag, MagneticDipole, SolarRadiation
     from .sensors import Magnetometer
     from .sensors._models import stream_state
 
+    sc = scenario.loads(_NUMERICAL_ORBIT_SCENARIO)
+    o = sc.spacecraft.orbit
+    t = np.linspace(0.0, 60.0, 7)
+    o.to_state(t), o.radius(t), o.frame_quaternion(t)  # (the run's r, f, p and its frames)
+    # the tables of the field, the density and the Sun (with the shadow) over an orbit
     kep = orbit.KeplerOrbit(6878.137, 0.001, 1.7, 0.5, 0.3, epoch="2026-03-20T00:00:00")
     plates = [Facet(0.1, [1.0, 0.0, 0.0], [0.05, 0.0, 0.0])]
     model = MagneticDipole(kep, [0.0, 0.0, 0.1]) + AerodynamicDrag(kep, plates)
     (model + SolarRadiation(kep, plates)).prepare(np.linspace(0.0, 5700.0, 571))
-    stream_state(Magnetometer(1e-7, seed=1))
+    stream_state(Magnetometer(1e-7, seed=1))  # (a sensor's random stream)
 
 
 def default_scenarios() -> list[Path]:

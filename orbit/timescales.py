@@ -101,9 +101,9 @@ def iers_table() -> Any:
 
 def _bundled_table() -> Any:
     """The bundled IERS-A table, parsed once per installation: astropy's reader of the 20 000
-    lines takes 0.4–1 s of every process that needs Earth orientation; the parsed table is kept
-    pickled in the cache (:func:`orbit._shared_jit.data_cache_dir`), keyed on the file, its size
-    and time and the astropy and pickle versions, and loads in ~10 ms."""
+    lines takes 0.4–0.7 s of every process that needs Earth orientation; the parsed table is
+    kept pickled in the cache (:func:`orbit._shared_jit.data_cache_dir`), keyed on the file, its
+    size and time and the astropy and Python versions, and loads in ~20 ms."""
     import hashlib
     import os
     import pickle
