@@ -707,6 +707,10 @@ def test_info_summarises_a_propagated_orbit(tmp_path, capsys):
     assert rows["total"] == pytest.approx(1e-4, rel=1e-3) and rows["thrusters"] == rows["total"]
     assert rows["wheels"] > rows["total"] and "torque_free" not in r.stdout.split("torques")[1]
     assert "(total: the external torque; the wheels' acts between wheels and body)" in r.stdout
+    # every variable's unit: CF flags have none, the commands theirs per command
+    variables = next(x for x in lines if x.startswith("variables"))
+    assert "[?]" not in variables and "mode [flag]" in variables
+    assert "wheel_limit [flag]" in variables and "command_sent [per command]" in variables
     # the attitude's energy is not conserved (the wheels and the thruster do work): its change
     # and H0 are printed beside their ratio, which a body starting near rest makes large
     line = next(x for x in lines if "actuators do work" in x)

@@ -92,7 +92,7 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         ),
         (
             "variables",
-            ", ".join(f"{v} [{ds[v].attrs.get('units', '?')}]" for v in ds.data_vars),
+            ", ".join(f"{v} [{_unit_label(ds[v].attrs)}]" for v in ds.data_vars),
         ),
         ("version", a.get("source", "-")),
         ("history", a.get("history", "-")),
@@ -169,6 +169,18 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     if a.get("terminal_event"):
         out.append(f"run ended by the terminal event {_terminal_event(a['terminal_event'])}")
     return out
+
+
+def _unit_label(attrs: dict[str, Any]) -> str:
+    """A variable's unit in the ``variables`` line: CF flags have none (``flag``), the
+    software's commands theirs in ``command_units`` (``per command``)."""
+    if "units" in attrs:
+        return str(attrs["units"])
+    if "flag_values" in attrs or "flag_masks" in attrs:
+        return "flag"
+    if "command" in str(attrs.get("long_name", "")):
+        return "per command"
+    return "?"
 
 
 def _samples(da: Any, *dims: str) -> np.ndarray:
