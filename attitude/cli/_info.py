@@ -220,6 +220,11 @@ def _wheel_lines(ds: Any) -> list[str]:
             flags[:, b] += ((f >> b) & 1).sum(axis=0)
         n += w.shape[0]
     rpm = 60.0 / (2.0 * np.pi)
+    # round-off of a wheel that barely turns (-2e-18 rpm) printed as 0 at the wheels' scale
+    tiny = 1e-12 * max(
+        float(np.max(np.abs(lo), initial=0.0)), float(np.max(np.abs(hi), initial=0.0))
+    )
+    lo, hi = np.where(np.abs(lo) < tiny, 0.0, lo), np.where(np.abs(hi) < tiny, 0.0, hi)
     names = ("torque", "speed", "power", "dead band")
     width = max(len(x) for x in labels)
     unit = ds["wheel_torque"].attrs.get("units", "")
