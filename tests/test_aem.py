@@ -377,3 +377,27 @@ def test_a_run_carrying_its_orbit_is_labelled_gcrf(tmp_path):
     back = aem.read(aem.write_aem(ds, tmp_path / "e.aem", ref_frame_a="EME2000"))
     angle = np.degrees(back.attitude.angle_between(ds).values) * 3.6e6  # mas
     np.testing.assert_allclose(angle, 23.1, atol=0.1)  # the frame bias's angle
+
+
+def test_an_ensemble_member_is_labelled_as_its_single_run(tmp_path):
+    """A rigid-body ensemble on a dated orbit records the epoch, the orbit and its frame as a
+    single run does, so a member's AEM is labelled GCRF like the single run's. (It recorded
+    no orbit_frame: the member's GCRS attitude was labelled EME2000 without the frame bias.)"""
+    import orbit
+    from attitude import GravityGradient, RigidBody, propagate, propagate_ensemble
+
+    o = orbit.KeplerOrbit(7000.0, 0.01, 0.5, 0.7, 0.2, epoch="2024-03-20T12:00:00")
+    body = RigidBody([4e8, 5e8, 6e8], units="kg m2")
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
+    Q = np.array([[0.0, 0.0, 0.0, 1e5], [0.0, 1e5, 0.0, 0.0], [0.0, 0.0, 2e5, 0.0]])
+    t = np.linspace(0.0, 600.0, 7)
+    ens = propagate_ensemble(body, q, Q, t, potential=GravityGradient(o))
+    one = propagate(body, q[1], Q[1], t, potential=GravityGradient(o), method=ens.attrs["method"])
+    for k in ("epoch", "orbit", "orbit_frame"):
+        assert ens.attrs[k] == one.attrs[k], k
+    head = [
+        [x for x in aem.write_aem(ds, tmp_path / f"{i}.aem").read_text().splitlines()
+         if "REF_FRAME_A" in x]
+        for i, ds in enumerate((ens.isel(member=1), one))
+    ]  # fmt: skip
+    assert head[0] == head[1] == ["REF_FRAME_A          = GCRF"]

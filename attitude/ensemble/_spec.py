@@ -209,6 +209,9 @@ class EnsembleSpec:
         self.members, self.unit, self.potential, self.potentials = members, unit, pot, pots
         every = pots if pots is not None else (pot,)
         self.method = ensemble_method(self.requested, every, events=events)
+        # the epoch and the model's orbit with its frame, as a single run records them (an AEM
+        # of a member is then labelled relative to the GCRS, not EME2000)
+        self.run_attrs = epoch_attrs(pot, epoch)
         if events is not None:
             self.events = _events(events, tt, pot, epoch)
 
