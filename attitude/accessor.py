@@ -89,7 +89,10 @@ class AttitudeAccessor:
 
     # -- attitude views ---------------------------------------------------------------------------
     def _q(self) -> np.ndarray:
-        return np.asarray(self._ds["q"].values, dtype=np.float64)
+        q = self._ds["q"]
+        if "member" in q.dims:  # (the views are of one attitude history: (time, 4))
+            raise AttitudeValueError("ds: an ensemble; select a member first (ds.isel(member=i))")
+        return np.asarray(q.values, dtype=np.float64)
 
     def euler_angles(self, seq: str = "313") -> xr.DataArray:
         """Intrinsic Euler angles of ``q`` (body → space), :func:`attitude.quaternion.to_euler`.

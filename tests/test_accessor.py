@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import xarray as xr
 from astropy import units as u
 from astropy.constants import GM_earth
 from scipy.integrate import solve_ivp
@@ -80,6 +81,27 @@ def test_angle_between_known_rotation(run):
     np.testing.assert_allclose(run.attitude.angle_between(run).values, 0.0, atol=1e-15)
     with pytest.raises(ValueError, match="same output times"):
         run.attitude.angle_between(run.isel(time=slice(1, None)))
+
+
+def test_an_ensemble_is_refused_by_the_views_of_one_history(run):
+    """The views of one attitude history refuse an ensemble (a member dimension) with the
+    package's error naming the fix, as relative_to does; they raised xarray's 'different
+    number of dimensions' and numpy's 'axis remapping' errors. A member selected works."""
+    from attitude.errors import AttitudeValueError
+
+    ens = xr.concat([run, run], dim="member").transpose("member", ...)
+    for call in (
+        lambda d: d.attitude.euler_angles("313"),
+        lambda d: d.attitude.matrix(),
+        lambda d: d.attitude.angle_between(run),
+    ):
+        with pytest.raises(AttitudeValueError, match=r"^ds: an ensemble; select a member first"):
+            call(ens)
+        call(ens.isel(member=1))
+    np.testing.assert_array_equal(
+        ens.isel(member=1).attitude.euler_angles("321").values,
+        run.attitude.euler_angles("321").values,
+    )
 
 
 def test_times_and_no_orbit(run):
