@@ -160,6 +160,17 @@ def test_czml_orientation_is_the_runs_attitude_in_earth_fixed_axes(orbit_run, tm
     np.testing.assert_allclose(p[:, 1:], np.einsum("nij,nj->ni", r, gcrs) * 1e3, rtol=0, atol=1e-3)
 
 
+def test_czml_box_has_the_proportions_of_the_inertia(orbit_run, tmp_path):
+    """Without facets the spacecraft is the box of its inertia's proportions, in CZML as in
+    glTF and the view: a uniform box a x b x c has I1 ∝ b² + c², so a² ∝ I2 + I3 - I1. (It was a
+    cube, 2 |half-diagonal| wide, that hid the attitude.)"""
+    box = next(p for p in json.loads(write_czml(orbit_run, tmp_path / "b.czml").read_text())
+               if p["id"] == "spacecraft")["box"]["dimensions"]["cartesian"]  # fmt: skip
+    i1, i2, i3 = orbit_run.attrs["inertia"]
+    want = np.sqrt([i2 + i3 - i1, i1 + i3 - i2, i1 + i2 - i3])
+    np.testing.assert_allclose(np.asarray(box) / box[0], want / want[0], rtol=1e-12)
+
+
 def _cesium_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
     """Cesium's Matrix3.fromQuaternion (Source/Core/Matrix3.js), written out."""
     return np.array([

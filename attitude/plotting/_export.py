@@ -305,7 +305,8 @@ def czml_document(ds: xr.Dataset, *, member: int | None = None) -> list[dict[str
 
     run, t, q = _run(ds, member)
     pos, qf = _itrs(run, t, q)
-    _, _, size = _mesh(run)
+    verts, _, _ = _mesh(run)
+    dims = 2.0 * np.abs(verts).max(axis=0)  # (the box about the centre that holds the body)
     epoch = str(run.attrs["epoch"]).rstrip("Z")
     from astropy.time import Time, TimeDelta
 
@@ -338,7 +339,7 @@ def czml_document(ds: xr.Dataset, *, member: int | None = None) -> list[dict[str
                     epoch=t0.isot + "Z", unitQuaternion=q_samples, interpolationAlgorithm="LINEAR"
                 ),
                 path=Path(show=True, width=1, leadTime=0, trailTime=float(t[-1] - t[0])),
-                box=Box(dimensions=BoxDimensions(cartesian=[2 * size] * 3)),
+                box=Box(dimensions=BoxDimensions(cartesian=[float(x) for x in dims])),
             ),
         ]
     )
