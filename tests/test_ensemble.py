@@ -767,7 +767,10 @@ def test_cli_runs_an_ensemble_and_reports_chunks(tmp_path, capsys, monkeypatch):
     assert main(["run", str(scen), "-o", str(tmp_path / "q.nc"), "-q"]) == 0
     assert capsys.readouterr().err == ""
     assert main(["info", str(out)]) == 0
-    assert "propagate_ensemble" in capsys.readouterr().out
+    info = capsys.readouterr().out
+    assert "propagate_ensemble" in info
+    # what it is: its members, what it stored, its seed, the members that failed (none)
+    assert "\nensemble    23 members, output samples, seed 4, 0 failed\n" in info
     # --scheduler needs an [ensemble] table
     plain = tmp_path / "plain.toml"
     plain.write_text(_SMALL.split("[ensemble]")[0])

@@ -72,6 +72,7 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         ("file", args.file),
         ("scenario", f"{a.get('scenario', '-')}: {a.get('title', '')}"),
         ("status", a.get("run_status", "complete")),
+        *([("ensemble", _ensemble_line(ds, a))] if "ensemble_size" in a else []),
         ("time span", _span(a, float(t[0]), float(t[-1]), n, str(unit))),
         (
             "body",
@@ -169,6 +170,20 @@ def _event_lines(ds: Any, limit: int = 20) -> list[str]:
     if a.get("terminal_event"):
         out.append(f"run ended by the terminal event {_terminal_event(a['terminal_event'])}")
     return out
+
+
+def _ensemble_line(ds: Any, a: dict[str, Any]) -> str:
+    """An ensemble's size, what it stored, its seed, and how many members failed or ended at a
+    terminal event (``member_status``: 0 success, 4 terminal event, the others failures)."""
+    parts = [f"{int(a['ensemble_size'])} members", f"output {a.get('ensemble_output', '-')}"]
+    if "ensemble_seed" in a:
+        parts.append(f"seed {a['ensemble_seed']}")
+    if "member_status" in ds:
+        status = np.asarray(ds["member_status"].values).astype(np.int64)
+        parts.append(f"{int(np.count_nonzero((status != 0) & (status != 4)))} failed")
+        if np.any(status == 4):
+            parts.append(f"{int(np.count_nonzero(status == 4))} ended by a terminal event")
+    return ", ".join(parts)
 
 
 def _unit_label(attrs: dict[str, Any]) -> str:
