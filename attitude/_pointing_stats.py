@@ -53,13 +53,12 @@ def settle_time(spec: Any, t0: float, t1: float) -> tuple[float, str]:
                 f"--settle: expected a percentage of the run in [0, 100) such as 10%, got {s!r}"
             )
         return t0 + p / 100.0 * (t1 - t0), f"the first {p:g} % of the run"
-    from astropy import units as u
+    from ._times import seconds_of
 
     try:
-        q = u.Quantity(s) if not isinstance(spec, (int, float)) else u.Quantity(spec, u.s)
-        sec = float(q.to_value(u.s) if q.unit != u.dimensionless_unscaled else q.value)
-    except (TypeError, ValueError, u.UnitsError):
-        sec = math.nan
+        sec = float(spec if isinstance(spec, (int, float)) else s)  # a number: seconds
+    except ValueError:
+        sec = seconds_of(s)
     if not 0.0 <= sec < math.inf:
         raise AttitudeValueError(
             f"--settle: expected a time after the start (e.g. 60, 60s or 2min) or a percentage "

@@ -19,7 +19,7 @@ from numpy.lib.mixins import NDArrayOperatorsMixin
 
 from .errors import AttitudeTypeError, AttitudeValueError
 
-__all__ = ["TimeGrid"]
+__all__ = ["TimeGrid", "seconds_of"]
 
 
 class TimeGrid(NDArrayOperatorsMixin):
@@ -178,3 +178,15 @@ class TimeGrid(NDArrayOperatorsMixin):
     def __repr__(self) -> str:
         tail = "" if self.length == self.n else f", length={self.length}"
         return f"TimeGrid(start={self.start!r}, stop={self.stop!r}, n={self.n}{tail})"
+
+
+def seconds_of(text: str) -> float:
+    """A duration written with its time unit (``"10min"``, ``"1.5 h"``, ``"600 s"``) in
+    seconds; NaN for anything else (a plain number has no unit to say what it counts)."""
+    from astropy import units as u
+
+    try:
+        q = u.Quantity(str(text).strip())
+        return float(q.to_value(u.s)) if q.unit != u.dimensionless_unscaled else math.nan
+    except (TypeError, ValueError, u.UnitsError):
+        return math.nan

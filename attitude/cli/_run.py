@@ -329,13 +329,9 @@ def _stop_time(spec: str, sc: Any) -> tuple[float, str]:
                 f"--stop {s}: this scenario's times are plain numbers (a dimensionless body); "
                 "give a number"
             )
-        from astropy import units as u
+        from .._times import seconds_of
 
-        try:
-            q = u.Quantity(s)
-            value = float(q.to_value(u.s)) if q.unit != u.dimensionless_unscaled else math.nan
-        except (TypeError, ValueError, u.UnitsError):
-            value = math.nan
+        value = seconds_of(s)
         if math.isnan(value):
             raise BadInput(
                 f"--stop {s}: expected a time, a number in the scenario's time unit "
