@@ -93,7 +93,7 @@ def _info_rows(args: argparse.Namespace, ds: Any) -> tuple[list[tuple[str, Any]]
         ),
         (
             "variables",
-            ", ".join(f"{v} [{_unit_label(ds[v].attrs)}]" for v in ds.data_vars),
+            ", ".join(f"{v} [{_unit_label(ds[v])}]" for v in ds.data_vars),
         ),
         ("version", a.get("source", "-")),
         ("history", a.get("history", "-")),
@@ -186,16 +186,14 @@ def _ensemble_line(ds: Any, a: dict[str, Any]) -> str:
     return ", ".join(parts)
 
 
-def _unit_label(attrs: dict[str, Any]) -> str:
+def _unit_label(da: Any) -> str:
     """A variable's unit in the ``variables`` line: CF flags have none (``flag``), the
-    software's commands theirs in ``command_units`` (``per command``)."""
-    if "units" in attrs:
-        return str(attrs["units"])
-    if "flag_values" in attrs or "flag_masks" in attrs:
+    software's commands one per command (``command_units``)."""
+    if "units" in da.attrs:
+        return str(da.attrs["units"])
+    if "flag_values" in da.attrs or "flag_masks" in da.attrs:
         return "flag"
-    if "command" in str(attrs.get("long_name", "")):
-        return "per command"
-    return "?"
+    return "per command" if "command" in da.dims else "?"
 
 
 def _samples(da: Any, *dims: str) -> np.ndarray:
