@@ -238,6 +238,19 @@ def time_unit(var: Any) -> str:
     return units or "1"
 
 
+def energy_semi_major_axis(attrs: dict[str, Any], r: Any, v: Any) -> np.ndarray | None:
+    """The semi-major axis [km] of a run's propagated orbit from its orbital energy in the
+    field's point mass and J2 (:func:`orbit.j2.energy_semi_major_axis`, with the run's attrs
+    ``orbit_gm``, ``orbit_j2``, ``orbit_reference_radius``), at positions ``r`` [km] and
+    velocities ``v`` [km/s] of shape (n, 3); None for a file without them."""
+    if "orbit_gm" not in attrs:
+        return None
+    from orbit.j2 import energy_semi_major_axis as a_of_energy
+
+    return a_of_energy(r, v, 1e-9 * float(attrs["orbit_gm"]), float(attrs.get("orbit_j2", 0.0)),
+                       1e-3 * float(attrs.get("orbit_reference_radius", 0.0)))  # fmt: skip
+
+
 def time_values(ds: xr.Dataset, name: str = "time") -> np.ndarray:
     """The ``time`` coordinate (or an instant variable, e.g. ``event_time``) as float64 in its
     plain unit (seconds since the epoch, or "1").

@@ -273,16 +273,14 @@ def _orbit_lines(ds: Any) -> list[str]:
     gm = ds.attrs.get("orbit_gm")
     a_osc = 1e-3 / (2.0 / rn - np.sum(v * v, axis=1) / (earth_mu() * 1e9 if gm is None else gm))
     osculating = f"two-body semi-major axis {a_osc[0]:.3f} -> {a_osc[-1]:.3f} km"
-    if gm is None:  # (a file written before the field's constants were recorded)
+    from ..results import energy_semi_major_axis
+
+    a = energy_semi_major_axis(ds.attrs, 1e-3 * r, 1e-3 * v)
+    if a is None:  # (a file written before the field's constants were recorded)
         out[0] += ", " + osculating
     else:
-        from orbit.j2 import energy_semi_major_axis
-
-        j2 = float(ds.attrs.get("orbit_j2", 0.0))
-        radius = 1e-3 * float(ds.attrs.get("orbit_reference_radius", 0.0))
-        a = 1e3 * energy_semi_major_axis(1e-3 * r, 1e-3 * v, 1e-9 * gm, j2, radius)
-        out.append(f"energy semi-major axis {a[0] * 1e-3:.3f} -> {a[-1] * 1e-3:.3f} km "
-                   f"({(a[-1] - a[0]) * 1e-3:+.3f} km; {osculating})")  # fmt: skip
+        out.append(f"energy semi-major axis {a[0]:.3f} -> {a[-1]:.3f} km "
+                   f"({a[-1] - a[0]:+.3f} km; {osculating})")  # fmt: skip
     m = np.asarray(ds["mass"].values, dtype=np.float64) if "mass" in ds else np.zeros(1)
     if m[0] != m[-1]:
         out.append(f"mass {m[0]:.6g} -> {m[-1]:.6g} kg ({m[0] - m[-1]:.6g} kg of propellant)")

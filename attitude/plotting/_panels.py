@@ -341,15 +341,12 @@ def orbit(ax: Any, ctx: PlotContext) -> None:
     a = 1.0 / (2.0 / rn - np.sum(v * v, axis=1) / mu)  # km: two-body osculating
     period = 2.0 * np.pi * np.sqrt(np.abs(a) ** 3 / mu)
     ts = ctx.t_seconds
-    gm = ds.attrs.get("orbit_gm")
-    if gm is not None:
-        # the energy semi-major axis above the equator: constant in the field's point mass and
-        # J2, it moves with thrust and drag alone, at every sample (docs/cli.md, info)
-        from orbit.j2 import energy_semi_major_axis
+    from ..results import energy_semi_major_axis
 
-        j2 = float(ds.attrs.get("orbit_j2", 0.0))
-        radius = 1e-3 * float(ds.attrs.get("orbit_reference_radius", 0.0))
-        a_e = energy_semi_major_axis(r, v, 1e-9 * float(gm), j2, radius)
+    # the energy semi-major axis above the equator: constant in the field's point mass and J2,
+    # it moves with thrust and drag alone, at every sample (docs/cli.md, info)
+    a_e = energy_semi_major_axis(ds.attrs, r, v)
+    if a_e is not None:
         ax.plot(ctx.t, a_e - 6378.137, color="tab:blue", lw=2.0,
                 label="energy semi-major axis - 6378 km")  # fmt: skip
     elif ts.size > 2 and ts[-1] - ts[0] > float(np.median(period)):
