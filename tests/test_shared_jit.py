@@ -28,10 +28,9 @@ pytestmark = pytest.mark.skipif(sj.JIT_DISABLED, reason="kernels not compiled")
 
 _ROOT = Path(sj.__file__).resolve().parent.parent
 
-_LISTEN = LISTEN  # (tests/compile_events.py)
 # orbit._kernels imports orbit._kepler_equation, not the reverse: mean_anomaly (of the first)
 # is keyed on both sources, reduce_angle (of the second) on its own.
-_PROBE = _LISTEN + textwrap.dedent(
+_PROBE = LISTEN + textwrap.dedent(
     """
     import json, sys
     import numpy as np
@@ -125,7 +124,7 @@ def test_editing_a_module_recompiles_only_its_importers(tmp_path):
 # needs it meanwhile: the second waits and loads what the first saved. Called from Python (the
 # kernel itself), or compiled as the callee of another kernel (its copy without the CPython
 # wrapper, what compiled code calls).
-_LOCKER = _LISTEN + textwrap.dedent(
+_LOCKER = LISTEN + textwrap.dedent(
     """
     import sys
     from numba.core import types
@@ -139,7 +138,7 @@ _LOCKER = _LISTEN + textwrap.dedent(
     print(sorted(set(compiled)), flush=True)
     """
 )
-_WAITER = _LISTEN + textwrap.dedent(
+_WAITER = LISTEN + textwrap.dedent(
     """
     import sys
     from orbit import _kepler_equation as ke
